@@ -1,0 +1,74 @@
+#pragma once
+// A serial arm of revolute joints described by a DH table (Craig's modified or standard DH), with
+// fixed base and tool transforms, and the additive parameter errors that calibration identifies.
+//
+// Modified DH (Craig; seed 000 eq. 1): row i holds (a_{i-1}, alpha_{i-1}, d_i, theta_i) and
+//   {i-1}_T_{i} = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i + q_i) Tz(d_i).
+// Standard DH: row i holds (a_i, alpha_i, d_i, theta_i) and
+//   {i-1}_T_{i} = Rz(theta_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i).
+// base_T_flange = base_T_first * prod_i {i-1}_T_{i} * last_T_flange (seed 000: row 0, rows 1..7, row E).
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+namespace orbcal::sim {
+
+enum class DhConvention { kModified, kStandard };
+
+/// One DH row. Lengths in m, angles in rad; for a joint row theta_rad is the home offset.
+struct DhRow {
+  double a_m = 0.0;
+  double alpha_rad = 0.0;
+  double d_m = 0.0;
+  double theta_rad = 0.0;
+};
+
+struct Arm {
+  std::string name;
+  std::string source;  ///< file the arm was loaded from (for messages)
+  DhConvention convention = DhConvention::kModified;
+  Eigen::Isometry3d base_T_first = Eigen::Isometry3d::Identity();  ///< fixed, not identified
+  std::vector<DhRow> joints;                                        ///< one row per revolute joint
+  Eigen::Isometry3d last_T_flange = Eigen::Isometry3d::Identity();  ///< fixed, not identified
+  Eigen::VectorXd lower_rad;  ///< joint limits, one per joint
+  Eigen::VectorXd upper_rad;
+
+  int numJoints() const { return static_cast<int>(joints.size()); }
+  int numParams() const { return kParamsPerJoint * numJoints(); }
+  static constexpr int kParamsPerJoint = 4;
+};
+
+/// Parameter-error layout, joint by joint, in seed 000's y_i order: y_i = [dtheta_i, dalpha_i, da_i, dd_i]
+/// (for modified DH, alpha and a are those of row i, i.e. alpha_{i-1} and a_{i-1}). SI units.
+enum ParamKind { kTheta = 0, kAlpha = 1, kA = 2, kD = 3 };
+inline int paramIndex(int joint, ParamKind kind) { return Arm::kParamsPerJoint * joint + kind; }
+/// "theta1", "alpha1", "a1", "d1", ... (joints numbered from 1, as in the DH table).
+std::string paramName(int index);
+/// Unit of parameter `index` as printed at the edges: "deg" for angles, "mm" for lengths.
+bool isAngleParam(int index);
+
+/// Throws std::invalid_argument("<context>: expected N joint angles, got M") or on a NaN/inf angle.
+void checkJointVector(const Arm& arm, const Eigen::VectorXd& q, const char* context);
+/// Same for a parameter-error vector of arm.numParams() entries.
+void checkParamVector(const Arm& arm, const Eigen::VectorXd& y, const char* context);
+
+/// Rigid transform of one DH row at joint angle q (rad).
+Eigen::Isometry3d linkTransform(DhConvention convention, const DhRow& row, double q);
+
+/// The arm with parameter errors y added to its DH rows (theta, alpha, a, d of each row).
+Arm withErrors(const Arm& nominal, const Eigen::VectorXd& y);
+
+/// base_T_flange at joint angles q (rad).
+Eigen::Isometry3d forwardKinematics(const Arm& arm, const Eigen::VectorXd& q);
+
+/// Every frame along the chain: frames[0] = base_T_first, frames[i] = base_T_{joint i}, and
+/// frames[n + 1] = base_T_flange.
+std::vector<Eigen::Isometry3d> chainFrames(const Arm& arm, const Eigen::VectorXd& q);
+
+bool withinLimits(const Arm& arm, const Eigen::VectorXd& q);
+
+/// Characteristic length of the arm (m): sum of |a| and |d| over all rows and the fixed transforms.
+/// Scales translational rows so that they are comparable with rotational ones.
+double characteristicLength(const Arm& arm);
+
+}  // namespace orbcal::sim

@@ -1,0 +1,54 @@
+#pragma once
+// The configuration generator: N joint configurations within the limits, away from singularity, in
+// which the eye-in-hand camera sees the whole board at a usable distance and viewing angle.
+//
+// Attempt k (its own random stream, so the result does not depend on the thread count):
+//  1. a camera pose looking at a point near the board centre: distance uniform in the scene's range,
+//     tilt from the board normal uniform in [0, max tilt], azimuth and roll about the optical axis uniform;
+//  2. the flange pose base_T_camera * camera_T_flange, solved by IK from a random start within the
+//     limits, with the locked joint (theta_2, seed 000's choice) drawn uniformly within its limits;
+//  3. accepted if IK converged within the limits, the singularity measure is at least the scene's
+//     views.min_singular_value, and boardVisibility() says kVisible for the solution's true camera pose.
+// The first N accepted attempts, in attempt order, are returned.
+//
+// Singularity measure: the smallest singular value of the 6 x (n-1) manipulator Jacobian without the
+// locked joint's column, its translational rows divided by the arm's characteristic length L (so both
+// row blocks are dimensionless). Below it, the locked-joint IK and small joint motions degenerate.
+#include <Eigen/Core>
+#include <cstdint>
+#include <functional>
+#include <vector>
+
+#include "orbcal/sim/arm.hpp"
+#include "orbcal/sim/scene.hpp"
+
+namespace orbcal::sim {
+
+struct GeneratorSettings {
+  int count = 50;
+  std::uint64_t seed = 1;
+  int locked_joint = 1;        ///< theta_2 (0-based index 1), as in seed 000
+  int max_attempts = 0;        ///< 0: 400 per configuration asked for, at least 4000
+  int threads = 0;             ///< 0: all hardware threads
+};
+
+struct GeneratorStats {
+  int attempts = 0;
+  int ik_failed = 0;      ///< no solution within the limits from the random start
+  int singular = 0;       ///< below the singularity threshold
+  int not_visible = 0;    ///< the camera does not see the whole board
+  int accepted = 0;
+};
+
+/// Throws InputError naming scene.source ("...: board: no configuration sees the whole board ...")
+/// when fewer than settings.count configurations are found within the attempt budget.
+std::vector<Eigen::VectorXd> generateConfigurations(const Arm& arm, const Scene& scene, const GeneratorSettings& settings,
+                                                    GeneratorStats* stats = nullptr,
+                                                    const std::function<void(int, int)>& progress = {});
+
+double singularityMeasure(const Arm& arm, const Eigen::VectorXd& q, int locked_joint);
+
+/// camera_T_board seen at joint angles q: (base_T_flange * flange_T_camera)^-1 * base_T_board.
+Eigen::Isometry3d cameraTBoard(const Arm& arm, const Scene& scene, const Eigen::VectorXd& q);
+
+}  // namespace orbcal::sim

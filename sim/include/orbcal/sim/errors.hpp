@@ -1,0 +1,39 @@
+#pragma once
+// Parameter-error sets injected into the "true" arm, the joint control noise of the plant, and the
+// seeded random streams every experiment draws from.
+#include <Eigen/Core>
+#include <cstdint>
+#include <random>
+#include <string>
+
+#include "orbcal/sim/arm.hpp"
+
+namespace orbcal::sim {
+
+/// A random stream for (seed, stream): independent streams for independent uses of one seed
+/// (e.g. stream k for configuration attempt k), identical on every run and thread count.
+std::mt19937_64 makeRng(std::uint64_t seed, std::uint64_t stream = 0);
+
+/// Seed 000 Table 3, in SI units (theta, alpha in rad; a, d in m), y order. Needs a 7-joint arm.
+Eigen::VectorXd paperTable3Errors();
+
+/// Errors drawn from N(0, angle_sigma_rad) for theta and alpha and N(0, length_sigma_m) for a and d.
+Eigen::VectorXd randomErrors(const Arm& arm, double angle_sigma_rad, double length_sigma_m, std::uint64_t seed);
+
+/// An error set by name: "table3" (seed 000 Table 3), "zero", or "random" with the given spread and seed.
+/// Throws InputError naming `what` (e.g. "--errors") for an unknown name or a wrong joint count.
+struct ErrorSetSpec {
+  std::string name = "table3";
+  double angle_sigma_rad = 0.3 * 3.14159265358979323846 / 180.0;
+  double length_sigma_m = 0.001;
+  std::uint64_t seed = 1;
+};
+Eigen::VectorXd makeErrorSet(const Arm& arm, const ErrorSetSpec& spec, const std::string& what);
+
+/// Joint angles of the plant: q + N(0, sigma_rad) per joint (seed 000's "control noise").
+Eigen::VectorXd addJointNoise(const Eigen::VectorXd& q, double sigma_rad, std::mt19937_64& rng);
+
+/// One line per joint: "joint i: theta +0.300 deg  alpha ... a +0.500 mm  d ..." (degrees and mm at the edge).
+std::string formatErrorSet(const Eigen::VectorXd& y);
+
+}  // namespace orbcal::sim

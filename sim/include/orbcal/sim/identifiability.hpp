@@ -1,0 +1,49 @@
+#pragma once
+// Identifiability of the parameter errors from a configuration set: SVD of the identification
+// Jacobian stacked over the configurations, with its columns scaled to unit norm (so that angles and
+// lengths, rad and m, compare), the numerical rank, the condition number, and the unidentifiable
+// directions named in parameter terms.
+//
+// A redundancy is a group of parameters that share null-space directions. For the SSRMS (joints 3, 4,
+// 5 parallel, fixed base and tool frames) it is {d3, d4, d5}: two null directions, so only their sum
+// d3 + d4 + d5 is observable. The report names both what is lost and what stays observable.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "orbcal/sim/arm.hpp"
+#include "orbcal/sim/jacobian.hpp"
+
+namespace orbcal::sim {
+
+/// The stacked Jacobian (6 n_configs x arm.numParams()) over a configuration set.
+Eigen::MatrixXd stackedJacobian(const Arm& arm, const std::vector<Eigen::VectorXd>& configs,
+                                ErrorFrame frame = ErrorFrame::kTool);
+
+struct Redundancy {
+  std::vector<int> params;        ///< parameter indices of the group
+  int lost = 0;                   ///< null-space dimension within the group
+  /// Observable combinations within the group, one per row (coefficients over `params`, largest = 1).
+  Eigen::MatrixXd observable;
+  std::string describe() const;   ///< e.g. "d3, d4, d5: 2 directions lost; observable: d3 + d4 + d5"
+};
+
+struct IdentifiabilityReport {
+  int num_params = 0;
+  int num_configs = 0;
+  int rank = 0;
+  double condition_number = 0.0;    ///< sigma_max / sigma_min over the identifiable part (rank)
+  Eigen::VectorXd singular_values;  ///< of the column-scaled stacked Jacobian, descending
+  Eigen::MatrixXd null_space;       ///< physical null-space directions (num_params x (num_params - rank))
+  std::vector<Redundancy> redundancies;
+  double rank_tolerance = 0.0;      ///< relative to sigma_max
+};
+
+/// rank_tolerance: singular values below rank_tolerance * sigma_max count as zero.
+IdentifiabilityReport analyzeIdentifiability(const Arm& arm, const std::vector<Eigen::VectorXd>& configs,
+                                             double rank_tolerance = 1e-9, ErrorFrame frame = ErrorFrame::kTool);
+
+/// Human-readable report (what the main job prints).
+std::string formatIdentifiability(const IdentifiabilityReport& report);
+
+}  // namespace orbcal::sim

@@ -1,0 +1,19 @@
+#pragma once
+// Loading the human-written robot and scene files (YAML under scenes/). `path` may be a file or
+// "builtin:ssrms.yaml" / "builtin:default_scene.yaml". Errors are InputError naming file and key.
+#include <string>
+
+#include "orbcal/sim/arm.hpp"
+#include "orbcal/sim/scene.hpp"
+
+namespace orbcal::sim {
+
+inline const char* kDefaultRobot = "builtin:ssrms.yaml";
+inline const char* kDefaultScene = "builtin:default_scene.yaml";
+
+Arm loadArm(const std::string& path);
+/// Loads the geometric part of a scene (camera, board, transforms, views). The rendering sections
+/// (lighting, degradations, meshes) are read by render::loadRenderSettings from the same file.
+Scene loadScene(const std::string& path);
+
+}  // namespace orbcal::sim

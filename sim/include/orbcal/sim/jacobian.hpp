@@ -1,0 +1,37 @@
+#pragma once
+// The identification model of seed 000 (eqs. 5-9): the first-order map from the parameter errors y
+// (arm.hpp's layout) to the end-effector pose error e = [d; δ] = poseMinus(FK(p + y), FK(p)).
+//
+// Each parameter perturbs one DH row by an exact rigid motion (a screw) along or about an axis of
+// frame i-1 or i; its twist in the base frame is [o x w + v; w] for an axis w through point o, or a
+// pure translation v. Mapped to the flange it gives the column of J: J_tool = Ad(flange_T_base) xi,
+// the paper's F^E G_i. Checked against central differences in tests/sim/test_jacobian.cpp.
+#include <Eigen/Core>
+
+#include "orbcal/sim/arm.hpp"
+
+namespace orbcal::sim {
+
+using Matrix6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic>;
+
+/// Frame in which the pose error e is expressed.
+enum class ErrorFrame {
+  kTool,  ///< the flange (tool) frame, seed 000's Σ_E: e = poseMinus(measured, nominal)
+  kBase   ///< the base frame: [p_meas - p_nom; log(R_meas R_nom^T)]
+};
+
+/// J_e_y (6 x arm.numParams()) at joint angles q, for the arm's current parameters.
+Matrix6Xd identificationJacobian(const Arm& arm, const Eigen::VectorXd& q,
+                                 ErrorFrame frame = ErrorFrame::kTool);
+/// Same, written into caller-owned storage of size 6 x arm.numParams() (no allocation for the result).
+void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,
+                            Eigen::Ref<Matrix6Xd> J_e_y);
+
+/// Geometric manipulator Jacobian J_twist_q (6 x n) in the base frame: [v of the flange origin; w].
+Matrix6Xd manipulatorJacobian(const Arm& arm, const Eigen::VectorXd& q);
+
+/// J_e_y by central differences of poseMinus (the oracle the analytic Jacobian is tested against).
+Matrix6Xd numericIdentificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,
+                                        double step);
+
+}  // namespace orbcal::sim

@@ -1,0 +1,70 @@
+#pragma once
+// Scene geometry shared by render/, vision/ and calib/: the pinhole camera (OpenCV's model and pixel
+// convention: pixel centres at integer coordinates, y down), the checkerboard, and where both are.
+//
+// Board frame: origin at the first inner corner, x along a row of inner corners, y down the columns,
+// z = x × y pointing away from the printed face (the camera sees the board from -z). Inner corner
+// k = r * corners_x + c sits at (c s, r s, 0): the order cv::findChessboardCorners reports.
+#include <Eigen/Geometry>
+#include <array>
+#include <string>
+#include <vector>
+
+namespace orbcal::sim {
+
+struct Camera {
+  int width_px = 1280;
+  int height_px = 1024;
+  double fx_px = 1400.0, fy_px = 1400.0;
+  double cx_px = 639.5, cy_px = 511.5;
+  /// OpenCV's (k1, k2, p1, p2, k3).
+  std::array<double, 5> distortion{0.0, 0.0, 0.0, 0.0, 0.0};
+  bool hasDistortion() const;
+};
+
+/// Pixel of a point in camera coordinates (m), OpenCV's model with distortion (cv::projectPoints).
+Eigen::Vector2d project(const Camera& camera, const Eigen::Vector3d& p_cam);
+
+struct Board {
+  int corners_x = 9;       ///< inner corners along board x (squares along x = corners_x + 1)
+  int corners_y = 6;       ///< inner corners along board y
+  double square_m = 0.08;  ///< side of one square
+  double margin_m = 0.08;  ///< white border around the squares
+  int numCorners() const { return corners_x * corners_y; }
+};
+
+/// Inner corner k in the board frame (m).
+Eigen::Vector3d cornerInBoard(const Board& board, int k);
+/// All inner corners, in detection order.
+std::vector<Eigen::Vector3d> boardCorners(const Board& board);
+/// The four outer corners of the squared area, in the board frame (m).
+std::array<Eigen::Vector3d, 4> squaresOutline(const Board& board);
+
+/// What the configuration generator accepts as a usable view of the board.
+struct ViewConstraints {
+  double min_distance_m = 1.5;        ///< camera centre to board centre
+  double max_distance_m = 2.5;
+  double max_tilt_rad = 0.7854;       ///< between the optical axis and the board normal (45 deg)
+  double image_margin_px = 20.0;      ///< every corner at least this far inside the image
+  double min_singular_value = 0.01;   ///< of the scaled manipulator Jacobian; see configurations.hpp
+};
+
+struct Scene {
+  std::string name;
+  std::string source;  ///< file the scene was loaded from (for messages)
+  Camera camera;
+  Board board;
+  Eigen::Isometry3d base_T_board = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d flange_T_camera = Eigen::Isometry3d::Identity();
+  ViewConstraints views;
+};
+
+/// Centre of the board's squared area in the board frame (m).
+Eigen::Vector3d boardCentre(const Board& board);
+
+/// Why a camera pose does not see the whole board, or kVisible.
+enum class Visibility { kVisible, kBehind, kOutsideImage, kTooFar, kTooNear, kTooOblique };
+Visibility boardVisibility(const Scene& scene, const Eigen::Isometry3d& camera_T_board);
+const char* toString(Visibility v);
+
+}  // namespace orbcal::sim

@@ -1,0 +1,102 @@
+#include "orbcal/sim/arm.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+namespace orbcal::sim {
+
+std::string paramName(int index) {
+  static const char* kNames[] = {"theta", "alpha", "a", "d"};
+  return kNames[index % Arm::kParamsPerJoint] + std::to_string(index / Arm::kParamsPerJoint + 1);
+}
+
+bool isAngleParam(int index) {
+  const int kind = index % Arm::kParamsPerJoint;
+  return kind == kTheta || kind == kAlpha;
+}
+
+namespace {
+void checkVector(const Eigen::VectorXd& v, int expected, const char* what, const char* context) {
+  if (v.size() != expected) {
+    throw std::invalid_argument(std::string(context) + ": expected " + std::to_string(expected) + " " +
+                                what + ", got " + std::to_string(v.size()));
+  }
+  for (Eigen::Index i = 0; i < v.size(); ++i) {
+    if (!std::isfinite(v[i])) {
+      throw std::invalid_argument(std::string(context) + ": " + what + "[" + std::to_string(i) +
+                                  "] is not a finite number");
+    }
+  }
+}
+}  // namespace
+
+void checkJointVector(const Arm& arm, const Eigen::VectorXd& q, const char* context) {
+  checkVector(q, arm.numJoints(), "joint angles", context);
+}
+
+void checkParamVector(const Arm& arm, const Eigen::VectorXd& y, const char* context) {
+  checkVector(y, arm.numParams(), "parameter errors", context);
+}
+
+Eigen::Isometry3d linkTransform(DhConvention convention, const DhRow& row, double q) {
+  const double th = row.theta_rad + q;
+  const double ct = std::cos(th), st = std::sin(th);
+  const double ca = std::cos(row.alpha_rad), sa = std::sin(row.alpha_rad);
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  Eigen::Matrix4d& M = T.matrix();
+  if (convention == DhConvention::kModified) {
+    M << ct, -st, 0.0, row.a_m,            //
+        st * ca, ct * ca, -sa, -sa * row.d_m,  //
+        st * sa, ct * sa, ca, ca * row.d_m,    //
+        0.0, 0.0, 0.0, 1.0;
+  } else {
+    M << ct, -st * ca, st * sa, row.a_m * ct,  //
+        st, ct * ca, -ct * sa, row.a_m * st,   //
+        0.0, sa, ca, row.d_m,                  //
+        0.0, 0.0, 0.0, 1.0;
+  }
+  return T;
+}
+
+Arm withErrors(const Arm& nominal, const Eigen::VectorXd& y) {
+  checkParamVector(nominal, y, "withErrors");
+  Arm out = nominal;
+  for (int j = 0; j < nominal.numJoints(); ++j) {
+    out.joints[j].theta_rad += y[paramIndex(j, kTheta)];
+    out.joints[j].alpha_rad += y[paramIndex(j, kAlpha)];
+    out.joints[j].a_m += y[paramIndex(j, kA)];
+    out.joints[j].d_m += y[paramIndex(j, kD)];
+  }
+  return out;
+}
+
+Eigen::Isometry3d forwardKinematics(const Arm& arm, const Eigen::VectorXd& q) {
+  checkJointVector(arm, q, "forwardKinematics");
+  Eigen::Isometry3d T = arm.base_T_first;
+  for (int j = 0; j < arm.numJoints(); ++j) T = T * linkTransform(arm.convention, arm.joints[j], q[j]);
+  return T * arm.last_T_flange;
+}
+
+std::vector<Eigen::Isometry3d> chainFrames(const Arm& arm, const Eigen::VectorXd& q) {
+  checkJointVector(arm, q, "chainFrames");
+  std::vector<Eigen::Isometry3d> frames;
+  frames.reserve(arm.joints.size() + 2);
+  frames.push_back(arm.base_T_first);
+  for (int j = 0; j < arm.numJoints(); ++j) {
+    frames.push_back(frames.back() * linkTransform(arm.convention, arm.joints[j], q[j]));
+  }
+  frames.push_back(frames.back() * arm.last_T_flange);
+  return frames;
+}
+
+bool withinLimits(const Arm& arm, const Eigen::VectorXd& q) {
+  return (q.array() >= arm.lower_rad.array()).all() && (q.array() <= arm.upper_rad.array()).all();
+}
+
+double characteristicLength(const Arm& arm) {
+  double L = arm.base_T_first.translation().norm() + arm.last_T_flange.translation().norm();
+  for (const DhRow& r : arm.joints) L += std::abs(r.a_m) + std::abs(r.d_m);
+  return L;
+}
+
+}  // namespace orbcal::sim

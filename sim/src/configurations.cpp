@@ -1,0 +1,136 @@
+#include "orbcal/sim/configurations.hpp"
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <thread>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/ik.hpp"
+#include "orbcal/sim/jacobian.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::sim {
+
+double singularityMeasure(const Arm& arm, const Eigen::VectorXd& q, int locked_joint) {
+  const Matrix6Xd J = manipulatorJacobian(arm, q);
+  const double L = characteristicLength(arm);
+  Eigen::MatrixXd Js(6, arm.numJoints() - (locked_joint >= 0 ? 1 : 0));
+  for (int j = 0, c = 0; j < arm.numJoints(); ++j) {
+    if (j == locked_joint) continue;
+    Js.col(c++) << J.col(j).head<3>() / L, J.col(j).tail<3>();
+  }
+  return Eigen::JacobiSVD<Eigen::MatrixXd>(Js).singularValues().minCoeff();
+}
+
+Eigen::Isometry3d cameraTBoard(const Arm& arm, const Scene& scene, const Eigen::VectorXd& q) {
+  return (forwardKinematics(arm, q) * scene.flange_T_camera).inverse() * scene.base_T_board;
+}
+
+namespace {
+
+enum class Outcome { kAccepted, kIkFailed, kSingular, kNotVisible };
+
+struct Attempt {
+  Outcome outcome = Outcome::kIkFailed;
+  Eigen::VectorXd q;
+};
+
+Attempt tryOne(const Arm& arm, const Scene& scene, const GeneratorSettings& s, std::uint64_t k) {
+  std::mt19937_64 rng = makeRng(s.seed, k);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const ViewConstraints& v = scene.views;
+  // 1. Camera pose in the board frame, looking at a point near the board centre.
+  const Board& b = scene.board;
+  const Eigen::Vector3d target = boardCentre(b) + Eigen::Vector3d((u01(rng) - 0.5) * 0.3 * b.corners_x * b.square_m,
+                                                                  (u01(rng) - 0.5) * 0.3 * b.corners_y * b.square_m, 0);
+  const double tilt = u01(rng) * v.max_tilt_rad;
+  const double azimuth = u01(rng) * 2.0 * kPi;
+  const double distance = v.min_distance_m + u01(rng) * (v.max_distance_m - v.min_distance_m);
+  const double roll = (u01(rng) - 0.5) * 2.0 * kPi;
+  // The printed face looks along -z_board: the camera sits on that side and looks back along +z-ish.
+  const Eigen::Vector3d to_camera(std::sin(tilt) * std::cos(azimuth), std::sin(tilt) * std::sin(azimuth), -std::cos(tilt));
+  const Eigen::Vector3d z_cam = -to_camera;
+  const Eigen::Vector3d helper = std::abs(z_cam.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d x0 = (helper - helper.dot(z_cam) * z_cam).normalized();
+  const Eigen::Vector3d x_cam = Eigen::AngleAxisd(roll, z_cam) * x0;
+  Eigen::Isometry3d board_T_camera = Eigen::Isometry3d::Identity();
+  board_T_camera.linear() << x_cam, z_cam.cross(x_cam), z_cam;
+  board_T_camera.translation() = target + distance * to_camera;
+  const Eigen::Isometry3d base_T_flange = scene.base_T_board * board_T_camera * scene.flange_T_camera.inverse();
+  // 2. IK from a random start.
+  Eigen::VectorXd q0(arm.numJoints());
+  for (int j = 0; j < arm.numJoints(); ++j) q0[j] = arm.lower_rad[j] + u01(rng) * (arm.upper_rad[j] - arm.lower_rad[j]);
+  IkOptions opt;
+  opt.locked_joint = s.locked_joint;
+  opt.least_motion = false;
+  opt.max_iterations = 60;
+  opt.position_tol_m = 1e-9;
+  opt.rotation_tol_rad = 1e-9;
+  const IkResult ik = inverseKinematics(arm, base_T_flange, q0, opt);
+  Attempt a;
+  a.q = ik.q;
+  if (!ik.converged) return a;
+  // 3. Acceptance.
+  if (singularityMeasure(arm, a.q, s.locked_joint) < v.min_singular_value) {
+    a.outcome = Outcome::kSingular;
+  } else if (boardVisibility(scene, cameraTBoard(arm, scene, a.q)) != Visibility::kVisible) {
+    a.outcome = Outcome::kNotVisible;
+  } else {
+    a.outcome = Outcome::kAccepted;
+  }
+  return a;
+}
+
+}  // namespace
+
+std::vector<Eigen::VectorXd> generateConfigurations(const Arm& arm, const Scene& scene, const GeneratorSettings& s,
+                                                    GeneratorStats* stats_out,
+                                                    const std::function<void(int, int)>& progress) {
+  if (s.count < 0) throw std::invalid_argument("generateConfigurations: count must be >= 0");
+  if (s.locked_joint >= arm.numJoints()) {
+    throw std::invalid_argument("generateConfigurations: locked joint " + std::to_string(s.locked_joint + 1) +
+                                " but the arm has " + std::to_string(arm.numJoints()) + " joints");
+  }
+  const int max_attempts = s.max_attempts > 0 ? s.max_attempts : std::max(4000, 400 * s.count);
+  const int threads = s.threads > 0 ? s.threads : std::max(1u, std::thread::hardware_concurrency());
+  GeneratorStats stats;
+  std::vector<Eigen::VectorXd> out;
+  std::vector<Attempt> batch;
+  while (static_cast<int>(out.size()) < s.count && stats.attempts < max_attempts) {
+    const int needed = s.count - static_cast<int>(out.size());
+    const int n = std::min(max_attempts - stats.attempts, std::max(64, 8 * needed));
+    batch.assign(n, Attempt{});
+    const int first = stats.attempts;
+    auto work = [&](int t) {
+      for (int i = t; i < n; i += threads) batch[i] = tryOne(arm, scene, s, static_cast<std::uint64_t>(first + i));
+    };
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(work, t);
+    work(0);
+    for (auto& th : pool) th.join();
+    for (int i = 0; i < n && static_cast<int>(out.size()) < s.count; ++i) {
+      ++stats.attempts;
+      switch (batch[i].outcome) {
+        case Outcome::kAccepted: out.push_back(batch[i].q); break;
+        case Outcome::kIkFailed: ++stats.ik_failed; break;
+        case Outcome::kSingular: ++stats.singular; break;
+        case Outcome::kNotVisible: ++stats.not_visible; break;
+      }
+    }
+    if (progress) progress(static_cast<int>(out.size()), s.count);
+    if (out.empty() && stats.attempts >= 4000) break;  // nothing at all: the scene is unusable
+  }
+  stats.accepted = static_cast<int>(out.size());
+  if (stats_out) *stats_out = stats;
+  if (static_cast<int>(out.size()) < s.count) {
+    throw InputError(scene.source + ": base_T_board: only " + std::to_string(out.size()) + " of " +
+                     std::to_string(s.count) + " configurations see the whole board after " +
+                     std::to_string(stats.attempts) + " attempts (IK failed " + std::to_string(stats.ik_failed) +
+                     ", singular " + std::to_string(stats.singular) + ", board not visible " +
+                     std::to_string(stats.not_visible) + "); move the board or relax 'views'");
+  }
+  return out;
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,75 @@
+#include "orbcal/sim/errors.hpp"
+
+#include <cstdio>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::sim {
+
+std::mt19937_64 makeRng(std::uint64_t seed, std::uint64_t stream) {
+  // SplitMix64 of (seed, stream) so that neighbouring seeds and streams give unrelated states.
+  std::uint64_t z = seed * 0x9E3779B97F4A7C15ULL + stream + 0xD1B54A32D192ED03ULL;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z ^= z >> 31;
+  return std::mt19937_64(z);
+}
+
+Eigen::VectorXd paperTable3Errors() {
+  // Seed 000, Table 3: per joint theta [deg], alpha [deg], a [mm], d [mm].
+  static const double kTable3[7][4] = {{0.3, 0.2, 0.5, -0.9},   {-0.2, 0.3, 0.8, 0.8}, {0.2, -0.25, -0.6, -1.0},
+                                       {0.3, 0.3, -0.9, 0.8},   {0.2, -0.3, 1.0, 0.8}, {0.2, -0.2, -0.8, 0.75},
+                                       {-0.3, 0.25, 0.9, 0.6}};
+  Eigen::VectorXd y(28);
+  for (int j = 0; j < 7; ++j) {
+    y[paramIndex(j, kTheta)] = kTable3[j][0] * kDegToRad;
+    y[paramIndex(j, kAlpha)] = kTable3[j][1] * kDegToRad;
+    y[paramIndex(j, kA)] = kTable3[j][2] * 1e-3;
+    y[paramIndex(j, kD)] = kTable3[j][3] * 1e-3;
+  }
+  return y;
+}
+
+Eigen::VectorXd randomErrors(const Arm& arm, double angle_sigma_rad, double length_sigma_m, std::uint64_t seed) {
+  std::mt19937_64 rng = makeRng(seed, 0x6572726f72ULL);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Eigen::VectorXd y(arm.numParams());
+  for (int i = 0; i < arm.numParams(); ++i) y[i] = n01(rng) * (isAngleParam(i) ? angle_sigma_rad : length_sigma_m);
+  return y;
+}
+
+Eigen::VectorXd makeErrorSet(const Arm& arm, const ErrorSetSpec& spec, const std::string& what) {
+  if (spec.name == "table3") {
+    if (arm.numJoints() != 7) {
+      throw InputError(what + ": error set 'table3' is seed 000's for a 7-joint arm; " + arm.source + " has " +
+                       std::to_string(arm.numJoints()) + " joints");
+    }
+    return paperTable3Errors();
+  }
+  if (spec.name == "zero") return Eigen::VectorXd::Zero(arm.numParams());
+  if (spec.name == "random") return randomErrors(arm, spec.angle_sigma_rad, spec.length_sigma_m, spec.seed);
+  throw InputError(what + ": unknown error set '" + spec.name + "' (expected table3, zero or random)");
+}
+
+Eigen::VectorXd addJointNoise(const Eigen::VectorXd& q, double sigma_rad, std::mt19937_64& rng) {
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Eigen::VectorXd out = q;
+  for (Eigen::Index i = 0; i < q.size(); ++i) out[i] += sigma_rad * n01(rng);
+  return out;
+}
+
+std::string formatErrorSet(const Eigen::VectorXd& y) {
+  std::string out;
+  char line[160];
+  for (Eigen::Index j = 0; j < y.size() / Arm::kParamsPerJoint; ++j) {
+    const int b = static_cast<int>(j) * Arm::kParamsPerJoint;
+    std::snprintf(line, sizeof line, "  joint %d: theta %+8.4f deg  alpha %+8.4f deg  a %+8.4f mm  d %+8.4f mm\n",
+                  static_cast<int>(j) + 1, y[b + kTheta] * kRadToDeg, y[b + kAlpha] * kRadToDeg, y[b + kA] * 1e3,
+                  y[b + kD] * 1e3);
+    out += line;
+  }
+  return out;
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,163 @@
+#include "orbcal/sim/identifiability.hpp"
+
+#include <Eigen/SVD>
+#include <cmath>
+#include <cstdio>
+#include <numeric>
+
+namespace orbcal::sim {
+
+Eigen::MatrixXd stackedJacobian(const Arm& arm, const std::vector<Eigen::VectorXd>& configs, ErrorFrame frame) {
+  Eigen::MatrixXd J(6 * configs.size(), arm.numParams());
+  for (std::size_t k = 0; k < configs.size(); ++k) {
+    J.middleRows<6>(6 * static_cast<Eigen::Index>(k)) = identificationJacobian(arm, configs[k], frame);
+  }
+  return J;
+}
+
+namespace {
+
+std::string formatCombination(const std::vector<int>& params, const Eigen::VectorXd& coeffs) {
+  std::string out;
+  char buf[64];
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    const double c = coeffs[static_cast<Eigen::Index>(i)];
+    if (std::abs(c) < 1e-6) continue;
+    const bool unit = std::abs(std::abs(c) - 1.0) < 1e-6;
+    if (out.empty()) {
+      std::snprintf(buf, sizeof buf, "%s", c < 0 ? "-" : "");
+    } else {
+      std::snprintf(buf, sizeof buf, " %s ", c < 0 ? "-" : "+");
+    }
+    out += buf;
+    if (!unit) {
+      std::snprintf(buf, sizeof buf, "%.4g ", std::abs(c));
+      out += buf;
+    }
+    out += paramName(params[i]);
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string Redundancy::describe() const {
+  std::string names;
+  for (int p : params) names += (names.empty() ? "" : ", ") + paramName(p);
+  std::string out = names + ": " + std::to_string(lost) + (lost == 1 ? " direction" : " directions") + " lost";
+  if (observable.rows() == 0) return out + "; none of them is observable";
+  out += "; observable only as ";
+  for (Eigen::Index r = 0; r < observable.rows(); ++r) {
+    out += (r ? ", " : "") + formatCombination(params, observable.row(r).transpose());
+  }
+  return out;
+}
+
+IdentifiabilityReport analyzeIdentifiability(const Arm& arm, const std::vector<Eigen::VectorXd>& configs,
+                                             double rank_tolerance, ErrorFrame frame) {
+  IdentifiabilityReport r;
+  r.num_params = arm.numParams();
+  r.num_configs = static_cast<int>(configs.size());
+  r.rank_tolerance = rank_tolerance;
+  Eigen::MatrixXd J = stackedJacobian(arm, configs, frame);
+  // Column scaling: every parameter's column to unit norm (zero columns stay zero).
+  Eigen::VectorXd scale(r.num_params);
+  for (int c = 0; c < r.num_params; ++c) {
+    const double n = J.col(c).norm();
+    scale[c] = n > 0.0 ? 1.0 / n : 1.0;
+    J.col(c) *= scale[c];
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(J, Eigen::ComputeFullV);
+  r.singular_values = svd.singularValues();
+  const double smax = r.singular_values.size() ? r.singular_values[0] : 0.0;
+  r.rank = 0;
+  for (Eigen::Index i = 0; i < r.singular_values.size(); ++i) {
+    if (r.singular_values[i] > rank_tolerance * smax) ++r.rank;
+  }
+  r.condition_number = r.rank > 0 ? smax / r.singular_values[r.rank - 1] : 0.0;
+  const int k = r.num_params - r.rank;
+  // Physical null directions: J D n_s = 0 => n = D n_s.
+  r.null_space = scale.asDiagonal() * svd.matrixV().rightCols(k);
+  if (k == 0) return r;
+
+  // Group the parameters that share null directions (connected components).
+  const Eigen::MatrixXd N = svd.matrixV().rightCols(k);  // scaled, orthonormal columns
+  std::vector<int> involved;
+  for (int p = 0; p < r.num_params; ++p) {
+    if (N.row(p).norm() > 1e-6) involved.push_back(p);
+  }
+  std::vector<int> group(r.num_params, -1);
+  int groups = 0;
+  for (int p : involved) {
+    if (group[p] >= 0) continue;
+    std::vector<int> stack{p};
+    group[p] = groups;
+    while (!stack.empty()) {
+      const int a = stack.back();
+      stack.pop_back();
+      for (int b : involved) {
+        if (group[b] >= 0) continue;
+        // a and b are linked if some null direction involves both; the projector N N^T shows it.
+        if (std::abs(N.row(a).dot(N.row(b))) > 1e-6) {
+          group[b] = groups;
+          stack.push_back(b);
+        }
+      }
+    }
+    ++groups;
+  }
+  for (int g = 0; g < groups; ++g) {
+    Redundancy red;
+    for (int p : involved) {
+      if (group[p] == g) red.params.push_back(p);
+    }
+    const int m = static_cast<int>(red.params.size());
+    // Physical null directions restricted to the group; their rank is what is lost in the group.
+    Eigen::MatrixXd Ng(m, k);
+    for (int i = 0; i < m; ++i) Ng.row(i) = r.null_space.row(red.params[i]);
+    const Eigen::JacobiSVD<Eigen::MatrixXd> gsvd(Ng, Eigen::ComputeFullU);
+    const double gmax = gsvd.singularValues().size() ? gsvd.singularValues()[0] : 0.0;
+    for (Eigen::Index i = 0; i < gsvd.singularValues().size(); ++i) {
+      if (gsvd.singularValues()[i] > 1e-6 * gmax) ++red.lost;
+    }
+    // Observable functionals w^T y within the group: orthogonal to every physical null direction.
+    const Eigen::MatrixXd W = gsvd.matrixU().rightCols(m - red.lost).transpose();
+    red.observable = W;
+    for (Eigen::Index row = 0; row < W.rows(); ++row) {
+      Eigen::Index imax = 0;
+      W.row(row).cwiseAbs().maxCoeff(&imax);
+      red.observable.row(row) /= W(row, imax);
+    }
+    r.redundancies.push_back(red);
+  }
+  return r;
+}
+
+std::string formatIdentifiability(const IdentifiabilityReport& r) {
+  std::string out;
+  char buf[256];
+  std::snprintf(buf, sizeof buf,
+                "Identifiability over %d configurations (%d pose-error rows, %d parameters, columns scaled to unit norm):\n",
+                r.num_configs, 6 * r.num_configs, r.num_params);
+  out += buf;
+  std::snprintf(buf, sizeof buf, "  numerical rank %d of %d (singular values below %.0e x sigma_max count as zero)\n",
+                r.rank, r.num_params, r.rank_tolerance);
+  out += buf;
+  std::snprintf(buf, sizeof buf, "  condition number of the identifiable part: %.4g\n", r.condition_number);
+  out += buf;
+  out += "  smallest singular values:";
+  for (Eigen::Index i = std::max<Eigen::Index>(0, r.singular_values.size() - 4); i < r.singular_values.size(); ++i) {
+    std::snprintf(buf, sizeof buf, " %.3g", r.singular_values[i]);
+    out += buf;
+  }
+  out += "\n";
+  if (r.redundancies.empty()) {
+    out += "  every parameter is identifiable\n";
+  } else {
+    out += "  unidentifiable directions:\n";
+    for (const Redundancy& red : r.redundancies) out += "    " + red.describe() + "\n";
+  }
+  return out;
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,97 @@
+#include "orbcal/sim/jacobian.hpp"
+
+#include <stdexcept>
+
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::sim {
+
+namespace {
+/// Twist [v; w] in the base frame of a rotation about unit axis w through point o.
+Vector6d rotationTwist(const Eigen::Vector3d& w, const Eigen::Vector3d& o) {
+  Vector6d xi;
+  xi << o.cross(w), w;
+  return xi;
+}
+Vector6d translationTwist(const Eigen::Vector3d& v) {
+  Vector6d xi;
+  xi << v, Eigen::Vector3d::Zero();
+  return xi;
+}
+}  // namespace
+
+void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,
+                            Eigen::Ref<Matrix6Xd> J_e_y) {
+  if (J_e_y.cols() != arm.numParams()) {
+    throw std::invalid_argument("identificationJacobian: expected " + std::to_string(arm.numParams()) +
+                                " columns, got " + std::to_string(J_e_y.cols()));
+  }
+  const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, q);
+  const Eigen::Isometry3d& base_T_flange = frames.back();
+  const Eigen::Vector3d p_f = base_T_flange.translation();
+  const Eigen::Matrix3d Rt = base_T_flange.linear().transpose();
+  const bool modified = arm.convention == DhConvention::kModified;
+
+  for (int j = 0; j < arm.numJoints(); ++j) {
+    const Eigen::Isometry3d& prev = frames[j];      // base_T_{j-1}
+    const Eigen::Isometry3d& cur = frames[j + 1];   // base_T_{j}
+    const Eigen::Isometry3d& z_frame = modified ? cur : prev;  // frame whose z carries theta and d
+    const Eigen::Isometry3d& x_frame = modified ? prev : cur;  // frame whose x carries alpha and a
+    Vector6d xi[Arm::kParamsPerJoint];
+    xi[kTheta] = rotationTwist(z_frame.linear().col(2), z_frame.translation());
+    xi[kD] = translationTwist(z_frame.linear().col(2));
+    xi[kAlpha] = rotationTwist(x_frame.linear().col(0), x_frame.translation());
+    xi[kA] = translationTwist(x_frame.linear().col(0));
+    for (int k = 0; k < Arm::kParamsPerJoint; ++k) {
+      // Motion of the flange origin and rotation, both in the base frame.
+      const Eigen::Vector3d w = xi[k].tail<3>();
+      const Eigen::Vector3d dp = xi[k].head<3>() + w.cross(p_f);
+      auto col = J_e_y.col(paramIndex(j, static_cast<ParamKind>(k)));
+      if (frame == ErrorFrame::kTool) {
+        col.head<3>() = Rt * dp;
+        col.tail<3>() = Rt * w;
+      } else {
+        col.head<3>() = dp;
+        col.tail<3>() = w;
+      }
+    }
+  }
+}
+
+Matrix6Xd identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame) {
+  Matrix6Xd J(6, arm.numParams());
+  identificationJacobian(arm, q, frame, J);
+  return J;
+}
+
+Matrix6Xd manipulatorJacobian(const Arm& arm, const Eigen::VectorXd& q) {
+  // A joint's motion is the motion of its theta parameter.
+  const Matrix6Xd J = identificationJacobian(arm, q, ErrorFrame::kBase);
+  Matrix6Xd J_twist_q(6, arm.numJoints());
+  for (int j = 0; j < arm.numJoints(); ++j) J_twist_q.col(j) = J.col(paramIndex(j, kTheta));
+  return J_twist_q;
+}
+
+Matrix6Xd numericIdentificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,
+                                        double step) {
+  const Eigen::Isometry3d nominal = forwardKinematics(arm, q);
+  Matrix6Xd J(6, arm.numParams());
+  for (int c = 0; c < arm.numParams(); ++c) {
+    Eigen::VectorXd dy = Eigen::VectorXd::Zero(arm.numParams());
+    dy[c] = step;
+    const Eigen::Isometry3d plus = forwardKinematics(withErrors(arm, dy), q);
+    const Eigen::Isometry3d minus = forwardKinematics(withErrors(arm, -dy), q);
+    Vector6d e_plus, e_minus;
+    if (frame == ErrorFrame::kTool) {
+      e_plus = poseMinus(plus, nominal);
+      e_minus = poseMinus(minus, nominal);
+    } else {
+      e_plus << plus.translation() - nominal.translation(), logSO3(plus.linear() * nominal.linear().transpose());
+      e_minus << minus.translation() - nominal.translation(), logSO3(minus.linear() * nominal.linear().transpose());
+    }
+    J.col(c) = (e_plus - e_minus) / (2.0 * step);
+  }
+  return J;
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,67 @@
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/io.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::sim {
+
+namespace {
+
+DhRow readRow(const ConfigNode& n, const char* theta_key) {
+  DhRow r;
+  r.a_m = n["a_m"].asDouble();
+  r.alpha_rad = n["alpha_deg"].asDouble() * kDegToRad;
+  r.d_m = n["d_m"].asDouble();
+  r.theta_rad = n[theta_key].asDouble() * kDegToRad;
+  return r;
+}
+
+/// A fixed transform: {dh: {a_m, alpha_deg, d_m, theta_deg}} in the arm's convention, or
+/// {xyz_m: [...], rpy_deg: [...]}; absent means identity.
+Eigen::Isometry3d readFixed(const ConfigNode& n, DhConvention convention) {
+  if (!n.defined()) return Eigen::Isometry3d::Identity();
+  if (n.has("dh")) {
+    n.requireOnlyKeys({"dh"});
+    const ConfigNode dh = n["dh"];
+    dh.requireOnlyKeys({"a_m", "alpha_deg", "d_m", "theta_deg"});
+    return linkTransform(convention, readRow(dh, "theta_deg"), 0.0);
+  }
+  return n.asTransform();
+}
+
+}  // namespace
+
+Arm loadArm(const std::string& path) {
+  const ConfigNode root = ConfigNode::load(path);
+  root.requireOnlyKeys({"name", "convention", "base", "joints", "tool", "source_notes"});
+  Arm arm;
+  arm.source = path;
+  arm.name = root["name"].asString();
+  const ConfigNode conv = root["convention"];
+  const std::string c = conv.asString();
+  if (c == "modified") {
+    arm.convention = DhConvention::kModified;
+  } else if (c == "standard") {
+    arm.convention = DhConvention::kStandard;
+  } else {
+    conv.fail("expected 'modified' (Craig) or 'standard', got '" + c + "'");
+  }
+  arm.base_T_first = readFixed(root.optional("base"), arm.convention);
+  arm.last_T_flange = readFixed(root.optional("tool"), arm.convention);
+  const ConfigNode joints = root["joints"];
+  const std::size_t n = joints.size();
+  if (n == 0) joints.fail("expected at least one joint");
+  arm.lower_rad.resize(static_cast<Eigen::Index>(n));
+  arm.upper_rad.resize(static_cast<Eigen::Index>(n));
+  for (std::size_t i = 0; i < n; ++i) {
+    const ConfigNode j = joints[i];
+    j.requireOnlyKeys({"a_m", "alpha_deg", "d_m", "theta_offset_deg", "min_deg", "max_deg"});
+    arm.joints.push_back(readRow(j, "theta_offset_deg"));
+    const double lo = j["min_deg"].asDouble(), hi = j["max_deg"].asDouble();
+    if (!(lo < hi)) j["max_deg"].fail("must be greater than min_deg");
+    arm.lower_rad[static_cast<Eigen::Index>(i)] = lo * kDegToRad;
+    arm.upper_rad[static_cast<Eigen::Index>(i)] = hi * kDegToRad;
+  }
+  return arm;
+}
+
+}  // namespace orbcal::sim

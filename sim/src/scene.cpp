@@ -1,0 +1,85 @@
+#include "orbcal/sim/scene.hpp"
+
+#include <cmath>
+
+namespace orbcal::sim {
+
+bool Camera::hasDistortion() const {
+  for (double k : distortion) {
+    if (k != 0.0) return true;
+  }
+  return false;
+}
+
+Eigen::Vector2d project(const Camera& camera, const Eigen::Vector3d& p_cam) {
+  const double x = p_cam.x() / p_cam.z(), y = p_cam.y() / p_cam.z();
+  const auto& k = camera.distortion;  // k1 k2 p1 p2 k3
+  const double r2 = x * x + y * y;
+  const double radial = 1.0 + r2 * (k[0] + r2 * (k[1] + r2 * k[4]));
+  const double xd = x * radial + 2.0 * k[2] * x * y + k[3] * (r2 + 2.0 * x * x);
+  const double yd = y * radial + k[2] * (r2 + 2.0 * y * y) + 2.0 * k[3] * x * y;
+  return {camera.fx_px * xd + camera.cx_px, camera.fy_px * yd + camera.cy_px};
+}
+
+Eigen::Vector3d cornerInBoard(const Board& board, int k) {
+  return {(k % board.corners_x) * board.square_m, (k / board.corners_x) * board.square_m, 0.0};
+}
+
+std::vector<Eigen::Vector3d> boardCorners(const Board& board) {
+  std::vector<Eigen::Vector3d> corners;
+  corners.reserve(board.numCorners());
+  for (int k = 0; k < board.numCorners(); ++k) corners.push_back(cornerInBoard(board, k));
+  return corners;
+}
+
+std::array<Eigen::Vector3d, 4> squaresOutline(const Board& board) {
+  const double s = board.square_m;
+  const double x0 = -s, y0 = -s, x1 = board.corners_x * s, y1 = board.corners_y * s;
+  return {Eigen::Vector3d(x0, y0, 0), Eigen::Vector3d(x1, y0, 0), Eigen::Vector3d(x1, y1, 0),
+          Eigen::Vector3d(x0, y1, 0)};
+}
+
+Eigen::Vector3d boardCentre(const Board& board) {
+  return {0.5 * (board.corners_x - 1) * board.square_m, 0.5 * (board.corners_y - 1) * board.square_m, 0.0};
+}
+
+Visibility boardVisibility(const Scene& scene, const Eigen::Isometry3d& camera_T_board) {
+  const Eigen::Vector3d centre = camera_T_board * boardCentre(scene.board);
+  const Eigen::Vector3d normal = camera_T_board.linear().col(2);  // away from the printed face
+  // The printed face looks along -z_board, so it faces the camera when the camera sits on the -z side.
+  if (centre.z() <= 0.0 || normal.dot(centre) <= 0.0) return Visibility::kBehind;
+  const double distance = centre.norm();
+  if (distance > scene.views.max_distance_m) return Visibility::kTooFar;
+  if (distance < scene.views.min_distance_m) return Visibility::kTooNear;
+  const double tilt = std::acos(std::min(1.0, normal.dot(centre) / distance));
+  if (tilt > scene.views.max_tilt_rad) return Visibility::kTooOblique;
+  const double m = scene.views.image_margin_px;
+  const auto inside = [&](const Eigen::Vector3d& p_board) {
+    const Eigen::Vector3d p = camera_T_board * p_board;
+    if (p.z() <= 0.0) return false;
+    const Eigen::Vector2d uv = project(scene.camera, p);
+    return uv.x() >= m - 0.5 && uv.y() >= m - 0.5 && uv.x() <= scene.camera.width_px - 0.5 - m &&
+           uv.y() <= scene.camera.height_px - 0.5 - m;
+  };
+  for (const Eigen::Vector3d& p : squaresOutline(scene.board)) {
+    if (!inside(p)) return Visibility::kOutsideImage;
+  }
+  for (int k = 0; k < scene.board.numCorners(); ++k) {
+    if (!inside(cornerInBoard(scene.board, k))) return Visibility::kOutsideImage;
+  }
+  return Visibility::kVisible;
+}
+
+const char* toString(Visibility v) {
+  switch (v) {
+    case Visibility::kVisible: return "visible";
+    case Visibility::kBehind: return "board behind the camera or facing away";
+    case Visibility::kOutsideImage: return "board not wholly inside the image";
+    case Visibility::kTooFar: return "board too far";
+    case Visibility::kTooNear: return "board too near";
+    case Visibility::kTooOblique: return "board seen too obliquely";
+  }
+  return "?";
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,69 @@
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/io.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::sim {
+
+Scene loadScene(const std::string& path) {
+  const ConfigNode root = ConfigNode::load(path);
+  root.requireOnlyKeys({"name", "camera", "board", "base_T_board", "flange_T_camera", "views", "lighting",
+                        "degradations", "meshes", "render"});
+  Scene s;
+  s.source = path;
+  s.name = root["name"].asString();
+
+  const ConfigNode cam = root["camera"];
+  cam.requireOnlyKeys({"width_px", "height_px", "fx_px", "fy_px", "cx_px", "cy_px", "distortion"});
+  s.camera.width_px = cam["width_px"].asInt();
+  s.camera.height_px = cam["height_px"].asInt();
+  if (s.camera.width_px < 16 || s.camera.width_px > 16384) cam["width_px"].fail("must be within 16..16384");
+  if (s.camera.height_px < 16 || s.camera.height_px > 16384) cam["height_px"].fail("must be within 16..16384");
+  s.camera.fx_px = cam["fx_px"].asDouble();
+  s.camera.fy_px = cam["fy_px"].asDouble();
+  if (s.camera.fx_px <= 0) cam["fx_px"].fail("must be positive");
+  if (s.camera.fy_px <= 0) cam["fy_px"].fail("must be positive");
+  s.camera.cx_px = cam["cx_px"].asDouble();
+  s.camera.cy_px = cam["cy_px"].asDouble();
+  if (cam.has("distortion")) {
+    const Eigen::VectorXd k = cam["distortion"].asVector(5);
+    for (int i = 0; i < 5; ++i) s.camera.distortion[i] = k[i];
+  }
+
+  const ConfigNode board = root["board"];
+  board.requireOnlyKeys({"inner_corners_x", "inner_corners_y", "square_m", "margin_m"});
+  s.board.corners_x = board["inner_corners_x"].asInt();
+  s.board.corners_y = board["inner_corners_y"].asInt();
+  if (s.board.corners_x < 2) board["inner_corners_x"].fail("must be at least 2");
+  if (s.board.corners_y < 2) board["inner_corners_y"].fail("must be at least 2");
+  if (s.board.corners_x % 2 == s.board.corners_y % 2) {
+    // An even-by-even or odd-by-odd square count looks the same after a half turn: the corner order
+    // could flip. The squares are inner corners + 1 along each side.
+    board.fail("inner_corners_x and inner_corners_y must differ in parity (an even-by-odd square count), "
+               "so that the board's orientation is unambiguous");
+  }
+  s.board.square_m = board["square_m"].asDouble();
+  if (s.board.square_m <= 0) board["square_m"].fail("must be positive");
+  s.board.margin_m = board.optional("margin_m").asDouble(s.board.square_m);
+  if (s.board.margin_m < 0) board["margin_m"].fail("must not be negative");
+
+  s.base_T_board = root["base_T_board"].asTransform();
+  s.flange_T_camera = root["flange_T_camera"].asTransform();
+
+  const ConfigNode v = root.optional("views");
+  if (v.defined()) {
+    v.requireOnlyKeys({"distance_m", "max_tilt_deg", "image_margin_px", "min_singular_value"});
+    if (v.has("distance_m")) {
+      const Eigen::VectorXd d = v["distance_m"].asVector(2);
+      if (!(0 < d[0] && d[0] < d[1])) v["distance_m"].fail("expected [min, max] with 0 < min < max");
+      s.views.min_distance_m = d[0];
+      s.views.max_distance_m = d[1];
+    }
+    s.views.max_tilt_rad = v.optional("max_tilt_deg").asDouble(s.views.max_tilt_rad * kRadToDeg) * kDegToRad;
+    if (!(s.views.max_tilt_rad >= 0 && s.views.max_tilt_rad < 0.5 * kPi)) v["max_tilt_deg"].fail("must be within [0, 90)");
+    s.views.image_margin_px = v.optional("image_margin_px").asDouble(s.views.image_margin_px);
+    s.views.min_singular_value = v.optional("min_singular_value").asDouble(s.views.min_singular_value);
+  }
+  return s;
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,142 @@
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "orbcal/builtin_files.hpp"
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::sim {
+
+std::string readTextSource(const std::string& path) {
+  static const std::string kBuiltin = "builtin:";
+  if (path.rfind(kBuiltin, 0) == 0) {
+    const auto& files = builtin::files();
+    const auto it = files.find(path.substr(kBuiltin.size()));
+    if (it == files.end()) throw InputError(path + ": no such built-in file (built-in: " + builtinFileNames() + ")");
+    return it->second;
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path + ": cannot read: no such file or not readable");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw InputError(path + ": cannot read: I/O error");
+  return ss.str();
+}
+
+std::string builtinFileNames() {
+  std::string names;
+  for (const auto& [name, text] : builtin::files()) names += (names.empty() ? "" : ", ") + ("builtin:" + name);
+  return names;
+}
+
+ConfigNode ConfigNode::parse(const std::string& text, const std::string& source) {
+  try {
+    return ConfigNode(YAML::Load(text), source, "");
+  } catch (const YAML::Exception& e) {
+    throw InputError(source + ": line " + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
+  }
+}
+
+ConfigNode ConfigNode::load(const std::string& path) { return parse(readTextSource(path), path); }
+
+std::string ConfigNode::childPath(const std::string& key) const { return path_.empty() ? key : path_ + "." + key; }
+
+bool ConfigNode::has(const std::string& key) const { return node_.IsMap() && node_[key].IsDefined(); }
+
+ConfigNode ConfigNode::operator[](const std::string& key) const {
+  if (!node_.IsMap()) fail("expected a map with key '" + key + "'");
+  const YAML::Node child = node_[key];
+  if (!child.IsDefined()) throw InputError(source_ + ": " + childPath(key) + ": missing");
+  return ConfigNode(child, source_, childPath(key));
+}
+
+ConfigNode ConfigNode::optional(const std::string& key) const {
+  if (node_.IsDefined() && !node_.IsNull() && !node_.IsMap()) fail("expected a map with key '" + key + "'");
+  YAML::Node child = (node_.IsMap() ? node_[key] : YAML::Node(YAML::NodeType::Undefined));
+  return ConfigNode(child, source_, childPath(key));
+}
+
+ConfigNode ConfigNode::operator[](std::size_t index) const {
+  if (!node_.IsSequence()) fail("expected a sequence");
+  if (index >= node_.size()) fail("index " + std::to_string(index) + " out of range");
+  return ConfigNode(node_[index], source_, path_ + "[" + std::to_string(index) + "]");
+}
+
+std::size_t ConfigNode::size() const {
+  if (!node_.IsSequence()) fail("expected a sequence");
+  return node_.size();
+}
+
+void ConfigNode::fail(const std::string& what) const {
+  throw InputError(source_ + ": " + (path_.empty() ? std::string("(top level)") : path_) + ": " + what);
+}
+
+namespace {
+std::string scalarText(const YAML::Node& n) {
+  if (n.IsScalar()) return "'" + n.Scalar() + "'";
+  if (n.IsSequence()) return "a sequence";
+  if (n.IsMap()) return "a map";
+  return "nothing";
+}
+}  // namespace
+
+double ConfigNode::asDouble() const {
+  if (!node_.IsDefined() || node_.IsNull()) fail("missing (expected a number)");
+  double v = 0.0;
+  if (!node_.IsScalar() || !YAML::convert<double>::decode(node_, v)) fail("expected a number, got " + scalarText(node_));
+  if (!std::isfinite(v)) fail("expected a finite number, got " + scalarText(node_));
+  return v;
+}
+
+int ConfigNode::asInt() const {
+  if (!node_.IsDefined() || node_.IsNull()) fail("missing (expected an integer)");
+  int v = 0;
+  if (!node_.IsScalar() || !YAML::convert<int>::decode(node_, v)) fail("expected an integer, got " + scalarText(node_));
+  return v;
+}
+
+bool ConfigNode::asBool() const {
+  if (!node_.IsDefined() || node_.IsNull()) fail("missing (expected true or false)");
+  bool v = false;
+  if (!node_.IsScalar() || !YAML::convert<bool>::decode(node_, v)) fail("expected true or false, got " + scalarText(node_));
+  return v;
+}
+
+std::string ConfigNode::asString() const {
+  if (!node_.IsDefined() || node_.IsNull()) fail("missing (expected text)");
+  if (!node_.IsScalar()) fail("expected text, got " + scalarText(node_));
+  return node_.Scalar();
+}
+
+Eigen::VectorXd ConfigNode::asVector(int n) const {
+  if (!node_.IsSequence() || static_cast<int>(node_.size()) != n) {
+    fail("expected a sequence of " + std::to_string(n) + " numbers");
+  }
+  Eigen::VectorXd v(n);
+  for (int i = 0; i < n; ++i) v[i] = (*this)[static_cast<std::size_t>(i)].asDouble();
+  return v;
+}
+
+Eigen::Isometry3d ConfigNode::asTransform() const {
+  requireOnlyKeys({"xyz_m", "rpy_deg"});
+  const Eigen::Vector3d xyz = (*this)["xyz_m"].asVector(3);
+  const Eigen::Vector3d rpy = (*this)["rpy_deg"].asVector(3) * kDegToRad;
+  return fromXyzRpy(xyz, rpy);
+}
+
+void ConfigNode::requireOnlyKeys(std::initializer_list<const char*> allowed) const {
+  if (!node_.IsMap()) fail("expected a map");
+  const std::set<std::string> ok(allowed.begin(), allowed.end());
+  for (const auto& kv : node_) {
+    const std::string key = kv.first.as<std::string>();
+    if (!ok.count(key)) {
+      std::string list;
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+      throw InputError(source_ + ": " + childPath(key) + ": unknown key (expected one of: " + list + ")");
+    }
+  }
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,25 @@
+#!/usr/bin/env bash
+# Installs orbcal's build and test dependencies from Debian 12's packages. Idempotent: installs
+# only what is missing, and does nothing (no apt-get update) when everything is present.
+# Usage: tools/install-deps.sh [--tests]   (--tests adds what only the test suite needs)
+set -euo pipefail
+pkgs=(build-essential cmake pkg-config libeigen3-dev libopencv-dev libosmesa6-dev libassimp-dev
+      catch2 libceres-dev libcli11-dev libyaml-cpp-dev python3-matplotlib)
+if [[ "${1:-}" == "--tests" ]]; then
+  pkgs+=(opencv-doc)   # OpenCV's sample chessboard photographs (left01..14.jpg) for the real-image tests
+fi
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]} == 0)); then
+  echo "install-deps: all ${#pkgs[@]} packages present"
+  exit 0
+fi
+echo "install-deps: installing ${missing[*]}"
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install-deps: done"
