@@ -1,0 +1,41 @@
+#pragma once
+// Plain comma-separated tables with a header line, as orbcal writes them (no quoting: cells hold
+// numbers and relative paths). Errors name the file, the line and the column.
+#include <Eigen/Core>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace orbcal::sim {
+
+class CsvTable {
+ public:
+  /// Throws InputError on an empty file or a row whose cell count differs from the header's.
+  static CsvTable parse(const std::string& text, const std::string& source);
+
+  int column(const std::string& name) const;          ///< -1 when absent
+  int requireColumn(const std::string& name) const;   ///< throws "<file>: header: missing column '<name>'"
+  std::size_t rows() const { return rows_.size(); }
+  const std::string& cell(std::size_t row, int col) const { return rows_[row][col]; }
+  /// Finite number; throws "<file>: line L: <column>: expected a finite number, got '<cell>'".
+  double number(std::size_t row, int col) const;
+  /// The cells of `cols` as numbers, or nullopt when all of them are empty.
+  std::optional<Eigen::VectorXd> numbers(std::size_t row, const std::vector<int>& cols) const;
+  std::string where(std::size_t row) const;  ///< "<file>: line L"
+  const std::string& source() const { return source_; }
+
+ private:
+  std::string source_;
+  std::vector<std::string> header_;
+  std::vector<std::vector<std::string>> rows_;
+  std::vector<int> line_numbers_;
+};
+
+/// "%.17g": a double that reads back bit for bit.
+std::string exactNumber(double v);
+
+/// Joint configurations: header "index,q1_rad,...,qN_rad", one row each.
+std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs);
+std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, const std::string& source, int num_joints);
+
+}  // namespace orbcal::sim

@@ -1,0 +1,120 @@
+#include "orbcal/sim/csv.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "orbcal/sim/config.hpp"
+
+namespace orbcal::sim {
+
+namespace {
+std::vector<std::string> splitLine(const std::string& line) {
+  std::vector<std::string> out;
+  std::string cell;
+  std::istringstream ss(line);
+  while (std::getline(ss, cell, ',')) {
+    const auto b = cell.find_first_not_of(" \t\r");
+    const auto e = cell.find_last_not_of(" \t\r");
+    out.push_back(b == std::string::npos ? "" : cell.substr(b, e - b + 1));
+  }
+  if (!line.empty() && line.back() == ',') out.push_back("");
+  return out;
+}
+}  // namespace
+
+CsvTable CsvTable::parse(const std::string& text, const std::string& source) {
+  CsvTable t;
+  t.source_ = source;
+  std::istringstream in(text);
+  std::string line;
+  if (!std::getline(in, line)) throw InputError(source + ": empty file (expected a header line)");
+  t.header_ = splitLine(line);
+  int line_no = 1;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    std::vector<std::string> cells = splitLine(line);
+    if (cells.size() != t.header_.size()) {
+      throw InputError(source + ": line " + std::to_string(line_no) + ": expected " + std::to_string(t.header_.size()) +
+                       " columns, got " + std::to_string(cells.size()));
+    }
+    t.rows_.push_back(std::move(cells));
+    t.line_numbers_.push_back(line_no);
+  }
+  return t;
+}
+
+int CsvTable::column(const std::string& name) const {
+  for (std::size_t i = 0; i < header_.size(); ++i) {
+    if (header_[i] == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+int CsvTable::requireColumn(const std::string& name) const {
+  const int c = column(name);
+  if (c < 0) throw InputError(source_ + ": header: missing column '" + name + "'");
+  return c;
+}
+
+std::string CsvTable::where(std::size_t row) const { return source_ + ": line " + std::to_string(line_numbers_[row]); }
+
+double CsvTable::number(std::size_t row, int col) const {
+  const std::string& s = rows_[row][col];
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v)) {
+    throw InputError(where(row) + ": " + header_[col] + ": expected a finite number, got '" + s + "'");
+  }
+  return v;
+}
+
+std::optional<Eigen::VectorXd> CsvTable::numbers(std::size_t row, const std::vector<int>& cols) const {
+  if (cols.empty()) return std::nullopt;
+  bool all_empty = true;
+  for (int c : cols) all_empty &= rows_[row][c].empty();
+  if (all_empty) return std::nullopt;
+  Eigen::VectorXd v(static_cast<Eigen::Index>(cols.size()));
+  for (std::size_t i = 0; i < cols.size(); ++i) v[static_cast<Eigen::Index>(i)] = number(row, cols[i]);
+  return v;
+}
+
+std::string exactNumber(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs) {
+  std::ostringstream out;
+  out << "index";
+  const Eigen::Index n = configs.empty() ? 0 : configs.front().size();
+  for (Eigen::Index j = 1; j <= n; ++j) out << ",q" << j << "_rad";
+  out << "\n";
+  for (std::size_t k = 0; k < configs.size(); ++k) {
+    out << k;
+    for (Eigen::Index j = 0; j < n; ++j) out << "," << exactNumber(configs[k][j]);
+    out << "\n";
+  }
+  return out.str();
+}
+
+std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, const std::string& source, int n) {
+  const CsvTable t = CsvTable::parse(text, source);
+  std::vector<int> cols;
+  for (int j = 1; j <= n; ++j) cols.push_back(t.requireColumn("q" + std::to_string(j) + "_rad"));
+  if (t.column("q" + std::to_string(n + 1) + "_rad") >= 0) {
+    throw InputError(source + ": header: column 'q" + std::to_string(n + 1) + "_rad' but the robot has " +
+                     std::to_string(n) + " joints");
+  }
+  std::vector<Eigen::VectorXd> configs;
+  for (std::size_t r = 0; r < t.rows(); ++r) {
+    const auto q = t.numbers(r, cols);
+    if (!q) throw InputError(t.where(r) + ": q1_rad: joint angles are empty");
+    configs.push_back(*q);
+  }
+  return configs;
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,213 @@
+#include <algorithm>
+#include "orbcal/sim/dataset.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "orbcal/sim/arm.hpp"
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/fileio.hpp"
+#include "orbcal/sim/io.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::sim {
+
+namespace {
+/// Human units (deg, mm) with 12 significant digits: 0.3 deg prints as 0.3.
+std::string num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.12g", v);
+  return buf;
+}
+}  // namespace
+
+namespace {
+/// The manifest keeps angles in degrees and lengths in mm for people (12 significant digits), so a
+/// value read back differs from the one written by up to 1e-12 relative: compare within that.
+bool sameValue(double a, double b) { return std::abs(a - b) <= 1e-11 * std::max(std::abs(a), std::abs(b)); }
+}  // namespace
+
+bool DatasetManifest::operator==(const DatasetManifest& o) const {
+  bool errors_equal = true_errors.has_value() == o.true_errors.has_value();
+  if (errors_equal && true_errors) {
+    errors_equal = true_errors->size() == o.true_errors->size();
+    for (Eigen::Index i = 0; errors_equal && i < true_errors->size(); ++i) {
+      errors_equal = sameValue((*true_errors)[i], (*o.true_errors)[i]);
+    }
+  }
+  return format == o.format && program_version == o.program_version && robot_file == o.robot_file &&
+         scene_file == o.scene_file && samples_file == o.samples_file && num_samples == o.num_samples &&
+         errors_equal && error_set == o.error_set && sameValue(joint_noise_sigma_rad, o.joint_noise_sigma_rad) &&
+         configuration_seed == o.configuration_seed && noise_seed == o.noise_seed && render_seed == o.render_seed;
+}
+
+std::string formatManifest(const DatasetManifest& m) {
+  std::ostringstream s;
+  s << "# orbcal calibration dataset (layout: README, 'Dataset layout')\n";
+  s << "format: " << m.format << "\n";
+  s << "program_version: " << m.program_version << "\n";
+  s << "robot: " << m.robot_file << "\n";
+  s << "scene: " << m.scene_file << "\n";
+  s << "samples: " << m.samples_file << "\n";
+  s << "num_samples: " << m.num_samples << "\n";
+  s << "joint_noise_deg: " << num(m.joint_noise_sigma_rad * kRadToDeg) << "\n";
+  s << "seeds: {configurations: " << m.configuration_seed << ", joint_noise: " << m.noise_seed
+    << ", render: " << m.render_seed << "}\n";
+  if (m.true_errors) {
+    s << "true_errors:   # injected into the plant, per joint (y order); angles in deg, lengths in mm\n";
+    s << "  name: " << (m.error_set.empty() ? "custom" : m.error_set) << "\n";
+    s << "  joints:\n";
+    const Eigen::VectorXd& y = *m.true_errors;
+    for (Eigen::Index j = 0; j < y.size() / Arm::kParamsPerJoint; ++j) {
+      const int b = static_cast<int>(j) * Arm::kParamsPerJoint;
+      s << "    - {theta_deg: " << num(y[b + kTheta] * kRadToDeg) << ", alpha_deg: " << num(y[b + kAlpha] * kRadToDeg)
+        << ", a_mm: " << num(y[b + kA] * 1e3) << ", d_mm: " << num(y[b + kD] * 1e3) << "}\n";
+    }
+  }
+  return s.str();
+}
+
+DatasetManifest parseManifest(const std::string& text, const std::string& source) {
+  const ConfigNode root = ConfigNode::parse(text, source);
+  root.requireOnlyKeys({"format", "program_version", "robot", "scene", "samples", "num_samples", "joint_noise_deg",
+                        "seeds", "true_errors"});
+  DatasetManifest m;
+  m.format = root["format"].asString();
+  if (m.format != kDatasetFormat) root["format"].fail("expected '" + std::string(kDatasetFormat) + "', got '" + m.format + "'");
+  m.program_version = root.optional("program_version").asString("");
+  m.robot_file = root["robot"].asString();
+  m.scene_file = root["scene"].asString();
+  m.samples_file = root["samples"].asString();
+  m.num_samples = root["num_samples"].asInt();
+  if (m.num_samples < 0) root["num_samples"].fail("must not be negative");
+  m.joint_noise_sigma_rad = root.optional("joint_noise_deg").asDouble(0.0) * kDegToRad;
+  const ConfigNode seeds = root.optional("seeds");
+  if (seeds.defined()) {
+    seeds.requireOnlyKeys({"configurations", "joint_noise", "render"});
+    m.configuration_seed = static_cast<std::uint64_t>(seeds.optional("configurations").asDouble(0));
+    m.noise_seed = static_cast<std::uint64_t>(seeds.optional("joint_noise").asDouble(0));
+    m.render_seed = static_cast<std::uint64_t>(seeds.optional("render").asDouble(0));
+  }
+  const ConfigNode te = root.optional("true_errors");
+  if (te.defined()) {
+    te.requireOnlyKeys({"name", "joints"});
+    m.error_set = te.optional("name").asString("custom");
+    const ConfigNode joints = te["joints"];
+    Eigen::VectorXd y(static_cast<Eigen::Index>(joints.size() * Arm::kParamsPerJoint));
+    for (std::size_t j = 0; j < joints.size(); ++j) {
+      const ConfigNode row = joints[j];
+      row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm"});
+      const int b = static_cast<int>(j) * Arm::kParamsPerJoint;
+      y[b + kTheta] = row["theta_deg"].asDouble() * kDegToRad;
+      y[b + kAlpha] = row["alpha_deg"].asDouble() * kDegToRad;
+      y[b + kA] = row["a_mm"].asDouble() * 1e-3;
+      y[b + kD] = row["d_mm"].asDouble() * 1e-3;
+    }
+    m.true_errors = y;
+  }
+  return m;
+}
+
+namespace {
+const char* kPoseColumns[6] = {"cam_board_x_m", "cam_board_y_m", "cam_board_z_m",
+                               "cam_board_rx_rad", "cam_board_ry_rad", "cam_board_rz_rad"};
+}  // namespace
+
+std::string formatSamplesCsv(const std::vector<DatasetSample>& samples, int n) {
+  bool has_true = false, has_pose = false;
+  for (const auto& s : samples) {
+    has_true |= s.q_true_rad.has_value();
+    has_pose |= s.camera_T_board_true.has_value();
+  }
+  std::ostringstream out;
+  out << "index,image";
+  for (int j = 1; j <= n; ++j) out << ",q" << j << "_rad";
+  if (has_true) {
+    for (int j = 1; j <= n; ++j) out << ",q" << j << "_true_rad";
+  }
+  if (has_pose) {
+    for (const char* c : kPoseColumns) out << "," << c;
+  }
+  out << "\n";
+  for (const auto& s : samples) {
+    out << s.index << "," << s.image;
+    for (int j = 0; j < n; ++j) out << "," << exactNumber(s.q_rad[j]);
+    if (has_true) {
+      for (int j = 0; j < n; ++j) out << "," << (s.q_true_rad ? exactNumber((*s.q_true_rad)[j]) : "");
+    }
+    if (has_pose) {
+      if (s.camera_T_board_true) {
+        const Eigen::Vector3d t = s.camera_T_board_true->translation();
+        const Eigen::Vector3d r = logSO3(s.camera_T_board_true->linear());
+        for (int i = 0; i < 3; ++i) out << "," << exactNumber(t[i]);
+        for (int i = 0; i < 3; ++i) out << "," << exactNumber(r[i]);
+      } else {
+        out << ",,,,,,";
+      }
+    }
+    out << "\n";
+  }
+  return out.str();
+}
+
+std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::string& source, int n) {
+  const CsvTable t = CsvTable::parse(text, source);
+  const int c_index = t.requireColumn("index"), c_image = t.requireColumn("image");
+  std::vector<int> c_q, c_qt, c_pose;
+  for (int j = 1; j <= n; ++j) c_q.push_back(t.requireColumn("q" + std::to_string(j) + "_rad"));
+  if (t.column("q" + std::to_string(n + 1) + "_rad") >= 0) {
+    throw InputError(source + ": header: column 'q" + std::to_string(n + 1) + "_rad' but the robot has " +
+                     std::to_string(n) + " joints");
+  }
+  if (t.column("q1_true_rad") >= 0) {
+    for (int j = 1; j <= n; ++j) c_qt.push_back(t.requireColumn("q" + std::to_string(j) + "_true_rad"));
+  }
+  if (t.column(kPoseColumns[0]) >= 0) {
+    for (const char* c : kPoseColumns) c_pose.push_back(t.requireColumn(c));
+  }
+  std::vector<DatasetSample> samples;
+  for (std::size_t r = 0; r < t.rows(); ++r) {
+    DatasetSample s;
+    s.index = static_cast<int>(t.number(r, c_index));
+    s.image = t.cell(r, c_image);
+    if (s.image.empty()) throw InputError(t.where(r) + ": image: empty");
+    const auto q = t.numbers(r, c_q);
+    if (!q) throw InputError(t.where(r) + ": q1_rad: joint readings are empty");
+    s.q_rad = *q;
+    s.q_true_rad = t.numbers(r, c_qt);
+    if (const auto pose = t.numbers(r, c_pose)) {
+      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+      T.translation() = pose->head<3>();
+      T.linear() = expSO3(pose->tail<3>());
+      s.camera_T_board_true = T;
+    }
+    samples.push_back(std::move(s));
+  }
+  return samples;
+}
+
+Dataset loadDataset(const std::string& folder) {
+  Dataset d;
+  d.folder = folder;
+  const std::string manifest_path = folder + "/manifest.yaml";
+  d.manifest = parseManifest(readTextSource(manifest_path), manifest_path);
+  d.arm = loadArm(d.path(d.manifest.robot_file));
+  d.scene = loadScene(d.path(d.manifest.scene_file));
+  const std::string samples_path = d.path(d.manifest.samples_file);
+  d.samples = parseSamplesCsv(readTextSource(samples_path), samples_path, d.arm.numJoints());
+  if (d.manifest.true_errors && d.manifest.true_errors->size() != d.arm.numParams()) {
+    throw InputError(manifest_path + ": true_errors.joints: expected " + std::to_string(d.arm.numJoints()) +
+                     " joints (as " + d.manifest.robot_file + "), got " +
+                     std::to_string(d.manifest.true_errors->size() / Arm::kParamsPerJoint));
+  }
+  return d;
+}
+
+void writeDatasetTables(const Dataset& d, int num_joints) {
+  writeFileAtomic(d.path(d.manifest.samples_file), formatSamplesCsv(d.samples, num_joints));
+  writeFileAtomic(d.folder + "/manifest.yaml", formatManifest(d.manifest));
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,101 @@
+// The analytic identification Jacobian (seed 000 eqs. 5-9) against central differences of the true
+// pose error, for every column, in both frames, at the zero, singular and random configurations.
+#include <catch2/catch.hpp>
+#include <random>
+
+#include "orbcal/sim/io.hpp"
+#include "orbcal/sim/jacobian.hpp"
+#include "orbcal/sim/se3.hpp"
+#include "test_util.hpp"
+
+using namespace orbcal::sim;
+
+namespace {
+// Central differences: truncation ~ h^2 |f'''| ~ 1e-12 * 20 m; round-off ~ 1e-16 * 20 m / h = 2e-9.
+constexpr double kStep = 1e-6;
+// Entries are O(1..20) (m/rad and rad/rad on a 20 m arm); 1e-7 is 50x the round-off bound above and
+// would still catch any wrong lever arm, sign or frame (those err by O(0.1..20)).
+constexpr double kJacobianTol = 1e-7;
+
+void checkAgainstNumeric(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame) {
+  const Matrix6Xd J = identificationJacobian(arm, q, frame);
+  const Matrix6Xd J_num = numericIdentificationJacobian(arm, q, frame, kStep);
+  REQUIRE(J_num.norm() > 1.0);  // a harness returning zeros must not pass
+  for (int c = 0; c < arm.numParams(); ++c) {
+    Eigen::Index r = 0;
+    const double err = (J.col(c) - J_num.col(c)).cwiseAbs().maxCoeff(&r);
+    CAPTURE(q.transpose(), paramName(c), r, J(r, c), J_num(r, c));
+    REQUIRE(err < kJacobianTol);
+  }
+}
+
+std::vector<Eigen::VectorXd> testConfigurations(int n, std::uint64_t seed) {
+  std::vector<Eigen::VectorXd> qs;
+  qs.push_back(Eigen::VectorXd::Zero(n));                      // aligned axes
+  Eigen::VectorXd wrist = Eigen::VectorXd::Zero(n);            // wrist singularity: joint 6 at 90 deg
+  wrist[5] = 0.5 * kPi;
+  qs.push_back(wrist);
+  Eigen::VectorXd elbow = Eigen::VectorXd::Zero(n);            // elbow fully stretched or folded
+  elbow[3] = kPi;
+  qs.push_back(elbow);
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> angle(-4.7, 4.7);
+  for (int k = 0; k < 12; ++k) qs.push_back(Eigen::VectorXd::NullaryExpr(n, [&] { return angle(rng); }));
+  return qs;
+}
+}  // namespace
+
+TEST_CASE("identification Jacobian matches central differences (modified DH, SSRMS)", "[sim][jacobian]") {
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/ssrms.yaml"));
+  for (const auto& q : testConfigurations(7, 11)) {
+    checkAgainstNumeric(arm, q, ErrorFrame::kTool);
+    checkAgainstNumeric(arm, q, ErrorFrame::kBase);
+  }
+}
+
+TEST_CASE("identification Jacobian matches central differences (standard DH, iiwa7)", "[sim][jacobian]") {
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/iiwa7.yaml"));
+  for (const auto& q : testConfigurations(7, 12)) {
+    checkAgainstNumeric(arm, q, ErrorFrame::kTool);
+    checkAgainstNumeric(arm, q, ErrorFrame::kBase);
+  }
+}
+
+TEST_CASE("identification Jacobian holds away from the nominal parameters", "[sim][jacobian]") {
+  // The iterated estimators re-linearise at p_nom + y_hat: the formula must hold there too.
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/ssrms.yaml"));
+  Eigen::VectorXd y(28);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> n01;
+  for (int i = 0; i < 28; ++i) y[i] = n01(rng) * (isAngleParam(i) ? 0.01 : 0.01);
+  for (const auto& q : testConfigurations(7, 13)) checkAgainstNumeric(withErrors(arm, y), q, ErrorFrame::kTool);
+}
+
+TEST_CASE("manipulator Jacobian matches finite differences of forward kinematics", "[sim][jacobian]") {
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/ssrms.yaml"));
+  for (const auto& q : testConfigurations(7, 14)) {
+    const Matrix6Xd J = manipulatorJacobian(arm, q);
+    const Eigen::Isometry3d T = forwardKinematics(arm, q);
+    for (int j = 0; j < 7; ++j) {
+      Eigen::VectorXd qp = q, qm = q;
+      qp[j] += kStep;
+      qm[j] -= kStep;
+      const Eigen::Isometry3d Tp = forwardKinematics(arm, qp), Tm = forwardKinematics(arm, qm);
+      Vector6d col;
+      col << (Tp.translation() - Tm.translation()) / (2 * kStep),
+          (logSO3(Tp.linear() * T.linear().transpose()) - logSO3(Tm.linear() * T.linear().transpose())) / (2 * kStep);
+      CAPTURE(j, q.transpose());
+      REQUIRE((J.col(j) - col).cwiseAbs().maxCoeff() < kJacobianTol);
+    }
+  }
+}
+
+TEST_CASE("tool- and base-frame Jacobians are related by the flange rotation", "[sim][jacobian]") {
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/ssrms.yaml"));
+  const Eigen::VectorXd q = Eigen::VectorXd::LinSpaced(7, -1.0, 2.0);
+  const Eigen::Matrix3d R = forwardKinematics(arm, q).linear();
+  const Matrix6Xd Jt = identificationJacobian(arm, q, ErrorFrame::kTool);
+  const Matrix6Xd Jb = identificationJacobian(arm, q, ErrorFrame::kBase);
+  CHECK((Jb.topRows<3>() - R * Jt.topRows<3>()).norm() < 1e-12);
+  CHECK((Jb.bottomRows<3>() - R * Jt.bottomRows<3>()).norm() < 1e-12);
+}

@@ -1,0 +1,25 @@
+#pragma once
+// Shared pieces of the `orbcal` command line: each subcommand lives in its own cmd_*.cpp and
+// registers itself through one add*Command function called from orbcal.cpp.
+#include <CLI/CLI.hpp>
+#include <string>
+
+namespace orbcal::tools {
+
+/// Options every subcommand that needs the arm and the scene takes.
+struct ArmSceneOptions {
+  std::string robot = "builtin:ssrms.yaml";
+  std::string scene = "builtin:default_scene.yaml";
+};
+void addArmSceneOptions(CLI::App& cmd, ArmSceneOptions& opt);
+
+/// Subcommands register themselves from their own cmd_*.cpp (no shared list to edit):
+///   ORBCAL_COMMAND(30, addRenderCommand);
+/// `order` sets their place in `orbcal --help`.
+using CommandAdder = void (*)(CLI::App&);
+int registerCommand(int order, CommandAdder adder);
+void addRegisteredCommands(CLI::App& app);
+#define ORBCAL_COMMAND(order, fn) \
+  static const int orbcal_command_##fn [[maybe_unused]] = ::orbcal::tools::registerCommand(order, fn)
+
+}  // namespace orbcal::tools

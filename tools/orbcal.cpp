@@ -1,0 +1,51 @@
+// orbcal: rendered calibration datasets, image-to-parameters calibration experiments, and model
+// diagnosis for serial arms with an eye-in-hand camera. Subcommands are git style: `orbcal <cmd> --help`.
+#include <iostream>
+
+#include "cli.hpp"
+#include "orbcal/sim/config.hpp"
+
+#include <algorithm>
+#include <vector>
+
+namespace orbcal::tools {
+namespace {
+std::vector<std::pair<int, CommandAdder>>& registry() {
+  static std::vector<std::pair<int, CommandAdder>> r;
+  return r;
+}
+}  // namespace
+int registerCommand(int order, CommandAdder adder) {
+  registry().emplace_back(order, adder);
+  return 0;
+}
+void addRegisteredCommands(CLI::App& app) {
+  auto r = registry();
+  std::stable_sort(r.begin(), r.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  for (const auto& [order, adder] : r) adder(app);
+}
+void addArmSceneOptions(CLI::App& cmd, ArmSceneOptions& opt) {
+  cmd.add_option("--robot", opt.robot, "robot description (YAML; or builtin:ssrms.yaml)")->capture_default_str();
+  cmd.add_option("--scene", opt.scene, "scene (YAML; or builtin:default_scene.yaml)")->capture_default_str();
+}
+}  // namespace orbcal::tools
+
+int main(int argc, char** argv) {
+  CLI::App app{"orbcal " ORBCAL_VERSION
+               ": kinematic calibration of serial arms with an eye-in-hand camera.\n"
+               "Run `orbcal run` for the main job on the built-in SSRMS arm and scene; `orbcal <command> --help` for each command."};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", std::string("orbcal ") + ORBCAL_VERSION);
+  orbcal::tools::addRegisteredCommands(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);  // prints help or the usage error
+    return code == 0 ? 0 : 2;
+  } catch (const std::exception& e) {
+    // Bad input, unreachable poses, I/O failures: one line naming the file and the field.
+    std::cerr << "orbcal: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

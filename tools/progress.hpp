@@ -1,0 +1,45 @@
+#pragma once
+// A progress line on a terminal (stderr), silent when stderr is not a terminal (CI, pipes, logs).
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <string>
+
+namespace orbcal::tools {
+
+class Progress {
+ public:
+  Progress(std::string label, int total)
+      : label_(std::move(label)), total_(total), tty_(::isatty(2) != 0), start_(std::chrono::steady_clock::now()) {}
+  ~Progress() { finish(); }
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+
+  void update(int done) {
+    if (!tty_ || total_ <= 0) return;
+    const auto now = std::chrono::steady_clock::now();
+    if (done < total_ && now - last_ < std::chrono::milliseconds(100)) return;
+    last_ = now;
+    const double elapsed = std::chrono::duration<double>(now - start_).count();
+    const double eta = done > 0 ? elapsed * (total_ - done) / done : 0.0;
+    const int width = 30, filled = width * done / total_;
+    std::fprintf(stderr, "\r%s [%s%s] %d/%d  %.1f s, %.0f s left ", label_.c_str(), std::string(filled, '#').c_str(),
+                 std::string(width - filled, '.').c_str(), done, total_, elapsed, eta);
+    std::fflush(stderr);
+    shown_ = true;
+  }
+  void finish() {
+    if (shown_) std::fprintf(stderr, "\n");
+    shown_ = false;
+  }
+
+ private:
+  std::string label_;
+  int total_;
+  bool tty_;
+  bool shown_ = false;
+  std::chrono::steady_clock::time_point start_, last_{};
+};
+
+}  // namespace orbcal::tools
