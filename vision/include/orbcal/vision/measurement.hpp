@@ -1,0 +1,84 @@
+#pragma once
+// One image -> one measured end-effector pose with its covariance, or a status saying why not; and
+// the measurement table `orbcal measure` writes (<dataset>/measurements.csv) and calib reads.
+//
+// measurements.csv: header line, then one row per sample of samples.csv, in its order. No image is
+// dropped: a sample without a pose has its status and reason and empty numeric cells.
+//   index, image                           as in samples.csv
+//   status                                 found | not_found | rejected | unreadable
+//   reason                                 short fixed phrase (empty when found), e.g. "no board found"
+//   detail                                 specifics for a human (commas replaced by ';')
+//   num_corners, rms_px                    corners used; RMS distance detected - reprojected (px)
+//   cam_board_{x,y,z}_m, cam_board_{rx,ry,rz}_rad     camera_T_board: translation, rotation vector
+//   base_flange_{x,y,z}_m, base_flange_{rx,ry,rz}_rad base_T_flange measured (pose.hpp)
+//   cov_<r><c> for 0 <= r <= c <= 5 (21 cells, row-major upper triangle): covariance of e_f, the
+//                                          right perturbation of base_T_flange in the flange frame,
+//                                          ordered [x y z (m); rx ry rz (rad)] (pose.hpp)
+//   err_{x,y,z}_m, err_{rx,ry,rz}_rad       sim::poseMinus(base_T_flange measured, FK(nominal arm, q))
+#include <Eigen/Geometry>
+#include <functional>
+#include <map>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "orbcal/sim/dataset.hpp"
+#include "orbcal/sim/se3.hpp"
+#include "orbcal/vision/corners.hpp"
+#include "orbcal/vision/pose.hpp"
+
+namespace orbcal::vision {
+
+struct MeasureSettings {
+  DetectorSettings detector;
+  /// A pose whose corners reproject worse than this (RMS, px) is rejected: a mis-ordered, partly
+  /// wrong or smeared detection. Rendered views give ~0.07 px, calibrated real lenses 0.2-0.5 px;
+  /// 1 px leaves room for real images while catching gross detection errors (> several px).
+  double max_rms_px = 1.0;
+  /// Reject images whose size differs from the scene camera's (another camera, a resized copy).
+  bool require_camera_size = true;
+};
+
+struct Measurement {
+  int index = 0;
+  std::string image;
+  ImageStatus status = ImageStatus::kNotFound;
+  std::string reason;
+  std::string detail;
+  int num_corners = 0;
+  double rms_px = 0.0;
+  // Valid when status == kFound:
+  Eigen::Isometry3d camera_T_board = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d base_T_flange = Eigen::Isometry3d::Identity();
+  sim::Matrix6d covariance = sim::Matrix6d::Zero();  ///< of e_f (pose.hpp)
+  sim::Vector6d pose_error = sim::Vector6d::Zero();  ///< poseMinus(base_T_flange, FK(nominal, q)); zero without q
+  bool found() const { return status == ImageStatus::kFound; }
+};
+
+/// Detect, order, solve and convert one grey image (CV_8UC1; throws std::invalid_argument otherwise).
+/// `nominal`/`q` give the pose error; pass q empty to skip it. index/image are left for the caller.
+Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim::Arm& nominal, const Eigen::VectorXd& q,
+                         const MeasureSettings& settings = {});
+
+/// Reads an image file as 8-bit grey. On failure returns an empty Mat and sets `status_reason` /
+/// `detail` ("file missing" / "cannot decode"); never throws for a bad file.
+cv::Mat readGrayImage(const std::string& path, std::string* reason, std::string* detail);
+
+/// Every sample of a dataset (images read from dataset.folder), in order; `progress(done, total)`.
+std::vector<Measurement> measureDataset(const sim::Dataset& dataset, const MeasureSettings& settings = {},
+                                        const std::function<void(int, int)>& progress = {});
+
+std::string formatMeasurementsCsv(const std::vector<Measurement>& rows);
+/// Throws sim::InputError naming the file, line and column.
+std::vector<Measurement> parseMeasurementsCsv(const std::string& text, const std::string& source);
+std::vector<Measurement> loadMeasurements(const std::string& path);
+
+struct MeasurementSummary {
+  int total = 0, found = 0, not_found = 0, rejected = 0, unreadable = 0;
+  std::map<std::string, int> reasons;  ///< "<status>: <reason>" -> count, for the images not used
+  double median_rms_px = 0.0;          ///< over the found ones
+};
+MeasurementSummary summarize(const std::vector<Measurement>& rows);
+std::string formatSummary(const MeasurementSummary& s);
+
+}  // namespace orbcal::vision

@@ -1,0 +1,215 @@
+#include "orbcal/vision/measurement.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
+
+namespace orbcal::vision {
+
+namespace {
+std::string fmt(double v, int decimals) {
+  std::ostringstream s;
+  s.setf(std::ios::fixed);
+  s.precision(decimals);
+  s << v;
+  return s.str();
+}
+
+// Cells hold no commas or line breaks (the table has no quoting).
+std::string cellText(std::string s) {
+  for (char& ch : s) {
+    if (ch == ',') ch = ';';
+    if (ch == '\n' || ch == '\r') ch = ' ';
+  }
+  return s;
+}
+
+const char* kPoseSuffix[6] = {"x_m", "y_m", "z_m", "rx_rad", "ry_rad", "rz_rad"};
+
+std::vector<std::string> poseColumns(const std::string& prefix) {
+  std::vector<std::string> c;
+  for (const char* s : kPoseSuffix) c.push_back(prefix + s);
+  return c;
+}
+std::vector<std::string> covColumns() {
+  std::vector<std::string> c;
+  for (int r = 0; r < 6; ++r) {
+    for (int k = r; k < 6; ++k) c.push_back("cov_" + std::to_string(r) + std::to_string(k));
+  }
+  return c;
+}
+
+sim::Vector6d poseVector(const Eigen::Isometry3d& T) {
+  sim::Vector6d v;
+  v << T.translation(), sim::logSO3(T.linear());
+  return v;
+}
+Eigen::Isometry3d poseFromVector(const Eigen::VectorXd& v) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = v.head<3>();
+  T.linear() = sim::expSO3(v.tail<3>());
+  return T;
+}
+}  // namespace
+
+Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim::Arm& nominal, const Eigen::VectorXd& q,
+                         const MeasureSettings& settings) {
+  if (gray.empty() || gray.type() != CV_8UC1) {
+    throw std::invalid_argument("measureImage: expected a non-empty CV_8UC1 image, got type " + std::to_string(gray.type()));
+  }
+  Measurement m;
+  const sim::Camera& cam = scene.camera;
+  if (settings.require_camera_size && (gray.cols != cam.width_px || gray.rows != cam.height_px)) {
+    m.status = ImageStatus::kRejected;
+    m.reason = "image size differs from the camera's";
+    m.detail = "image is " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) + " px; the scene camera is " +
+               std::to_string(cam.width_px) + "x" + std::to_string(cam.height_px);
+    return m;
+  }
+  const CornerDetection det = detectCorners(gray, scene.board, settings.detector);
+  m.status = det.status;
+  m.reason = det.reason;
+  m.detail = det.detail;
+  if (!det.found()) return m;
+  m.num_corners = static_cast<int>(det.corners_px.size());
+
+  const BoardPose pose = estimateBoardPose(cam, scene.board, det.corners_px);
+  if (!pose.ok) {
+    m.status = ImageStatus::kRejected;
+    m.reason = pose.reason;
+    m.detail = pose.detail;
+    return m;
+  }
+  m.rms_px = pose.rms_px;
+  if (!(pose.rms_px <= settings.max_rms_px)) {
+    m.status = ImageStatus::kRejected;
+    m.reason = "reprojection RMS above limit";
+    m.detail = "RMS " + fmt(pose.rms_px, 3) + " px > " + fmt(settings.max_rms_px, 3) + " px";
+    return m;
+  }
+  m.camera_T_board = pose.camera_T_board;
+  m.base_T_flange = measuredFlangePose(scene, pose.camera_T_board);
+  m.covariance = flangeCovariance(scene.flange_T_camera, pose.covariance_camera);
+  if (q.size() > 0) m.pose_error = sim::poseMinus(m.base_T_flange, sim::forwardKinematics(nominal, q));
+  m.status = ImageStatus::kFound;
+  return m;
+}
+
+std::string formatMeasurementsCsv(const std::vector<Measurement>& rows) {
+  std::ostringstream out;
+  out << "index,image,status,reason,detail,num_corners,rms_px";
+  for (const auto& c : poseColumns("cam_board_")) out << "," << c;
+  for (const auto& c : poseColumns("base_flange_")) out << "," << c;
+  for (const auto& c : covColumns()) out << "," << c;
+  for (const auto& c : poseColumns("err_")) out << "," << c;
+  out << "\n";
+  for (const Measurement& m : rows) {
+    out << m.index << "," << cellText(m.image) << "," << toString(m.status) << "," << cellText(m.reason) << ","
+        << cellText(m.detail);
+    const bool has_rms = m.found() || m.rms_px > 0.0;
+    out << "," << (m.num_corners > 0 ? std::to_string(m.num_corners) : "") << ","
+        << (has_rms ? sim::exactNumber(m.rms_px) : "");
+    if (m.found()) {
+      for (const auto* v : {&m.camera_T_board, &m.base_T_flange}) {
+        const sim::Vector6d p = poseVector(*v);
+        for (int i = 0; i < 6; ++i) out << "," << sim::exactNumber(p[i]);
+      }
+      for (int r = 0; r < 6; ++r) {
+        for (int k = r; k < 6; ++k) out << "," << sim::exactNumber(m.covariance(r, k));
+      }
+      for (int i = 0; i < 6; ++i) out << "," << sim::exactNumber(m.pose_error[i]);
+    } else {
+      out << std::string(6 + 6 + 21 + 6, ',');
+    }
+    out << "\n";
+  }
+  return out.str();
+}
+
+std::vector<Measurement> parseMeasurementsCsv(const std::string& text, const std::string& source) {
+  const sim::CsvTable t = sim::CsvTable::parse(text, source);
+  const int c_index = t.requireColumn("index"), c_image = t.requireColumn("image"), c_status = t.requireColumn("status"),
+            c_reason = t.requireColumn("reason"), c_detail = t.requireColumn("detail"),
+            c_n = t.requireColumn("num_corners"), c_rms = t.requireColumn("rms_px");
+  const auto cols = [&](const std::vector<std::string>& names) {
+    std::vector<int> c;
+    for (const auto& n : names) c.push_back(t.requireColumn(n));
+    return c;
+  };
+  const std::vector<int> c_cam = cols(poseColumns("cam_board_")), c_flange = cols(poseColumns("base_flange_")),
+                         c_cov = cols(covColumns()), c_err = cols(poseColumns("err_"));
+  std::vector<Measurement> rows;
+  for (std::size_t r = 0; r < t.rows(); ++r) {
+    Measurement m;
+    const double index = t.number(r, c_index);
+    if (index != std::floor(index) || index < 0) {
+      throw sim::InputError(t.where(r) + ": index: expected a non-negative integer, got '" + t.cell(r, c_index) + "'");
+    }
+    m.index = static_cast<int>(index);
+    m.image = t.cell(r, c_image);
+    try {
+      m.status = parseImageStatus(t.cell(r, c_status));
+    } catch (const std::invalid_argument&) {
+      throw sim::InputError(t.where(r) + ": status: expected found, not_found, rejected or unreadable, got '" +
+                            t.cell(r, c_status) + "'");
+    }
+    m.reason = t.cell(r, c_reason);
+    m.detail = t.cell(r, c_detail);
+    if (!t.cell(r, c_n).empty()) m.num_corners = static_cast<int>(t.number(r, c_n));
+    if (!t.cell(r, c_rms).empty()) m.rms_px = t.number(r, c_rms);
+    if (m.found()) {
+      const auto need = [&](const std::vector<int>& c, const char* what) {
+        const auto v = t.numbers(r, c);
+        if (!v) throw sim::InputError(t.where(r) + ": status 'found' but the " + what + " cells are empty");
+        for (std::size_t i = 0; i < c.size(); ++i) {
+          if (t.cell(r, c[i]).empty()) throw sim::InputError(t.where(r) + ": " + what + ": a cell is empty");
+        }
+        return *v;
+      };
+      m.camera_T_board = poseFromVector(need(c_cam, "cam_board"));
+      m.base_T_flange = poseFromVector(need(c_flange, "base_flange"));
+      const Eigen::VectorXd cov = need(c_cov, "cov");
+      int i = 0;
+      for (int a = 0; a < 6; ++a) {
+        for (int b = a; b < 6; ++b, ++i) m.covariance(a, b) = m.covariance(b, a) = cov[i];
+      }
+      m.pose_error = need(c_err, "err");
+    }
+    rows.push_back(std::move(m));
+  }
+  return rows;
+}
+
+MeasurementSummary summarize(const std::vector<Measurement>& rows) {
+  MeasurementSummary s;
+  std::vector<double> rms;
+  for (const Measurement& m : rows) {
+    ++s.total;
+    switch (m.status) {
+      case ImageStatus::kFound: ++s.found; rms.push_back(m.rms_px); break;
+      case ImageStatus::kNotFound: ++s.not_found; break;
+      case ImageStatus::kRejected: ++s.rejected; break;
+      case ImageStatus::kUnreadable: ++s.unreadable; break;
+    }
+    if (!m.found()) ++s.reasons[std::string(toString(m.status)) + ": " + m.reason];
+  }
+  if (!rms.empty()) {
+    std::nth_element(rms.begin(), rms.begin() + rms.size() / 2, rms.end());
+    s.median_rms_px = rms[rms.size() / 2];
+  }
+  return s;
+}
+
+std::string formatSummary(const MeasurementSummary& s) {
+  std::ostringstream out;
+  out << s.total << " images: " << s.found << " used, " << s.not_found << " not found, " << s.rejected << " rejected, "
+      << s.unreadable << " unreadable\n";
+  if (s.found > 0) out << "  median reprojection RMS of the used ones: " << fmt(s.median_rms_px, 3) << " px\n";
+  for (const auto& [why, n] : s.reasons) out << "  " << n << " x " << why << "\n";
+  return out.str();
+}
+
+}  // namespace orbcal::vision

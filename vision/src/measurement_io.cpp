@@ -1,0 +1,59 @@
+// Image and table files for measurement.hpp (the vision library's I/O edge).
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <system_error>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/vision/measurement.hpp"
+
+namespace orbcal::vision {
+
+cv::Mat readGrayImage(const std::string& path, std::string* reason, std::string* detail) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    if (reason) *reason = "file missing";
+    if (detail) *detail = path + ": no such file";
+    return {};
+  }
+  cv::Mat gray;
+  try {
+    gray = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  } catch (const cv::Exception& e) {
+    gray.release();
+  }
+  if (gray.empty() || gray.type() != CV_8UC1) {
+    if (reason) *reason = "cannot decode";
+    if (detail) *detail = path + ": not a readable image (truncated or not an image format OpenCV reads)";
+    return {};
+  }
+  return gray;
+}
+
+std::vector<Measurement> measureDataset(const sim::Dataset& dataset, const MeasureSettings& settings,
+                                        const std::function<void(int, int)>& progress) {
+  std::vector<Measurement> rows;
+  const int total = static_cast<int>(dataset.samples.size());
+  for (const sim::DatasetSample& s : dataset.samples) {
+    std::string reason, detail;
+    const cv::Mat gray = readGrayImage(dataset.path(s.image), &reason, &detail);
+    Measurement m;
+    if (gray.empty()) {
+      m.status = ImageStatus::kUnreadable;
+      m.reason = reason;
+      m.detail = detail;
+    } else {
+      m = measureImage(gray, dataset.scene, dataset.arm, s.q_rad, settings);
+    }
+    m.index = s.index;
+    m.image = s.image;
+    rows.push_back(std::move(m));
+    if (progress) progress(static_cast<int>(rows.size()), total);
+  }
+  return rows;
+}
+
+std::vector<Measurement> loadMeasurements(const std::string& path) {
+  return parseMeasurementsCsv(sim::readTextSource(path), path);
+}
+
+}  // namespace orbcal::vision
