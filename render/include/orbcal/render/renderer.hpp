@@ -1,0 +1,73 @@
+#pragma once
+// The calibration board (and any extra meshes) as the eye-in-hand camera sees it, rendered off-screen
+// with OSMesa into a multisampled framebuffer and read back into a cv::Mat.
+//
+// Projection: exactly OpenCV's pinhole model, pixel centres at integer coordinates, y down, any
+// principal point (sim::project). GL pixel i spans [i, i+1] with its centre at i + 0.5 and GL's rows
+// go up, so after the row flip u = x_window - 0.5 and v = H - y_window - 0.5; glProjection() folds
+// that in. Supersampling by s renders the camera scaledCamera(camera, s): f -> s f and
+// c -> s (c + 0.5) - 0.5, then averages s x s blocks (cv::INTER_AREA). Distortion: distortion.hpp.
+//
+// Board colouring (the vision library relies on it to fix the corner order):
+//   square (i, j), i in [0, corners_x], j in [0, corners_y], covers x in [(i-1) s, i s] and
+//   y in [(j-1) s, j s] of the board frame, and is BLACK when (i + j) is even, white otherwise.
+//   So the square touching the first inner corner diagonally, (-s, -s)..(0, 0), is black.
+//   A white margin of margin_m surrounds the squares. The printed face looks along -z_board; the
+//   back (seen from +z) is a uniform grey (render.board_back).
+//
+// Lighting (GLSL 330 core): L = albedo (ambient + sun max(0, n.l) shadow) + specular sun (n.h)^shininess shadow,
+// n facing the viewer, l toward the sun (given in the base frame), h the half vector; then times the
+// exposure and clamped to [0, 1] -> 0..255. Shadows: a shadow map from the sun of the meshes with
+// casts_shadow (the scene is static in the board frame, so the map is computed once).
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "orbcal/render/settings.hpp"
+#include "orbcal/sim/scene.hpp"
+
+namespace orbcal::render {
+
+/// The camera of an image s times larger in each direction: f -> s f, c -> s (c + 0.5) - 0.5.
+sim::Camera scaledCamera(const sim::Camera& camera, int s);
+
+/// OpenGL projection matrix for eye coordinates diag(1, -1, -1) p_cam (OpenCV camera frame -> GL eye
+/// frame) that reproduces OpenCV's pinhole model of `pinhole` (its distortion is ignored) after the
+/// readback row flip: P(0,0) = 2 fx / W, P(0,2) = 1 - 2 (cx + 0.5) / W, P(1,1) = 2 fy / H,
+/// P(1,2) = 2 (cy + 0.5) / H - 1, P(3,2) = -1, depth terms from near_m and far_m.
+Eigen::Matrix4d glProjection(const sim::Camera& pinhole, double near_m, double far_m);
+
+class BoardRenderer {
+ public:
+  /// Creates its own OSMesa context, loads the meshes (sim::InputError naming the scene file, key and
+  /// mesh path when one is missing), builds the framebuffers (falls back from MSAA with a warning)
+  /// and, with distortion, the inverse distortion map. Throws std::runtime_error on GL failures.
+  BoardRenderer(const sim::Scene& scene, const RenderSettings& settings);
+  ~BoardRenderer();
+  BoardRenderer(const BoardRenderer&) = delete;
+  BoardRenderer& operator=(const BoardRenderer&) = delete;
+
+  /// The noise-free image (CV_8UC1, camera size) of the scene seen from camera_T_board, exposure applied.
+  cv::Mat renderClean(const Eigen::Isometry3d& camera_T_board);
+  /// renderClean, then the scene's degradations (degrade.hpp) drawn from sim::makeRng(seed, stream).
+  cv::Mat render(const Eigen::Isometry3d& camera_T_board, std::uint64_t seed, std::uint64_t stream);
+
+  /// Samples per pixel of the multisampled framebuffer in use (0: none).
+  int msaaSamples() const;
+  /// What was asked for but could not be given (e.g. "msaa_samples: 8 requested, GL_MAX_SAMPLES is 4; using 4").
+  const std::vector<std::string>& warnings() const;
+  /// The pinhole camera OpenGL draws (before supersampling): the scene's camera, or the larger
+  /// undistorted one of the distortion map.
+  const sim::Camera& pinholeCamera() const;
+  /// "4.5 (Core Profile) Mesa 22.3.6 / llvmpipe (...)".
+  std::string glDescription() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace orbcal::render

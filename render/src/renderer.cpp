@@ -1,0 +1,553 @@
+#include "orbcal/render/renderer.hpp"
+
+#include <GL/osmesa.h>
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "orbcal/render/degrade.hpp"
+#include "orbcal/render/distortion.hpp"
+#include "orbcal/render/gl_context.hpp"
+#include "orbcal/render/mesh.hpp"
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/errors.hpp"
+
+namespace orbcal::render {
+
+namespace {
+
+constexpr double kNearM = 0.02;
+constexpr double kFarM = 2000.0;
+constexpr int kShadowMapPx = 2048;
+constexpr int kFloatsPerVertex = 7;  // position (3), normal (3), albedo (1)
+
+const char* kVertexShader = R"glsl(
+#version 330 core
+layout(location = 0) in vec3 a_pos;
+layout(location = 1) in vec3 a_normal;
+layout(location = 2) in float a_albedo;
+uniform mat4 u_clip_T_board;
+uniform mat4 u_light_T_board;
+out vec3 v_pos;
+out vec3 v_normal;
+out float v_albedo;
+out vec3 v_light;
+void main() {
+  v_pos = a_pos;
+  v_normal = a_normal;
+  v_albedo = a_albedo;
+  v_light = (u_light_T_board * vec4(a_pos, 1.0)).xyz * 0.5 + 0.5;
+  gl_Position = u_clip_T_board * vec4(a_pos, 1.0);
+}
+)glsl";
+
+const char* kFragmentShader = R"glsl(
+#version 330 core
+in vec3 v_pos;
+in vec3 v_normal;
+in float v_albedo;
+in vec3 v_light;
+uniform vec3 u_to_sun;       // board frame, unit
+uniform vec3 u_camera_pos;   // board frame
+uniform float u_ambient;
+uniform float u_sun;
+uniform float u_specular;
+uniform float u_shininess;
+uniform float u_exposure;
+uniform float u_back_albedo; // < 0: same as the front
+uniform int u_shadows;
+uniform sampler2DShadow u_shadow_map;
+uniform int u_board_filter;     // 0: the vertex colour; 1: the pattern box-filtered over the pixel (analytic)
+uniform vec4 u_squares;         // squared area of the board in squares: x0, y0, x1, y1
+uniform float u_square;
+uniform float u_black;
+uniform float u_white;
+out vec4 o_colour;
+// Antiderivative of the square wave that is +1 on [2k, 2k+1) and -1 on [2k+1, 2k+2).
+float triangleWave(float t) { return 1.0 - abs(mod(t, 2.0) - 1.0); }
+// The board's albedo averaged over the pixel's footprint: the bounding box, in board coordinates, of
+// the pixel (a point-symmetric kernel, so corners stay exactly in place). Black where
+// (floor(x / s) + floor(y / s)) is even inside the squared area, i.e. 0.5 + 0.5 sx sy, which is separable.
+float filteredChecker() {
+  vec2 p = v_pos.xy / u_square;
+  vec2 h = 0.5 * (abs(dFdx(p)) + abs(dFdy(p))) + 1e-6;
+  vec2 a = max(p - h, u_squares.xy), b = min(p + h, u_squares.zw);
+  vec2 inside = max(b - a, vec2(0.0)) / (2.0 * h);
+  vec2 wave = (b.x > a.x && b.y > a.y) ? vec2(triangleWave(b.x) - triangleWave(a.x), triangleWave(b.y) - triangleWave(a.y)) / (2.0 * h)
+                                       : vec2(0.0);
+  float black = 0.5 * inside.x * inside.y + 0.5 * wave.x * wave.y;
+  return mix(u_white, u_black, black);
+}
+float sunVisibility() {
+  if (u_shadows == 0) return 1.0;
+  if (any(lessThan(v_light, vec3(0.0))) || any(greaterThan(v_light, vec3(1.0)))) return 1.0;
+  vec2 texel = 1.0 / vec2(textureSize(u_shadow_map, 0));
+  float lit = 0.0;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx)
+      lit += texture(u_shadow_map, vec3(v_light.xy + vec2(dx, dy) * texel, v_light.z - 2e-4));
+  return lit / 9.0;  // 3 x 3 percentage-closer filtering
+}
+void main() {
+  vec3 n = normalize(v_normal);
+  vec3 v = normalize(u_camera_pos - v_pos);
+  float albedo = v_albedo;
+  if (dot(n, v) < 0.0) {
+    n = -n;
+    if (u_back_albedo >= 0.0) albedo = u_back_albedo;
+  } else if (u_board_filter != 0) {
+    albedo = filteredChecker();
+  }
+  float ndl = dot(n, u_to_sun);
+  float radiance = albedo * u_ambient;
+  if (ndl > 0.0) {
+    float vis = sunVisibility();
+    vec3 h = normalize(u_to_sun + v);
+    radiance += vis * u_sun * (albedo * ndl + u_specular * pow(max(dot(n, h), 0.0), u_shininess));
+  }
+  o_colour = vec4(vec3(clamp(radiance * u_exposure, 0.0, 1.0)), 1.0);
+}
+)glsl";
+
+const char* kShadowVertexShader = R"glsl(
+#version 330 core
+layout(location = 0) in vec3 a_pos;
+uniform mat4 u_light_T_board;
+void main() { gl_Position = u_light_T_board * vec4(a_pos, 1.0); }
+)glsl";
+
+const char* kShadowFragmentShader = R"glsl(
+#version 330 core
+void main() {}
+)glsl";
+
+GLuint compile(GLenum type, const char* src) {
+  const GLuint s = glCreateShader(type);
+  glShaderSource(s, 1, &src, nullptr);
+  glCompileShader(s);
+  GLint ok = 0;
+  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char log[2048];
+    glGetShaderInfoLog(s, sizeof log, nullptr, log);
+    glDeleteShader(s);
+    throw std::runtime_error(std::string("render: shader does not compile: ") + log);
+  }
+  return s;
+}
+
+GLuint link(const char* vs_src, const char* fs_src) {
+  const GLuint vs = compile(GL_VERTEX_SHADER, vs_src), fs = compile(GL_FRAGMENT_SHADER, fs_src);
+  const GLuint p = glCreateProgram();
+  glAttachShader(p, vs);
+  glAttachShader(p, fs);
+  glLinkProgram(p);
+  glDeleteShader(vs);
+  glDeleteShader(fs);
+  GLint ok = 0;
+  glGetProgramiv(p, GL_LINK_STATUS, &ok);
+  if (!ok) {
+    char log[2048];
+    glGetProgramInfoLog(p, sizeof log, nullptr, log);
+    glDeleteProgram(p);
+    throw std::runtime_error(std::string("render: shader program does not link: ") + log);
+  }
+  return p;
+}
+
+void checkGl(const char* where) {
+  const GLenum e = glGetError();
+  if (e != GL_NO_ERROR) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "render: OpenGL error 0x%04x in %s", e, where);
+    throw std::runtime_error(buf);
+  }
+}
+
+struct Fbo {
+  GLuint fbo = 0, colour = 0, depth = 0;
+};
+
+/// A framebuffer with RGBA8 colour and 24-bit depth renderbuffers; samples = 0 for single-sampled.
+/// Returns an fbo of 0 (everything deleted) when incomplete.
+Fbo makeFbo(int samples, int w, int h) {
+  Fbo f;
+  glGenFramebuffers(1, &f.fbo);
+  glBindFramebuffer(GL_FRAMEBUFFER, f.fbo);
+  glGenRenderbuffers(1, &f.colour);
+  glBindRenderbuffer(GL_RENDERBUFFER, f.colour);
+  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_RGBA8, w, h);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, f.colour);
+  glGenRenderbuffers(1, &f.depth);
+  glBindRenderbuffer(GL_RENDERBUFFER, f.depth);
+  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_DEPTH_COMPONENT24, w, h);
+  glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, f.depth);
+  const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+  const bool error = glGetError() != GL_NO_ERROR;
+  if (status != GL_FRAMEBUFFER_COMPLETE || error) {
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    glDeleteRenderbuffers(1, &f.colour);
+    glDeleteRenderbuffers(1, &f.depth);
+    glDeleteFramebuffers(1, &f.fbo);
+    return Fbo{};
+  }
+  return f;
+}
+
+void deleteFbo(Fbo& f) {
+  if (!f.fbo) return;
+  glDeleteRenderbuffers(1, &f.colour);
+  glDeleteRenderbuffers(1, &f.depth);
+  glDeleteFramebuffers(1, &f.fbo);
+  f = Fbo{};
+}
+
+void pushVertex(std::vector<float>& v, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double albedo) {
+  v.insert(v.end(), {float(p.x()), float(p.y()), float(p.z()), float(n.x()), float(n.y()), float(n.z()), float(albedo)});
+}
+
+/// The board as triangles (board frame): a grid whose x lines are [-s - m, -s, 0, s, ..., cx s, cx s + m]
+/// (same for y), each cell two triangles with its own colour. Neighbouring cells share exact edge
+/// coordinates (no T-junctions), so the surface has no cracks.
+std::vector<float> boardVertices(const sim::Board& b, const RenderOptions& o) {
+  const double s = b.square_m, m = b.margin_m;
+  std::vector<double> xs, ys;
+  if (m > 0) xs.push_back(-s - m);
+  for (int i = -1; i <= b.corners_x; ++i) xs.push_back(i * s);
+  if (m > 0) xs.push_back(b.corners_x * s + m);
+  if (m > 0) ys.push_back(-s - m);
+  for (int j = -1; j <= b.corners_y; ++j) ys.push_back(j * s);
+  if (m > 0) ys.push_back(b.corners_y * s + m);
+  const int off = m > 0 ? 1 : 0;  // index of the line x = -s
+  const Eigen::Vector3d n(0, 0, -1);  // the printed face looks along -z_board
+  std::vector<float> v;
+  for (std::size_t a = 0; a + 1 < xs.size(); ++a) {
+    for (std::size_t c = 0; c + 1 < ys.size(); ++c) {
+      const int i = static_cast<int>(a) - off, j = static_cast<int>(c) - off;  // square (i, j); margin outside 0..corners
+      const bool square = i >= 0 && i <= b.corners_x && j >= 0 && j <= b.corners_y;
+      const double albedo = (square && (i + j) % 2 == 0) ? o.board_black : o.board_white;
+      const Eigen::Vector3d p00(xs[a], ys[c], 0), p10(xs[a + 1], ys[c], 0), p11(xs[a + 1], ys[c + 1], 0),
+          p01(xs[a], ys[c + 1], 0);
+      for (const auto* p : {&p00, &p10, &p11, &p00, &p11, &p01}) pushVertex(v, *p, n, albedo);
+    }
+  }
+  return v;
+}
+
+struct Drawable {
+  GLuint vao = 0, vbo = 0;
+  GLsizei count = 0;
+  float back_albedo = -1.f;
+  bool casts_shadow = false;
+};
+
+Drawable upload(const std::vector<float>& v) {
+  Drawable d;
+  d.count = static_cast<GLsizei>(v.size() / kFloatsPerVertex);
+  glGenVertexArrays(1, &d.vao);
+  glBindVertexArray(d.vao);
+  glGenBuffers(1, &d.vbo);
+  glBindBuffer(GL_ARRAY_BUFFER, d.vbo);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(v.size() * sizeof(float)), v.data(), GL_STATIC_DRAW);
+  const GLsizei stride = kFloatsPerVertex * sizeof(float);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, stride, nullptr);
+  glEnableVertexAttribArray(0);
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(3 * sizeof(float)));
+  glEnableVertexAttribArray(1);
+  glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(6 * sizeof(float)));
+  glEnableVertexAttribArray(2);
+  glBindVertexArray(0);
+  return d;
+}
+
+}  // namespace
+
+sim::Camera scaledCamera(const sim::Camera& c, int s) {
+  sim::Camera out = c;
+  out.width_px = c.width_px * s;
+  out.height_px = c.height_px * s;
+  out.fx_px = c.fx_px * s;
+  out.fy_px = c.fy_px * s;
+  out.cx_px = s * (c.cx_px + 0.5) - 0.5;
+  out.cy_px = s * (c.cy_px + 0.5) - 0.5;
+  return out;
+}
+
+Eigen::Matrix4d glProjection(const sim::Camera& c, double near_m, double far_m) {
+  const double W = c.width_px, H = c.height_px;
+  Eigen::Matrix4d P = Eigen::Matrix4d::Zero();
+  P(0, 0) = 2.0 * c.fx_px / W;
+  P(0, 2) = 1.0 - 2.0 * (c.cx_px + 0.5) / W;
+  P(1, 1) = 2.0 * c.fy_px / H;
+  P(1, 2) = 2.0 * (c.cy_px + 0.5) / H - 1.0;
+  P(2, 2) = -(far_m + near_m) / (far_m - near_m);
+  P(2, 3) = -2.0 * far_m * near_m / (far_m - near_m);
+  P(3, 2) = -1.0;
+  return P;
+}
+
+struct BoardRenderer::Impl {
+  sim::Scene scene;
+  RenderSettings settings;
+  OsMesaContext context;
+  std::vector<std::string> warnings;
+  bool distorted = false;
+  DistortionMap distortion;
+  sim::Camera pinhole;  // what GL draws before supersampling
+  sim::Camera gl_camera;  // pinhole scaled by the supersampling factor
+  int samples = 0;
+  Fbo msaa, single;
+  GLuint program = 0, shadow_program = 0;
+  GLuint shadow_fbo = 0, shadow_tex = 0;
+  bool shadows = false;
+  Eigen::Matrix4f light_T_board = Eigen::Matrix4f::Identity();
+  Eigen::Vector3d to_sun_board = Eigen::Vector3d::UnitZ();
+  std::vector<Drawable> drawables;  // [0] is the board
+
+  Impl(const sim::Scene& sc, const RenderSettings& st) : scene(sc), settings(st), context(3, 3) {
+    // Meshes first: a missing file is an input error, reported before any GL work.
+    const Eigen::Isometry3d board_T_base = scene.base_T_board.inverse();
+    std::vector<std::vector<float>> mesh_vertices;
+    std::vector<Eigen::Vector3d> caster_points;
+    for (const MeshSpec& spec : settings.meshes) {
+      const TriangleMesh mesh = loadMesh(spec, settings.source);
+      const Eigen::Isometry3d board_T_mesh =
+          spec.frame == MeshFrame::kBoard ? spec.frame_T_mesh : board_T_base * spec.frame_T_mesh;
+      std::vector<float> v;
+      v.reserve(mesh.indices.size() * kFloatsPerVertex);
+      for (std::uint32_t idx : mesh.indices) {
+        const Eigen::Vector3d p = board_T_mesh * mesh.positions[idx].cast<double>();
+        pushVertex(v, p, board_T_mesh.linear() * mesh.normals[idx].cast<double>(), spec.albedo);
+        if (spec.casts_shadow) caster_points.push_back(p);
+      }
+      mesh_vertices.push_back(std::move(v));
+    }
+    to_sun_board = board_T_base.linear() * settings.lighting.to_sun_base;
+
+    if (scene.camera.hasDistortion()) {
+      distorted = true;
+      distortion = makeDistortionMap(scene.camera);
+      pinhole = distortion.pinhole;
+    } else {
+      pinhole = scene.camera;
+    }
+    gl_camera = scaledCamera(pinhole, settings.options.supersample);
+
+    GLint max_rb = 0, max_samples = 0;
+    glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
+    glGetIntegerv(GL_MAX_SAMPLES, &max_samples);
+    if (gl_camera.width_px > max_rb || gl_camera.height_px > max_rb) {
+      throw sim::InputError(settings.source + ": camera: the rendered image (" + std::to_string(gl_camera.width_px) + "x" +
+                            std::to_string(gl_camera.height_px) + " px with supersampling and distortion) exceeds "
+                            "GL_MAX_RENDERBUFFER_SIZE " + std::to_string(max_rb));
+    }
+    int want = settings.options.msaa_samples > 1 ? settings.options.msaa_samples : 0;
+    if (want > max_samples) {
+      warnings.push_back(settings.source + ": render.msaa_samples: " + std::to_string(want) +
+                         " requested, GL_MAX_SAMPLES is " + std::to_string(max_samples) + "; using " +
+                         std::to_string(max_samples > 1 ? max_samples : 0));
+      want = max_samples > 1 ? max_samples : 0;
+    }
+    single = makeFbo(0, gl_camera.width_px, gl_camera.height_px);
+    if (!single.fbo) throw std::runtime_error("render: the single-sampled framebuffer is incomplete");
+    if (want > 0) {
+      msaa = makeFbo(want, gl_camera.width_px, gl_camera.height_px);
+      if (msaa.fbo) {
+        samples = want;
+      } else {
+        warnings.push_back(settings.source + ": render.msaa_samples: a " + std::to_string(want) +
+                           "x multisampled framebuffer is incomplete on this OpenGL (" + context.renderer() +
+                           "); rendering without multisampling");
+      }
+    }
+    checkGl("framebuffer setup");
+
+    program = link(kVertexShader, kFragmentShader);
+    shadow_program = link(kShadowVertexShader, kShadowFragmentShader);
+    Drawable board = upload(boardVertices(scene.board, settings.options));
+    board.back_albedo = static_cast<float>(settings.options.board_back);
+    drawables.push_back(board);
+    for (std::size_t i = 0; i < mesh_vertices.size(); ++i) {
+      Drawable d = upload(mesh_vertices[i]);
+      d.casts_shadow = settings.meshes[i].casts_shadow;
+      drawables.push_back(d);
+    }
+    checkGl("geometry upload");
+    if (!caster_points.empty() && settings.lighting.sun_intensity > 0) buildShadowMap(caster_points);
+  }
+
+  ~Impl() {
+    context.makeCurrent();
+    for (Drawable& d : drawables) {
+      glDeleteBuffers(1, &d.vbo);
+      glDeleteVertexArrays(1, &d.vao);
+    }
+    deleteFbo(msaa);
+    deleteFbo(single);
+    if (shadow_tex) glDeleteTextures(1, &shadow_tex);
+    if (shadow_fbo) glDeleteFramebuffers(1, &shadow_fbo);
+    glDeleteProgram(program);
+    glDeleteProgram(shadow_program);
+  }
+
+  /// Orthographic depth map from the sun covering the board (casters anywhere along the light).
+  void buildShadowMap(const std::vector<Eigen::Vector3d>& casters) {
+    const Eigen::Vector3d zl = to_sun_board;
+    const Eigen::Vector3d xl = zl.unitOrthogonal(), yl = zl.cross(xl);
+    const double s = scene.board.square_m, m = scene.board.margin_m;
+    const std::array<Eigen::Vector3d, 4> receivers{
+        Eigen::Vector3d(-s - m, -s - m, 0), Eigen::Vector3d(scene.board.corners_x * s + m, -s - m, 0),
+        Eigen::Vector3d(-s - m, scene.board.corners_y * s + m, 0),
+        Eigen::Vector3d(scene.board.corners_x * s + m, scene.board.corners_y * s + m, 0)};
+    double amin = 1e300, amax = -1e300, bmin = 1e300, bmax = -1e300, dmin = 1e300, dmax = -1e300;
+    for (const auto& p : receivers) {
+      amin = std::min(amin, xl.dot(p)), amax = std::max(amax, xl.dot(p));
+      bmin = std::min(bmin, yl.dot(p)), bmax = std::max(bmax, yl.dot(p));
+      dmin = std::min(dmin, -zl.dot(p)), dmax = std::max(dmax, -zl.dot(p));
+    }
+    for (const auto& p : casters) dmin = std::min(dmin, -zl.dot(p)), dmax = std::max(dmax, -zl.dot(p));
+    const double pa = 0.02 * (amax - amin) + 1e-3, pb = 0.02 * (bmax - bmin) + 1e-3, pd = 0.01 * (dmax - dmin) + 1e-2;
+    amin -= pa, amax += pa, bmin -= pb, bmax += pb, dmin -= pd, dmax += pd;
+    Eigen::Matrix4d L = Eigen::Matrix4d::Identity();
+    L.row(0) << 2.0 * xl.transpose() / (amax - amin), -(amax + amin) / (amax - amin);
+    L.row(1) << 2.0 * yl.transpose() / (bmax - bmin), -(bmax + bmin) / (bmax - bmin);
+    L.row(2) << -2.0 * zl.transpose() / (dmax - dmin), -(dmax + dmin) / (dmax - dmin);
+    L.row(3) << 0, 0, 0, 1;
+    light_T_board = L.cast<float>();
+
+    glGenTextures(1, &shadow_tex);
+    glBindTexture(GL_TEXTURE_2D, shadow_tex);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_DEPTH_COMPONENT24, kShadowMapPx, kShadowMapPx, 0, GL_DEPTH_COMPONENT,
+                 GL_UNSIGNED_INT, nullptr);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_MODE, GL_COMPARE_REF_TO_TEXTURE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_COMPARE_FUNC, GL_LEQUAL);
+    glGenFramebuffers(1, &shadow_fbo);
+    glBindFramebuffer(GL_FRAMEBUFFER, shadow_fbo);
+    glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, shadow_tex, 0);
+    glDrawBuffer(GL_NONE);
+    glReadBuffer(GL_NONE);
+    if (glCheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
+      warnings.push_back(settings.source + ": meshes: the shadow-map framebuffer is incomplete; rendering without shadows");
+      return;
+    }
+    glViewport(0, 0, kShadowMapPx, kShadowMapPx);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glClearDepth(1.0);
+    glClear(GL_DEPTH_BUFFER_BIT);
+    glEnable(GL_POLYGON_OFFSET_FILL);
+    glPolygonOffset(1.5f, 4.0f);
+    glUseProgram(shadow_program);
+    glUniformMatrix4fv(glGetUniformLocation(shadow_program, "u_light_T_board"), 1, GL_FALSE, light_T_board.data());
+    for (std::size_t i = 1; i < drawables.size(); ++i) {
+      if (!drawables[i].casts_shadow) continue;
+      glBindVertexArray(drawables[i].vao);
+      glDrawArrays(GL_TRIANGLES, 0, drawables[i].count);
+    }
+    glBindVertexArray(0);
+    glDisable(GL_POLYGON_OFFSET_FILL);
+    glFinish();
+    checkGl("shadow map");
+    shadows = true;
+  }
+
+  cv::Mat renderPinhole(const Eigen::Isometry3d& camera_T_board) {
+    context.makeCurrent();
+    const int W = gl_camera.width_px, H = gl_camera.height_px;
+    glBindFramebuffer(GL_FRAMEBUFFER, samples > 0 ? msaa.fbo : single.fbo);
+    glViewport(0, 0, W, H);
+    const float bg = static_cast<float>(settings.options.background);
+    glClearColor(bg, bg, bg, 1.f);
+    glClearDepth(1.0);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    glDisable(GL_CULL_FACE);
+    if (samples > 0) glEnable(GL_MULTISAMPLE);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+
+    const Eigen::Matrix4d F = Eigen::Vector4d(1, -1, -1, 1).asDiagonal();  // OpenCV camera -> GL eye
+    const Eigen::Matrix4f clip_T_board = (glProjection(gl_camera, kNearM, kFarM) * F * camera_T_board.matrix()).cast<float>();
+    const Eigen::Vector3f camera_pos = camera_T_board.inverse().translation().cast<float>();
+    const Lighting& l = settings.lighting;
+    glUseProgram(program);
+    const auto loc = [&](const char* name) { return glGetUniformLocation(program, name); };
+    glUniformMatrix4fv(loc("u_clip_T_board"), 1, GL_FALSE, clip_T_board.data());
+    glUniformMatrix4fv(loc("u_light_T_board"), 1, GL_FALSE, light_T_board.data());
+    const Eigen::Vector3f to_sun = to_sun_board.cast<float>();
+    glUniform3fv(loc("u_to_sun"), 1, to_sun.data());
+    glUniform3fv(loc("u_camera_pos"), 1, camera_pos.data());
+    glUniform1f(loc("u_ambient"), static_cast<float>(l.ambient));
+    glUniform1f(loc("u_sun"), static_cast<float>(l.sun_intensity));
+    glUniform1f(loc("u_specular"), static_cast<float>(l.specular_strength));
+    glUniform1f(loc("u_shininess"), static_cast<float>(l.shininess));
+    glUniform1f(loc("u_exposure"), static_cast<float>(settings.degradations.exposure));
+    glUniform1i(loc("u_shadows"), shadows ? 1 : 0);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, shadow_tex);
+    glUniform1i(loc("u_shadow_map"), 0);
+    const sim::Board& b = scene.board;
+    glUniform4f(loc("u_squares"), -1.f, -1.f, float(b.corners_x), float(b.corners_y));
+    glUniform1f(loc("u_square"), float(b.square_m));
+    glUniform1f(loc("u_black"), float(settings.options.board_black));
+    glUniform1f(loc("u_white"), float(settings.options.board_white));
+    for (std::size_t i = 0; i < drawables.size(); ++i) {
+      const Drawable& d = drawables[i];
+      glUniform1i(loc("u_board_filter"), i == 0 && settings.options.board_filter ? 1 : 0);
+      glUniform1f(loc("u_back_albedo"), d.back_albedo);
+      glBindVertexArray(d.vao);
+      glDrawArrays(GL_TRIANGLES, 0, d.count);
+    }
+    glBindVertexArray(0);
+    if (samples > 0) {
+      glBindFramebuffer(GL_READ_FRAMEBUFFER, msaa.fbo);
+      glBindFramebuffer(GL_DRAW_FRAMEBUFFER, single.fbo);
+      glBlitFramebuffer(0, 0, W, H, 0, 0, W, H, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    }
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, single.fbo);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    cv::Mat flipped(H, W, CV_8UC1);
+    glReadPixels(0, 0, W, H, GL_RED, GL_UNSIGNED_BYTE, flipped.data);
+    checkGl("render");
+    cv::Mat img;
+    cv::flip(flipped, img, 0);  // GL rows go up, image rows go down
+    if (settings.options.supersample > 1) {
+      cv::Mat small;
+      cv::resize(img, small, cv::Size(pinhole.width_px, pinhole.height_px), 0, 0, cv::INTER_AREA);
+      img = small;
+    }
+    return img;
+  }
+};
+
+BoardRenderer::BoardRenderer(const sim::Scene& scene, const RenderSettings& settings)
+    : impl_(std::make_unique<Impl>(scene, settings)) {}
+
+BoardRenderer::~BoardRenderer() = default;
+
+cv::Mat BoardRenderer::renderClean(const Eigen::Isometry3d& camera_T_board) {
+  cv::Mat img = impl_->renderPinhole(camera_T_board);
+  if (impl_->distorted) img = applyDistortion(impl_->distortion, img, 255.0 * impl_->settings.options.background);
+  return img;
+}
+
+cv::Mat BoardRenderer::render(const Eigen::Isometry3d& camera_T_board, std::uint64_t seed, std::uint64_t stream) {
+  const cv::Mat clean = renderClean(camera_T_board);
+  if (!impl_->settings.degradations.any()) return clean;
+  std::mt19937_64 rng = sim::makeRng(seed, stream);
+  return applyDegradations(clean, impl_->settings.degradations, rng);
+}
+
+int BoardRenderer::msaaSamples() const { return impl_->samples; }
+const std::vector<std::string>& BoardRenderer::warnings() const { return impl_->warnings; }
+const sim::Camera& BoardRenderer::pinholeCamera() const { return impl_->pinhole; }
+std::string BoardRenderer::glDescription() const {
+  return impl_->context.version() + " / " + impl_->context.renderer();
+}
+
+}  // namespace orbcal::render

@@ -1,0 +1,71 @@
+// `orbcal render`: a rendered calibration dataset (render/dataset_writer.hpp; layout in the README).
+#include <cstdio>
+#include <iostream>
+
+#include "cli.hpp"
+#include "orbcal/render/dataset_writer.hpp"
+#include "orbcal/sim/se3.hpp"
+#include "progress.hpp"
+
+namespace orbcal::tools {
+
+namespace {
+void addRenderCommand(CLI::App& app) {
+  struct Opts {
+    ArmSceneOptions as;
+    render::DatasetJob job;
+    std::uint64_t seed = 1;
+    double joint_noise_deg = 0.01;
+    double error_angle_sigma_deg = 0.3;
+    double error_length_sigma_mm = 1.0;
+  };
+  auto opt = std::make_shared<Opts>();
+  CLI::App* cmd = app.add_subcommand(
+      "render",
+      "Render a calibration dataset: configurations on the nominal arm, the true arm (nominal + injected errors) "
+      "at the noisy plant joints, and the eye-in-hand camera's images of the board (OSMesa, no display or GPU). "
+      "Rerunning with the same inputs resumes: finished images are kept.");
+  addArmSceneOptions(*cmd, opt->as);
+  cmd->add_option("--errors", opt->job.errors.name, "errors injected into the true arm: table3, zero or random")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"table3", "zero", "random"}));
+  cmd->add_option("--error-seed", opt->job.errors.seed, "seed of --errors random")->capture_default_str();
+  cmd->add_option("--error-angle-sigma-deg", opt->error_angle_sigma_deg, "spread of random theta/alpha errors [deg]")
+      ->capture_default_str();
+  cmd->add_option("--error-length-sigma-mm", opt->error_length_sigma_mm, "spread of random a/d errors [mm]")
+      ->capture_default_str();
+  cmd->add_option("-n,--count", opt->job.count, "number of samples (configurations and images)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 1000000));
+  cmd->add_option("--seed", opt->seed, "seed of the configurations, the joint noise and the image noise")->capture_default_str();
+  cmd->add_option("--joint-noise-deg", opt->joint_noise_deg, "control noise of the plant joints, 1 sigma [deg]")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10.0));
+  cmd->add_option("-o,--out", opt->job.out, "dataset folder (created; an unfinished one with the same inputs is resumed)")
+      ->required();
+  cmd->add_flag("--force", opt->job.force, "replace a dataset made from different inputs in --out");
+  cmd->add_option("--png-compression", opt->job.png_compression, "PNG compression level 0..9 (lossless at any level)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 9));
+  cmd->callback([opt] {
+    render::DatasetJob job = opt->job;
+    job.robot = opt->as.robot;
+    job.scene = opt->as.scene;
+    job.configuration_seed = job.noise_seed = job.render_seed = opt->seed;
+    job.joint_noise_sigma_rad = opt->joint_noise_deg * sim::kDegToRad;
+    job.errors.angle_sigma_rad = opt->error_angle_sigma_deg * sim::kDegToRad;
+    job.errors.length_sigma_m = opt->error_length_sigma_mm * 1e-3;
+    Progress bar("render", job.count);
+    const render::DatasetRunReport r = render::renderDataset(job, [&](int done, int) { bar.update(done); });
+    bar.finish();
+    for (const std::string& w : r.warnings) std::fprintf(stderr, "orbcal: warning: %s\n", w.c_str());
+    std::printf("%s: %d images rendered, %d kept from an earlier run%s; MSAA %dx; %.1f s (%.0f ms per rendered image)\n",
+                job.out.c_str(), r.rendered, r.skipped, r.resumed ? " (resumed)" : "", r.msaa_samples, r.render_seconds,
+                r.rendered > 0 ? 1e3 * r.render_seconds / r.rendered : 0.0);
+  });
+}
+}  // namespace
+
+ORBCAL_COMMAND(30, addRenderCommand);
+
+}  // namespace orbcal::tools
