@@ -1,0 +1,78 @@
+#pragma once
+// The estimators of the parameter errors y, all over a MeasurementModel (model.hpp):
+//  - the EKF of seed 000 eqs. (11)-(17), paper-literal (linear: J at the nominal parameters,
+//    innovation Z_k - J_k y_hat) or re-linearized at the current estimate (extended), optionally
+//    iterated within each update (IEKF);
+//  - LSE, seed 000's baseline: Gauss-Newton with a truncated-SVD pseudo-inverse, unweighted (as in the
+//    paper: residuals in m and rad added as they are) or weighted by R^-1;
+//  - Levenberg-Marquardt through Ceres with the analytic Jacobian and an optional robust loss.
+// Each returns the estimate, its covariance, iterations, the rank used and the wall time.
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "orbcal/calib/model.hpp"
+
+namespace orbcal::calib {
+
+struct Estimate {
+  std::string method;
+  Eigen::VectorXd y;           ///< estimated parameter errors (SI, the model's order)
+  Eigen::MatrixXd covariance;  ///< of y (pseudo-inverse on the identifiable part for LSE and LM)
+  int iterations = 0;          ///< Gauss-Newton/LM iterations; EKF: updates
+  int rank = 0;                ///< rank used (LSE/LM: of the stacked Jacobian; EKF: of the information gained)
+  double seconds = 0.0;        ///< wall time of the estimation
+  bool converged = false;
+  std::vector<int> held;       ///< parameters held at zero as unidentifiable (LSE, LM)
+  double cost = 0.0;           ///< 0.5 sum nu^T R^-1 nu at the estimate (all methods, for comparison)
+};
+
+struct EkfOptions {
+  /// P0 = diag(sigma^2): theta and alpha get prior_sigma_angle_rad, a and d prior_sigma_length_m.
+  double prior_sigma_angle_rad = 1.0 * sim::kDegToRad;
+  double prior_sigma_length_m = 5e-3;
+  /// Q = diag(sigma^2) added at every step (eq. 12); 0 as in the paper.
+  double process_sigma_angle_rad = 0.0;
+  double process_sigma_length_m = 0.0;
+  bool relinearize = true;       ///< true: extended KF (J and innovation at the estimate); false: paper-literal
+  int iterations_per_update = 1; ///< > 1: iterated EKF (re-linearizes within each update)
+  /// Seed 000 as written: P0 sigma 0.01 deg / 0.01 mm, Q = 0, J at the nominal parameters.
+  static EkfOptions paperLiteral();
+};
+
+struct LseOptions {
+  bool weighted = false;        ///< false: the paper's unweighted LSE
+  int max_iterations = 50;
+  double step_tolerance = 1e-12;  ///< stop when |dy| (scaled: rad and m) falls below this
+  double svd_cut = 1e-6;        ///< singular values below svd_cut * sigma_max (columns scaled) are dropped
+  /// Hold the parameters that are unidentifiable at the nominal model (see LmOptions). Off, the
+  /// truncation alone decides, and the rank found can change between iterations: with Table 3's
+  /// alpha errors the d3/d4/d5 axes are slightly non-parallel at the estimate, so a weak direction
+  /// appears and Gauss-Newton oscillates along it.
+  bool fix_unidentifiable = true;
+};
+
+struct LmOptions {
+  enum class Loss { kNone, kHuber, kCauchy };
+  Loss loss = Loss::kNone;
+  double loss_scale = 3.0;      ///< in whitened units (sigmas)
+  int max_iterations = 100;
+  /// Hold one parameter of each unidentifiable group at zero (the group's observable combination is
+  /// then carried by the others), found from the SVD at the start; otherwise LM's damping alone
+  /// picks a point on the unidentifiable manifold.
+  bool fix_unidentifiable = true;
+  double svd_cut = 1e-6;
+};
+
+Estimate runEkf(const MeasurementModel& model, const EkfOptions& options);
+Estimate runLse(const MeasurementModel& model, const LseOptions& options);
+Estimate runLm(const MeasurementModel& model, const LmOptions& options);
+
+/// 0.5 sum_k nu_k(y)^T R_k^-1 nu_k(y).
+double weightedCost(const MeasurementModel& model, const Eigen::VectorXd& y);
+
+/// Parameters to hold so that the rest are identifiable, from the SVD of the whitened Jacobian at y:
+/// within each unidentifiable group, the last `lost` members.
+std::vector<int> unidentifiableToFix(const MeasurementModel& model, const Eigen::VectorXd& y, double svd_cut);
+
+}  // namespace orbcal::calib

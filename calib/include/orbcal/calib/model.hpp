@@ -1,0 +1,86 @@
+#pragma once
+// What the estimators see: a measurement model. Every estimator (EKF, LSE, LM) works through this
+// interface only, so a new measurement type (distance-and-rotation, laser range) or a model extension
+// (joint compliance, encoder scale, ...) plugs in as a new MeasurementModel without touching them.
+//
+// Convention: for sample k at parameter errors y, linearize() gives the innovation
+//   nu_k(y) = z_k ⊖ h_k(y)   (measurement minus prediction),
+// its Jacobian H_k = d h_k / d y, so that nu_k(y + dy) ≈ nu_k(y) - H_k dy, and the covariance R_k of nu_k.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+#include "orbcal/sim/arm.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::calib {
+
+struct Linearization {
+  Eigen::VectorXd innovation;  ///< nu_k(y)
+  Eigen::MatrixXd H;           ///< d h_k / d y  (rows(k) x numParams())
+  Eigen::MatrixXd R;           ///< covariance of nu_k (rows(k) x rows(k))
+};
+
+class MeasurementModel {
+ public:
+  virtual ~MeasurementModel() = default;
+  virtual int numSamples() const = 0;
+  virtual int numParams() const = 0;
+  virtual int rows(int k) const = 0;
+  virtual std::string paramName(int i) const = 0;
+  /// True for parameters measured in rad (printed in deg), false for m (printed in mm).
+  virtual bool isAngle(int i) const = 0;
+  virtual Linearization linearize(int k, const Eigen::VectorXd& y) const = 0;
+};
+
+/// One measured end-effector pose.
+struct PoseObservation {
+  Eigen::VectorXd q_rad;                 ///< joint readings the model is driven with (commanded or encoder)
+  Eigen::Isometry3d base_T_flange;       ///< measured flange pose
+  sim::Matrix6d covariance = sim::Matrix6d::Identity();  ///< of the right perturbation [m; rad] in the flange frame
+};
+
+/// Where the measurement covariance R_k comes from.
+struct PoseNoiseModel {
+  enum class Source {
+    kObservation,  ///< each observation's own covariance (e.g. the vision covariance)
+    kFixed         ///< diag(sigma_position^2 x3, sigma_orientation^2 x3) (seed 000: 0.3 mm, 0.5 deg)
+  };
+  Source source = Source::kObservation;
+  double sigma_position_m = 0.3e-3;
+  double sigma_orientation_rad = 0.5 * sim::kDegToRad;
+  /// Joint control noise (rad) carried into R through the joint Jacobian: R += J_q sigma^2 J_q^T.
+  /// Seed 000's R leaves it out (0); the plant's joints differ from the readings by this much.
+  double joint_noise_sigma_rad = 0.0;
+};
+
+/// Seed 000's measurement: nu_k = poseMinus(measured base_T_flange, FK(nominal + y, q_k)), in the flange
+/// frame (eq. 13), H_k = the identification Jacobian at nominal + y.
+class PoseMeasurementModel : public MeasurementModel {
+ public:
+  PoseMeasurementModel(sim::Arm nominal, std::vector<PoseObservation> observations, PoseNoiseModel noise);
+  int numSamples() const override { return static_cast<int>(observations_.size()); }
+  int numParams() const override { return nominal_.numParams(); }
+  int rows(int) const override { return 6; }
+  std::string paramName(int i) const override { return sim::paramName(i); }
+  bool isAngle(int i) const override { return sim::isAngleParam(i); }
+  Linearization linearize(int k, const Eigen::VectorXd& y) const override;
+  const sim::Arm& nominal() const { return nominal_; }
+  const std::vector<PoseObservation>& observations() const { return observations_; }
+
+ private:
+  sim::Arm nominal_;
+  std::vector<PoseObservation> observations_;
+  PoseNoiseModel noise_;
+};
+
+/// Stacked innovations and Jacobians over all samples at y (for the batch estimators and identifiability).
+struct StackedLinearization {
+  Eigen::VectorXd innovation;
+  Eigen::MatrixXd H;
+  std::vector<Eigen::MatrixXd> R;  ///< per sample
+};
+StackedLinearization linearizeAll(const MeasurementModel& model, const Eigen::VectorXd& y);
+
+}  // namespace orbcal::calib

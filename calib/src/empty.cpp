@@ -1,1 +1,0 @@
-// Intentionally empty until this library's issue lands: CMake needs one source for a static library.

@@ -1,0 +1,288 @@
+#include "orbcal/calib/estimators.hpp"
+
+#include <ceres/ceres.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/SVD>
+#include <chrono>
+#include <set>
+
+namespace orbcal::calib {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+Eigen::VectorXd diagonalSigmas(const MeasurementModel& m, double angle, double length) {
+  Eigen::VectorXd s(m.numParams());
+  for (int i = 0; i < m.numParams(); ++i) s[i] = m.isAngle(i) ? angle : length;
+  return s;
+}
+
+/// Whitening of one block: W = L^-1 with R = L L^T.
+Eigen::MatrixXd whitener(const Eigen::MatrixXd& R) {
+  const Eigen::LLT<Eigen::MatrixXd> llt(R);
+  if (llt.info() != Eigen::Success) throw std::runtime_error("measurement covariance is not positive definite");
+  return llt.matrixL().solve(Eigen::MatrixXd::Identity(R.rows(), R.cols()));
+}
+
+/// Truncated-SVD solution of min |A dy - b| with the columns of A scaled to unit norm.
+/// Returns dy, the rank, and the covariance (A^T A)^+ on the kept subspace.
+struct TruncatedSolve {
+  Eigen::VectorXd dy;
+  Eigen::MatrixXd covariance;
+  int rank = 0;
+};
+TruncatedSolve truncatedSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, double cut) {
+  Eigen::VectorXd d(A.cols());
+  for (Eigen::Index c = 0; c < A.cols(); ++c) {
+    const double n = A.col(c).norm();
+    d[c] = n > 0 ? 1.0 / n : 1.0;
+  }
+  const Eigen::MatrixXd As = A * d.asDiagonal();
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(As, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::VectorXd& s = svd.singularValues();
+  TruncatedSolve out;
+  Eigen::VectorXd inv = Eigen::VectorXd::Zero(s.size());
+  for (Eigen::Index i = 0; i < s.size(); ++i) {
+    if (s[i] > cut * s[0]) {
+      inv[i] = 1.0 / s[i];
+      ++out.rank;
+    }
+  }
+  out.dy = d.asDiagonal() * (svd.matrixV() * (inv.asDiagonal() * (svd.matrixU().transpose() * b)));
+  const Eigen::MatrixXd VD = d.asDiagonal() * svd.matrixV();
+  out.covariance = VD * inv.array().square().matrix().asDiagonal() * VD.transpose();
+  return out;
+}
+
+/// Stacked system, whitened when `weighted`.
+void stackedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, bool weighted, Eigen::MatrixXd& A,
+                   Eigen::VectorXd& b) {
+  const StackedLinearization s = linearizeAll(m, y);
+  A = s.H;
+  b = s.innovation;
+  if (!weighted) return;
+  for (int k = 0, row = 0; k < m.numSamples(); ++k) {
+    const int r = m.rows(k);
+    const Eigen::MatrixXd W = whitener(s.R[static_cast<std::size_t>(k)]);
+    A.middleRows(row, r) = W * A.middleRows(row, r);
+    b.segment(row, r) = W * b.segment(row, r);
+    row += r;
+  }
+}
+
+}  // namespace
+
+EkfOptions EkfOptions::paperLiteral() {
+  EkfOptions o;
+  o.prior_sigma_angle_rad = 0.01 * sim::kDegToRad;
+  o.prior_sigma_length_m = 0.01e-3;
+  o.relinearize = false;
+  return o;
+}
+
+double weightedCost(const MeasurementModel& m, const Eigen::VectorXd& y) {
+  double c = 0.0;
+  for (int k = 0; k < m.numSamples(); ++k) {
+    const Linearization lin = m.linearize(k, y);
+    c += 0.5 * lin.innovation.dot(lin.R.ldlt().solve(lin.innovation));
+  }
+  return c;
+}
+
+Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
+  const auto t0 = Clock::now();
+  const int n = m.numParams();
+  Estimate e;
+  e.method = "EKF";
+  e.y = Eigen::VectorXd::Zero(n);
+  Eigen::MatrixXd P = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m).array().square().matrix().asDiagonal();
+  const Eigen::VectorXd Q = diagonalSigmas(m, o.process_sigma_angle_rad, o.process_sigma_length_m).array().square();
+  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+  for (int k = 0; k < m.numSamples(); ++k) {
+    P.diagonal() += Q;  // (12); (11) leaves y unchanged
+    const Eigen::VectorXd y_prior = e.y;
+    Eigen::VectorXd y_i = y_prior;
+    Eigen::MatrixXd K, H;
+    const int iterations = o.relinearize ? std::max(1, o.iterations_per_update) : 1;
+    for (int it = 0; it < iterations; ++it) {
+      const Linearization lin = m.linearize(k, o.relinearize ? y_i : zero);
+      H = lin.H;
+      // (13): paper-literal h = Z - J y_prior with Z, J at nominal; re-linearized:
+      // nu(y_i) - H (y_prior - y_i), which equals nu(y_prior) on the first iteration.
+      const Eigen::VectorXd innovation =
+          o.relinearize ? Eigen::VectorXd(lin.innovation - H * (y_prior - y_i)) : Eigen::VectorXd(lin.innovation - H * y_prior);
+      const Eigen::MatrixXd PHt = P * H.transpose();
+      const Eigen::MatrixXd S = H * PHt + lin.R;  // (14)
+      K = S.ldlt().solve(PHt.transpose()).transpose();  // (15)
+      y_i = y_prior + K * innovation;                 // (16)
+      if (it + 1 == iterations) {
+        // (17) in Joseph form, which stays symmetric positive definite.
+        const Eigen::MatrixXd A = I - K * H;
+        P = A * P * A.transpose() + K * lin.R * K.transpose();
+      }
+    }
+    e.y = y_i;
+    ++e.iterations;
+  }
+  e.seconds = since(t0);
+  e.covariance = P;
+  // Rank of the information the data added: eigenvalues of P0^-1/2 P P0^-1/2 well below 1.
+  const Eigen::VectorXd s0 = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m);
+  const Eigen::MatrixXd Pn = s0.cwiseInverse().asDiagonal() * P * s0.cwiseInverse().asDiagonal();
+  const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Pn).eigenvalues();
+  e.rank = static_cast<int>((ev.array() < 0.5).count());
+  e.converged = true;
+  e.cost = weightedCost(m, e.y);
+  return e;
+}
+
+Estimate runLse(const MeasurementModel& m, const LseOptions& o) {
+  const auto t0 = Clock::now();
+  Estimate e;
+  e.method = o.weighted ? "LSE (weighted)" : "LSE (unweighted)";
+  e.y = Eigen::VectorXd::Zero(m.numParams());
+  if (o.fix_unidentifiable) e.held = unidentifiableToFix(m, e.y, o.svd_cut);
+  Eigen::MatrixXd A;
+  Eigen::VectorXd b;
+  TruncatedSolve step;
+  for (int it = 0; it < o.max_iterations; ++it) {
+    stackedSystem(m, e.y, o.weighted, A, b);
+    for (int p : e.held) A.col(p).setZero();
+    step = truncatedSolve(A, b, o.svd_cut);
+    e.y += step.dy;
+    ++e.iterations;
+    if (step.dy.norm() < o.step_tolerance) {
+      e.converged = true;
+      break;
+    }
+  }
+  e.rank = step.rank;
+  if (o.weighted) {
+    e.covariance = step.covariance;
+  } else {
+    // Unweighted: scale (A^T A)^+ by the residual variance.
+    stackedSystem(m, e.y, false, A, b);
+    const double dof = std::max<Eigen::Index>(1, b.size() - step.rank);
+    e.covariance = step.covariance * (b.squaredNorm() / static_cast<double>(dof));
+  }
+  e.seconds = since(t0);
+  e.cost = weightedCost(m, e.y);
+  return e;
+}
+
+std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::VectorXd& y, double cut) {
+  Eigen::MatrixXd A;
+  Eigen::VectorXd b;
+  stackedSystem(m, y, true, A, b);
+  for (Eigen::Index c = 0; c < A.cols(); ++c) {
+    const double n = A.col(c).norm();
+    if (n > 0) A.col(c) /= n;
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullV);
+  const Eigen::VectorXd& s = svd.singularValues();
+  int rank = 0;
+  for (Eigen::Index i = 0; i < s.size(); ++i) rank += s[i] > cut * s[0];
+  const int lost = static_cast<int>(A.cols()) - rank;
+  std::vector<int> fixed;
+  if (lost == 0) return fixed;
+  // Greedily hold the parameter most involved in the remaining null space, last ones first on ties,
+  // until the free columns have full rank.
+  Eigen::MatrixXd N = svd.matrixV().rightCols(lost);
+  for (int k = 0; k < lost; ++k) {
+    Eigen::Index best = 0;
+    double best_w = -1.0;
+    for (Eigen::Index p = N.rows() - 1; p >= 0; --p) {
+      const double w = N.row(p).norm();
+      if (w > best_w + 1e-9) {
+        best_w = w;
+        best = p;
+      }
+    }
+    fixed.push_back(static_cast<int>(best));
+    // The null directions left once it is held: those with no component along it.
+    const Eigen::JacobiSVD<Eigen::MatrixXd> nsvd(N.row(best), Eigen::ComputeFullV);
+    N = (N * nsvd.matrixV().rightCols(N.cols() - 1)).eval();
+    if (N.cols() == 0) break;
+  }
+  std::sort(fixed.begin(), fixed.end());
+  return fixed;
+}
+
+namespace {
+
+/// One sample's whitened residual W nu_k(y) and Jacobian -W H_k for Ceres (W fixed at the start).
+class SampleCost : public ceres::CostFunction {
+ public:
+  SampleCost(const MeasurementModel& m, int k, Eigen::MatrixXd W) : m_(m), k_(k), W_(std::move(W)) {
+    set_num_residuals(m.rows(k));
+    mutable_parameter_block_sizes()->push_back(m.numParams());
+  }
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    const Eigen::Map<const Eigen::VectorXd> y(params[0], m_.numParams());
+    const Linearization lin = m_.linearize(k_, y);
+    Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = W_ * lin.innovation;
+    if (jacobians && jacobians[0]) {
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], m_.rows(k_),
+                                                                                          m_.numParams()) = -W_ * lin.H;
+    }
+    return true;
+  }
+
+ private:
+  const MeasurementModel& m_;
+  int k_;
+  Eigen::MatrixXd W_;
+};
+
+}  // namespace
+
+Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
+  const auto t0 = Clock::now();
+  Estimate e;
+  e.method = "LM (Ceres)";
+  const int n = m.numParams();
+  e.y = Eigen::VectorXd::Zero(n);
+  ceres::Problem::Options po;
+  po.cost_function_ownership = ceres::TAKE_OWNERSHIP;
+  po.loss_function_ownership = ceres::TAKE_OWNERSHIP;
+  po.manifold_ownership = ceres::TAKE_OWNERSHIP;
+  ceres::Problem problem(po);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+  for (int k = 0; k < m.numSamples(); ++k) {
+    ceres::LossFunction* loss = nullptr;
+    if (o.loss == LmOptions::Loss::kHuber) loss = new ceres::HuberLoss(o.loss_scale);
+    if (o.loss == LmOptions::Loss::kCauchy) loss = new ceres::CauchyLoss(o.loss_scale);
+    problem.AddResidualBlock(new SampleCost(m, k, whitener(m.linearize(k, zero).R)), loss, e.y.data());
+  }
+  if (o.fix_unidentifiable) e.held = unidentifiableToFix(m, zero, o.svd_cut);
+  const std::vector<int>& fixed = e.held;
+  if (!fixed.empty()) problem.SetManifold(e.y.data(), new ceres::SubsetManifold(n, fixed));
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = o.max_iterations;
+  so.function_tolerance = 1e-14;
+  so.gradient_tolerance = 1e-14;
+  so.parameter_tolerance = 1e-14;
+  so.num_threads = 1;
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+  e.iterations = static_cast<int>(summary.iterations.size()) - 1;
+  e.converged = summary.termination_type == ceres::CONVERGENCE;
+  // Covariance from the whitened Jacobian at the solution, on the free parameters.
+  Eigen::MatrixXd A;
+  Eigen::VectorXd b;
+  stackedSystem(m, e.y, true, A, b);
+  for (int p : fixed) A.col(p).setZero();
+  const TruncatedSolve ts = truncatedSolve(A, b, o.svd_cut);
+  e.rank = ts.rank;
+  e.covariance = ts.covariance;
+  e.seconds = since(t0);
+  e.cost = weightedCost(m, e.y);
+  return e;
+}
+
+}  // namespace orbcal::calib
