@@ -1,0 +1,73 @@
+#pragma once
+// Comparing estimators on one identification set and one validation set, as seed 000's Table 4
+// does, plus the control-noise floor (the validation error the true parameters leave) that no
+// estimator can beat. The measurement source (rendered images, real images, synthetic poses) is the
+// caller's: this file needs only observations and the validation plant.
+#include <string>
+#include <vector>
+
+#include "orbcal/calib/estimators.hpp"
+#include "orbcal/calib/model.hpp"
+#include "orbcal/calib/validation.hpp"
+
+namespace orbcal::calib {
+
+struct MethodSpec {
+  enum class Kind { kEkf, kLse, kLm };
+  std::string name;         ///< short, for tables and plots
+  std::string description;  ///< its settings, one line
+  Kind kind = Kind::kEkf;
+  EkfOptions ekf;
+  LseOptions lse;
+  LmOptions lm;
+  PoseNoiseModel noise;     ///< where R comes from
+};
+
+/// The comparison for measurements whose plant has joint control noise `joint_noise_sigma_rad`:
+/// seed 000's LSE and EKF as written (paper-literal presets), one change at a time towards orbcal's
+/// defaults (wide prior, R from the measurement plus the joint noise, re-linearized), the iterated
+/// EKF, and LM with and without a robust loss. orbcal's default EKF is the one named "EKF".
+std::vector<MethodSpec> comparisonMethods(double joint_noise_sigma_rad);
+/// The method named `name` from comparisonMethods(); throws InputError listing the names.
+MethodSpec findMethod(const std::vector<MethodSpec>& methods, const std::string& name);
+
+Estimate runMethod(const MethodSpec& method, const sim::Arm& nominal, const std::vector<PoseObservation>& observations);
+
+struct MethodOutcome {
+  MethodSpec method;
+  Estimate estimate;
+  PoseErrors errors;     ///< on the validation set, after compensation
+  ErrorSummary summary;
+};
+
+struct Comparison {
+  int observations = 0;
+  PoseErrors initial_errors, floor_errors;
+  ErrorSummary initial;  ///< nominal model
+  ErrorSummary floor;    ///< true parameters: what the control noise alone leaves
+  std::vector<MethodOutcome> methods;
+};
+
+Comparison compareMethods(const sim::Arm& nominal, const Eigen::VectorXd& y_true,
+                          const std::vector<PoseObservation>& observations, const PlantSamples& validation,
+                          const std::vector<MethodSpec>& methods);
+
+/// The same estimates validated against another plant (e.g. the validation poses a camera measured).
+Comparison revalidate(const Comparison& c, const sim::Arm& nominal, const Eigen::VectorXd& y_true,
+                      const PlantSamples& validation);
+
+/// The method with the lowest average validation position error among those of `kind`; nullptr if none.
+const MethodOutcome* bestOfKind(const Comparison& c, MethodSpec::Kind kind);
+
+/// One row per (model, validation sample): model, sample, position_mm, x_deg, y_deg, z_deg.
+/// Models: "initial", "floor" and each method. For box plots.
+std::string formatValidationErrorsCsv(const Comparison& c);
+/// One row per (method, parameter): estimate, 1-sigma and truth in deg or mm, held.
+std::string formatEstimatesCsv(const Comparison& c, const Eigen::VectorXd& y_true);
+/// Markdown: per method its settings, iterations, rank, wall time, cost, and average position error
+/// against the floor.
+std::string formatMethodsTable(const Comparison& c);
+/// The Table 4 layout (validation.hpp) of a comparison.
+std::string formatComparisonTable4(const Comparison& c);
+
+}  // namespace orbcal::calib

@@ -1,0 +1,177 @@
+#include "orbcal/calib/experiment.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sstream>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::calib {
+
+std::vector<MethodSpec> comparisonMethods(double joint_sigma) {
+  using Kind = MethodSpec::Kind;
+  PoseNoiseModel paper_R;  // seed 000: R = diag(0.3 mm, 0.5 deg)^2, no joint noise
+  paper_R.source = PoseNoiseModel::Source::kFixed;
+  PoseNoiseModel measured_R;  // the measurement's own covariance (vision, or the synthetic noise)
+  PoseNoiseModel full_R = measured_R;
+  full_R.joint_noise_sigma_rad = joint_sigma;
+
+  EkfOptions paper = EkfOptions::paperLiteral();
+  EkfOptions wide_linear;  // orbcal's prior, still J at nominal
+  wide_linear.relinearize = false;
+  EkfOptions extended;  // orbcal's default
+  EkfOptions iterated;
+  iterated.iterations_per_update = 3;
+  LseOptions unweighted, weighted;
+  weighted.weighted = true;
+  LmOptions lm, huber;
+  huber.loss = LmOptions::Loss::kHuber;
+
+  std::vector<MethodSpec> m;
+  m.push_back({"LSE (paper)", "Gauss-Newton, truncated SVD, unweighted (m and rad added as they are)", Kind::kLse, {}, unweighted, {}, paper_R});
+  m.push_back({"LSE (weighted)", "Gauss-Newton, truncated SVD, weighted by R = measurement + joint noise", Kind::kLse, {}, weighted, {}, full_R});
+  m.push_back({"EKF (paper)", "seed 000 as written: P0 0.01 deg / 0.01 mm, Q = 0, J at nominal, R 0.3 mm / 0.5 deg", Kind::kEkf, paper, {}, {}, paper_R});
+  m.push_back({"EKF (wide P0 + paper R)", "P0 1 deg / 5 mm, Q = 0, J at nominal, R 0.3 mm / 0.5 deg", Kind::kEkf, wide_linear, {}, {}, paper_R});
+  m.push_back({"EKF (measurement R)", "P0 1 deg / 5 mm, re-linearized, R = measurement covariance only", Kind::kEkf, extended, {}, {}, measured_R});
+  m.push_back({"EKF", "P0 1 deg / 5 mm, re-linearized, R = measurement + joint noise through J_q (orbcal's default)", Kind::kEkf, extended, {}, {}, full_R});
+  m.push_back({"IEKF", "as EKF, 3 re-linearizations per update", Kind::kEkf, iterated, {}, {}, full_R});
+  m.push_back({"LM", "Ceres Levenberg-Marquardt, analytic Jacobian, R = measurement + joint noise", Kind::kLm, {}, {}, lm, full_R});
+  m.push_back({"LM (Huber)", "as LM with a Huber loss at 3 sigma", Kind::kLm, {}, {}, huber, full_R});
+  for (const MethodSpec& s : m) {
+    // Names are CSV cells and plot labels: no separators.
+    if (s.name.find_first_of(",\n") != std::string::npos) throw std::logic_error("method name with a comma: " + s.name);
+  }
+  return m;
+}
+
+MethodSpec findMethod(const std::vector<MethodSpec>& methods, const std::string& name) {
+  std::string names;
+  for (const MethodSpec& m : methods) {
+    if (m.name == name) return m;
+    names += (names.empty() ? "'" : ", '") + m.name + "'";
+  }
+  throw sim::InputError("--method: unknown method '" + name + "' (expected one of " + names + ")");
+}
+
+Estimate runMethod(const MethodSpec& method, const sim::Arm& nominal, const std::vector<PoseObservation>& obs) {
+  const PoseMeasurementModel model(nominal, obs, method.noise);
+  Estimate e;
+  switch (method.kind) {
+    case MethodSpec::Kind::kEkf: e = runEkf(model, method.ekf); break;
+    case MethodSpec::Kind::kLse: e = runLse(model, method.lse); break;
+    case MethodSpec::Kind::kLm: e = runLm(model, method.lm); break;
+  }
+  e.method = method.name;
+  return e;
+}
+
+Comparison compareMethods(const sim::Arm& nominal, const Eigen::VectorXd& y_true, const std::vector<PoseObservation>& obs,
+                          const PlantSamples& validation, const std::vector<MethodSpec>& methods) {
+  Comparison c;
+  c.observations = static_cast<int>(obs.size());
+  c.initial_errors = poseErrors(nominal, validation);
+  c.floor_errors = poseErrors(sim::withErrors(nominal, y_true), validation);
+  c.initial = summarize(c.initial_errors);
+  c.floor = summarize(c.floor_errors);
+  for (const MethodSpec& m : methods) {
+    MethodOutcome o;
+    o.method = m;
+    o.estimate = runMethod(m, nominal, obs);
+    o.errors = poseErrors(sim::withErrors(nominal, o.estimate.y), validation);
+    o.summary = summarize(o.errors);
+    c.methods.push_back(std::move(o));
+  }
+  return c;
+}
+
+Comparison revalidate(const Comparison& c, const sim::Arm& nominal, const Eigen::VectorXd& y_true,
+                      const PlantSamples& validation) {
+  Comparison out = c;
+  out.initial_errors = poseErrors(nominal, validation);
+  out.floor_errors = poseErrors(sim::withErrors(nominal, y_true), validation);
+  out.initial = summarize(out.initial_errors);
+  out.floor = summarize(out.floor_errors);
+  for (MethodOutcome& m : out.methods) {
+    m.errors = poseErrors(sim::withErrors(nominal, m.estimate.y), validation);
+    m.summary = summarize(m.errors);
+  }
+  return out;
+}
+
+const MethodOutcome* bestOfKind(const Comparison& c, MethodSpec::Kind kind) {
+  const MethodOutcome* best = nullptr;
+  for (const MethodOutcome& m : c.methods) {
+    if (m.method.kind != kind) continue;
+    if (!best || m.summary.position_avg_m < best->summary.position_avg_m) best = &m;
+  }
+  return best;
+}
+
+namespace {
+void appendErrors(std::ostringstream& out, const std::string& model, const PoseErrors& e) {
+  char buf[160];
+  for (std::size_t k = 0; k < e.position_m.size(); ++k) {
+    const Eigen::Vector3d o = e.orientation_rad[k] * sim::kRadToDeg;
+    std::snprintf(buf, sizeof buf, ",%zu,%.6f,%.7f,%.7f,%.7f\n", k, e.position_m[k] * 1e3, o.x(), o.y(), o.z());
+    out << model << buf;
+  }
+}
+}  // namespace
+
+std::string formatValidationErrorsCsv(const Comparison& c) {
+  std::ostringstream out;
+  out << "model,sample,position_mm,x_deg,y_deg,z_deg\n";
+  appendErrors(out, "initial", c.initial_errors);
+  appendErrors(out, "floor", c.floor_errors);
+  for (const MethodOutcome& m : c.methods) appendErrors(out, m.method.name, m.errors);
+  return out.str();
+}
+
+std::string formatEstimatesCsv(const Comparison& c, const Eigen::VectorXd& y_true) {
+  std::ostringstream out;
+  out << "method,parameter,unit,estimate,sigma,truth,held\n";
+  char buf[200];
+  for (const MethodOutcome& m : c.methods) {
+    const Estimate& e = m.estimate;
+    for (Eigen::Index i = 0; i < e.y.size(); ++i) {
+      const bool angle = sim::isAngleParam(static_cast<int>(i));
+      const double s = angle ? sim::kRadToDeg : 1e3;
+      const bool held = std::find(e.held.begin(), e.held.end(), static_cast<int>(i)) != e.held.end();
+      std::snprintf(buf, sizeof buf, ",%s,%s,%.6f,%.6f,%.6f,%d\n", sim::paramName(static_cast<int>(i)).c_str(),
+                    angle ? "deg" : "mm", e.y[i] * s, std::sqrt(std::max(0.0, e.covariance(i, i))) * s, y_true[i] * s,
+                    held ? 1 : 0);
+      out << m.method.name << buf;
+    }
+  }
+  return out.str();
+}
+
+std::string formatMethodsTable(const Comparison& c) {
+  std::string out =
+      "| method | settings | iterations | rank | time (ms) | converged | held | avg position (mm) | / floor |\n"
+      "|---|---|---|---|---|---|---|---|---|\n";
+  char buf[512];
+  for (const MethodOutcome& m : c.methods) {
+    std::string held;
+    for (int p : m.estimate.held) held += (held.empty() ? "" : " ") + sim::paramName(p);
+    std::snprintf(buf, sizeof buf, "| %s | %s | %d | %d | %.2f | %s | %s | %.4f | %.3f |\n", m.method.name.c_str(),
+                  m.method.description.c_str(), m.estimate.iterations, m.estimate.rank, m.estimate.seconds * 1e3,
+                  m.estimate.converged ? "yes" : "no", held.empty() ? "-" : held.c_str(), m.summary.position_avg_m * 1e3,
+                  m.summary.position_avg_m / c.floor.position_avg_m);
+    out += buf;
+  }
+  std::snprintf(buf, sizeof buf, "| floor | true parameters, control noise only | | | | | | %.4f | 1.000 |\n",
+                c.floor.position_avg_m * 1e3);
+  return out + buf;
+}
+
+std::string formatComparisonTable4(const Comparison& c) {
+  std::vector<std::pair<std::string, ErrorSummary>> cols;
+  for (const MethodOutcome& m : c.methods) cols.emplace_back(m.method.name, m.summary);
+  cols.emplace_back("floor", c.floor);
+  return formatTable4(c.initial, cols);
+}
+
+}  // namespace orbcal::calib

@@ -1,0 +1,72 @@
+// `orbcal experiment --preset table4|table5|fig8|floor`
+#include <iostream>
+
+#include "cli.hpp"
+#include "experiment.hpp"
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::tools {
+
+void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o) {
+  cmd.add_option("--robot", o.robot, "robot description (YAML; or builtin:ssrms.yaml)")->capture_default_str();
+  cmd.add_option("--scene", o.scene, "scene (YAML; or builtin:default_scene.yaml)")->capture_default_str();
+  cmd.add_option("-o,--out", o.out, "output folder (reports under <out>/<preset>, datasets under <out>/datasets)")
+      ->capture_default_str();
+  cmd.add_option("--errors", o.errors.name, "injected error set: table3 (seed 000), zero, random")->capture_default_str();
+  cmd.add_option("--seed", o.seed, "random seed (configurations, noise, images)")->capture_default_str();
+  cmd.add_option("--ident", o.identification, "identification configurations")->capture_default_str()->check(CLI::Range(1, 100000));
+  cmd.add_option("--valid", o.validation, "validation configurations")->capture_default_str()->check(CLI::Range(1, 100000));
+  cmd.add_flag("--no-plots{false}", o.plots, "do not draw the PNG figures");
+  cmd.add_flag("--quiet", o.quiet, "no progress output");
+  auto* jn = cmd.add_option_function<double>(
+      "--joint-noise-deg", [&o](double d) { o.joint_noise_sigma_rad = d * sim::kDegToRad; },
+      "joint control noise, 1 sigma [deg] (default 0.01, seed 000)");
+  jn->check(CLI::Range(0.0, 10.0));
+}
+
+namespace {
+
+void addExperimentCommand(CLI::App& app) {
+  struct Opts {
+    ExperimentOptions e;
+    std::string preset;
+  };
+  auto opt = std::make_shared<Opts>();
+  CLI::App* cmd = app.add_subcommand("experiment",
+                                     "Calibration experiments: seed 000's Table 4, Table 5, Fig. 8, and the control-noise floor");
+  cmd->add_option("--preset", opt->preset,
+                  "table4: Table 3 errors, 50 + 200 configurations, rendered images, every estimator;\n"
+                  "table5: four synthetic noise levels + images, repeated;\n"
+                  "fig8: identification set size 10..200 (--ident) in steps of 10, repeated;\n"
+                  "floor: the validation error of the true parameters (control noise alone)")
+      ->required()
+      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor"}));
+  addExperimentOptions(*cmd, opt->e);
+  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 10000));
+  cmd->add_option("--source", opt->e.source, "fig8 measurements: images or synthetic (0.3 mm / 0.5 deg)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"images", "synthetic"}));
+  cmd->callback([opt, cmd] {
+    ExperimentOptions e = opt->e;
+    if (opt->preset == "table4") {
+      const Table4Result r = runTable4(e);
+      std::cout << table4Headline(r);
+    } else if (opt->preset == "table5") {
+      runTable5(e);
+    } else if (opt->preset == "fig8") {
+      if (cmd->count("--ident") == 0) e.identification = 200;  // the paper's range: 10 to 200
+      runFig8(e);
+    } else {
+      runFloor(e);
+    }
+  });
+}
+
+}  // namespace
+
+ORBCAL_COMMAND(50, addExperimentCommand);
+
+}  // namespace orbcal::tools

@@ -1,0 +1,82 @@
+#pragma once
+// orbcal's experiments (issue 5): the image-to-parameters pipeline (render -> detect -> pose ->
+// estimators -> validation) and the presets that reproduce seed 000's Tables 4-5 and Fig. 8, plus the
+// control-noise floor. Each writes CSV files and a Markdown report with PNG figures into its folder.
+// Rendered datasets live under <out>/datasets/ and are reused by later runs with the same inputs
+// (render resumes and skips finished images), so an interrupted experiment picks up where it stopped.
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "orbcal/calib/experiment.hpp"
+#include "orbcal/sim/errors.hpp"
+#include "orbcal/vision/measurement.hpp"
+
+namespace CLI {
+class App;
+}
+
+namespace orbcal::tools {
+
+struct ExperimentOptions {
+  std::string robot = "builtin:ssrms.yaml";
+  std::string scene = "builtin:default_scene.yaml";
+  std::string out = "orbcal-out";
+  sim::ErrorSetSpec errors;                            ///< injected (default: seed 000 Table 3)
+  double joint_noise_sigma_rad = 0.01 * 3.14159265358979323846 / 180.0;  ///< seed 000: 0.01 deg
+  int identification = 50;
+  int validation = 200;
+  int repetitions = 10;                                ///< table5, fig8, floor
+  std::uint64_t seed = 1;
+  std::string source = "images";                       ///< fig8: "images" or "synthetic"
+  bool plots = true;                                   ///< draw the PNG figures (python3 + matplotlib)
+  bool quiet = false;                                  ///< no progress bars
+};
+
+/// A rendered dataset and what the vision pipeline measured in it.
+struct MeasuredSet {
+  sim::Dataset dataset;
+  std::vector<vision::Measurement> measurements;
+  vision::MeasurementSummary summary;
+  calib::PlantSamples plant;                      ///< commanded and true joints, true flange poses
+  std::vector<calib::PoseObservation> observations;  ///< the found ones, with the vision covariance
+  double render_seconds = 0, measure_seconds = 0;
+};
+
+/// The options shared by `orbcal run` and `orbcal experiment` (cmd_experiment.cpp).
+void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o);
+
+/// Renders (or resumes) <out>/datasets/<name> and measures it.
+MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& name, int count, std::uint64_t seed);
+
+struct Table4Result {
+  calib::Comparison comparison;           ///< validation against the true poses
+  calib::Comparison measured_comparison;  ///< validation against the poses the camera measured
+  MeasuredSet identification, validation;
+  std::string report_path;
+  double seconds = 0;
+};
+
+/// Table 4 from rendered images: Table 3 errors (or o.errors), control noise, o.identification +
+/// o.validation configurations, every method of calib::comparisonMethods. Writes <out>/<folder>/.
+Table4Result runTable4(const ExperimentOptions& o, const std::string& folder = "table4");
+void runTable5(const ExperimentOptions& o);
+void runFig8(const ExperimentOptions& o);
+void runFloor(const ExperimentOptions& o);
+
+/// The headline of a Table 4 run, a few lines for the terminal.
+std::string table4Headline(const Table4Result& r);
+
+// Shared by the presets.
+/// Seeds: repetition r of an experiment with seed s uses s + r for its identification set and
+/// s + kValidationSeedOffset + r for its validation set, so the two never share configurations or noise.
+inline constexpr std::uint64_t kValidationSeedOffset = 1000000;
+/// printf-style formatting of one number.
+std::string formatNumber(const char* format, double value);
+/// Draws <folder>/<png> with tools/plot_report.py (`args` = its kind and CSV path, quoted); returns the
+/// Markdown image line, or a line saying why the figure was not drawn (also warned on stderr).
+std::string drawFigure(const ExperimentOptions& o, const std::string& folder, const std::string& args,
+                       const std::string& png, const std::string& caption);
+
+}  // namespace orbcal::tools

@@ -1,0 +1,80 @@
+#!/usr/bin/env python3
+"""Figures of orbcal's experiment reports, drawn with matplotlib from the CSV files orbcal writes.
+
+  plot_report.py boxplot  validation_errors.csv out.png [model ...]   # seed 000 Figs. 7 and 9 style
+  plot_report.py curve    fig8.csv out.png                            # seed 000 Fig. 8 style
+"""
+import csv
+import sys
+from collections import OrderedDict
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def read_rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def boxplot(csv_path, png_path, models):
+    rows = read_rows(csv_path)
+    data = OrderedDict()
+    for r in rows:
+        data.setdefault(r["model"], []).append(r)
+    names = [m for m in (models or data.keys()) if m in data]
+    if not names:
+        sys.exit(f"plot_report.py: {csv_path}: no rows for models {models}")
+    panels = [("position_mm", "position error (mm)"), ("x_deg", "X orientation error (deg)"),
+              ("y_deg", "Y orientation error (deg)"), ("z_deg", "Z orientation error (deg)")]
+    fig, axes = plt.subplots(2, 2, figsize=(max(8, 1.3 * len(names) + 4), 8))
+    for ax, (key, label) in zip(axes.flat, panels):
+        ax.boxplot([[float(r[key]) for r in data[n]] for n in names], showfliers=True)
+        ax.set_xticks(range(1, len(names) + 1))
+        ax.set_xticklabels(names, rotation=35, ha="right", fontsize=8)
+        ax.set_ylabel(label)
+        ax.set_yscale("log")
+        ax.grid(True, axis="y", alpha=0.3)
+    fig.suptitle("Validation pose errors (log scale)")
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+
+
+def curve(csv_path, png_path):
+    rows = read_rows(csv_path)
+    series = OrderedDict()
+    for r in rows:
+        series.setdefault(r["method"], {}).setdefault(int(r["n"]), []).append(float(r["avg_position_mm"]))
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for method, by_n in series.items():
+        ns = sorted(by_n)
+        means = [sum(by_n[n]) / len(by_n[n]) for n in ns]
+        lo = [min(by_n[n]) for n in ns]
+        hi = [max(by_n[n]) for n in ns]
+        ax.plot(ns, means, marker="o", ms=3, label=method)
+        ax.fill_between(ns, lo, hi, alpha=0.12)
+    floor = [float(r["floor_mm"]) for r in rows if r.get("floor_mm")]
+    if floor:
+        ax.axhline(sum(floor) / len(floor), color="k", ls="--", lw=1, label="floor (control noise)")
+    ax.set_xlabel("identification configurations")
+    ax.set_ylabel("mean validation position error (mm)")
+    ax.set_yscale("log")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+
+
+def main(argv):
+    if len(argv) < 4 or argv[1] not in ("boxplot", "curve"):
+        sys.exit(__doc__)
+    if argv[1] == "boxplot":
+        boxplot(argv[2], argv[3], argv[4:])
+    else:
+        curve(argv[2], argv[3])
+
+
+if __name__ == "__main__":
+    main(sys.argv)
