@@ -7,6 +7,8 @@
 #include <chrono>
 #include <set>
 
+#include "orbcal/sim/identifiability.hpp"
+
 namespace orbcal::calib {
 
 namespace {
@@ -35,24 +37,13 @@ struct TruncatedSolve {
   int rank = 0;
 };
 TruncatedSolve truncatedSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, double cut) {
-  Eigen::VectorXd d(A.cols());
-  for (Eigen::Index c = 0; c < A.cols(); ++c) {
-    const double n = A.col(c).norm();
-    d[c] = n > 0 ? 1.0 / n : 1.0;
-  }
-  const Eigen::MatrixXd As = A * d.asDiagonal();
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(As, Eigen::ComputeThinU | Eigen::ComputeThinV);
-  const Eigen::VectorXd& s = svd.singularValues();
+  const sim::ScaledSvd svd = sim::scaledSvd(A, cut);
   TruncatedSolve out;
-  Eigen::VectorXd inv = Eigen::VectorXd::Zero(s.size());
-  for (Eigen::Index i = 0; i < s.size(); ++i) {
-    if (s[i] > cut * s[0]) {
-      inv[i] = 1.0 / s[i];
-      ++out.rank;
-    }
-  }
-  out.dy = d.asDiagonal() * (svd.matrixV() * (inv.asDiagonal() * (svd.matrixU().transpose() * b)));
-  const Eigen::MatrixXd VD = d.asDiagonal() * svd.matrixV();
+  out.rank = svd.rank;
+  // Keep the first `rank` singular triplets: dy = D V_r S_r^-1 U_r^T b, covariance D V_r S_r^-2 V_r^T D.
+  const Eigen::MatrixXd VD = svd.scale.asDiagonal() * svd.V.leftCols(svd.rank);
+  const Eigen::VectorXd inv = svd.singular_values.head(svd.rank).cwiseInverse();
+  out.dy = VD * (inv.asDiagonal() * (svd.U.leftCols(svd.rank).transpose() * b));
   out.covariance = VD * inv.array().square().matrix().asDiagonal() * VD.transpose();
   return out;
 }
@@ -178,20 +169,13 @@ std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::Vec
   Eigen::MatrixXd A;
   Eigen::VectorXd b;
   stackedSystem(m, y, true, A, b);
-  for (Eigen::Index c = 0; c < A.cols(); ++c) {
-    const double n = A.col(c).norm();
-    if (n > 0) A.col(c) /= n;
-  }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullV);
-  const Eigen::VectorXd& s = svd.singularValues();
-  int rank = 0;
-  for (Eigen::Index i = 0; i < s.size(); ++i) rank += s[i] > cut * s[0];
-  const int lost = static_cast<int>(A.cols()) - rank;
+  const sim::ScaledSvd svd = sim::scaledSvd(A, cut);
+  const int lost = static_cast<int>(A.cols()) - svd.rank;
   std::vector<int> fixed;
   if (lost == 0) return fixed;
-  // Greedily hold the parameter most involved in the remaining null space, last ones first on ties,
-  // until the free columns have full rank.
-  Eigen::MatrixXd N = svd.matrixV().rightCols(lost);
+  // Greedily hold the parameter most involved in the remaining null space (scaled coordinates), last
+  // ones first on ties, until the free columns have full rank.
+  Eigen::MatrixXd N = svd.V.rightCols(lost);
   for (int k = 0; k < lost; ++k) {
     Eigen::Index best = 0;
     double best_w = -1.0;

@@ -15,6 +15,27 @@ Eigen::MatrixXd stackedJacobian(const Arm& arm, const std::vector<Eigen::VectorX
   return J;
 }
 
+ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance) {
+  ScaledSvd out;
+  out.scale.resize(J.cols());
+  for (Eigen::Index c = 0; c < J.cols(); ++c) {
+    const double n = J.col(c).norm();
+    out.scale[c] = n > 0.0 ? 1.0 / n : 1.0;
+  }
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(J * out.scale.asDiagonal(), Eigen::ComputeThinU | Eigen::ComputeFullV);
+  out.singular_values = svd.singularValues();
+  out.U = svd.matrixU();
+  out.V = svd.matrixV();
+  const double smax = out.singular_values.size() ? out.singular_values[0] : 0.0;
+  for (Eigen::Index i = 0; i < out.singular_values.size(); ++i) out.rank += out.singular_values[i] > rank_tolerance * smax;
+  return out;
+}
+
+Eigen::MatrixXd ScaledSvd::nullSpace() const {
+  const Eigen::Index k = V.cols() - rank;
+  return scale.asDiagonal() * V.rightCols(k);
+}
+
 namespace {
 
 std::string formatCombination(const std::vector<int>& params, const Eigen::VectorXd& coeffs) {
@@ -59,29 +80,16 @@ IdentifiabilityReport analyzeIdentifiability(const Arm& arm, const std::vector<E
   r.num_params = arm.numParams();
   r.num_configs = static_cast<int>(configs.size());
   r.rank_tolerance = rank_tolerance;
-  Eigen::MatrixXd J = stackedJacobian(arm, configs, frame);
-  // Column scaling: every parameter's column to unit norm (zero columns stay zero).
-  Eigen::VectorXd scale(r.num_params);
-  for (int c = 0; c < r.num_params; ++c) {
-    const double n = J.col(c).norm();
-    scale[c] = n > 0.0 ? 1.0 / n : 1.0;
-    J.col(c) *= scale[c];
-  }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(J, Eigen::ComputeFullV);
-  r.singular_values = svd.singularValues();
-  const double smax = r.singular_values.size() ? r.singular_values[0] : 0.0;
-  r.rank = 0;
-  for (Eigen::Index i = 0; i < r.singular_values.size(); ++i) {
-    if (r.singular_values[i] > rank_tolerance * smax) ++r.rank;
-  }
-  r.condition_number = r.rank > 0 ? smax / r.singular_values[r.rank - 1] : 0.0;
+  const ScaledSvd svd = scaledSvd(stackedJacobian(arm, configs, frame), rank_tolerance);
+  r.singular_values = svd.singular_values;
+  r.rank = svd.rank;
+  r.condition_number = r.rank > 0 ? r.singular_values[0] / r.singular_values[r.rank - 1] : 0.0;
   const int k = r.num_params - r.rank;
-  // Physical null directions: J D n_s = 0 => n = D n_s.
-  r.null_space = scale.asDiagonal() * svd.matrixV().rightCols(k);
+  r.null_space = svd.nullSpace();  // physical directions: J D n_s = 0 => n = D n_s
   if (k == 0) return r;
 
   // Group the parameters that share null directions (connected components).
-  const Eigen::MatrixXd N = svd.matrixV().rightCols(k);  // scaled, orthonormal columns
+  const Eigen::MatrixXd N = svd.V.rightCols(k);  // scaled, orthonormal columns
   std::vector<int> involved;
   for (int p = 0; p < r.num_params; ++p) {
     if (N.row(p).norm() > 1e-6) involved.push_back(p);

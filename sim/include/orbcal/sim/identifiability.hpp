@@ -20,6 +20,19 @@ namespace orbcal::sim {
 Eigen::MatrixXd stackedJacobian(const Arm& arm, const std::vector<Eigen::VectorXd>& configs,
                                 ErrorFrame frame = ErrorFrame::kTool);
 
+/// SVD of J with its columns scaled to unit norm (zero columns stay zero): J D = U S V^T, D = diag(scale).
+/// The one place where orbcal decides numerical rank; identifiability, LSE and LM all use it.
+struct ScaledSvd {
+  Eigen::VectorXd scale;            ///< D: 1 / column norm (1 for a zero column)
+  Eigen::VectorXd singular_values;  ///< descending
+  Eigen::MatrixXd U;                ///< thin
+  Eigen::MatrixXd V;                ///< full (cols x cols)
+  int rank = 0;                     ///< singular values above rank_tolerance * sigma_max
+  /// Physical null-space directions D V_null (J n = 0), one per column.
+  Eigen::MatrixXd nullSpace() const;
+};
+ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance);
+
 struct Redundancy {
   std::vector<int> params;        ///< parameter indices of the group
   int lost = 0;                   ///< null-space dimension within the group
