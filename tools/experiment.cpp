@@ -80,13 +80,35 @@ std::string drawFigure(const ExperimentOptions& o, const std::string& folder, co
     while (std::fgets(buf, sizeof buf, p)) output += buf;
     if (pclose(p) == 0) return "![" + caption + "](" + png + ")\n";
   }
+  // The last line of a Python error is its message (e.g. "ModuleNotFoundError: No module named ...").
+  while (!output.empty() && output.back() == '\n') output.pop_back();
   std::cerr << "orbcal: warning: figure " << png << " not drawn (python3 with matplotlib is needed): "
-            << output.substr(0, output.find('\n')) << "\n";
+            << output.substr(output.find_last_of('\n') + 1) << "\n";
   return "(figure " + png + " not drawn: python3 with matplotlib is needed)\n";
 }
 
-MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& name, int count, std::uint64_t seed) {
+namespace {
+/// FNV-1a, 64 bit: a stable fingerprint (the same on every run and machine).
+std::uint64_t fingerprint(const std::string& text) {
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  for (unsigned char c : text) h = (h ^ c) * 0x100000001b3ULL;
+  return h;
+}
+}  // namespace
+
+MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& prefix, int count, std::uint64_t seed) {
   MeasuredSet m;
+  // The folder is named by everything that determines the dataset, so runs with the same inputs
+  // reuse (and resume) it, and runs with other inputs never collide with it.
+  const std::string inputs = sim::readTextSource(o.robot) + '\0' + sim::readTextSource(o.scene) + '\0' + o.errors.name +
+                             '\0' + std::to_string(o.errors.seed) + '\0' + formatNumber("%.17g", o.errors.angle_sigma_rad) +
+                             '\0' + formatNumber("%.17g", o.errors.length_sigma_m) + '\0' +
+                             formatNumber("%.17g", o.joint_noise_sigma_rad) + '\0' + std::to_string(count) + '\0' +
+                             std::to_string(seed);
+  char buf[160];
+  std::snprintf(buf, sizeof buf, "%s-n%d-s%llu-%08llx", prefix.c_str(), count, static_cast<unsigned long long>(seed),
+                static_cast<unsigned long long>(fingerprint(inputs) & 0xffffffffULL));
+  const std::string name = buf;
   render::DatasetJob job;
   job.robot = o.robot;
   job.scene = o.scene;
@@ -132,9 +154,8 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
   Table4Result r;
   const std::string folder = o.out + "/" + folder_name;
   sim::makeDirectories(folder);
-  r.identification = renderAndMeasure(o, folder_name + "-ident-s" + std::to_string(o.seed), o.identification, o.seed);
-  r.validation = renderAndMeasure(o, folder_name + "-valid-s" + std::to_string(o.seed), o.validation,
-                                  o.seed + kValidationSeedOffset);
+  r.identification = renderAndMeasure(o, folder_name + "-ident", o.identification, o.seed);
+  r.validation = renderAndMeasure(o, folder_name + "-valid", o.validation, o.seed + kValidationSeedOffset);
   const sim::Arm& nominal = r.identification.dataset.arm;
   const Eigen::VectorXd y_true = *r.identification.dataset.manifest.true_errors;
   if (r.identification.observations.empty()) {

@@ -47,8 +47,8 @@ struct MeasuredSet {
 /// The options shared by `orbcal run` and `orbcal experiment` (cmd_experiment.cpp).
 void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o);
 
-/// Renders (or resumes) <out>/datasets/<name> and measures it.
-MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& name, int count, std::uint64_t seed);
+/// Renders (or resumes) <out>/datasets/<prefix>-n<count>-s<seed>-<fingerprint of the inputs> and measures it.
+MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& prefix, int count, std::uint64_t seed);
 
 struct Table4Result {
   calib::Comparison comparison;           ///< validation against the true poses

@@ -86,7 +86,7 @@ void runTable5(const ExperimentOptions& o) {
       if (col.sp_m >= 0) {
         obs = calib::syntheticObservations(ident, col.sp_m, col.so_rad, rng);
       } else {
-        obs = renderAndMeasure(o, "table5-ident-s" + std::to_string(o.seed + r), o.identification, o.seed + r).observations;
+        obs = renderAndMeasure(o, "table5-ident", o.identification, o.seed + r).observations;
       }
       const calib::Comparison c = calib::compareMethods(s.nominal, s.y_true, obs, valid, methods);
       for (const calib::MethodOutcome& m : c.methods) {
@@ -156,7 +156,7 @@ void runFig8(const ExperimentOptions& o) {
     // (rendered once, reused for every n: nested subsets of one honest sample).
     std::vector<calib::PoseObservation> pool;
     if (o.source == "images") {
-      pool = renderAndMeasure(o, "fig8-pool-s" + std::to_string(o.seed + r), n_max, o.seed + r).observations;
+      pool = renderAndMeasure(o, "fig8-pool", n_max, o.seed + r).observations;
     } else {
       auto rng = sim::makeRng(o.seed + r, 0x66696738ULL);
       const calib::PlantSamples ident = calib::simulatePlant(s.truth, generate(s, n_max, o.seed + r), o.joint_noise_sigma_rad, rng);
