@@ -203,7 +203,7 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
      << "ratio = (initial - calibrated) / initial. `floor` = the true parameters: the error the control noise "
      << "alone leaves, which no estimator can beat.\n\n"
      << calib::formatComparisonTable4(r.comparison) << "\n"
-     << calib::formatMethodsTable(r.comparison) << "\n"
+     << calib::formatMethodsTable(r.comparison, y_true) << "\n"
      << drawFigure(o, folder, "boxplot " + quote(folder + "/validation_errors.csv"), "validation_boxplot.png",
                    "validation errors")
      << "\n## Validation against the poses the camera measured\n\n"
