@@ -47,8 +47,13 @@ void addMeasureCommand(CLI::App& app) {
     bar.finish();
     const std::string out = opt->out.empty() ? ds.path("measurements.csv") : opt->out;
     sim::writeFileAtomic(out, vision::formatMeasurementsCsv(rows));
-    std::printf("%s", vision::formatSummary(vision::summarize(rows)).c_str());
+    const vision::MeasurementSummary summary = vision::summarize(rows);
+    std::printf("%s", vision::formatSummary(summary).c_str());
     std::printf("-> %s\n", out.c_str());
+    std::fflush(stdout);  // the summary first, then main's one-line error on stderr
+    if (summary.found == 0) {
+      throw sim::InputError("measure: no image of " + opt->dataset + " gave a pose (statuses in " + out + ")");
+    }
   });
 }
 

@@ -139,10 +139,8 @@ std::string formatSamplesCsv(const std::vector<DatasetSample>& samples, int n) {
     }
     if (has_pose) {
       if (s.camera_T_board_true) {
-        const Eigen::Vector3d t = s.camera_T_board_true->translation();
-        const Eigen::Vector3d r = logSO3(s.camera_T_board_true->linear());
-        for (int i = 0; i < 3; ++i) out << "," << exactNumber(t[i]);
-        for (int i = 0; i < 3; ++i) out << "," << exactNumber(r[i]);
+        const Vector6d v = poseToVector(*s.camera_T_board_true);
+        for (int i = 0; i < 6; ++i) out << "," << exactNumber(v[i]);
       } else {
         out << ",,,,,,";
       }
@@ -177,12 +175,7 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
     if (!q) throw InputError(t.where(r) + ": q1_rad: joint readings are empty");
     s.q_rad = *q;
     s.q_true_rad = t.numbers(r, c_qt);
-    if (const auto pose = t.numbers(r, c_pose)) {
-      Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-      T.translation() = pose->head<3>();
-      T.linear() = expSO3(pose->tail<3>());
-      s.camera_T_board_true = T;
-    }
+    if (const auto pose = t.numbers(r, c_pose)) s.camera_T_board_true = poseFromVector(*pose);
     samples.push_back(std::move(s));
   }
   return samples;

@@ -44,6 +44,19 @@ Eigen::Isometry3d posePlus(const Eigen::Isometry3d& nominal, const Vector6d& e) 
   return out;
 }
 
+Vector6d poseToVector(const Eigen::Isometry3d& T) {
+  Vector6d v;
+  v << T.translation(), logSO3(T.linear());
+  return v;
+}
+
+Eigen::Isometry3d poseFromVector(const Vector6d& v) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = v.head<3>();
+  T.linear() = expSO3(v.tail<3>());
+  return T;
+}
+
 Matrix6d adjoint(const Eigen::Isometry3d& a_T_b) {
   const Eigen::Matrix3d& R = a_T_b.linear();
   Matrix6d Ad = Matrix6d::Zero();

@@ -4,6 +4,7 @@
 #include <fstream>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <yaml-cpp/yaml.h>
 
 #include "orbcal/vision/intrinsics.hpp"
 #include "orbcal/vision/synthetic.hpp"
@@ -34,6 +35,20 @@ constexpr double kMaxRmsPx = 0.5;              // the issue's bar
 constexpr double kFocalRelTol = 0.01;          // 1 %: f trades off against k1..k3 at this level
 constexpr double kPrincipalPointTolPx = 3.0;   // ~4 sigma of calibrateCamera's own estimate
 constexpr double kDistortionTolPx = 1.5;       // 2x the measured difference of the distortion alone
+// Where the two whole models (pinhole + distortion) send the same ray, anywhere in the image: the
+// differences above add up at the image corners (~390 px from the principal point): 0.6 % of f is
+// 2.3 px, cy 1.8 px, distortion 0.73 px, at most 4.9 px together (measured 4.25 px). 6 px leaves room
+// for that sum and still flags a real mistake (swapped cx/cy: > 100 px; k1 of the wrong sign: tens of px).
+constexpr double kRayMapTolPx = 6.0;
+
+// Drawn views (no noise, fixed seed): the corners are good to ~0.1 px (calibration RMS 0.11 px) and
+// 15 views at 1.5-2.5 m pin f and c to a few tenths of a pixel: measured 0.16 / 0.20 px off for fx / fy
+// and 0.22 / 0.27 px for cx / cy. 1 px is ~4x that. (calibrateCamera's own 1-sigma, 1.0-1.3 px, is far
+// more cautious than these noiseless drawings need.)
+constexpr double kDrawnRmsPx = 0.2;            // ~2x the measured 0.11 px
+constexpr double kDrawnFocalTolPx = 1.0;
+constexpr double kDrawnPrincipalPointTolPx = 1.0;
+constexpr double kDrawnK1Tol = 0.02;           // ~3x calibrateCamera's own 1-sigma of k1 (0.007); measured 0.001
 
 sim::Board leftBoard() {
   sim::Board b;
@@ -95,6 +110,7 @@ TEST_CASE("OpenCV's left01..left14 photographs: corners and intrinsics", "[visio
   }
   CAPTURE(worst_map, worst_dist);
   CHECK(worst_dist < kDistortionTolPx);
+  CHECK(worst_map < kRayMapTolPx);
 }
 
 TEST_CASE("intrinsics from drawn views recover the camera", "[vision][intrinsics]") {
@@ -112,14 +128,14 @@ TEST_CASE("intrinsics from drawn views recover the camera", "[vision][intrinsics
   const auto r = vision::calibrateIntrinsics(views, cv::Size(scene.camera.width_px, scene.camera.height_px),
                                              scene.board, st);
   REQUIRE(r.ok);
-  CAPTURE(r.rms_px, r.camera.fx_px, r.camera.cx_px, r.camera.cy_px, r.camera.distortion[0]);
-  // Drawn corners are good to ~0.1 px; 15 views at 1.5-2.5 m pin f and c to a few tenths of a pixel.
-  CHECK(r.rms_px < 0.2);
-  CHECK(std::abs(r.camera.fx_px - scene.camera.fx_px) < 3.0);
-  CHECK(std::abs(r.camera.fy_px - scene.camera.fy_px) < 3.0);
-  CHECK(std::abs(r.camera.cx_px - scene.camera.cx_px) < 2.0);
-  CHECK(std::abs(r.camera.cy_px - scene.camera.cy_px) < 2.0);
-  CHECK(std::abs(r.camera.distortion[0] - scene.camera.distortion[0]) < 0.02);
+  CAPTURE(r.rms_px, r.camera.fx_px, r.camera.fy_px, r.camera.cx_px, r.camera.cy_px, r.camera.distortion[0], r.std_dev[0],
+          r.std_dev[1], r.std_dev[2], r.std_dev[3], r.std_dev[4]);
+  CHECK(r.rms_px < kDrawnRmsPx);
+  CHECK(std::abs(r.camera.fx_px - scene.camera.fx_px) < kDrawnFocalTolPx);
+  CHECK(std::abs(r.camera.fy_px - scene.camera.fy_px) < kDrawnFocalTolPx);
+  CHECK(std::abs(r.camera.cx_px - scene.camera.cx_px) < kDrawnPrincipalPointTolPx);
+  CHECK(std::abs(r.camera.cy_px - scene.camera.cy_px) < kDrawnPrincipalPointTolPx);
+  CHECK(std::abs(r.camera.distortion[0] - scene.camera.distortion[0]) < kDrawnK1Tol);
   CHECK_THROWS_AS(vision::calibrateIntrinsics({vision::BoardView{}}, cv::Size(640, 480), scene.board, st),
                   std::invalid_argument);
 }
@@ -155,4 +171,25 @@ TEST_CASE("intrinsics: every bad image gets a status and the run goes on", "[vis
   const auto none = vision::calibrateIntrinsicsFromFiles({dir + "/missing.png"}, scene.board);
   CHECK_FALSE(none.ok);
   CHECK(none.reason.find("too few images") != std::string::npos);
+}
+
+TEST_CASE("intrinsics YAML: names and messages with quotes, backslashes and line breaks read back unchanged",
+          "[vision][intrinsics]") {
+  const sim::Scene& scene = test::defaultScene();
+  const std::string dir = test::tempDir("vision-intrinsics-quote");
+  const std::string weird = dir + "/my \"best\" view\\1.png";
+  const std::string missing = dir + "/gone: \"x\", {y}.png";
+  cv::imwrite(weird, vision::drawSyntheticBoard(scene.camera, scene.board, test::lookAtBoard(scene.board, 1.8, 0.1, 0.0, 0.0)));
+  vision::IntrinsicsResult r = vision::calibrateIntrinsicsFromFiles({weird, missing}, scene.board);
+  REQUIRE(r.images.size() == 2);
+  REQUIRE_FALSE(r.ok);  // two images are too few; the statuses are what this test reads
+  r.reason += "\nsecond line\t(tab)";
+  const YAML::Node y = YAML::Load(vision::formatIntrinsicsYaml(r, scene.board));
+  CHECK(y["reason"].as<std::string>() == r.reason);
+  REQUIRE(y["images"].size() == 2);
+  CHECK(y["images"][0]["file"].as<std::string>() == weird);
+  CHECK(y["images"][0]["status"].as<std::string>() == "found");
+  CHECK(y["images"][1]["file"].as<std::string>() == missing);
+  CHECK(y["images"][1]["status"].as<std::string>() == "unreadable");
+  CHECK(y["images"][1]["detail"].as<std::string>() == r.images[1].detail);
 }

@@ -24,6 +24,10 @@ namespace {
 // the chain is off by decimetres or degrees).
 constexpr double kPoseErrorTolM = 5e-3;
 constexpr double kPoseErrorTolRad = 0.2 * sim::kDegToRad;
+// Drawn corners sit within ~0.1 px of the projection (supersampling and 8-bit quantisation), so the
+// pose's reprojection RMS is ~0.05-0.1 px; 0.3 px is 3x that and still far below
+// MeasureSettings::max_rms_px (1 px), which is what a real lens is allowed.
+constexpr double kMaxDrawnRmsPx = 0.3;
 
 void copyFile(const std::string& from, const std::string& to) {
   sim::writeFileAtomic(to, sim::readTextSource(from));
@@ -95,7 +99,8 @@ TEST_CASE("measuring a dataset: every image gets a status, bad ones counted", "[
     CAPTURE(m.image, m.reason, m.detail);
     REQUIRE(m.found());
     CHECK(m.num_corners == 54);
-    CHECK(m.rms_px < 0.3);
+    CHECK(m.rms_px < kMaxDrawnRmsPx);
+    CHECK(m.has_pose_error);
     CHECK(m.pose_error.head<3>().norm() < kPoseErrorTolM);
     CHECK(m.pose_error.tail<3>().norm() < kPoseErrorTolRad);
     const sim::Vector6d e_true = sim::poseMinus(
@@ -148,7 +153,9 @@ TEST_CASE("measuring a dataset: every image gets a status, bad ones counted", "[
       CHECK(back[i].image == rows[i].image);
       CHECK(back[i].status == rows[i].status);
       CHECK(back[i].reason == rows[i].reason);
+      CHECK(back[i].detail == vision::measurementCell(rows[i].detail));
       CHECK(back[i].num_corners == rows[i].num_corners);
+      CHECK(back[i].has_pose_error == rows[i].has_pose_error);
       CHECK(back[i].rms_px == rows[i].rms_px);
       CHECK(back[i].covariance == rows[i].covariance);
       CHECK(back[i].pose_error == rows[i].pose_error);
@@ -164,10 +171,90 @@ TEST_CASE("measurement table errors name the file and the line", "[vision][measu
   CHECK_THROWS_WITH(vision::parseMeasurementsCsv("index,image\n", "m.csv"), Catch::Contains("m.csv: header: missing column"));
   std::string bad = header + "0,a.png,maybe,,,,";
   bad += std::string(39, ',') + "\n";
-  CHECK_THROWS_WITH(vision::parseMeasurementsCsv(bad, "m.csv"), Catch::Contains("m.csv: line 2: status"));
+  CHECK_THROWS_WITH(vision::parseMeasurementsCsv(bad, "m.csv"),
+                    Catch::Equals("m.csv: line 2: status: expected found, not_found, rejected or unreadable, got 'maybe'"));
   std::string empty_found = header + "0,a.png,found,,,54,0.1" + std::string(39, ',') + "\n";
-  CHECK_THROWS_WITH(vision::parseMeasurementsCsv(empty_found, "m.csv"), Catch::Contains("m.csv: line 2"));
+  CHECK_THROWS_WITH(vision::parseMeasurementsCsv(empty_found, "m.csv"),
+                    Catch::Equals("m.csv: line 2: status 'found' but the cam_board cells are empty"));
   CHECK_THROWS_AS(vision::loadMeasurements("/nonexistent/measurements.csv"), sim::InputError);
+
+  // index and num_corners: non-negative integers within int range, each index once
+  const auto row = [](const std::string& index, const std::string& num_corners) {
+    return index + ",a.png,not_found,no board found,," + num_corners + "," + std::string(39, ',') + "\n";
+  };
+  const std::string int_error = ": expected a non-negative integer (at most 2147483647), got ";
+  CHECK_THROWS_WITH(vision::parseMeasurementsCsv(header + row("0", "") + row("1.5", ""), "m.csv"),
+                    Catch::Equals("m.csv: line 3: index" + int_error + "'1.5'"));
+  CHECK_THROWS_WITH(vision::parseMeasurementsCsv(header + row("-1", ""), "m.csv"),
+                    Catch::Equals("m.csv: line 2: index" + int_error + "'-1'"));
+  CHECK_THROWS_WITH(vision::parseMeasurementsCsv(header + row("3000000000", ""), "m.csv"),
+                    Catch::Equals("m.csv: line 2: index" + int_error + "'3000000000'"));
+  CHECK_THROWS_WITH(vision::parseMeasurementsCsv(header + row("0", "54.5"), "m.csv"),
+                    Catch::Equals("m.csv: line 2: num_corners" + int_error + "'54.5'"));
+  CHECK_THROWS_WITH(vision::parseMeasurementsCsv(header + row("0", "1e10"), "m.csv"),
+                    Catch::Equals("m.csv: line 2: num_corners" + int_error + "'1e10'"));
+  CHECK_THROWS_WITH(vision::parseMeasurementsCsv(header + row("0", "x"), "m.csv"),
+                    Catch::Equals("m.csv: line 2: num_corners: expected a finite number, got 'x'"));
+  CHECK_THROWS_WITH(vision::parseMeasurementsCsv(header + row("4", "") + row("5", "") + row("4", ""), "m.csv"),
+                    Catch::Equals("m.csv: line 4: index: 4 repeats the row of m.csv: line 2"));
+  // the largest int is accepted
+  CHECK(vision::parseMeasurementsCsv(header + row("2147483647", "54"), "m.csv").at(0).index == 2147483647);
+}
+
+TEST_CASE("a found row without a joint reading has empty err cells, not zeros", "[vision][measure]") {
+  vision::Measurement m;
+  m.status = vision::ImageStatus::kFound;
+  m.num_corners = 54;
+  m.rms_px = 0.05;
+  m.camera_T_board.translation() << 0.1, -0.2, 2.0;
+  m.covariance = sim::Matrix6d::Identity() * 1e-8;
+  REQUIRE_FALSE(m.has_pose_error);
+  const std::string text = vision::formatMeasurementsCsv({m});
+  const std::string last_line = text.substr(text.rfind('\n', text.size() - 2) + 1);
+  CHECK(last_line.substr(last_line.size() - 7) == ",,,,,,\n");  // the 6 err_* cells, empty
+  const auto back = vision::parseMeasurementsCsv(text, "t.csv");
+  REQUIRE(back.size() == 1);
+  CHECK(back[0].found());
+  CHECK_FALSE(back[0].has_pose_error);
+  CHECK(back[0].pose_error == sim::Vector6d::Zero());
+  CHECK(back[0].covariance == m.covariance);
+
+  m.has_pose_error = true;
+  m.pose_error << 1e-3, 0.0, 0.0, 0.0, 0.0, 2e-4;
+  const auto with = vision::parseMeasurementsCsv(vision::formatMeasurementsCsv({m}), "t.csv");
+  CHECK(with.at(0).has_pose_error);
+  CHECK(with.at(0).pose_error == m.pose_error);
+}
+
+TEST_CASE("measureImage never reports found without a known orientation", "[vision][measure]") {
+  // A 9 x 7-square board (8 x 6 inner corners) looks the same after a half turn. With the detector's
+  // orientation made optional, detectCorners keeps it (found, orientation unknown); a measurement
+  // must not: its pose could be off by a half turn.
+  sim::Scene scene = test::defaultScene();
+  scene.board.corners_x = 8;
+  REQUIRE(vision::isHalfTurnSymmetric(scene.board));
+  const sim::Arm arm = sim::loadArm(sim::kDefaultRobot);
+  const cv::Mat img =
+      vision::drawSyntheticBoard(scene.camera, scene.board, test::lookAtBoard(scene.board, 1.8, 0.1, 0.1, 0.0));
+  for (const bool required : {true, false}) {
+    CAPTURE(required);
+    vision::MeasureSettings st;
+    st.detector.require_orientation = required;
+    const auto det = vision::detectCorners(img, scene.board, st.detector);
+    CHECK(det.found() == !required);  // the image itself is fine: only the orientation is unknown
+    CHECK_FALSE(det.orientation_known);
+    const vision::Measurement m = vision::measureImage(img, scene, arm, Eigen::VectorXd(), st);
+    CHECK(m.status == vision::ImageStatus::kRejected);
+    CHECK(m.reason == "orientation undecidable");
+    CHECK_FALSE(m.detail.empty());
+  }
+  // control: the even-by-odd default board in the same view is measured
+  const sim::Scene& good = test::defaultScene();
+  const cv::Mat good_img =
+      vision::drawSyntheticBoard(good.camera, good.board, test::lookAtBoard(good.board, 1.8, 0.1, 0.1, 0.0));
+  vision::MeasureSettings st;
+  st.detector.require_orientation = false;
+  CHECK(vision::measureImage(good_img, good, arm, Eigen::VectorXd(), st).found());
 }
 
 TEST_CASE("a reason with commas does not break the table", "[vision][measure]") {

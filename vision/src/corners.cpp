@@ -14,7 +14,7 @@ namespace orbcal::vision {
 namespace {
 
 // Inset of the sampled area inside each square, as a fraction of the square: keeps the samples
-// clear of the blurred edges and of the error of a homography extrapolated one square out.
+// clear of the blurred edges and of the corners' own detection error.
 constexpr double kSquareInset = 0.25;
 // Fewer pixels than this in a sampled square: too small to trust its mean.
 constexpr int kMinSamplePixels = 4;
@@ -60,8 +60,9 @@ std::optional<double> squareMean(const cv::Mat& gray, const cv::Matx33d& H, int 
   return cv::mean(gray(roi), mask)[0];
 }
 
-// Signed contrast (white minus black, expected colours) of the 2 x 2 squares around the end corner
-// (c_end, r_end) (0,0 or the last), using the homography of the nearest kLocalBlock^2 corners.
+// Signed contrast (white minus black, expected colours) of the interior squares next to one end corner
+// (orientationEvidence's doc comment says which), using the homography of the nearest kLocalBlock^2
+// corners. Every square sampled is bounded by four of those corners: nothing is extrapolated.
 std::optional<double> endContrast(const cv::Mat& gray, const sim::Board& board,
                                   const std::vector<Eigen::Vector2d>& corners, bool first_end) {
   const int bx = std::min(kLocalBlock, board.corners_x), by = std::min(kLocalBlock, board.corners_y);
@@ -77,21 +78,22 @@ std::optional<double> endContrast(const cv::Mat& gray, const sim::Board& board,
   const cv::Mat Hm = cv::findHomography(src, dst, 0);
   if (Hm.empty()) return std::nullopt;
   const cv::Matx33d H(Hm);
-  // Squares around the end corner: i in {c, c+1}, j in {r, r+1} for the corner at (c, r).
-  const int ce = first_end ? 0 : board.corners_x - 1, re = first_end ? 0 : board.corners_y - 1;
+  // Square (i, j) lies between corners (i - 1, j - 1) and (i, j); the block's corners c0..c0 + bx - 1
+  // bound the squares i = c0 + 1 .. c0 + bx - 1 (and likewise for j): up to 2 x 2 interior squares.
   double white = 0.0, black = 0.0;
   int n_white = 0, n_black = 0;
-  for (int j = re; j <= re + 1; ++j) {
-    for (int i = ce; i <= ce + 1; ++i) {
+  for (int j = r0 + 1; j < r0 + by; ++j) {
+    for (int i = c0 + 1; i < c0 + bx; ++i) {
       const auto m = squareMean(gray, H, i, j);
       if (!m) return std::nullopt;
-      if (isBlackSquare(i, j)) {
+      if (sim::isBlackSquare(i, j)) {
         black += *m, ++n_black;
       } else {
         white += *m, ++n_white;
       }
     }
   }
+  if (n_white == 0 || n_black == 0) return std::nullopt;  // a 2 x 2-corner board: one square only
   return white / n_white - black / n_black;
 }
 
@@ -141,14 +143,15 @@ OrientationEvidence orientationEvidence(const cv::Mat& gray, const sim::Board& b
                                 std::to_string(corners_px.size()));
   }
   OrientationEvidence ev;
+  ev.end_contrast = {endContrast(gray, board, corners_px, true), endContrast(gray, board, corners_px, false)};
   double sum = 0.0;
-  for (bool first : {true, false}) {
-    if (const auto c = endContrast(gray, board, corners_px, first)) {
-      sum += *c;
-      ++ev.ends_sampled;
-    }
+  for (const auto& c : ev.end_contrast) {
+    if (c) sum += *c, ++ev.ends_sampled;
   }
   if (ev.ends_sampled > 0) ev.signed_contrast = sum / ev.ends_sampled;
+  // Both ends read from one board must agree: opposite signs mean one end's colours are not the
+  // board's (a different pattern, an occluder, glare), so neither end can be trusted.
+  if (ev.ends_sampled == 2) ev.consistent = (*ev.end_contrast[0] > 0.0) == (*ev.end_contrast[1] > 0.0);
   return ev;
 }
 
@@ -225,9 +228,17 @@ CornerDetection detectCorners(const cv::Mat& gray, const sim::Board& board, cons
   }
 
   const OrientationEvidence ev = orientationEvidence(gray, board, d.corners_px);
+  if (!ev.consistent) {
+    const std::string why = "end-square contrast " + fmt(*ev.end_contrast[0]) + " at corner 0 but " +
+                            fmt(*ev.end_contrast[1]) + " at the last corner (grey levels; the signs must agree)";
+    if (settings.require_orientation) return fail(ImageStatus::kRejected, "orientation evidence inconsistent", why);
+    d.status = ImageStatus::kFound;
+    d.detail = "orientation unknown: " + why;
+    return d;
+  }
   const bool decided = ev.ends_sampled > 0 && std::abs(ev.signed_contrast) >= settings.min_orientation_contrast;
   if (!decided) {
-    const std::string why = ev.ends_sampled == 0 ? "the squares around both end corners are not wholly in the image"
+    const std::string why = ev.ends_sampled == 0 ? "the squares next to both end corners are not wholly in the image"
                                                  : "end-square contrast " + fmt(std::abs(ev.signed_contrast)) +
                                                        " grey levels < " + fmt(settings.min_orientation_contrast);
     if (settings.require_orientation) return fail(ImageStatus::kRejected, "orientation undecidable", why);

@@ -1,5 +1,6 @@
 #include "orbcal/vision/intrinsics.hpp"
 
+#include <cstdio>
 #include <opencv2/calib3d.hpp>
 #include <sstream>
 #include <stdexcept>
@@ -8,6 +9,32 @@
 #include "orbcal/vision/measurement.hpp"
 
 namespace orbcal::vision {
+
+namespace {
+// `text` as a YAML double-quoted scalar: backslash, quote and control characters (line breaks from
+// an OpenCV message, say) escaped, so that any file name or message reads back unchanged.
+std::string quoted(const std::string& text) {
+  std::string out = "\"";
+  for (const char ch : text) {
+    switch (ch) {
+      case '\\': out += "\\\\"; break;
+      case '"': out += "\\\""; break;
+      case '\n': out += "\\n"; break;
+      case '\r': out += "\\r"; break;
+      case '\t': out += "\\t"; break;
+      default:
+        if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) {
+          char buf[8];
+          std::snprintf(buf, sizeof buf, "\\x%02x", static_cast<unsigned>(static_cast<unsigned char>(ch)));
+          out += buf;
+        } else {
+          out += ch;
+        }
+    }
+  }
+  return out + "\"";
+}
+}  // namespace
 
 IntrinsicsResult calibrateIntrinsics(const std::vector<BoardView>& views, const cv::Size& image_size,
                                      const sim::Board& board, const IntrinsicsSettings& settings) {
@@ -111,7 +138,7 @@ std::string formatIntrinsicsYaml(const IntrinsicsResult& r, const sim::Board& bo
   std::ostringstream s;
   s << "# orbcal intrinsics: Zhang's method (cv::calibrateCamera). The camera section uses the scene file's keys.\n";
   s << "ok: " << (r.ok ? "true" : "false") << "\n";
-  if (!r.ok) s << "reason: \"" << r.reason << "\"\n";
+  if (!r.ok) s << "reason: " << quoted(r.reason) << "\n";
   s << "board: {inner_corners_x: " << board.corners_x << ", inner_corners_y: " << board.corners_y
     << ", square_m: " << n(board.square_m) << "}\n";
   if (r.ok) {
@@ -127,10 +154,10 @@ std::string formatIntrinsicsYaml(const IntrinsicsResult& r, const sim::Board& bo
   }
   s << "images_used: " << r.images_used << "\nimages:\n";
   for (const IntrinsicsImage& im : r.images) {
-    s << "  - {file: \"" << im.image << "\", status: " << toString(im.status);
+    s << "  - {file: " << quoted(im.image) << ", status: " << toString(im.status);
     if (im.status == ImageStatus::kFound && r.ok) s << ", rms_px: " << n(im.rms_px);
-    if (!im.reason.empty()) s << ", reason: \"" << im.reason << "\"";
-    if (!im.detail.empty()) s << ", detail: \"" << im.detail << "\"";
+    if (!im.reason.empty()) s << ", reason: " << quoted(im.reason);
+    if (!im.detail.empty()) s << ", detail: " << quoted(im.detail);
     s << "}\n";
   }
   return s.str();

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "orbcal/sim/config.hpp"
@@ -16,15 +17,6 @@ std::string fmt(double v, int decimals) {
   s.precision(decimals);
   s << v;
   return s.str();
-}
-
-// Cells hold no commas or line breaks (the table has no quoting).
-std::string cellText(std::string s) {
-  for (char& ch : s) {
-    if (ch == ',') ch = ';';
-    if (ch == '\n' || ch == '\r') ch = ' ';
-  }
-  return s;
 }
 
 const char* kPoseSuffix[6] = {"x_m", "y_m", "z_m", "rx_rad", "ry_rad", "rz_rad"};
@@ -42,18 +34,24 @@ std::vector<std::string> covColumns() {
   return c;
 }
 
-sim::Vector6d poseVector(const Eigen::Isometry3d& T) {
-  sim::Vector6d v;
-  v << T.translation(), sim::logSO3(T.linear());
-  return v;
-}
-Eigen::Isometry3d poseFromVector(const Eigen::VectorXd& v) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.translation() = v.head<3>();
-  T.linear() = sim::expSO3(v.tail<3>());
-  return T;
+// A non-negative integer cell within int range; the error names the file, the line and the column.
+int intCell(const sim::CsvTable& t, std::size_t r, int c, const char* column) {
+  const double v = t.number(r, c);
+  if (!(v == std::floor(v) && v >= 0.0 && v <= static_cast<double>(std::numeric_limits<int>::max()))) {
+    throw sim::InputError(t.where(r) + ": " + column + ": expected a non-negative integer (at most " +
+                          std::to_string(std::numeric_limits<int>::max()) + "), got '" + t.cell(r, c) + "'");
+  }
+  return static_cast<int>(v);
 }
 }  // namespace
+
+std::string measurementCell(std::string s) {
+  for (char& ch : s) {
+    if (ch == ',') ch = ';';
+    if (ch == '\n' || ch == '\r') ch = ' ';
+  }
+  return s;
+}
 
 Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim::Arm& nominal, const Eigen::VectorXd& q,
                          const MeasureSettings& settings) {
@@ -74,6 +72,14 @@ Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim
   m.reason = det.reason;
   m.detail = det.detail;
   if (!det.found()) return m;
+  if (!det.orientation_known) {
+    // Possible when the detector settings make the orientation optional (intrinsics do): a pose from
+    // a half-turned corner order would be wrong by a half turn about the board normal, not noisy.
+    m.status = ImageStatus::kRejected;
+    m.reason = "orientation undecidable";
+    m.detail = det.detail.empty() ? "the board's orientation is not known" : det.detail;
+    return m;
+  }
   m.num_corners = static_cast<int>(det.corners_px.size());
 
   const BoardPose pose = estimateBoardPose(cam, scene.board, det.corners_px);
@@ -93,7 +99,10 @@ Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim
   m.camera_T_board = pose.camera_T_board;
   m.base_T_flange = measuredFlangePose(scene, pose.camera_T_board);
   m.covariance = flangeCovariance(scene.flange_T_camera, pose.covariance_camera);
-  if (q.size() > 0) m.pose_error = sim::poseMinus(m.base_T_flange, sim::forwardKinematics(nominal, q));
+  if (q.size() > 0) {
+    m.pose_error = sim::poseMinus(m.base_T_flange, sim::forwardKinematics(nominal, q));
+    m.has_pose_error = true;
+  }
   m.status = ImageStatus::kFound;
   return m;
 }
@@ -107,20 +116,24 @@ std::string formatMeasurementsCsv(const std::vector<Measurement>& rows) {
   for (const auto& c : poseColumns("err_")) out << "," << c;
   out << "\n";
   for (const Measurement& m : rows) {
-    out << m.index << "," << cellText(m.image) << "," << toString(m.status) << "," << cellText(m.reason) << ","
-        << cellText(m.detail);
+    out << m.index << "," << measurementCell(m.image) << "," << toString(m.status) << ","
+        << measurementCell(m.reason) << "," << measurementCell(m.detail);
     const bool has_rms = m.found() || m.rms_px > 0.0;
     out << "," << (m.num_corners > 0 ? std::to_string(m.num_corners) : "") << ","
         << (has_rms ? sim::exactNumber(m.rms_px) : "");
     if (m.found()) {
       for (const auto* v : {&m.camera_T_board, &m.base_T_flange}) {
-        const sim::Vector6d p = poseVector(*v);
+        const sim::Vector6d p = sim::poseToVector(*v);
         for (int i = 0; i < 6; ++i) out << "," << sim::exactNumber(p[i]);
       }
       for (int r = 0; r < 6; ++r) {
         for (int k = r; k < 6; ++k) out << "," << sim::exactNumber(m.covariance(r, k));
       }
-      for (int i = 0; i < 6; ++i) out << "," << sim::exactNumber(m.pose_error[i]);
+      if (m.has_pose_error) {
+        for (int i = 0; i < 6; ++i) out << "," << sim::exactNumber(m.pose_error[i]);
+      } else {
+        out << std::string(6, ',');
+      }
     } else {
       out << std::string(6 + 6 + 21 + 6, ',');
     }
@@ -142,13 +155,14 @@ std::vector<Measurement> parseMeasurementsCsv(const std::string& text, const std
   const std::vector<int> c_cam = cols(poseColumns("cam_board_")), c_flange = cols(poseColumns("base_flange_")),
                          c_cov = cols(covColumns()), c_err = cols(poseColumns("err_"));
   std::vector<Measurement> rows;
+  std::map<int, std::size_t> row_of_index;
   for (std::size_t r = 0; r < t.rows(); ++r) {
     Measurement m;
-    const double index = t.number(r, c_index);
-    if (index != std::floor(index) || index < 0) {
-      throw sim::InputError(t.where(r) + ": index: expected a non-negative integer, got '" + t.cell(r, c_index) + "'");
+    m.index = intCell(t, r, c_index, "index");
+    if (const auto [it, added] = row_of_index.emplace(m.index, r); !added) {
+      throw sim::InputError(t.where(r) + ": index: " + std::to_string(m.index) + " repeats the row of " +
+                            t.where(it->second));
     }
-    m.index = static_cast<int>(index);
     m.image = t.cell(r, c_image);
     try {
       m.status = parseImageStatus(t.cell(r, c_status));
@@ -158,25 +172,26 @@ std::vector<Measurement> parseMeasurementsCsv(const std::string& text, const std
     }
     m.reason = t.cell(r, c_reason);
     m.detail = t.cell(r, c_detail);
-    if (!t.cell(r, c_n).empty()) m.num_corners = static_cast<int>(t.number(r, c_n));
+    if (!t.cell(r, c_n).empty()) m.num_corners = intCell(t, r, c_n, "num_corners");
     if (!t.cell(r, c_rms).empty()) m.rms_px = t.number(r, c_rms);
     if (m.found()) {
+      // numbers() throws, naming the column, for a partly empty group.
       const auto need = [&](const std::vector<int>& c, const char* what) {
         const auto v = t.numbers(r, c);
         if (!v) throw sim::InputError(t.where(r) + ": status 'found' but the " + what + " cells are empty");
-        for (std::size_t i = 0; i < c.size(); ++i) {
-          if (t.cell(r, c[i]).empty()) throw sim::InputError(t.where(r) + ": " + what + ": a cell is empty");
-        }
         return *v;
       };
-      m.camera_T_board = poseFromVector(need(c_cam, "cam_board"));
-      m.base_T_flange = poseFromVector(need(c_flange, "base_flange"));
+      m.camera_T_board = sim::poseFromVector(need(c_cam, "cam_board"));
+      m.base_T_flange = sim::poseFromVector(need(c_flange, "base_flange"));
       const Eigen::VectorXd cov = need(c_cov, "cov");
       int i = 0;
       for (int a = 0; a < 6; ++a) {
         for (int b = a; b < 6; ++b, ++i) m.covariance(a, b) = m.covariance(b, a) = cov[i];
       }
-      m.pose_error = need(c_err, "err");
+      if (const auto err = t.numbers(r, c_err)) {  // empty: no joint reading was available
+        m.pose_error = *err;
+        m.has_pose_error = true;
+      }
     }
     rows.push_back(std::move(m));
   }

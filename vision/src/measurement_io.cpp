@@ -1,4 +1,5 @@
 // Image and table files for measurement.hpp (the vision library's I/O edge).
+#include <cctype>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
 #include <system_error>
@@ -42,7 +43,16 @@ std::vector<Measurement> measureDataset(const sim::Dataset& dataset, const Measu
       m.reason = reason;
       m.detail = detail;
     } else {
-      m = measureImage(gray, dataset.scene, dataset.arm, s.q_rad, settings);
+      try {
+        m = measureImage(gray, dataset.scene, dataset.arm, s.q_rad, settings);
+      } catch (const cv::Exception& e) {
+        m = Measurement{};
+        m.status = ImageStatus::kRejected;
+        m.reason = "detector error";
+        std::string what = e.what();
+        while (!what.empty() && std::isspace(static_cast<unsigned char>(what.back()))) what.pop_back();
+        m.detail = measurementCell(what);
+      }
     }
     m.index = s.index;
     m.image = s.image;

@@ -38,7 +38,7 @@ cv::Mat drawSyntheticBoard(const sim::Camera& camera, const sim::Board& board, c
   fill(polygon(-q - m, -q - m, board.corners_x * q + m, board.corners_y * q + m), st.white);
   for (int j = 0; j <= board.corners_y; ++j) {
     for (int i = 0; i <= board.corners_x; ++i) {
-      if ((i + j) % 2 == 0) fill(polygon((i - 1) * q, (j - 1) * q, i * q, j * q), st.black);
+      if (sim::isBlackSquare(i, j)) fill(polygon((i - 1) * q, (j - 1) * q, i * q, j * q), st.black);
     }
   }
   cv::Mat img;

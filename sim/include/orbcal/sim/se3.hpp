@@ -23,6 +23,11 @@ Vector6d poseMinus(const Eigen::Isometry3d& measured, const Eigen::Isometry3d& n
 /// Inverse of poseMinus: nominal * (exp(S(e.tail)), e.head).
 Eigen::Isometry3d posePlus(const Eigen::Isometry3d& nominal, const Vector6d& e);
 
+/// T as the 6-vector the tables store: [translation (m); rotation vector logSO3(R) (rad)].
+Vector6d poseToVector(const Eigen::Isometry3d& T);
+/// Inverse of poseToVector: translation v.head, rotation expSO3(v.tail).
+Eigen::Isometry3d poseFromVector(const Vector6d& v);
+
 /// Adjoint of a_T_b: maps a twist [v; w] expressed in frame b to the same twist expressed in a.
 Matrix6d adjoint(const Eigen::Isometry3d& a_T_b);
 

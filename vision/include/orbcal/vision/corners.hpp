@@ -3,14 +3,20 @@
 // with an orientation that cannot flip.
 //
 // Why the order needs fixing: the detectors return the corners row by row, but which end of the board
-// they start from is theirs to choose (SB reversed the order in 14 of 50 rendered frames; the classic
-// detector forces the first row to the top, which breaks for camera roll beyond 90 deg; see
-// docs/rendering-notes.md, pitfall 6). orbcal's board has an even-by-odd square count
-// ((corners_x + 1) x (corners_y + 1), e.g. 10 x 7) coloured so that square (i, j), covering
-// x in [(i-1)s, i s], y in [(j-1)s, j s] of the board frame, is BLACK when i + j is even. The square
-// diagonally outside corner 0 is therefore black and, after a half turn, the corresponding square is
-// white. detectCorners samples the 2 x 2 squares around each end corner through a local homography and
-// reverses the list when their colours say the detector started from the wrong end.
+// they start from is theirs to choose, so the order they return may be reversed. On orbcal's 9 x 6 inner
+// corners the classic detector kept the board order in 200 rendered views and SB reversed it in every
+// one; on an 8 x 6 board the rendering notes (../shared/docs/rendering-notes.md, pitfall 6) saw SB
+// reverse it in 14 of 50 frames and the classic detector force the first row to the top, which breaks
+// for camera roll beyond 90 deg. detectCorners therefore fixes the order up itself, whatever the
+// detector did. orbcal's board has an even-by-odd square count ((corners_x + 1) x (corners_y + 1),
+// e.g. 10 x 7), coloured as sim::isBlackSquare says: square (i, j), covering x in [(i-1)s, i s],
+// y in [(j-1)s, j s] of the board frame, is BLACK when i + j is even. Square (1, 1), between inner
+// corners 0, 1, corners_x and corners_x + 1, is therefore black, while the square at that place after
+// a half turn, (corners_x - 1, corners_y - 1), is white (black iff corners_x + corners_y is even).
+// detectCorners samples the interior squares (bounded by four detected corners, so never outside the
+// detected area) at both ends of the list through a local homography and reverses the list when their
+// colours say the detector started from the wrong end; ends that disagree make the orientation
+// inconsistent.
 //
 // A board whose corners_x + corners_y is even (odd-by-odd squares) looks the same after a half turn:
 // its orientation cannot be decided from the image (status kRejected when required).
@@ -18,7 +24,9 @@
 // A printed board coloured the other way round (first outer square white) is read with its board
 // frame turned by a half turn about z: consistently, but the scene's base_T_board must say so.
 #include <Eigen/Core>
+#include <array>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -71,31 +79,37 @@ struct CornerDetection {
   /// Inner corners (px, OpenCV convention: pixel centres at integers), k as in sim::cornerInBoard.
   std::vector<Eigen::Vector2d> corners_px;
   bool reversed = false;              ///< the detector's order was reversed to fix the orientation
-  bool orientation_known = false;     ///< false only when require_orientation is off and undecidable
+  bool orientation_known = false;     ///< false only when require_orientation is off and the
+                                      ///< orientation is undecidable or inconsistent
   double orientation_contrast = 0.0;  ///< grey levels, white minus black squares, after any reversal
   bool found() const { return status == ImageStatus::kFound; }
 };
 
 /// Detects the board's inner corners. Throws std::invalid_argument unless gray is a non-empty
-/// CV_8UC1 image or the board has at least 2 x 2 corners. Every other outcome is a status.
+/// CV_8UC1 image and the board has at least 2 x 2 corners. Every other outcome is a status: an
+/// orientation that is undecidable or inconsistent is kRejected when require_orientation is on;
+/// otherwise the detector's order is kept, orientation_known is false and detail says why.
 [[nodiscard]] CornerDetection detectCorners(const cv::Mat& gray, const sim::Board& board,
                                             const DetectorSettings& settings = {});
 
-/// The orientation check on its own (used by detectCorners): the signed contrast (white minus black,
-/// grey levels) of the squares around the end corners, read in the order given. Positive: the order
-/// agrees with the board's colouring; negative: it is reversed. std::nullopt when no end's squares
-/// lie wholly inside the image. Throws std::invalid_argument when corners_px has the wrong size.
+/// The orientation check on its own (used by detectCorners): at each end of the list, the signed
+/// contrast (mean of the white minus mean of the black squares, grey levels, colours as expected for
+/// the order given) of the interior squares next to the end corner: squares i in {1, 2}, j in {1, 2}
+/// at the first end and i in {corners_x - 2, corners_x - 1}, j in {corners_y - 2, corners_y - 1} at the
+/// last (clipped to the interior squares 1..corners_x - 1, 1..corners_y - 1), each bounded by detected
+/// corners. Positive: the order agrees with the board's colouring; negative: it is reversed. An end
+/// whose sampled squares are not wholly inside the image (or too small) is not sampled. Throws
+/// std::invalid_argument when corners_px has the wrong size.
 struct OrientationEvidence {
-  double signed_contrast = 0.0;  ///< mean over the ends that could be sampled
+  double signed_contrast = 0.0;  ///< mean over the ends sampled (0 when none; meaningless unless consistent)
   int ends_sampled = 0;          ///< 0, 1 or 2
+  bool consistent = true;        ///< false when both ends were sampled and their signs disagree
+  std::array<std::optional<double>, 2> end_contrast;  ///< first end (corner 0), last end; nullopt: not sampled
 };
 OrientationEvidence orientationEvidence(const cv::Mat& gray, const sim::Board& board,
                                         const std::vector<Eigen::Vector2d>& corners_px);
 
 /// True when the board's colouring is the same after a half turn (corners_x + corners_y even).
 bool isHalfTurnSymmetric(const sim::Board& board);
-
-/// Colour of square (i, j) of the board (see the file comment): true for black.
-inline bool isBlackSquare(int i, int j) { return (i + j) % 2 == 0; }
 
 }  // namespace orbcal::vision

@@ -1,6 +1,7 @@
 #pragma once
 // One image -> one measured end-effector pose with its covariance, or a status saying why not; and
-// the measurement table `orbcal measure` writes (<dataset>/measurements.csv) and calib reads.
+// the measurement table `orbcal measure` writes (<dataset>/measurements.csv). loadMeasurements is its
+// reader for tools and users; the experiments use the rows in memory.
 //
 // measurements.csv: header line, then one row per sample of samples.csv, in its order. No image is
 // dropped: a sample without a pose has its status and reason and empty numeric cells.
@@ -14,7 +15,8 @@
 //   cov_<r><c> for 0 <= r <= c <= 5 (21 cells, row-major upper triangle): covariance of e_f, the
 //                                          right perturbation of base_T_flange in the flange frame,
 //                                          ordered [x y z (m); rx ry rz (rad)] (pose.hpp)
-//   err_{x,y,z}_m, err_{rx,ry,rz}_rad       sim::poseMinus(base_T_flange measured, FK(nominal arm, q))
+//   err_{x,y,z}_m, err_{rx,ry,rz}_rad       sim::poseMinus(base_T_flange measured, FK(nominal arm, q));
+//                                          empty when no joint reading was available
 #include <Eigen/Geometry>
 #include <functional>
 #include <map>
@@ -51,25 +53,35 @@ struct Measurement {
   Eigen::Isometry3d camera_T_board = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d base_T_flange = Eigen::Isometry3d::Identity();
   sim::Matrix6d covariance = sim::Matrix6d::Zero();  ///< of e_f (pose.hpp)
+  bool has_pose_error = false;                       ///< a joint reading q was given
   sim::Vector6d pose_error = sim::Vector6d::Zero();  ///< poseMinus(base_T_flange, FK(nominal, q)); zero without q
   bool found() const { return status == ImageStatus::kFound; }
 };
 
 /// Detect, order, solve and convert one grey image (CV_8UC1; throws std::invalid_argument otherwise).
 /// `nominal`/`q` give the pose error; pass q empty to skip it. index/image are left for the caller.
+/// A detection whose orientation is not known is never kFound (kRejected, "orientation undecidable"),
+/// whatever settings.detector.require_orientation says: a half-turned pose would be silently wrong.
 Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim::Arm& nominal, const Eigen::VectorXd& q,
                          const MeasureSettings& settings = {});
 
-/// Reads an image file as 8-bit grey. On failure returns an empty Mat and sets `status_reason` /
-/// `detail` ("file missing" / "cannot decode"); never throws for a bad file.
+/// Reads an image file as 8-bit grey. On failure returns an empty Mat and sets `reason`
+/// ("file missing" / "cannot decode") and `detail`; never throws for a bad file.
 cv::Mat readGrayImage(const std::string& path, std::string* reason, std::string* detail);
 
 /// Every sample of a dataset (images read from dataset.folder), in order; `progress(done, total)`.
+/// An OpenCV error on one image becomes that image's status (kRejected, "detector error", detail
+/// = the exception's text): one bad image never stops the run.
 std::vector<Measurement> measureDataset(const sim::Dataset& dataset, const MeasureSettings& settings = {},
                                         const std::function<void(int, int)>& progress = {});
 
+/// `text` as a cell of measurements.csv holds it: commas become ';' and line breaks ' ' (no quoting).
+std::string measurementCell(std::string text);
+
 std::string formatMeasurementsCsv(const std::vector<Measurement>& rows);
-/// Throws sim::InputError naming the file, line and column.
+/// Throws sim::InputError naming the file, line and column: a number that is not one, an index or
+/// num_corners that is not a non-negative integer within int range, a repeated index, a found row
+/// without its pose or covariance cells.
 std::vector<Measurement> parseMeasurementsCsv(const std::string& text, const std::string& source);
 std::vector<Measurement> loadMeasurements(const std::string& path);
 

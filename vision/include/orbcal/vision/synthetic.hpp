@@ -1,6 +1,6 @@
 #pragma once
 // An ideal board drawn with OpenCV polygons, for unit tests and the benchmark: not a renderer (no
-// lighting, no optics beyond the camera model). Square colouring as in corners.hpp; pixel centres at
+// lighting, no optics beyond the camera model). Squares coloured by sim::isBlackSquare; pixel centres at
 // integers (OpenCV); 4x supersampling with the exact intrinsics scaling s (c + 0.5) - 0.5.
 #include <cstdint>
 #include <opencv2/core.hpp>
