@@ -23,10 +23,12 @@ inline std::vector<double> timeRepeats(int repeats, const std::function<void()>&
 }
 
 /// "name: median X (min Y, max Z) [target T]"
+/// `label` precedes `target` (e.g. "target " for a goal; "" for a note such as "(notes measured ...)").
 inline void printFigure(const std::string& name, const std::vector<double>& s, const char* unit, double scale,
-                        const std::string& target) {
-  std::printf("  %-58s median %9.3f %s  (min %.3f, max %.3f; %zu runs)%s%s\n", name.c_str(), s[s.size() / 2] * scale,
-              unit, s.front() * scale, s.back() * scale, s.size(), target.empty() ? "" : "  target ", target.c_str());
+                        const std::string& target, const char* label = "target ") {
+  std::printf("  %-58s median %9.3f %s  (min %.3f, max %.3f; %zu runs)%s%s%s\n", name.c_str(), s[s.size() / 2] * scale,
+              unit, s.front() * scale, s.back() * scale, s.size(), target.empty() ? "" : "  ", target.empty() ? "" : label,
+              target.c_str());
 }
 
 /// Sections register themselves from their own bench_*.cpp:  ORBCAL_BENCH("render", benchRender);

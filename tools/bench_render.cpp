@@ -20,7 +20,7 @@ void benchRender() {
     const auto t = timeRepeats(30, [&] { renderer.renderClean(camera_T_board); });
     printFigure("render one " + std::to_string(scene.camera.width_px) + "x" + std::to_string(scene.camera.height_px) +
                     " frame, MSAA " + std::to_string(renderer.msaaSamples()) + "x, readback",
-                t, "ms", 1e3, "23-44 ms (notes)");
+                t, "ms", 1e3, "(notes measured 23-44 ms)", "");
   }
   const std::string out = (std::filesystem::temp_directory_path() / "orbcal-bench-render").string();
   render::DatasetJob job;

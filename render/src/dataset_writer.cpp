@@ -1,14 +1,19 @@
 #include "orbcal/render/dataset_writer.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <cstdio>
 #include <deque>
 #include <exception>
 #include <filesystem>
+#include <map>
 #include <mutex>
 #include <opencv2/imgcodecs.hpp>
+#include <set>
 #include <thread>
+#include <yaml-cpp/yaml.h>
 
 #include "orbcal/render/renderer.hpp"
 #include "orbcal/render/settings.hpp"
@@ -104,12 +109,200 @@ bool fileEquals(const std::string& path, const std::string& text) {
   }
 }
 
-/// An image from an earlier run that can be kept: it decodes, with the camera's size.
+/// An image from an earlier run that can be kept: it decodes as 8-bit grey (CV_8UC1, what the renderer
+/// writes), with the camera's size.
 bool usableImage(const std::string& path, const sim::Camera& camera) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) return false;
   const cv::Mat img = cv::imread(path, cv::IMREAD_UNCHANGED);
-  return !img.empty() && img.cols == camera.width_px && img.rows == camera.height_px;
+  return !img.empty() && img.type() == CV_8UC1 && img.cols == camera.width_px && img.rows == camera.height_px;
+}
+
+/// A mesh file the scene uses, as copied into the dataset folder.
+struct MeshCopy {
+  std::string relative;    ///< path inside the dataset folder, '/'-separated
+  std::string bytes;       ///< the file's content
+  bool rewritten = false;  ///< the copied scene.yaml names it by `relative` instead of as written
+};
+
+/// True when `relative` (inside the dataset folder) is the dataset's own file or folder, or under it.
+bool reservedInDataset(const std::filesystem::path& relative, const sim::DatasetManifest& m) {
+  const std::string first = relative.begin()->string();
+  return first == m.robot_file || first == m.scene_file || first == m.samples_file || first == "manifest.yaml" ||
+         first == "images";
+}
+
+/// Where each mesh goes in the dataset folder, so that the copied scene.yaml (at DIR/scene.yaml; relative
+/// mesh paths resolve against its folder) finds it: a relative path without ".." keeps its place,
+/// DIR/<path>; an absolute one, one with "..", or one that would land on the dataset's own files goes to
+/// DIR/meshes/<file name> (made unique) and is rewritten in the copied scene. Reads every mesh.
+std::vector<MeshCopy> planMeshCopies(const RenderSettings& settings, const sim::DatasetManifest& m) {
+  std::vector<MeshCopy> copies(settings.meshes.size());
+  std::map<std::string, std::string> taken;  // relative path in the dataset -> the bytes it holds
+  // Kept paths first, so that relocated meshes never take a kept one's place.
+  for (std::size_t i = 0; i < settings.meshes.size(); ++i) {
+    const MeshSpec& spec = settings.meshes[i];
+    try {
+      copies[i].bytes = sim::readTextSource(spec.file);
+    } catch (const sim::InputError& e) {
+      throw sim::InputError(settings.source + ": " + spec.key + ": cannot read mesh '" + spec.file + "' to copy it into "
+                            "the dataset: " + e.what());
+    }
+    // ".." is checked as written: DIR/a/../x.obj does not resolve unless DIR/a exists.
+    bool up = false;
+    for (const auto& part : std::filesystem::path(spec.file_as_written)) up |= part == "..";
+    const std::filesystem::path written = std::filesystem::path(spec.file_as_written).lexically_normal();
+    if (written.is_absolute() || up || written.empty() || reservedInDataset(written, m)) {
+      copies[i].rewritten = true;
+      continue;
+    }
+    copies[i].relative = written.generic_string();
+    taken.emplace(copies[i].relative, copies[i].bytes);  // the same path always resolves to the same file
+  }
+  for (std::size_t i = 0; i < settings.meshes.size(); ++i) {
+    MeshCopy& c = copies[i];
+    if (!c.rewritten) continue;
+    const std::filesystem::path name = std::filesystem::path(settings.meshes[i].file).filename();
+    std::string relative = "meshes/" + name.string();
+    for (int n = 2;; ++n) {
+      const auto it = taken.find(relative);
+      if (it == taken.end() || it->second == c.bytes) break;  // free, or the same content already there
+      relative = "meshes/" + name.stem().string() + "-" + std::to_string(n) + name.extension().string();
+    }
+    c.relative = relative;
+    taken.emplace(relative, c.bytes);
+  }
+  return copies;
+}
+
+/// Text of the YAML string `s`, double-quoted.
+std::string yamlQuoted(const std::string& s) {
+  std::string q = "\"";
+  for (char ch : s) {
+    if (ch == '"' || ch == '\\') q += '\\';
+    q += ch;
+  }
+  return q + "\"";
+}
+
+/// The scene text with the `file:` value of each rewritten mesh replaced by its place in the dataset,
+/// everything else (comments, layout) unchanged, and a comment at the top saying what was rewritten.
+std::string rewriteMeshPaths(const std::string& scene_text, const RenderSettings& settings,
+                             const std::vector<MeshCopy>& copies) {
+  struct Edit {
+    std::size_t begin, end;
+    std::string text;
+  };
+  std::vector<Edit> edits;
+  std::string note;
+  const YAML::Node root = YAML::Load(scene_text);  // parsed before (loadRenderSettings): no syntax errors here
+  for (std::size_t i = 0; i < copies.size(); ++i) {
+    if (!copies[i].rewritten) continue;
+    const MeshSpec& spec = settings.meshes[i];
+    const YAML::Node node = root["meshes"][i]["file"];
+    const std::size_t begin = static_cast<std::size_t>(node.Mark().pos);
+    const std::string value = node.Scalar();
+    std::size_t end = std::string::npos;
+    const char open = begin < scene_text.size() ? scene_text[begin] : '\0';
+    if (open == '"' || open == '\'') {
+      for (std::size_t k = begin + 1; k < scene_text.size() && scene_text[k] != '\n'; ++k) {
+        if (open == '"' && scene_text[k] == '\\') {
+          ++k;
+        } else if (scene_text[k] == open) {
+          if (open == '\'' && k + 1 < scene_text.size() && scene_text[k + 1] == '\'') {
+            ++k;  // '' is a quote inside a single-quoted string
+          } else {
+            end = k + 1;
+            break;
+          }
+        }
+      }
+    } else if (scene_text.compare(begin, value.size(), value) == 0) {
+      end = begin + value.size();
+    }
+    if (end == std::string::npos) {
+      throw sim::InputError(settings.source + ": " + spec.key + ": cannot rewrite this mesh path in the dataset's copy "
+                            "of the scene (write it on one line, plain or quoted)");
+    }
+    edits.push_back({begin, end, yamlQuoted(copies[i].relative)});
+    note += "#   " + spec.key + ": " + value + "\n";
+  }
+  if (edits.empty()) return scene_text;
+  std::sort(edits.begin(), edits.end(), [](const Edit& a, const Edit& b) { return a.begin > b.begin; });
+  std::string text = scene_text;
+  for (const Edit& e : edits) text.replace(e.begin, e.end - e.begin, e.text);
+  // Check the rewrite: the copied scene must name each relocated mesh by its place in the dataset.
+  const RenderSettings check = parseRenderSettings(sim::ConfigNode::parse(text, settings.source), "");
+  for (std::size_t i = 0; i < copies.size(); ++i) {
+    if (check.meshes.size() != copies.size() || (copies[i].rewritten && check.meshes[i].file_as_written != copies[i].relative)) {
+      throw sim::InputError(settings.source + ": " + settings.meshes[i].key +
+                            ": cannot rewrite this mesh path in the dataset's copy of the scene");
+    }
+  }
+  return "# orbcal render: copied into this dataset with these mesh paths rewritten to the copies in meshes/;\n"
+         "# they were:\n" + note + text;
+}
+
+/// Relative tolerance of the manifest's numbers (12 significant digits in degrees and mm), as
+/// sim::DatasetManifest::operator== uses.
+bool sameNumber(double a, double b) { return std::abs(a - b) <= 1e-11 * std::max(std::abs(a), std::abs(b)); }
+
+/// The manifest fields (as named in manifest.yaml) in which `old` and `fresh` differ.
+std::vector<std::string> manifestDifferences(const sim::DatasetManifest& old, const sim::DatasetManifest& fresh) {
+  std::vector<std::string> d;
+  const auto check = [&](bool same, const char* field) {
+    if (!same) d.emplace_back(field);
+  };
+  check(old.format == fresh.format, "format");
+  check(old.program_version == fresh.program_version, "program_version");
+  check(old.robot_file == fresh.robot_file, "robot");
+  check(old.scene_file == fresh.scene_file, "scene");
+  check(old.samples_file == fresh.samples_file, "samples");
+  check(old.num_samples == fresh.num_samples, "num_samples");
+  check(sameNumber(old.joint_noise_sigma_rad, fresh.joint_noise_sigma_rad), "joint_noise_deg");
+  check(old.configuration_seed == fresh.configuration_seed, "seeds.configurations");
+  check(old.noise_seed == fresh.noise_seed, "seeds.joint_noise");
+  check(old.render_seed == fresh.render_seed, "seeds.render");
+  check(old.error_set == fresh.error_set, "true_errors.name");
+  bool errors_same = old.true_errors.has_value() == fresh.true_errors.has_value();
+  if (errors_same && old.true_errors) {
+    errors_same = old.true_errors->size() == fresh.true_errors->size();
+    for (Eigen::Index i = 0; errors_same && i < old.true_errors->size(); ++i) {
+      errors_same = sameNumber((*old.true_errors)[i], (*fresh.true_errors)[i]);
+    }
+  }
+  check(errors_same, "true_errors.joints");
+  return d;
+}
+
+/// Removes `path` (a file; absent is fine) for --force; throws InputError naming it when it stays.
+void removeForForce(const std::string& path, bool folder) {
+  std::error_code ec;
+  if (folder) {
+    std::filesystem::remove_all(path, ec);
+  } else {
+    std::filesystem::remove(path, ec);
+  }
+  if (ec) throw sim::InputError(path + ": cannot remove it to replace the dataset (--force): " + ec.message());
+}
+
+/// Deletes the temporary files sim::writeFileAtomic leaves in images/ when a run is killed mid-write
+/// (NAME.tmp.PID). Returns how many.
+int removeTemporaryImages(const std::string& images_dir) {
+  int removed = 0;
+  std::error_code ec;
+  if (!std::filesystem::is_directory(images_dir, ec)) return 0;
+  for (std::filesystem::directory_iterator it(images_dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    std::error_code ec_file;
+    if (name.find(".tmp.") == std::string::npos || !it->is_regular_file(ec_file)) continue;
+    if (!std::filesystem::remove(it->path(), ec_file) || ec_file) {
+      throw sim::InputError(it->path().string() + ": cannot remove this leftover temporary file: " + ec_file.message());
+    }
+    ++removed;
+  }
+  if (ec) throw sim::InputError(images_dir + ": cannot list the folder: " + ec.message());
+  return removed;
 }
 
 }  // namespace
@@ -129,6 +322,9 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   sim::Dataset dataset;
   dataset.folder = job.out;
   sim::DatasetManifest& m = dataset.manifest;
+  // The meshes go into the folder too, so that the dataset stands alone (see planMeshCopies).
+  const std::vector<MeshCopy> meshes = planMeshCopies(settings, m);
+  const std::string scene_copy = rewriteMeshPaths(scene_text, settings, meshes);
   m.program_version = ORBCAL_VERSION;
   m.num_samples = job.count;
   m.true_errors = y_true;
@@ -143,26 +339,36 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   DatasetRunReport report;
   std::error_code ec;
   if (std::filesystem::exists(manifest_path, ec)) {
-    bool same = false;
+    std::vector<std::string> differ;  // what is not the same, for the message
     try {
       const sim::DatasetManifest old = sim::parseManifest(sim::readTextSource(manifest_path), manifest_path);
       // The manifest prints numbers exactly, so a reparsed new manifest compares equal to the old one
       // when (and only when) the inputs are the same.
       const sim::DatasetManifest fresh = sim::parseManifest(sim::formatManifest(m), manifest_path);
-      same = old == fresh && fileEquals(dataset.path(m.robot_file), robot_text) &&
-             fileEquals(dataset.path(m.scene_file), scene_text);
-    } catch (const sim::InputError&) {
-      same = false;
+      if (!(old == fresh)) {
+        differ = manifestDifferences(old, fresh);
+        if (differ.empty()) differ.emplace_back("manifest.yaml");
+      }
+    } catch (const sim::InputError& e) {
+      differ.push_back(std::string("manifest.yaml (") + e.what() + ")");
     }
-    if (same) {
+    if (!fileEquals(dataset.path(m.robot_file), robot_text)) differ.push_back(m.robot_file);
+    if (!fileEquals(dataset.path(m.scene_file), scene_copy)) differ.push_back(m.scene_file);
+    for (const MeshCopy& c : meshes) {
+      if (!fileEquals(dataset.path(c.relative), c.bytes)) differ.push_back(c.relative);
+    }
+    if (differ.empty()) {
       report.resumed = true;
+      removeTemporaryImages(dataset.path("images"));
     } else if (!job.force) {
-      throw sim::InputError(manifest_path + ": the folder holds a dataset made from different inputs (robot, scene, "
-                            "errors, count, seeds or joint noise); use another --out folder or --force to replace it");
+      std::string list;
+      for (const std::string& d : differ) list += (list.empty() ? "" : ", ") + d;
+      throw sim::InputError(manifest_path + ": the folder holds a dataset made from different inputs (differs: " + list +
+                            "); use another --out folder or --force to replace it");
     } else {
-      for (const std::string& f : {m.samples_file, std::string("manifest.yaml")}) std::filesystem::remove(dataset.path(f), ec);
-      std::filesystem::remove_all(dataset.path("images"), ec);
-      if (ec) throw sim::InputError(dataset.path("images") + ": cannot remove the old images: " + ec.message());
+      removeForForce(dataset.path(m.samples_file), false);
+      removeForForce(manifest_path, false);
+      removeForForce(dataset.path("images"), true);
     }
   }
 
@@ -188,7 +394,11 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   sim::makeDirectories(dataset.path("images"));
   if (!report.resumed) {
     sim::writeFileAtomic(dataset.path(m.robot_file), robot_text);
-    sim::writeFileAtomic(dataset.path(m.scene_file), scene_text);
+    for (const MeshCopy& c : meshes) {
+      sim::makeDirectories(std::filesystem::path(dataset.path(c.relative)).parent_path().string());
+      sim::writeFileAtomic(dataset.path(c.relative), c.bytes);
+    }
+    sim::writeFileAtomic(dataset.path(m.scene_file), scene_copy);
     sim::writeFileAtomic(manifest_path, sim::formatManifest(m));
   }
 

@@ -9,32 +9,22 @@ namespace orbcal::render {
 namespace {
 constexpr int kMaxNewtonIterations = 50;
 constexpr double kNewtonTol = 1e-14;  // normalised units: ~1e-11 px at f = 1400 px
-constexpr int kBorderPx = 2;          // around the used area of the pinhole image, for bilinear lookups
+constexpr int kBorderPx = 2;          // around the used area of the pinhole image: bicubic lookups read 4 x 4 pixels (-1..+2)
 }  // namespace
 
 bool undistortNormalized(const std::array<double, 5>& k, const Eigen::Vector2d& xd, Eigen::Vector2d* out) {
-  const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3], k3 = k[4];
-  double x = xd.x(), y = xd.y();
+  Eigen::Vector2d x = xd;
   for (int it = 0; it < kMaxNewtonIterations; ++it) {
-    // Same formula as sim::project.
-    const double r2 = x * x + y * y;
-    const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
-    const double dradial = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2);  // d radial / d r2
-    const double fx = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x) - xd.x();
-    const double fy = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y - xd.y();
-    const double a = radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x;
-    const double b = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
-    const double c = b;
-    const double d = radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x;
-    const double det = a * d - b * c;
+    Eigen::Matrix2d J;
+    const Eigen::Vector2d f = sim::distortNormalized(k, x, &J) - xd;
+    const double det = J.determinant();
     if (!(det > 0.0)) return false;
-    if (std::abs(fx) < kNewtonTol && std::abs(fy) < kNewtonTol) {
-      *out = Eigen::Vector2d(x, y);
+    if (std::abs(f.x()) < kNewtonTol && std::abs(f.y()) < kNewtonTol) {
+      *out = x;
       return true;
     }
-    x -= (d * fx - b * fy) / det;
-    y -= (a * fy - c * fx) / det;
-    if (!std::isfinite(x) || !std::isfinite(y)) return false;
+    x -= Eigen::Vector2d(J(1, 1) * f.x() - J(0, 1) * f.y(), J(0, 0) * f.y() - J(1, 0) * f.x()) / det;
+    if (!std::isfinite(x.x()) || !std::isfinite(x.y())) return false;
   }
   return false;
 }

@@ -19,24 +19,34 @@ OsMesaContext::OsMesaContext(int major, int minor) {
     throw std::runtime_error("OSMesa: cannot create an OpenGL " + std::to_string(major) + "." + std::to_string(minor) +
                              " core-profile context (is GALLIUM_DRIVER set to a driver without it?)");
   }
-  buffer_.assign(kDefaultBufferPx * kDefaultBufferPx * 4, 0);
-  makeCurrent();
-  const auto str = [](GLenum name) {
-    const GLubyte* s = glGetString(name);
-    return s ? std::string(reinterpret_cast<const char*>(s)) : std::string();
-  };
-  version_ = str(GL_VERSION);
-  renderer_ = str(GL_RENDERER);
-  if (version_.empty()) {
-    OSMesaDestroyContext(ctx_);
-    throw std::runtime_error("OSMesa: glGetString(GL_VERSION) returned nothing: gl* calls do not reach OSMesa "
-                             "(is libGL or libOpenGL linked before libOSMesa?)");
+  // The destructor does not run when the constructor throws: release the context on every failure below.
+  try {
+    buffer_.assign(kDefaultBufferPx * kDefaultBufferPx * 4, 0);
+    makeCurrent();
+    const auto str = [](GLenum name) {
+      const GLubyte* s = glGetString(name);
+      return s ? std::string(reinterpret_cast<const char*>(s)) : std::string();
+    };
+    version_ = str(GL_VERSION);
+    renderer_ = str(GL_RENDERER);
+    if (version_.empty()) {
+      throw std::runtime_error("OSMesa: glGetString(GL_VERSION) returned nothing: gl* calls do not reach OSMesa "
+                               "(is libGL or libOpenGL linked before libOSMesa?)");
+    }
+  } catch (...) {
+    release();
+    throw;
   }
 }
 
-OsMesaContext::~OsMesaContext() {
+OsMesaContext::~OsMesaContext() { release(); }
+
+void OsMesaContext::release() noexcept {
+  if (!ctx_) return;
+  // Unbind before destroying, so this thread is never left with a dangling current context.
   if (OSMesaGetCurrentContext() == ctx_) OSMesaMakeCurrent(nullptr, nullptr, GL_UNSIGNED_BYTE, 0, 0);
   OSMesaDestroyContext(ctx_);
+  ctx_ = nullptr;
 }
 
 void OsMesaContext::makeCurrent() {

@@ -70,6 +70,7 @@ float triangleWave(float t) { return 1.0 - abs(mod(t, 2.0) - 1.0); }
 // The board's albedo averaged over the pixel's footprint: the bounding box, in board coordinates, of
 // the pixel (a point-symmetric kernel, so corners stay exactly in place). Black where
 // (floor(x / s) + floor(y / s)) is even inside the squared area, i.e. 0.5 + 0.5 sx sy, which is separable.
+// This is sim::isBlackSquare (square i = floor(x / s) + 1, j likewise), the contract; tests/render checks it.
 float filteredChecker() {
   vec2 p = v_pos.xy / u_square;
   vec2 h = 0.5 * (abs(dFdx(p)) + abs(dFdy(p))) + 1e-6;
@@ -213,13 +214,14 @@ void pushVertex(std::vector<float>& v, const Eigen::Vector3d& p, const Eigen::Ve
 /// coordinates (no T-junctions), so the surface has no cracks.
 std::vector<float> boardVertices(const sim::Board& b, const RenderOptions& o) {
   const double s = b.square_m, m = b.margin_m;
+  const std::array<Eigen::Vector3d, 4> outline = sim::boardOutline(b);  // [0] lowest x and y, [2] highest
   std::vector<double> xs, ys;
-  if (m > 0) xs.push_back(-s - m);
+  if (m > 0) xs.push_back(outline[0].x());
   for (int i = -1; i <= b.corners_x; ++i) xs.push_back(i * s);
-  if (m > 0) xs.push_back(b.corners_x * s + m);
-  if (m > 0) ys.push_back(-s - m);
+  if (m > 0) xs.push_back(outline[2].x());
+  if (m > 0) ys.push_back(outline[0].y());
   for (int j = -1; j <= b.corners_y; ++j) ys.push_back(j * s);
-  if (m > 0) ys.push_back(b.corners_y * s + m);
+  if (m > 0) ys.push_back(outline[2].y());
   const int off = m > 0 ? 1 : 0;  // index of the line x = -s
   const Eigen::Vector3d n(0, 0, -1);  // the printed face looks along -z_board
   std::vector<float> v;
@@ -227,7 +229,7 @@ std::vector<float> boardVertices(const sim::Board& b, const RenderOptions& o) {
     for (std::size_t c = 0; c + 1 < ys.size(); ++c) {
       const int i = static_cast<int>(a) - off, j = static_cast<int>(c) - off;  // square (i, j); margin outside 0..corners
       const bool square = i >= 0 && i <= b.corners_x && j >= 0 && j <= b.corners_y;
-      const double albedo = (square && (i + j) % 2 == 0) ? o.board_black : o.board_white;
+      const double albedo = (square && sim::isBlackSquare(i, j)) ? o.board_black : o.board_white;
       const Eigen::Vector3d p00(xs[a], ys[c], 0), p10(xs[a + 1], ys[c], 0), p11(xs[a + 1], ys[c + 1], 0),
           p01(xs[a], ys[c + 1], 0);
       for (const auto* p : {&p00, &p10, &p11, &p00, &p11, &p01}) pushVertex(v, *p, n, albedo);
@@ -339,9 +341,11 @@ struct BoardRenderer::Impl {
     glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_rb);
     glGetIntegerv(GL_MAX_SAMPLES, &max_samples);
     if (gl_camera.width_px > max_rb || gl_camera.height_px > max_rb) {
-      throw sim::InputError(settings.source + ": camera: the rendered image (" + std::to_string(gl_camera.width_px) + "x" +
-                            std::to_string(gl_camera.height_px) + " px with supersampling and distortion) exceeds "
-                            "GL_MAX_RENDERBUFFER_SIZE " + std::to_string(max_rb));
+      throw sim::InputError(settings.source + ": camera.width_px/height_px and render.supersample: the rendered image (" +
+                            std::to_string(gl_camera.width_px) + "x" + std::to_string(gl_camera.height_px) +
+                            " px = camera size, enlarged for distortion, times render.supersample " +
+                            std::to_string(settings.options.supersample) + ") exceeds GL_MAX_RENDERBUFFER_SIZE " +
+                            std::to_string(max_rb) + "; lower render.supersample or the camera size");
     }
     int want = settings.options.msaa_samples > 1 ? settings.options.msaa_samples : 0;
     if (want > max_samples) {
@@ -379,7 +383,13 @@ struct BoardRenderer::Impl {
   }
 
   ~Impl() {
-    context.makeCurrent();
+    // Destructors must not throw. If the context cannot be made current, skip the deletions: the GL
+    // objects die with the context (OsMesaContext's destructor, which runs next).
+    try {
+      context.makeCurrent();
+    } catch (...) {
+      return;
+    }
     for (Drawable& d : drawables) {
       glDeleteBuffers(1, &d.vbo);
       glDeleteVertexArrays(1, &d.vao);
@@ -396,11 +406,7 @@ struct BoardRenderer::Impl {
   void buildShadowMap(const std::vector<Eigen::Vector3d>& casters) {
     const Eigen::Vector3d zl = to_sun_board;
     const Eigen::Vector3d xl = zl.unitOrthogonal(), yl = zl.cross(xl);
-    const double s = scene.board.square_m, m = scene.board.margin_m;
-    const std::array<Eigen::Vector3d, 4> receivers{
-        Eigen::Vector3d(-s - m, -s - m, 0), Eigen::Vector3d(scene.board.corners_x * s + m, -s - m, 0),
-        Eigen::Vector3d(-s - m, scene.board.corners_y * s + m, 0),
-        Eigen::Vector3d(scene.board.corners_x * s + m, scene.board.corners_y * s + m, 0)};
+    const std::array<Eigen::Vector3d, 4> receivers = sim::boardOutline(scene.board);
     double amin = 1e300, amax = -1e300, bmin = 1e300, bmax = -1e300, dmin = 1e300, dmax = -1e300;
     for (const auto& p : receivers) {
       amin = std::min(amin, xl.dot(p)), amax = std::max(amax, xl.dot(p));
@@ -545,9 +551,5 @@ cv::Mat BoardRenderer::render(const Eigen::Isometry3d& camera_T_board, std::uint
 
 int BoardRenderer::msaaSamples() const { return impl_->samples; }
 const std::vector<std::string>& BoardRenderer::warnings() const { return impl_->warnings; }
-const sim::Camera& BoardRenderer::pinholeCamera() const { return impl_->pinhole; }
-std::string BoardRenderer::glDescription() const {
-  return impl_->context.version() + " / " + impl_->context.renderer();
-}
 
 }  // namespace orbcal::render

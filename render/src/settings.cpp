@@ -1,6 +1,7 @@
 #include <filesystem>
 
 #include "orbcal/render/settings.hpp"
+#include "orbcal/sim/io.hpp"
 
 namespace orbcal::render {
 
@@ -53,6 +54,7 @@ MeshSpec parseMesh(const sim::ConfigNode& n, const std::string& base_dir) {
   m.key = n["file"].path();
   const std::string file = n["file"].asString();
   if (file.empty()) n["file"].fail("must not be empty");
+  m.file_as_written = file;
   const std::filesystem::path p(file);
   m.file = (p.is_absolute() || base_dir.empty()) ? p.string() : (std::filesystem::path(base_dir) / p).string();
   const std::string frame = n.optional("frame").asString("board");
@@ -92,6 +94,7 @@ RenderOptions parseOptions(const sim::ConfigNode& n) {
 }  // namespace
 
 RenderSettings parseRenderSettings(const sim::ConfigNode& root, const std::string& base_dir) {
+  root.requireOnlyKeys(sim::sceneTopLevelKeys());  // a misspelt section (e.g. `lightning:`) is an error, not ignored
   RenderSettings s;
   s.source = root.source();
   s.lighting = parseLighting(root.optional("lighting"));

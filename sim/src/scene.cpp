@@ -11,19 +11,33 @@ bool Camera::hasDistortion() const {
   return false;
 }
 
-Eigen::Vector2d project(const Camera& camera, const Eigen::Vector3d& p_cam) {
-  const double x = p_cam.x() / p_cam.z(), y = p_cam.y() / p_cam.z();
-  const auto& k = camera.distortion;  // k1 k2 p1 p2 k3
+Eigen::Vector2d distortNormalized(const std::array<double, 5>& k, const Eigen::Vector2d& xy,
+                                  Eigen::Matrix2d* J_distorted_xy) {
+  const double k1 = k[0], k2 = k[1], p1 = k[2], p2 = k[3], k3 = k[4];
+  const double x = xy.x(), y = xy.y();
   const double r2 = x * x + y * y;
-  const double radial = 1.0 + r2 * (k[0] + r2 * (k[1] + r2 * k[4]));
-  const double xd = x * radial + 2.0 * k[2] * x * y + k[3] * (r2 + 2.0 * x * x);
-  const double yd = y * radial + k[2] * (r2 + 2.0 * y * y) + 2.0 * k[3] * x * y;
-  return {camera.fx_px * xd + camera.cx_px, camera.fy_px * yd + camera.cy_px};
+  const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+  const double xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+  const double yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+  if (J_distorted_xy) {
+    const double dradial = k1 + r2 * (2.0 * k2 + 3.0 * k3 * r2);  // d radial / d r2
+    const double cross = 2.0 * x * y * dradial + 2.0 * p1 * x + 2.0 * p2 * y;
+    *J_distorted_xy << radial + 2.0 * x * x * dradial + 2.0 * p1 * y + 6.0 * p2 * x, cross,
+        cross, radial + 2.0 * y * y * dradial + 6.0 * p1 * y + 2.0 * p2 * x;
+  }
+  return {xd, yd};
+}
+
+Eigen::Vector2d project(const Camera& camera, const Eigen::Vector3d& p_cam) {
+  const Eigen::Vector2d d = distortNormalized(camera.distortion, Eigen::Vector2d(p_cam.x() / p_cam.z(), p_cam.y() / p_cam.z()));
+  return {camera.fx_px * d.x() + camera.cx_px, camera.fy_px * d.y() + camera.cy_px};
 }
 
 Eigen::Vector3d cornerInBoard(const Board& board, int k) {
   return {(k % board.corners_x) * board.square_m, (k / board.corners_x) * board.square_m, 0.0};
 }
+
+bool isBlackSquare(int i, int j) { return (i + j) % 2 == 0; }
 
 std::vector<Eigen::Vector3d> boardCorners(const Board& board) {
   std::vector<Eigen::Vector3d> corners;
@@ -37,6 +51,15 @@ std::array<Eigen::Vector3d, 4> squaresOutline(const Board& board) {
   const double x0 = -s, y0 = -s, x1 = board.corners_x * s, y1 = board.corners_y * s;
   return {Eigen::Vector3d(x0, y0, 0), Eigen::Vector3d(x1, y0, 0), Eigen::Vector3d(x1, y1, 0),
           Eigen::Vector3d(x0, y1, 0)};
+}
+
+std::array<Eigen::Vector3d, 4> boardOutline(const Board& board) {
+  const double m = board.margin_m;
+  std::array<Eigen::Vector3d, 4> outline = squaresOutline(board);
+  const std::array<Eigen::Vector3d, 4> grow{Eigen::Vector3d(-m, -m, 0), Eigen::Vector3d(m, -m, 0),
+                                            Eigen::Vector3d(m, m, 0), Eigen::Vector3d(-m, m, 0)};
+  for (int i = 0; i < 4; ++i) outline[i] += grow[i];
+  return outline;
 }
 
 Eigen::Vector3d boardCentre(const Board& board) {

@@ -4,10 +4,15 @@
 
 namespace orbcal::sim {
 
+const std::vector<std::string>& sceneTopLevelKeys() {
+  static const std::vector<std::string> keys{"name",  "camera",   "board",        "base_T_board", "flange_T_camera",
+                                             "views", "lighting", "degradations", "meshes",       "render"};
+  return keys;
+}
+
 Scene loadScene(const std::string& path) {
   const ConfigNode root = ConfigNode::load(path);
-  root.requireOnlyKeys({"name", "camera", "board", "base_T_board", "flange_T_camera", "views", "lighting",
-                        "degradations", "meshes", "render"});
+  root.requireOnlyKeys(sceneTopLevelKeys());
   Scene s;
   s.source = path;
   s.name = root["name"].asString();

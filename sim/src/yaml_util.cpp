@@ -127,13 +127,17 @@ Eigen::Isometry3d ConfigNode::asTransform() const {
 }
 
 void ConfigNode::requireOnlyKeys(std::initializer_list<const char*> allowed) const {
+  requireOnlyKeys(std::vector<std::string>(allowed.begin(), allowed.end()));
+}
+
+void ConfigNode::requireOnlyKeys(const std::vector<std::string>& allowed) const {
   if (!node_.IsMap()) fail("expected a map");
   const std::set<std::string> ok(allowed.begin(), allowed.end());
   for (const auto& kv : node_) {
     const std::string key = kv.first.as<std::string>();
     if (!ok.count(key)) {
       std::string list;
-      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+      for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
       throw InputError(source_ + ": " + childPath(key) + ": unknown key (expected one of: " + list + ")");
     }
   }

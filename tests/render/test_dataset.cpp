@@ -5,6 +5,8 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "orbcal/render/dataset_writer.hpp"
+#include "orbcal/render/renderer.hpp"
+#include "orbcal/render/settings.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/configurations.hpp"
 #include "orbcal/sim/dataset.hpp"
@@ -60,11 +62,15 @@ TEST_CASE("a rendered dataset reloads with every field, and an interrupted run r
   REQUIRE(!std::filesystem::exists(job.out + "/images/000002.png"));
   // A half-written image from a crash is rendered again.
   std::ofstream(job.out + "/images/000001.png") << "not a png";
+  // sim::writeFileAtomic's temporary file, left by a run killed mid-write, is deleted on resume.
+  const std::string leftover = job.out + "/images/000002.png.tmp.99999";
+  std::ofstream(leftover) << "half an image";
 
   const render::DatasetRunReport resumed = render::renderDataset(job);
   CHECK(resumed.resumed);
   CHECK(resumed.skipped == 1);
   CHECK(resumed.rendered == kCount - 1);
+  CHECK(!std::filesystem::exists(leftover));
 
   // Reload: every field.
   const sim::Dataset d = sim::loadDataset(job.out);
@@ -123,6 +129,13 @@ TEST_CASE("a rendered dataset reloads with every field, and an interrupted run r
   const render::DatasetRunReport again = render::renderDataset(job);
   CHECK(again.rendered == 0);
   CHECK(again.skipped == kCount);
+
+  // An image of the right size that is not 8-bit grey (here BGR) is not kept: rendered again, same bytes.
+  cv::imwrite(job.out + "/images/000004.png", cv::Mat(1024, 1280, CV_8UC3, cv::Scalar(1, 2, 3)));
+  const render::DatasetRunReport colour = render::renderDataset(job);
+  CHECK(colour.rendered == 1);
+  CHECK(colour.skipped == kCount - 1);
+  CHECK(readBytes(job.out + "/images/000004.png") == readBytes(fresh.out + "/images/000004.png"));
 }
 
 TEST_CASE("the dataset writer refuses other inputs in the same folder unless forced", "[render][dataset]") {
@@ -134,7 +147,23 @@ TEST_CASE("the dataset writer refuses other inputs in the same folder unless for
   render::DatasetJob other = job;
   other.configuration_seed = 99;
   REQUIRE_THROWS_WITH(render::renderDataset(other), Contains(job.out + "/manifest.yaml") && Contains("--force"));
+  // The message names the manifest field that differs (and only that one).
+  REQUIRE_THROWS_WITH(render::renderDataset(other), Contains("seeds.configurations") && !Contains("seeds.render") &&
+                                                        !Contains("program_version"));
   CHECK(readBytes(job.out + "/images/000000.png") == image0);  // nothing lost
+  {
+    // Another program version made the folder: refused, naming program_version.
+    const std::string manifest = readBytes(job.out + "/manifest.yaml");
+    std::string older = manifest;
+    const std::string key = "program_version: ";
+    const auto at = older.find(key);
+    REQUIRE(at != std::string::npos);
+    older.replace(at + key.size(), older.find('\n', at) - at - key.size(), "0.0.0-older");
+    std::ofstream(job.out + "/manifest.yaml") << older;
+    REQUIRE_THROWS_WITH(render::renderDataset(job), Contains(job.out + "/manifest.yaml") && Contains("program_version") &&
+                                                      !Contains("seeds.configurations"));
+    std::ofstream(job.out + "/manifest.yaml") << manifest;
+  }
   other.force = true;
   const render::DatasetRunReport r = render::renderDataset(other);
   CHECK(r.rendered == 2);
@@ -151,4 +180,81 @@ TEST_CASE("the dataset writer reports an unwritable folder by name", "[render][d
   render::DatasetJob bad_scene = smallJob(dir + "/no_such_scene.yaml", dir + "/ds2");
   REQUIRE_THROWS_WITH(render::renderDataset(bad_scene), Contains(dir + "/no_such_scene.yaml"));
   CHECK(!std::filesystem::exists(dir + "/ds2"));  // nothing written on bad input
+}
+
+TEST_CASE("a dataset with meshes stands alone: meshes copied in, compared on resume, the folder re-renders elsewhere",
+          "[render][dataset][mesh]") {
+  const std::string dir = test::tempDir("render-dataset-meshes");
+  // The scene: one mesh by a relative path (kept at that path in the dataset) and one by an absolute
+  // path whose file name clashes with the first but whose bytes differ (copied to meshes/, renamed,
+  // and rewritten in the copied scene.yaml).
+  const std::string scene_dir = dir + "/scene", other_dir = dir + "/other";
+  std::filesystem::create_directories(scene_dir + "/meshes");
+  std::filesystem::create_directories(other_dir);
+  const std::string plate = readBytes(test::sourcePath("scenes/meshes/occluder_plate.obj"));
+  std::ofstream(scene_dir + "/meshes/occluder_plate.obj", std::ios::binary) << plate;
+  std::ofstream(other_dir + "/occluder_plate.obj", std::ios::binary) << plate << "# another copy\n";
+  std::string text = sim::readTextSource(sim::kDefaultScene);
+  const std::string marker = "meshes: []";
+  REQUIRE(text.find(marker) != std::string::npos);
+  text.replace(text.find(marker), marker.size(),
+               "meshes:\n"
+               "  - file: meshes/occluder_plate.obj\n"
+               "    pose: {xyz_m: [0.32, 0.2, -0.3], rpy_deg: [0, 0, 0]}\n"
+               "  - {file: \"" + other_dir + "/occluder_plate.obj\", pose: {xyz_m: [0.1, 0.3, -0.25], rpy_deg: [0, 0, 30]}}\n");
+  const std::string scene = scene_dir + "/scene.yaml";
+  std::ofstream(scene) << text;
+
+  render::DatasetJob job = smallJob(scene, dir + "/ds");
+  job.count = 2;
+  render::renderDataset(job);
+  CHECK(readBytes(job.out + "/meshes/occluder_plate.obj") == plate);
+  CHECK(readBytes(job.out + "/meshes/occluder_plate-2.obj") == plate + "# another copy\n");
+  {
+    const render::RenderSettings copied = render::loadRenderSettings(job.out + "/scene.yaml");
+    REQUIRE(copied.meshes.size() == 2);
+    CHECK(copied.meshes[0].file_as_written == "meshes/occluder_plate.obj");    // as written
+    CHECK(copied.meshes[1].file_as_written == "meshes/occluder_plate-2.obj");  // rewritten
+  }
+
+  // The mesh edited: refused, naming the mesh; the dataset is untouched.
+  std::ofstream(scene_dir + "/meshes/occluder_plate.obj", std::ios::app) << "# edited\n";
+  REQUIRE_THROWS_WITH(render::renderDataset(job), Contains(job.out + "/manifest.yaml") &&
+                                                      Contains("meshes/occluder_plate.obj") && Contains("--force"));
+  CHECK(readBytes(job.out + "/meshes/occluder_plate.obj") == plate);
+
+  // The folder alone, moved elsewhere with the original scene and meshes gone: it reloads, its scene
+  // finds its meshes, re-rendering gives the stored images, and rerunning on it resumes with nothing to do.
+  const std::string moved = dir + "/moved";
+  std::filesystem::copy(job.out, moved, std::filesystem::copy_options::recursive);
+  std::filesystem::remove_all(scene_dir);
+  std::filesystem::remove_all(other_dir);
+  std::filesystem::remove_all(job.out);
+  const sim::Dataset d = sim::loadDataset(moved);
+  const render::RenderSettings settings = render::loadRenderSettings(d.path(d.manifest.scene_file));
+  REQUIRE(settings.meshes.size() == 2);
+  CHECK(settings.meshes[0].file == moved + "/meshes/occluder_plate.obj");
+  CHECK(settings.meshes[1].file == moved + "/meshes/occluder_plate-2.obj");
+  render::RenderSettings no_meshes = settings;
+  no_meshes.meshes.clear();
+  render::BoardRenderer renderer(d.scene, settings), bare(d.scene, no_meshes);
+  int differs_without_meshes = 0;
+  for (const sim::DatasetSample& s : d.samples) {
+    CAPTURE(s.index);
+    const cv::Mat stored = cv::imread(d.path(s.image), cv::IMREAD_UNCHANGED);
+    const cv::Mat again = renderer.render(*s.camera_T_board_true, job.render_seed, render::kRenderStream + s.index);
+    REQUIRE(stored.size() == again.size());
+    CHECK(cv::countNonZero(stored != again) == 0);
+    const cv::Mat without = bare.render(*s.camera_T_board_true, job.render_seed, render::kRenderStream + s.index);
+    differs_without_meshes += cv::countNonZero(stored != without) > 0 ? 1 : 0;
+  }
+  CHECK(differs_without_meshes > 0);  // the meshes are in the images, so the check above used them
+  render::DatasetJob rerun = job;
+  rerun.robot = moved + "/robot.yaml";
+  rerun.scene = moved + "/scene.yaml";
+  rerun.out = moved;
+  const render::DatasetRunReport r = render::renderDataset(rerun);
+  CHECK(r.resumed);
+  CHECK(r.rendered == 0);
+  CHECK(r.skipped == 2);
 }

@@ -161,6 +161,31 @@ TEST_CASE("scene rendering sections: misspelt keys and missing meshes name the f
   }
 }
 
+TEST_CASE("loadRenderSettings alone rejects a misspelt top-level section", "[render][settings]") {
+  const std::string dir = test::tempDir("render-settings-top-level");
+  // `lightning:` instead of `lighting:` would otherwise be ignored and the default lighting used.
+  std::string text = sim::readTextSource(sim::kDefaultScene);
+  text.replace(text.find("\nlighting:"), std::string("\nlighting:").size(), "\nlightning:");
+  const std::string path = dir + "/lightning.yaml";
+  std::ofstream(path) << text;
+  REQUIRE_THROWS_WITH(render::loadRenderSettings(path), Contains(path) && Contains("lightning") && Contains("unknown key"));
+  REQUIRE_THROWS_WITH(sim::loadScene(path), Contains(path) && Contains("lightning") && Contains("unknown key"));
+  // Every allowed key is accepted by both (the default scene has them all but none extra).
+  CHECK_NOTHROW(render::loadRenderSettings(sim::kDefaultScene));
+}
+
+TEST_CASE("a rendered image too large for OpenGL names the camera size and render.supersample", "[render][settings]") {
+  sim::Scene scene = sim::loadScene(sim::kDefaultScene);
+  scene.camera.width_px = 4096;
+  scene.camera.height_px = 3072;
+  render::RenderSettings settings = render::loadRenderSettings(sim::kDefaultScene);
+  settings.options.supersample = 8;  // 32768 px wide: over llvmpipe's GL_MAX_RENDERBUFFER_SIZE of 16384
+  REQUIRE_THROWS_AS(render::BoardRenderer(scene, settings), sim::InputError);
+  REQUIRE_THROWS_WITH(render::BoardRenderer(scene, settings),
+                      Contains("camera.width_px/height_px") && Contains("render.supersample") &&
+                          Contains("GL_MAX_RENDERBUFFER_SIZE"));
+}
+
 TEST_CASE("the built-in default scene's rendering sections load", "[render][settings]") {
   const render::RenderSettings s = render::loadRenderSettings(sim::kDefaultScene);
   CHECK(s.options.msaa_samples == 4);

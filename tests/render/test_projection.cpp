@@ -63,6 +63,7 @@ TEST_CASE("the inverse distortion map sends each output pixel to its undistorted
       for (int u = 0; u < c.width_px; u += 41) {
         const float mx = map.map_x.at<float>(v, u), my = map.map_y.at<float>(v, u);
         REQUIRE(mx >= 0.f);  // every output pixel is covered by the pinhole image
+        REQUIRE(my >= 0.f);
         REQUIRE(mx <= map.pinhole.width_px - 1);
         REQUIRE(my <= map.pinhole.height_px - 1);
         // The ray through pinhole pixel (mx, my), projected with the distorted camera, lands on (u, v).

@@ -7,12 +7,23 @@
 //  3. ground truth camera_T_board = sim::cameraTBoard(TRUE arm = nominal + injected errors, q_true);
 //  4. that pose rendered (BoardRenderer::render, degradations drawn from makeRng(render seed,
 //     kRenderStream + index)), written as images/NNNNNN.png.
-// Order on disk: robot.yaml, scene.yaml (verbatim copies of the inputs) and manifest.yaml first; the
-// images (PNG-encoded and written on a worker thread while the next frame renders, each atomically);
+// Order on disk: robot.yaml, the scene's mesh files, scene.yaml and manifest.yaml first; the images
+// (PNG-encoded and written on a worker thread while the next frame renders, each atomically);
 // samples.csv last, so a dataset without samples.csv is an unfinished run.
-// Resume: rerunning with the same inputs into the same folder keeps every image that exists and
-// decodes, and renders the rest. Different inputs: refused (InputError naming manifest.yaml) unless
-// `force`, which deletes the old images and samples.csv first.
+// The folder stands alone: robot.yaml is a verbatim copy of the robot file and every mesh the scene
+// uses is copied in. A mesh given by a relative path without ".." goes to DIR/<that path> (where the
+// copied scene, whose relative paths resolve against DIR, finds it). One given by an absolute path or
+// a path with ".." (or one that would land on the dataset's own files) goes to DIR/meshes/<file name>
+// (with -2, -3, ... before the extension when two different files share a name), and scene.yaml is then
+// NOT verbatim: that `file:` value is rewritten to the copy's path and a comment at the top of the copy
+// lists the original paths. Otherwise scene.yaml is a verbatim copy. Only the mesh files themselves are
+// copied (not side files such as an .obj's .mtl: the renderer uses only the geometry).
+// Resume: rerunning with the same inputs (manifest, robot.yaml, scene.yaml and mesh bytes) into the
+// same folder deletes the temporary files a killed run left in images/ (NAME.tmp.PID), keeps every
+// image that exists and decodes as 8-bit grey of the camera's size, and renders the rest. Different
+// inputs: refused (InputError naming manifest.yaml and the manifest fields or files that differ) unless
+// `force`, which deletes the old images, samples.csv and manifest.yaml first (InputError naming any file
+// it cannot remove).
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -20,6 +31,7 @@
 
 #include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/io.hpp"
+#include "orbcal/sim/se3.hpp"
 
 namespace orbcal::render {
 
@@ -34,7 +46,7 @@ struct DatasetJob {
   std::uint64_t configuration_seed = 1;
   std::uint64_t noise_seed = 1;
   std::uint64_t render_seed = 1;
-  double joint_noise_sigma_rad = 0.01 * 3.14159265358979323846 / 180.0;
+  double joint_noise_sigma_rad = 0.01 * sim::kDegToRad;
   std::string out;                         ///< dataset folder (created)
   bool force = false;
   int generator_threads = 0;               ///< 0: all hardware threads

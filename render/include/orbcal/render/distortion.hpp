@@ -6,7 +6,8 @@
 // principal point, so that every output pixel's undistorted ray falls inside it; then for each output
 // pixel (u, v) (pixel centres at integers) it looks up the pinhole image at
 //   K_pinhole * undistort(K^-1 (u, v)),
-// where undistort inverts sim::project's distortion by Newton's method to ~1e-14 (normalised units).
+// where undistort inverts sim::distortNormalized (the distortion sim::project applies) by Newton's
+// method with its Jacobian, to ~1e-14 (normalised units).
 // A point p_cam therefore lands at sim::project(camera, p_cam) in the output, i.e. where
 // cv::projectPoints puts it.
 #include <Eigen/Core>
@@ -16,7 +17,7 @@
 
 namespace orbcal::render {
 
-/// Normalised undistorted coordinates x with distort(x) = xd (OpenCV's model with k = k1 k2 p1 p2 k3).
+/// Normalised undistorted coordinates x with sim::distortNormalized(k, x) = xd (OpenCV's model, k = k1 k2 p1 p2 k3).
 /// False when Newton's method does not converge or lands where the model folds over (det J <= 0).
 bool undistortNormalized(const std::array<double, 5>& k, const Eigen::Vector2d& xd, Eigen::Vector2d* x);
 

@@ -28,6 +28,8 @@ class OsMesaContext {
   std::string renderer() const { return renderer_; }
 
  private:
+  void release() noexcept;  // unbinds (if current) and destroys the context; idempotent
+
   osmesa_context* ctx_ = nullptr;
   std::vector<unsigned char> buffer_;  // the (unused) default framebuffer; rendering goes to FBOs
   std::string version_, renderer_;

@@ -59,11 +59,6 @@ class BoardRenderer {
   int msaaSamples() const;
   /// What was asked for but could not be given (e.g. "msaa_samples: 8 requested, GL_MAX_SAMPLES is 4; using 4").
   const std::vector<std::string>& warnings() const;
-  /// The pinhole camera OpenGL draws (before supersampling): the scene's camera, or the larger
-  /// undistorted one of the distortion map.
-  const sim::Camera& pinholeCamera() const;
-  /// "4.5 (Core Profile) Mesa 22.3.6 / llvmpipe (...)".
-  std::string glDescription() const;
 
  private:
   struct Impl;

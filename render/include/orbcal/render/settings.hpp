@@ -3,7 +3,7 @@
 // YAML as sim::loadScene with sim::ConfigNode: misspelt keys are errors naming the file and the key.
 //
 //   lighting:
-//     ambient: 0.35                    # radiance added everywhere (fraction of full scale, before exposure)
+//     ambient: 0.35                    # light reaching every surface: adds albedo * ambient (before exposure)
 //     sun: {to_sun_base: [x, y, z],    # direction TOWARD the sun in the base frame (normalised on load)
 //           intensity: 0.7}            # Lambert term: albedo * intensity * max(0, n . l)
 //     specular: {strength: 0.08, shininess: 60}   # Blinn-Phong highlight on the board (and meshes)
@@ -29,7 +29,8 @@
 //     board_filter: true               # the pattern averaged over each pixel's footprint analytically
 //                                      # (on top of MSAA); false = flat square colours, MSAA only
 //
-// Every section and key is optional; absent ones take the defaults below.
+// Every section and key is optional; absent ones take the defaults below. Top-level keys are checked
+// against sim::sceneTopLevelKeys() here as in sim::loadScene.
 #include <Eigen/Geometry>
 #include <string>
 #include <vector>
@@ -58,6 +59,7 @@ enum class MeshFrame { kBase, kBoard };
 
 struct MeshSpec {
   std::string file;  ///< resolved path (relative ones resolved against the scene file's folder)
+  std::string file_as_written;  ///< the `file` value as the scene file gives it (absolute or relative)
   std::string key;   ///< e.g. "meshes[0].file", for messages
   MeshFrame frame = MeshFrame::kBoard;
   Eigen::Isometry3d frame_T_mesh = Eigen::Isometry3d::Identity();
@@ -85,7 +87,8 @@ struct RenderSettings {
 };
 
 /// Reads the rendering sections of the scene file at `path` (a file or "builtin:default_scene.yaml").
-/// Throws sim::InputError naming the file and the key. Mesh files are not opened here (see mesh.hpp).
+/// Throws sim::InputError naming the file and the key (unknown top-level keys included). Mesh files are
+/// not opened here (see mesh.hpp).
 RenderSettings loadRenderSettings(const std::string& path);
 /// Same from a parsed root; relative mesh paths are resolved against `base_dir` (empty: the current folder).
 RenderSettings parseRenderSettings(const sim::ConfigNode& root, const std::string& base_dir);

@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace orbcal::sim {
 
@@ -55,6 +56,7 @@ class ConfigNode {
   [[noreturn]] void fail(const std::string& what) const;
   /// Throws unless every key of this map is in `allowed` (catches misspelt keys).
   void requireOnlyKeys(std::initializer_list<const char*> allowed) const;
+  void requireOnlyKeys(const std::vector<std::string>& allowed) const;
 
   const std::string& source() const { return source_; }
   const std::string& path() const { return path_; }

@@ -2,6 +2,7 @@
 // Loading the human-written robot and scene files (YAML under scenes/). `path` may be a file or
 // "builtin:ssrms.yaml" / "builtin:default_scene.yaml". Errors are InputError naming file and key.
 #include <string>
+#include <vector>
 
 #include "orbcal/sim/arm.hpp"
 #include "orbcal/sim/scene.hpp"
@@ -15,5 +16,8 @@ Arm loadArm(const std::string& path);
 /// Loads the geometric part of a scene (camera, board, transforms, views). The rendering sections
 /// (lighting, degradations, meshes) are read by render::loadRenderSettings from the same file.
 Scene loadScene(const std::string& path);
+/// Every top-level key a scene file may have (its geometric and rendering sections): loadScene and
+/// render::loadRenderSettings both reject any other, so a misspelt section is an error in either.
+const std::vector<std::string>& sceneTopLevelKeys();
 
 }  // namespace orbcal::sim

@@ -25,6 +25,14 @@ struct Camera {
 /// Pixel of a point in camera coordinates (m), OpenCV's model with distortion (cv::projectPoints).
 Eigen::Vector2d project(const Camera& camera, const Eigen::Vector3d& p_cam);
 
+/// OpenCV's lens distortion of normalised coordinates xy = (x/z, y/z), k = (k1, k2, p1, p2, k3):
+///   r2 = x^2 + y^2, radial = 1 + k1 r2 + k2 r2^2 + k3 r2^3,
+///   xd = x radial + 2 p1 x y + p2 (r2 + 2 x^2),  yd = y radial + p1 (r2 + 2 y^2) + 2 p2 x y.
+/// The one place this polynomial is written (project() and render's inverse mapping use it).
+/// J_distorted_xy (optional) receives d(xd, yd) / d(x, y).
+Eigen::Vector2d distortNormalized(const std::array<double, 5>& k, const Eigen::Vector2d& xy,
+                                  Eigen::Matrix2d* J_distorted_xy = nullptr);
+
 struct Board {
   int corners_x = 9;       ///< inner corners along board x (squares along x = corners_x + 1)
   int corners_y = 6;       ///< inner corners along board y
@@ -35,10 +43,19 @@ struct Board {
 
 /// Inner corner k in the board frame (m).
 Eigen::Vector3d cornerInBoard(const Board& board, int k);
+/// The board's colouring, the one contract render/ draws and vision/ reads the orientation from.
+/// Square (i, j), i in [0, corners_x], j in [0, corners_y], covers x in [(i-1)s, i s], y in
+/// [(j-1)s, j s] of the board frame; it is black when i + j is even. So square (0, 0), diagonally
+/// outside corner 0, and square (1, 1), between inner corners 0, 1, corners_x and corners_x + 1, are
+/// black; the margin around the squares is white.
+bool isBlackSquare(int i, int j);
 /// All inner corners, in detection order.
 std::vector<Eigen::Vector3d> boardCorners(const Board& board);
 /// The four outer corners of the squared area, in the board frame (m).
 std::array<Eigen::Vector3d, 4> squaresOutline(const Board& board);
+/// The four outer corners of the whole board: the squared area grown by margin_m on every side,
+/// in the board frame (m), in the same order as squaresOutline.
+std::array<Eigen::Vector3d, 4> boardOutline(const Board& board);
 
 /// What the configuration generator accepts as a usable view of the board.
 struct ViewConstraints {
