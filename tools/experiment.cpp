@@ -59,12 +59,6 @@ std::string methodsLegend(const std::vector<calib::MethodSpec>& methods) {
 
 }  // namespace
 
-std::string formatNumber(const char* format, double value) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, format, value);
-  return buf;
-}
-
 std::string drawFigure(const ExperimentOptions& o, const std::string& folder, const std::string& args,
                        const std::string& png, const std::string& caption) {
   if (!o.plots) return "(figures not drawn: --no-plots)\n";
@@ -177,7 +171,7 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
 
   sim::writeFileAtomic(folder + "/validation_errors.csv", calib::formatValidationErrorsCsv(r.comparison));
   sim::writeFileAtomic(folder + "/validation_errors_measured.csv", calib::formatValidationErrorsCsv(r.measured_comparison));
-  sim::writeFileAtomic(folder + "/estimates.csv", calib::formatEstimatesCsv(r.comparison, y_true));
+  sim::writeFileAtomic(folder + "/estimates.csv", calib::formatEstimatesCsv(r.comparison, &y_true));
 
   std::vector<Eigen::VectorXd> ident_configs = r.identification.plant.q_commanded;
   std::ostringstream md;

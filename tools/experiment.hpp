@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "orbcal/calib/experiment.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
 #include "orbcal/vision/measurement.hpp"
 
@@ -72,8 +73,7 @@ std::string table4Headline(const Table4Result& r);
 /// Seeds: repetition r of an experiment with seed s uses s + r for its identification set and
 /// s + kValidationSeedOffset + r for its validation set, so the two never share configurations or noise.
 inline constexpr std::uint64_t kValidationSeedOffset = 1000000;
-/// printf-style formatting of one number.
-std::string formatNumber(const char* format, double value);
+using sim::formatNumber;  // printf-style formatting of one number (sim/csv.hpp)
 /// Draws <folder>/<png> with tools/plot_report.py (`args` = its kind and CSV path, quoted); returns the
 /// Markdown image line, or a line saying why the figure was not drawn (also warned on stderr).
 std::string drawFigure(const ExperimentOptions& o, const std::string& folder, const std::string& args,

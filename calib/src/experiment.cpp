@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::calib {
@@ -110,6 +111,8 @@ const MethodOutcome* bestOfKind(const Comparison& c, MethodSpec::Kind kind) {
 }
 
 namespace {
+using sim::formatNumber;
+
 void appendErrors(std::ostringstream& out, const std::string& model, const PoseErrors& e) {
   char buf[160];
   for (std::size_t k = 0; k < e.position_m.size(); ++k) {
@@ -129,7 +132,7 @@ std::string formatValidationErrorsCsv(const Comparison& c) {
   return out.str();
 }
 
-std::string formatEstimatesCsv(const Comparison& c, const Eigen::VectorXd& y_true) {
+std::string formatEstimatesCsv(const Comparison& c, const Eigen::VectorXd* y_true) {
   std::ostringstream out;
   out << "method,parameter,unit,estimate,sigma,truth,held\n";
   char buf[200];
@@ -139,8 +142,9 @@ std::string formatEstimatesCsv(const Comparison& c, const Eigen::VectorXd& y_tru
       const bool angle = sim::isAngleParam(static_cast<int>(i));
       const double s = angle ? sim::kRadToDeg : 1e3;
       const bool held = std::find(e.held.begin(), e.held.end(), static_cast<int>(i)) != e.held.end();
-      std::snprintf(buf, sizeof buf, ",%s,%s,%.6f,%.6f,%.6f,%d\n", sim::paramName(static_cast<int>(i)).c_str(),
-                    angle ? "deg" : "mm", e.y[i] * s, std::sqrt(std::max(0.0, e.covariance(i, i))) * s, y_true[i] * s,
+      const std::string truth = y_true ? formatNumber("%.6f", (*y_true)[i] * s) : "";
+      std::snprintf(buf, sizeof buf, ",%s,%s,%.6f,%.6f,%s,%d\n", sim::paramName(static_cast<int>(i)).c_str(),
+                    angle ? "deg" : "mm", e.y[i] * s, std::sqrt(std::max(0.0, e.covariance(i, i))) * s, truth.c_str(),
                     held ? 1 : 0);
       out << m.method.name << buf;
     }

@@ -86,6 +86,12 @@ std::string exactNumber(double v) {
   return buf;
 }
 
+std::string formatNumber(const char* format, double value) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, value);
+  return buf;
+}
+
 std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs) {
   std::ostringstream out;
   out << "index";

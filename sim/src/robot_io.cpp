@@ -1,4 +1,7 @@
+#include <sstream>
+
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
 
@@ -62,6 +65,36 @@ Arm loadArm(const std::string& path) {
     arm.upper_rad[static_cast<Eigen::Index>(i)] = hi * kDegToRad;
   }
   return arm;
+}
+
+namespace {
+std::string transformYaml(const Eigen::Isometry3d& T) {
+  // R = Rz(yaw) Ry(pitch) Rx(roll), as ConfigNode::asTransform reads it.
+  const Eigen::Vector3d ypr = T.linear().eulerAngles(2, 1, 0);
+  const Eigen::Vector3d t = T.translation();
+  return "{xyz_m: [" + exactNumber(t.x()) + ", " + exactNumber(t.y()) + ", " + exactNumber(t.z()) + "], rpy_deg: [" +
+         exactNumber(ypr[2] * kRadToDeg) + ", " + exactNumber(ypr[1] * kRadToDeg) + ", " + exactNumber(ypr[0] * kRadToDeg) +
+         "]}";
+}
+}  // namespace
+
+std::string formatArm(const Arm& arm, const std::string& header) {
+  std::ostringstream s;
+  std::istringstream lines(header);
+  for (std::string line; std::getline(lines, line);) s << "# " << line << "\n";
+  s << "name: " << arm.name << "\n";
+  s << "convention: " << (arm.convention == DhConvention::kModified ? "modified" : "standard") << "\n";
+  s << "base: " << transformYaml(arm.base_T_first) << "\n";
+  s << "joints:\n";
+  for (int j = 0; j < arm.numJoints(); ++j) {
+    const DhRow& r = arm.joints[j];
+    s << "  - {a_m: " << exactNumber(r.a_m) << ", alpha_deg: " << exactNumber(r.alpha_rad * kRadToDeg)
+      << ", d_m: " << exactNumber(r.d_m) << ", theta_offset_deg: " << exactNumber(r.theta_rad * kRadToDeg)
+      << ", min_deg: " << exactNumber(arm.lower_rad[j] * kRadToDeg) << ", max_deg: " << exactNumber(arm.upper_rad[j] * kRadToDeg)
+      << "}\n";
+  }
+  s << "tool: " << transformYaml(arm.last_T_flange) << "\n";
+  return s.str();
 }
 
 }  // namespace orbcal::sim

@@ -62,8 +62,9 @@ const MethodOutcome* bestOfKind(const Comparison& c, MethodSpec::Kind kind);
 /// One row per (model, validation sample): model, sample, position_mm, x_deg, y_deg, z_deg.
 /// Models: "initial", "floor" and each method. For box plots.
 std::string formatValidationErrorsCsv(const Comparison& c);
-/// One row per (method, parameter): estimate, 1-sigma and truth in deg or mm, held.
-std::string formatEstimatesCsv(const Comparison& c, const Eigen::VectorXd& y_true);
+/// One row per (method, parameter): estimate, 1-sigma and truth in deg or mm, held. Without a truth
+/// (y_true null: real data) the truth cells are empty.
+std::string formatEstimatesCsv(const Comparison& c, const Eigen::VectorXd* y_true);
 /// Markdown: per method its settings, iterations, rank, wall time, the RMS of its length estimates
 /// (a and d, against the RMS of the true ones: a prior too tight shows as lengths that never move), and
 /// average position error against the floor.

@@ -33,6 +33,8 @@ class CsvTable {
 
 /// "%.17g": a double that reads back bit for bit.
 std::string exactNumber(double v);
+/// One number formatted printf-style, e.g. formatNumber("%.3f", x).
+std::string formatNumber(const char* format, double value);
 
 /// Joint configurations: header "index,q1_rad,...,qN_rad", one row each.
 std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs);

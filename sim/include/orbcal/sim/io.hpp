@@ -13,6 +13,9 @@ inline const char* kDefaultRobot = "builtin:ssrms.yaml";
 inline const char* kDefaultScene = "builtin:default_scene.yaml";
 
 Arm loadArm(const std::string& path);
+/// A robot file for `arm` that loadArm reads back to the same kinematics (numbers written exactly;
+/// base and tool as {xyz_m, rpy_deg}). `header` goes first as '#' comment lines.
+std::string formatArm(const Arm& arm, const std::string& header = "");
 /// Loads the geometric part of a scene (camera, board, transforms, views). The rendering sections
 /// (lighting, degradations, meshes) are read by render::loadRenderSettings from the same file.
 Scene loadScene(const std::string& path);

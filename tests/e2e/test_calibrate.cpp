@@ -1,0 +1,70 @@
+// `orbcal calibrate` on a rendered dataset, with and without the simulation's ground truth.
+#include <catch2/catch.hpp>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+#include "calibrate.hpp"
+#include "orbcal/render/dataset_writer.hpp"
+#include "orbcal/sim/io.hpp"
+#include "test_util.hpp"
+
+using namespace orbcal;
+
+namespace {
+std::string slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+}  // namespace
+
+TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces the estimate and cuts the hold-out error",
+          "[e2e][calibrate]") {
+  render::DatasetJob job;
+  job.scene = test::sourcePath("scenes/quick_scene.yaml");
+  job.count = 40;
+  job.out = test::tempDir("calibrate") + "/dataset";
+  render::renderDataset(job);
+
+  tools::CalibrateOptions o;
+  o.dataset = job.out;
+  o.quiet = true;
+  const tools::CalibrateResult r = tools::runCalibrate(o);
+  CHECK(r.images == 40);
+  CHECK(r.usable >= 38);  // clean rendered views; the planner keeps a 20 px margin
+  CHECK(r.held_out == static_cast<int>(0.2 * r.usable));
+  REQUIRE(r.has_truth);
+  // Seed 000's bar (90%) on held-out samples, against the camera's measurements and against the truth.
+  CHECK(calib::improvement(r.before.position_avg_m, r.after.position_avg_m) >= 0.90);
+  CHECK(calib::improvement(r.truth_before.position_avg_m, r.truth_after.position_avg_m) >= 0.90);
+
+  // The calibrated robot file is a robot file: it loads, and its kinematics are nominal + estimate.
+  const sim::Arm nominal = sim::loadArm(job.out + "/robot.yaml");
+  const sim::Arm calibrated = sim::loadArm(r.robot_path);
+  const sim::Arm expected = sim::withErrors(nominal, r.estimate.y);
+  for (const Eigen::VectorXd& q : {Eigen::VectorXd(Eigen::VectorXd::Zero(7)), Eigen::VectorXd(Eigen::VectorXd::LinSpaced(7, -1.5, 2.0))}) {
+    CHECK((sim::forwardKinematics(calibrated, q).matrix() - sim::forwardKinematics(expected, q).matrix()).norm() < 1e-12);
+  }
+  CHECK(slurp(r.report_path).find("## Hold-out validation against the true poses") != std::string::npos);
+
+  // Real data has no truth: the same dataset without the simulation-only manifest fields still calibrates.
+  std::string manifest = slurp(job.out + "/manifest.yaml");
+  manifest = manifest.substr(0, manifest.find("true_errors:"));
+  std::ofstream(job.out + "/manifest.yaml") << manifest;
+  o.out = job.out + "/calibration-real";
+  const tools::CalibrateResult real = tools::runCalibrate(o);
+  CHECK_FALSE(real.has_truth);
+  CHECK(calib::improvement(real.before.position_avg_m, real.after.position_avg_m) >= 0.90);
+  CHECK(slurp(real.report_path).find("true poses") == std::string::npos);
+  CHECK(slurp(o.out + "/estimates.csv").find(",,") != std::string::npos);  // empty truth cells
+
+  // Too few usable images is a one-line error naming the dataset.
+  o.holdout = 0.9;
+  job.count = 5;
+  job.out = test::tempDir("calibrate-few") + "/dataset";
+  render::renderDataset(job);
+  o.dataset = job.out;
+  CHECK_THROWS_WITH(tools::runCalibrate(o), Catch::StartsWith(job.out + ": only "));
+}

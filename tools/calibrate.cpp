@@ -1,0 +1,151 @@
+#include "calibrate.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "experiment.hpp"
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/fileio.hpp"
+#include "orbcal/sim/identifiability.hpp"
+#include "orbcal/sim/io.hpp"
+#include "orbcal/sim/se3.hpp"
+#include "orbcal/vision/measurement.hpp"
+#include "progress.hpp"
+
+namespace orbcal::tools {
+
+CalibrateResult runCalibrate(const CalibrateOptions& o) {
+  CalibrateResult r;
+  const std::string out = o.out.empty() ? o.dataset + "/calibration" : o.out;
+  if (!(o.holdout >= 0.0 && o.holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
+  const sim::Dataset d = sim::loadDataset(o.dataset);
+  calib::findMethod(calib::comparisonMethods(0.0), o.method);  // an unknown name fails before any work
+
+  std::vector<vision::Measurement> meas;
+  {
+    Progress bar(o.quiet ? "" : "measure", o.quiet ? 0 : static_cast<int>(d.samples.size()));
+    meas = vision::measureDataset(d, {}, [&](int done, int) { bar.update(done); });
+  }
+  sim::writeFileAtomic(o.dataset + "/measurements.csv", vision::formatMeasurementsCsv(meas));
+  r.images = static_cast<int>(meas.size());
+
+  // Usable samples, then a seeded hold-out draw.
+  std::vector<std::size_t> usable;
+  for (std::size_t k = 0; k < meas.size(); ++k) {
+    if (meas[k].found()) usable.push_back(k);
+  }
+  r.usable = static_cast<int>(usable.size());
+  std::mt19937_64 rng = sim::makeRng(o.seed, 0x686f6c646f7574ULL);
+  std::shuffle(usable.begin(), usable.end(), rng);
+  const int n_hold = static_cast<int>(std::floor(o.holdout * r.usable));
+  std::vector<std::size_t> hold(usable.begin(), usable.begin() + n_hold), ident(usable.begin() + n_hold, usable.end());
+  std::sort(hold.begin(), hold.end());
+  std::sort(ident.begin(), ident.end());
+  r.identification = static_cast<int>(ident.size());
+  r.held_out = n_hold;
+  if (static_cast<int>(ident.size()) * 6 < d.arm.numParams()) {
+    throw sim::InputError(o.dataset + ": only " + std::to_string(ident.size()) +
+                          " usable identification images: at least " + std::to_string((d.arm.numParams() + 5) / 6) +
+                          " are needed for " + std::to_string(d.arm.numParams()) + " parameters (" +
+                          vision::formatSummary(vision::summarize(meas)) + ")");
+  }
+
+  // R: the vision covariance plus the joint noise (unless the method says otherwise).
+  r.joint_noise_sigma_rad = o.joint_noise_sigma_rad >= 0.0 ? o.joint_noise_sigma_rad
+                            : d.manifest.joint_noise_sigma_rad > 0.0 ? d.manifest.joint_noise_sigma_rad
+                                                                       : 0.01 * sim::kDegToRad;
+  const calib::MethodSpec method = calib::findMethod(calib::comparisonMethods(r.joint_noise_sigma_rad), o.method);
+  std::vector<calib::PoseObservation> obs;
+  std::vector<Eigen::VectorXd> ident_configs;
+  for (std::size_t k : ident) {
+    obs.push_back({d.samples[k].q_rad, meas[k].base_T_flange, meas[k].covariance});
+    ident_configs.push_back(d.samples[k].q_rad);
+  }
+  r.estimate = calib::runMethod(method, d.arm, obs);
+
+  // Hold-out validation against the measured poses (and the true ones where the dataset has them).
+  calib::PlantSamples measured, truth;
+  const std::optional<sim::Arm> true_arm =
+      d.manifest.true_errors ? std::optional<sim::Arm>(sim::withErrors(d.arm, *d.manifest.true_errors)) : std::nullopt;
+  for (std::size_t k : hold) {
+    measured.q_commanded.push_back(d.samples[k].q_rad);
+    measured.base_T_flange_true.push_back(meas[k].base_T_flange);
+    if (true_arm && d.samples[k].q_true_rad) {
+      truth.q_commanded.push_back(d.samples[k].q_rad);
+      truth.base_T_flange_true.push_back(sim::forwardKinematics(*true_arm, *d.samples[k].q_true_rad));
+    }
+  }
+  const sim::Arm calibrated = sim::withErrors(d.arm, r.estimate.y);
+  if (n_hold > 0) {
+    r.before = calib::summarize(calib::poseErrors(d.arm, measured));
+    r.after = calib::summarize(calib::poseErrors(calibrated, measured));
+  }
+  r.has_truth = !truth.q_commanded.empty();
+  if (r.has_truth) {
+    r.truth_before = calib::summarize(calib::poseErrors(d.arm, truth));
+    r.truth_after = calib::summarize(calib::poseErrors(calibrated, truth));
+  }
+
+  // Outputs.
+  sim::makeDirectories(out);
+  std::ostringstream header;
+  header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate) from " << o.dataset << "\n"
+         << "method " << method.name << "; " << r.identification << " identification images of " << r.images << "; nominal: "
+         << d.manifest.robot_file << " (" << d.arm.name << ")\n"
+         << "Identified parameter errors are added to the nominal DH rows; base and tool are the nominal ones.";
+  r.robot_path = out + "/robot_calibrated.yaml";
+  sim::Arm named = calibrated;
+  named.name = d.arm.name + " (calibrated)";
+  sim::writeFileAtomic(r.robot_path, sim::formatArm(named, header.str()));
+  calib::Comparison single;
+  single.methods.push_back({method, r.estimate, {}, {}});
+  const Eigen::VectorXd* y_true = d.manifest.true_errors ? &*d.manifest.true_errors : nullptr;
+  sim::writeFileAtomic(out + "/estimates.csv", calib::formatEstimatesCsv(single, y_true));
+
+  std::ostringstream md;
+  md << "# Calibration of " << d.arm.name << "\n\n"
+     << "Dataset `" << o.dataset << "`; method **" << method.name << "** (" << method.description
+     << "); joint noise in R: " << formatNumber("%.4g", r.joint_noise_sigma_rad * sim::kRadToDeg) << " deg.\n\n"
+     << "## Images\n\n" << vision::formatSummary(vision::summarize(meas)) << "\n\n"
+     << r.identification << " used for identification, " << r.held_out << " held out for validation (seed " << o.seed << ").\n\n"
+     << "## Identifiability of the identification set\n\n```\n"
+     << sim::formatIdentifiability(sim::analyzeIdentifiability(d.arm, ident_configs)) << "```\n\n"
+     << "## Estimate\n\n"
+     << r.estimate.iterations << " iterations, rank " << r.estimate.rank << ", " << formatNumber("%.2f", r.estimate.seconds * 1e3)
+     << " ms" << (r.estimate.converged ? "" : ", NOT converged") << ". Per joint, theta and alpha in deg, a and d in mm, "
+     << "+- 1 sigma" << (y_true ? "; truth in brackets" : "") << ":\n\n| joint | theta | alpha | a | d |\n|---|---|---|---|---|\n";
+  for (int j = 0; j < d.arm.numJoints(); ++j) {
+    md << "| " << j + 1 << " |";
+    for (int k = 0; k < sim::Arm::kParamsPerJoint; ++k) {
+      const int i = sim::paramIndex(j, static_cast<sim::ParamKind>(k));
+      const double s = sim::isAngleParam(i) ? sim::kRadToDeg : 1e3;
+      const bool held = std::find(r.estimate.held.begin(), r.estimate.held.end(), i) != r.estimate.held.end();
+      md << " " << formatNumber("%+.4f", r.estimate.y[i] * s);
+      if (held) {
+        md << " (held)";
+      } else {
+        md << " +- " << formatNumber("%.4f", std::sqrt(std::max(0.0, r.estimate.covariance(i, i))) * s);
+      }
+      if (y_true) md << " [" << formatNumber("%+.4f", (*y_true)[i] * s) << "]";
+      md << " |";
+    }
+    md << "\n";
+  }
+  if (n_hold > 0) {
+    md << "\n## Hold-out validation against the measured poses\n\n"
+       << calib::formatTable4(r.before, {{method.name, r.after}}) << "\n";
+  }
+  if (r.has_truth) {
+    md << "## Hold-out validation against the true poses (simulated dataset)\n\n"
+       << calib::formatTable4(r.truth_before, {{method.name, r.truth_after}}) << "\n";
+  }
+  md << "Files: `robot_calibrated.yaml` (load it with `--robot`), `estimates.csv`; measurements in `"
+     << o.dataset << "/measurements.csv`.\n";
+  r.report_path = out + "/report.md";
+  sim::writeFileAtomic(r.report_path, md.str());
+  return r;
+}
+
+}  // namespace orbcal::tools

@@ -1,0 +1,36 @@
+#pragma once
+// `orbcal calibrate <dataset>`: identify the parameter errors of an arm from a dataset of images and
+// joint readings (rendered or real; the layout of sim/dataset.hpp), and write the calibrated robot file.
+// No ground truth is needed: the gain is measured on held-out samples, against the poses the camera
+// measured there. Where the dataset is simulated (its manifest has true errors), the report also
+// compares with the truth.
+#include <cstdint>
+#include <string>
+
+#include "orbcal/calib/experiment.hpp"
+
+namespace orbcal::tools {
+
+struct CalibrateOptions {
+  std::string dataset;
+  std::string method = "EKF";            ///< a name from calib::comparisonMethods
+  std::string out;                       ///< default: <dataset>/calibration
+  double joint_noise_sigma_rad = -1.0;   ///< < 0: the manifest's, or seed 000's 0.01 deg if it has none
+  double holdout = 0.2;                  ///< fraction of the usable samples kept out for validation
+  std::uint64_t seed = 1;                ///< of the hold-out draw
+  bool quiet = false;
+};
+
+struct CalibrateResult {
+  calib::Estimate estimate;
+  int images = 0, usable = 0, identification = 0, held_out = 0;
+  calib::ErrorSummary before, after;     ///< hold-out errors against the measured poses
+  bool has_truth = false;
+  calib::ErrorSummary truth_before, truth_after;  ///< hold-out errors against the true poses (simulation)
+  std::string robot_path, report_path;
+  double joint_noise_sigma_rad = 0.0;
+};
+
+CalibrateResult runCalibrate(const CalibrateOptions& o);
+
+}  // namespace orbcal::tools
