@@ -91,7 +91,6 @@ Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
   e.y = Eigen::VectorXd::Zero(n);
   Eigen::MatrixXd P = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m).array().square().matrix().asDiagonal();
   const Eigen::VectorXd Q = diagonalSigmas(m, o.process_sigma_angle_rad, o.process_sigma_length_m).array().square();
-  const Eigen::MatrixXd I = Eigen::MatrixXd::Identity(n, n);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
   for (int k = 0; k < m.numSamples(); ++k) {
     P.diagonal() += Q;  // (12); (11) leaves y unchanged
@@ -111,9 +110,10 @@ Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
       K = S.ldlt().solve(PHt.transpose()).transpose();  // (15)
       y_i = y_prior + K * innovation;                 // (16)
       if (it + 1 == iterations) {
-        // (17) in Joseph form, which stays symmetric positive definite.
-        const Eigen::MatrixXd A = I - K * H;
-        P = A * P * A.transpose() + K * lin.R * K.transpose();
+        // (17) in Joseph form, which stays symmetric positive definite: P = A P A^T + K R K^T with
+        // A = I - K H, evaluated as AP = P - K (H P), AP A^T = AP - (AP H^T) K^T: O(n^2 m), not O(n^3).
+        const Eigen::MatrixXd AP = P - K * PHt.transpose();
+        P = AP - (AP * H.transpose()) * K.transpose() + K * lin.R * K.transpose();
       }
     }
     e.y = y_i;
