@@ -14,6 +14,15 @@ void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o) {
   cmd.add_option("-o,--out", o.out, "output folder (reports under <out>/<preset>, datasets under <out>/datasets)")
       ->capture_default_str();
   cmd.add_option("--errors", o.errors.name, "injected error set: table3 (seed 000), zero, random")->capture_default_str();
+  cmd.add_option("--error-seed", o.errors.seed, "seed of --errors random")->capture_default_str();
+  cmd.add_option_function<double>(
+         "--error-angle-sigma-deg", [&o](double d) { o.errors.angle_sigma_rad = d * sim::kDegToRad; },
+         "spread of random theta/alpha errors [deg] (default 0.3)")
+      ->check(CLI::Range(0.0, 90.0));
+  cmd.add_option_function<double>(
+         "--error-length-sigma-mm", [&o](double mm) { o.errors.length_sigma_m = mm * 1e-3; },
+         "spread of random a/d errors [mm] (default 1)")
+      ->check(CLI::Range(0.0, 1000.0));
   cmd.add_option("--seed", o.seed, "random seed (configurations, noise, images)")->capture_default_str();
   cmd.add_option("--ident", o.identification, "identification configurations")->capture_default_str()->check(CLI::Range(1, 100000));
   cmd.add_option("--valid", o.validation, "validation configurations")->capture_default_str()->check(CLI::Range(1, 100000));
