@@ -62,7 +62,7 @@ Attempt tryOne(const Arm& arm, const Scene& scene, const GeneratorSettings& s, s
   Eigen::VectorXd q0(arm.numJoints());
   for (int j = 0; j < arm.numJoints(); ++j) q0[j] = arm.lower_rad[j] + u01(rng) * (arm.upper_rad[j] - arm.lower_rad[j]);
   IkOptions opt;
-  opt.locked_joint = s.locked_joint;
+  opt.locked_joint = v.locked_joint;
   opt.least_motion = false;
   opt.max_iterations = 60;
   opt.position_tol_m = 1e-9;
@@ -72,7 +72,7 @@ Attempt tryOne(const Arm& arm, const Scene& scene, const GeneratorSettings& s, s
   a.q = ik.q;
   if (!ik.converged) return a;
   // 3. Acceptance.
-  if (singularityMeasure(arm, a.q, s.locked_joint) < v.min_singular_value) {
+  if (singularityMeasure(arm, a.q, v.locked_joint) < v.min_singular_value) {
     a.outcome = Outcome::kSingular;
   } else if (boardVisibility(scene, cameraTBoard(arm, scene, a.q)) != Visibility::kVisible) {
     a.outcome = Outcome::kNotVisible;
@@ -88,8 +88,8 @@ std::vector<Eigen::VectorXd> generateConfigurations(const Arm& arm, const Scene&
                                                     GeneratorStats* stats_out,
                                                     const std::function<void(int, int)>& progress) {
   if (s.count < 0) throw std::invalid_argument("generateConfigurations: count must be >= 0");
-  if (s.locked_joint >= arm.numJoints()) {
-    throw std::invalid_argument("generateConfigurations: locked joint " + std::to_string(s.locked_joint + 1) +
+  if (scene.views.locked_joint >= arm.numJoints()) {
+    throw InputError(scene.source + ": views.locked_joint: joint " + std::to_string(scene.views.locked_joint + 1) +
                                 " but the arm has " + std::to_string(arm.numJoints()) + " joints");
   }
   const int max_attempts = s.max_attempts > 0 ? s.max_attempts : std::max(4000, 400 * s.count);

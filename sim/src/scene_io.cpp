@@ -56,7 +56,7 @@ Scene loadScene(const std::string& path) {
 
   const ConfigNode v = root.optional("views");
   if (v.defined()) {
-    v.requireOnlyKeys({"distance_m", "max_tilt_deg", "image_margin_px", "min_singular_value"});
+    v.requireOnlyKeys({"distance_m", "max_tilt_deg", "image_margin_px", "min_singular_value", "locked_joint"});
     if (v.has("distance_m")) {
       const Eigen::VectorXd d = v["distance_m"].asVector(2);
       if (!(0 < d[0] && d[0] < d[1])) v["distance_m"].fail("expected [min, max] with 0 < min < max");
@@ -67,6 +67,9 @@ Scene loadScene(const std::string& path) {
     if (!(s.views.max_tilt_rad >= 0 && s.views.max_tilt_rad < 0.5 * kPi)) v["max_tilt_deg"].fail("must be within [0, 90)");
     s.views.image_margin_px = v.optional("image_margin_px").asDouble(s.views.image_margin_px);
     s.views.min_singular_value = v.optional("min_singular_value").asDouble(s.views.min_singular_value);
+    const int locked = v.optional("locked_joint").asInt(s.views.locked_joint + 1);
+    if (locked < 0) v["locked_joint"].fail("must be a joint number (1-based) or 0 for none");
+    s.views.locked_joint = locked - 1;
   }
   return s;
 }

@@ -40,7 +40,7 @@ TEST_CASE("every generated configuration sees every board corner inside the imag
   double min_tilt = 1e9, max_tilt = 0, min_dist = 1e9, max_dist = 0;
   for (const auto& q : configs) {
     CHECK(withinLimits(arm, q));
-    CHECK(singularityMeasure(arm, q, s.locked_joint) >= scene.views.min_singular_value);
+    CHECK(singularityMeasure(arm, q, scene.views.locked_joint) >= scene.views.min_singular_value);
     // Independent of boardVisibility(): compose the chain and project with u = fx x/z + cx.
     const Eigen::Isometry3d base_T_camera = forwardKinematics(arm, q) * scene.flange_T_camera;
     const Eigen::Isometry3d camera_T_board = base_T_camera.inverse() * scene.base_T_board;
@@ -84,5 +84,24 @@ TEST_CASE("a board that no configuration can see is a one-line error naming the 
     const std::string msg = e.what();
     CHECK(msg.find("builtin:default_scene.yaml: base_T_board: only 0 of 10") == 0);
     CHECK(msg.find('\n') == std::string::npos);
+  }
+}
+
+TEST_CASE("the scene chooses the locked joint; a joint the arm does not have is named", "[sim][generator][badinput]") {
+  const Arm arm = loadArm(kDefaultRobot);
+  Scene scene = loadScene(kDefaultScene);
+  REQUIRE(scene.views.locked_joint == 1);  // theta_2, seed 000's choice, written as 2 in the file
+  GeneratorSettings s;
+  s.count = 10;
+  scene.views.locked_joint = -1;  // none: all seven joints move
+  const auto free = generateConfigurations(arm, scene, s);
+  REQUIRE(free.size() == 10);
+  for (const auto& q : free) CHECK(singularityMeasure(arm, q, -1) >= scene.views.min_singular_value);
+  scene.views.locked_joint = 8;
+  try {
+    generateConfigurations(arm, scene, s);
+    FAIL("expected an InputError");
+  } catch (const InputError& e) {
+    CHECK(std::string(e.what()) == "builtin:default_scene.yaml: views.locked_joint: joint 9 but the arm has 7 joints");
   }
 }

@@ -106,6 +106,8 @@ TEST_CASE("malformed scene files name the file and the key", "[sim][io][badinput
   CHECK(inputError([&] { loadScene(f); }) == f + ": base_T_board.xyz_m: expected a sequence of 3 numbers");
   with("distance_m: [1.5, 2.5]", "distance_m: [2.5, 1.5]");
   CHECK(inputError([&] { loadScene(f); }) == f + ": views.distance_m: expected [min, max] with 0 < min < max");
+  with("locked_joint: 2 ", "locked_joint: -1 ");
+  CHECK(inputError([&] { loadScene(f); }) == f + ": views.locked_joint: must be a joint number (1-based) or 0 for none");
   with("camera:", "kamera:");
   CHECK_THAT(inputError([&] { loadScene(f); }), Catch::StartsWith(f + ": kamera: unknown key"));
 }

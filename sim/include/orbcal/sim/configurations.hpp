@@ -6,7 +6,8 @@
 //  1. a camera pose looking at a point near the board centre: distance uniform in the scene's range,
 //     tilt from the board normal uniform in [0, max tilt], azimuth and roll about the optical axis uniform;
 //  2. the flange pose base_T_camera * camera_T_flange, solved by IK from a random start within the
-//     limits, with the locked joint (theta_2, seed 000's choice) drawn uniformly within its limits;
+//     limits, with the scene's locked joint (views.locked_joint; theta_2, seed 000's choice, by default)
+//     drawn uniformly within its limits;
 //  3. accepted if IK converged within the limits, the singularity measure is at least the scene's
 //     views.min_singular_value, and boardVisibility() says kVisible for the solution's true camera pose.
 // The first N accepted attempts, in attempt order, are returned.
@@ -27,7 +28,6 @@ namespace orbcal::sim {
 struct GeneratorSettings {
   int count = 50;
   std::uint64_t seed = 1;
-  int locked_joint = 1;        ///< theta_2 (0-based index 1), as in seed 000
   int max_attempts = 0;        ///< 0: 400 per configuration asked for, at least 4000
   int threads = 0;             ///< 0: all hardware threads
 };
