@@ -11,14 +11,7 @@
 
 using namespace orbcal;
 
-namespace {
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-}  // namespace
+using orbcal::test::slurp;
 
 TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces the estimate and cuts the hold-out error",
           "[e2e][calibrate]") {

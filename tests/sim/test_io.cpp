@@ -18,12 +18,7 @@
 using namespace orbcal::sim;
 
 namespace {
-std::string slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
+using orbcal::test::slurp;
 
 void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
 
