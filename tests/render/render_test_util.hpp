@@ -7,6 +7,7 @@
 #include <optional>
 #include <vector>
 
+#include "orbcal/render/renderer.hpp"
 #include "orbcal/sim/scene.hpp"
 #include "orbcal/sim/se3.hpp"
 
@@ -28,6 +29,14 @@ inline Eigen::Isometry3d lookAtBoard(const sim::Board& board, double distance_m,
   board_T_camera.linear() << x, z.cross(x), z;
   board_T_camera.translation() = target - distance_m * z;
   return board_T_camera.inverse();
+}
+
+/// The noise-free image of `scene` under `settings` from camera_T_board, by a renderer (and OSMesa
+/// context) of its own, released before returning: tests compare images of two settings this way.
+inline cv::Mat renderCleanWith(const sim::Scene& scene, const render::RenderSettings& settings,
+                               const Eigen::Isometry3d& camera_T_board) {
+  render::BoardRenderer r(scene, settings);
+  return r.renderClean(camera_T_board);
 }
 
 inline cv::Mat toCvMat(const Eigen::Matrix3d& R) {

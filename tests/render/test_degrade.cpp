@@ -123,15 +123,8 @@ TEST_CASE("exposure scales the rendered radiance: half the exposure, half the me
   render::RenderSettings half = full;
   half.degradations.exposure = 0.5;
   const Eigen::Isometry3d camera_T_board = test::lookAtBoard(scene.board, 2.0, 20.0, 30.0, 10.0);
-  cv::Mat a, b;
-  {
-    render::BoardRenderer r(scene, full);
-    a = r.renderClean(camera_T_board);
-  }
-  {
-    render::BoardRenderer r(scene, half);
-    b = r.renderClean(camera_T_board);
-  }
+  const cv::Mat a = test::renderCleanWith(scene, full, camera_T_board);
+  const cv::Mat b = test::renderCleanWith(scene, half, camera_T_board);
   double max_full = 0;
   cv::minMaxLoc(a, nullptr, &max_full);
   REQUIRE(max_full < 255);  // nothing saturated at exposure 1, so the scaling is linear

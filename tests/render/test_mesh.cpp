@@ -74,15 +74,8 @@ TEST_CASE("an Assimp mesh in front of the board hides exactly the pixels it cove
   without_mesh.meshes.clear();
 
   const Eigen::Isometry3d camera_T_board = test::lookAtBoard(scene.board, 2.0, 20.0, 30.0, 10.0);
-  cv::Mat occluded, clean;
-  {
-    render::BoardRenderer r(scene, with_mesh);
-    occluded = r.renderClean(camera_T_board);
-  }
-  {
-    render::BoardRenderer r(scene, without_mesh);
-    clean = r.renderClean(camera_T_board);
-  }
+  const cv::Mat occluded = test::renderCleanWith(scene, with_mesh, camera_T_board);
+  const cv::Mat clean = test::renderCleanWith(scene, without_mesh, camera_T_board);
   const cv::Mat mask = plateSilhouette(scene, camera_T_board, with_mesh.meshes[0].frame_T_mesh);
   const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * kEdgePx + 1, 2 * kEdgePx + 1));
   cv::Mat inside, near;
@@ -113,15 +106,8 @@ TEST_CASE("a mesh casts a shadow from the sun onto the board", "[render][mesh][s
   render::RenderSettings shadow = no_shadow;
   shadow.meshes[0].casts_shadow = true;
   const Eigen::Isometry3d camera_T_board = test::lookAtBoard(scene.board, 2.2, 10.0, 0.0, 0.0);
-  cv::Mat a, b;
-  {
-    render::BoardRenderer r(scene, no_shadow);
-    a = r.renderClean(camera_T_board);
-  }
-  {
-    render::BoardRenderer r(scene, shadow);
-    b = r.renderClean(camera_T_board);
-  }
+  const cv::Mat a = test::renderCleanWith(scene, no_shadow, camera_T_board);
+  const cv::Mat b = test::renderCleanWith(scene, shadow, camera_T_board);
   cv::Mat darker, brighter;
   cv::subtract(a, b, darker);    // saturates at 0
   cv::subtract(b, a, brighter);
