@@ -23,6 +23,21 @@ struct DhRow {
   double theta_rad = 0.0;
 };
 
+/// One link's mass properties: the body that moves with joint j (frame j of the DH chain).
+struct LinkMass {
+  double mass_kg = 0.0;
+  Eigen::Vector3d com_m = Eigen::Vector3d::Zero();  ///< centre of mass in the link's own DH frame
+};
+
+/// Masses for static gravity torques (sim/gravity.hpp); optional in the robot file.
+struct MassModel {
+  std::vector<LinkMass> links;  ///< one per joint; empty: no mass model
+  Eigen::Vector3d gravity_base = Eigen::Vector3d(0.0, 0.0, -9.80665);  ///< m/s^2, base frame
+  double payload_kg = 0.0;                                           ///< at the flange
+  Eigen::Vector3d payload_com_flange_m = Eigen::Vector3d::Zero();     ///< in the flange frame
+  bool empty() const { return links.empty() && payload_kg == 0.0; }
+};
+
 struct Arm {
   std::string name;
   std::string source;  ///< file the arm was loaded from (for messages)
@@ -32,6 +47,7 @@ struct Arm {
   Eigen::Isometry3d last_T_flange = Eigen::Isometry3d::Identity();  ///< fixed, not identified
   Eigen::VectorXd lower_rad;  ///< joint limits, one per joint
   Eigen::VectorXd upper_rad;
+  MassModel masses;           ///< optional; empty when the robot file has no `masses:` section
 
   int numJoints() const { return static_cast<int>(joints.size()); }
   int numParams() const { return kParamsPerJoint * numJoints(); }

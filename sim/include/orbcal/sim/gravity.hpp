@@ -1,0 +1,20 @@
+#pragma once
+// Static joint torques under gravity: the torque each joint must exert to hold the arm (its links'
+// masses and a payload at the flange) still at joint angles q. Used where an effect needs torques
+// that were not measured (compliance), and by the simulator to write a torque column.
+//
+// Sign convention: tau_j is the torque the joint's actuator applies about its own z axis (the DH
+// joint axis), the quantity a joint torque sensor reports: tau_j = -z_j . sum_{i >= j}
+// (c_i - o_j) x (m_i g), with g the gravity vector in the base frame, c_i the centre of mass of link i
+// and o_j a point on axis j.
+#include <Eigen/Geometry>
+#include <vector>
+
+#include "orbcal/sim/arm.hpp"
+
+namespace orbcal::sim {
+
+/// Joint torques (N m) holding the arm still at q under the mass model (payload included).
+Eigen::VectorXd gravityTorques(const Arm& arm, const MassModel& masses, const Eigen::VectorXd& q);
+
+}  // namespace orbcal::sim

@@ -1,0 +1,87 @@
+#pragma once
+// Measured data as users have it: CSV files from a laser tracker or motion-capture system (joint
+// readings, the measured pose of a marker on the flange in the measuring system's own frame, and
+// covariates such as joint torques, temperature and time), described by a small YAML file beside
+// them that says what each column is. No column is renamed or converted by hand.
+//
+//   format: orbcal-measurements-1
+//   robot: iiwa7.yaml                      # relative to this file or absolute, or builtin:NAME
+//   files: [run1_0kg.csv, run2_1.25kg.csv] # relative to this file or absolute; a file = a session
+//   joints: {columns: [theta_1, ..., theta_7], unit: rad}       # or deg
+//   pose:                                  # one of:
+//     matrix: [m_00, ..., m_33]            #   16 names, row-major homogeneous 4x4
+//     # position: [x, y, z]                #   3 names, with
+//     # quaternion_wxyz: [qw, qx, qy, qz]  #   optionally 4 names (without: position-only data)
+//     length_unit: mm                      #   m or mm
+//   covariates:                            # optional, by physical role
+//     torque: {columns: [tau_1, ..., tau_7], unit: N*m}
+//     temperature: {column: temp_C, unit: degC}
+//     time: {column: time_s, unit: s}
+//     direction: {columns: [dir_1, ..., dir_7]}   # approach direction per joint (+1/-1/0)
+//   registration: {base: shared, marker: per_session}   # shared | per_session | known
+//   noise: {position_mm: 0.05, rotation_deg: 0.01}      # optional; estimated from the fit when absent
+//
+// CSV: a header line, then one sample per line; spaces after commas, CRLF line endings, a UTF-8 BOM
+// and trailing empty lines are accepted. Errors are InputError naming the file, the line and the column.
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "orbcal/sim/arm.hpp"
+#include "orbcal/sim/sample.hpp"
+
+namespace orbcal::sim {
+
+/// How an unknown registration frame is shared between sessions.
+enum class FrameSharing {
+  kShared,      ///< one frame for all sessions, estimated
+  kPerSession,  ///< one frame per session (e.g. a marker re-mounted between runs), estimated
+  kKnown        ///< given (world_T_base / flange_T_marker of MeasuredData), not estimated
+};
+
+struct MeasuredPose {
+  JointSample sample;
+  Eigen::Isometry3d world_T_marker = Eigen::Isometry3d::Identity();  ///< measured; m
+  bool has_rotation = true;  ///< false: position-only data (the rotation is identity and unused)
+  std::string where;         ///< "<file>: line L", for messages
+};
+
+struct MeasuredData {
+  std::string description;           ///< path of the YAML description
+  std::string robot_file;            ///< as resolved
+  Arm arm;                           ///< the nominal arm
+  std::vector<std::string> files;    ///< one per session, as resolved
+  std::vector<MeasuredPose> poses;   ///< every sample of every session, in file order
+  FrameSharing base = FrameSharing::kShared;
+  FrameSharing marker = FrameSharing::kShared;
+  /// With FrameSharing::kKnown: the given frame (description keys `world_T_base`, `flange_T_marker`
+  /// as {xyz_m, rpy_deg}); identity otherwise.
+  Eigen::Isometry3d world_T_base = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d flange_T_marker = Eigen::Isometry3d::Identity();
+  std::optional<double> noise_position_m;      ///< 1 sigma per axis, when the description gives it
+  std::optional<double> noise_rotation_rad;    ///< 1 sigma per axis
+  bool has_torque = false, has_temperature = false, has_time = false, has_direction = false;
+
+  int numSessions() const { return static_cast<int>(files.size()); }
+};
+
+/// Reads a description and every CSV file it names. Joint angles outside the arm's limits, a
+/// non-orthonormal rotation (beyond 1e-6), a NaN, a missing column, a wrong count of joint columns,
+/// an unknown key: InputError naming the file, the line and the column (or the key).
+MeasuredData loadMeasuredData(const std::string& description_path);
+
+/// Approach directions from the sample order within each session: sign(q_k - q_{k-1}) per joint,
+/// 0 where the joint moved less than `threshold_rad`; for the first sample of a session, the
+/// direction of its successor's move reversed is not known, so it is 0.
+void fillApproachDirections(std::vector<MeasuredPose>& poses, double threshold_rad = 1e-6);
+
+/// Writes `data` as a description plus one CSV per session into `folder` (atomically), with the
+/// columns: index, q1_rad..qN_rad, [tau1_Nm..tauN_Nm], [temperature_C], [time_s], x_m, y_m, z_m,
+/// qw, qx, qy, qz (the pose as position and quaternion). `robot_file` is written as given
+/// (relative to the folder, or builtin:NAME). Returns the description's path. loadMeasuredData reads
+/// it back to the same samples (numbers written exactly).
+std::string writeMeasuredData(const MeasuredData& data, const std::string& folder, const std::string& robot_file,
+                              const std::string& description_name = "measurements.yaml");
+
+}  // namespace orbcal::sim
