@@ -1,0 +1,182 @@
+#pragma once
+// The kinematic model a calibration fits: geometry (the DH errors of arm.hpp) + registration (the
+// unknown frames of the measuring system and of the marker on the flange) + physical effects (the
+// catalog below), behind one parameter vector p of named blocks (ParamLayout) that owns what every
+// parameter means: its name, its unit and its typical magnitude (the prior sigma and column scale).
+// Every estimator, report and identifiability table reads names, units and scales from the layout,
+// so a new effect is one new type here and nothing changes downstream.
+//
+// The measurement it predicts is the pose of a marker in the measuring system's frame:
+//
+//   world_T_marker(p, s) = world_T_base(p) * D(p, t) * base_T_flange(arm(p, T), q + dq(p, s)) * flange_T_marker(p) * Y(p)
+//
+// where s is a JointSample (joint readings and covariates), D is the base drift with time, arm(p, T)
+// the nominal DH rows plus the geometric errors with thermal expansion of the lengths, dq the
+// joint-angle corrections of the joint effects, and Y the marker's change between sessions (mount).
+// Every catalog effect enters the chain in one of two ways, and its Jacobian column is built from the
+// same twists as the identification Jacobian (sim/jacobian.hpp):
+//  1. a joint-angle correction dq_j(p, s): compliance c_j tau_j, cyclic harmonics of q_j, encoder
+//     scale s_j q_j, backlash b_j times the approach direction; column = theta twist of joint j x
+//     d(dq_j)/dp;
+//  2. a perturbation of a chain frame: thermal expansion of every a and d, the registration frames,
+//     the drift of the base with time, the mount change; column = the twist at that frame.
+//
+// Registration and mount frames are parameterized as X = (Exp(w), t) right-multiplied onto their
+// starting value (t in the frame's own coordinates, w a rotation vector), so p = 0 is the starting
+// model. The Jacobian J_e_p is that of the right perturbation of world_T_marker in the marker frame,
+// e = poseMinus(world_T_marker(p + dp), world_T_marker(p)) ≈ J_e_p dp, checked against central
+// differences in tests/sim/test_model.cpp.
+#include <Eigen/Geometry>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "orbcal/sim/arm.hpp"
+#include "orbcal/sim/jacobian.hpp"
+#include "orbcal/sim/measured.hpp"
+#include "orbcal/sim/sample.hpp"
+
+namespace orbcal::sim {
+
+// ---- Parameter layout ---------------------------------------------------------------------------
+
+/// What a parameter measures, for the EKF's prior settings and for printing.
+enum class Quantity { kAngle, kLength, kOther };
+
+struct ParamInfo {
+  std::string name;          ///< e.g. "theta2", "base_x", "c2", "cyclic2_sin1"
+  std::string unit;          ///< SI unit of the value: "rad", "m", "rad/(N*m)", "1", "1/K", "m/s", "rad/s"
+  std::string display_unit;  ///< unit people read: "deg", "mm", "rad/(N*m)", ...
+  double display_scale = 1;  ///< value [unit] * display_scale = value [display_unit]
+  double typical = 1;        ///< typical magnitude (SI): prior 1-sigma and column scale
+  Quantity quantity = Quantity::kOther;
+};
+
+struct ParamBlock {
+  std::string effect;       ///< "geometry", "base", "marker", or a catalog effect's name
+  std::vector<int> joints;  ///< joints it acts on, from 0 (empty for frames and global effects)
+  int session = -1;         ///< for per-session frames: the session; -1 otherwise
+  int offset = 0;           ///< index of its first parameter in p
+  std::vector<ParamInfo> params;
+  int size() const { return static_cast<int>(params.size()); }
+};
+
+class ParamLayout {
+ public:
+  /// Appends a block (its offset is set here) and returns its index.
+  int add(ParamBlock block);
+  int size() const { return size_; }
+  const std::vector<ParamBlock>& blocks() const { return blocks_; }
+  const ParamBlock& block(int b) const { return blocks_.at(static_cast<std::size_t>(b)); }
+  const ParamInfo& param(int i) const;
+  int blockOf(int i) const;  ///< index of the block holding parameter i
+  /// Index of the first block of `effect` (and `session`, where >= 0); -1 when absent.
+  int find(const std::string& effect, int session = -1) const;
+  /// Typical magnitudes of every parameter (SI).
+  Eigen::VectorXd typical() const;
+
+ private:
+  std::vector<ParamBlock> blocks_;
+  int size_ = 0;
+};
+
+/// The geometric block of an arm: 4 DH errors per joint in arm.hpp's order (theta, alpha, a, d).
+ParamBlock geometryBlock(const Arm& arm);
+
+// ---- The effect catalog -------------------------------------------------------------------------
+// Joints are numbered from 0 inside the code and from 1 wherever people read or write them.
+
+/// Joint i deflects by c_i tau_i (rad per N m), tau_i the measured (or gravity-model) joint torque.
+struct Compliance { std::vector<int> joints; };
+/// Transmission error of joint i: sum_{k=1..K} a_ik sin(k q_i) + b_ik cos(k q_i) (rad).
+struct Cyclic { std::vector<int> joints; int harmonics = 2; };
+/// Encoder scale error of joint i: dq_i = s_i q_i (s dimensionless).
+struct Scale { std::vector<int> joints; };
+/// Lost motion of joint i: dq_i = b_i d_i, d_i = +1/-1 the direction it approached from (0: did not move).
+struct Backlash { std::vector<int> joints; };
+/// Every DH length (a and d) expands by alpha (T - reference_C); alpha in 1/K.
+struct Thermal { double reference_C = 20.0; };
+/// The base frame moves linearly with time: D(t) = (Exp((t - reference_s) w), (t - reference_s) v),
+/// parameters [v (m/s); w (rad/s)] in the base frame.
+struct Drift { double reference_s = 0.0; };
+/// The marker changes between sessions: sessions 2.. get a rigid change Y_s of the marker frame.
+struct Mount {};
+
+using Effect = std::variant<Compliance, Cyclic, Scale, Backlash, Thermal, Drift, Mount>;
+
+/// The catalog's names: "compliance", "cyclic", "scale", "backlash", "thermal", "drift", "mount".
+std::string effectName(const Effect& e);
+/// Joints the effect acts on (from 0); empty for global effects.
+std::vector<int> effectJoints(const Effect& e);
+/// Every name of the catalog, in order (and "distortion", which is a camera effect, not a chain effect).
+const std::vector<std::string>& effectNames();
+/// Parses "compliance:2,4", "cyclic:2" (K = 2 harmonics), "cyclic:2,3/3" (K = 3), "thermal",
+/// "drift", "mount" (joints from 1). Throws InputError naming `what` (e.g. "--effects") for an
+/// unknown name, a joint out of range or a joint effect without joints.
+Effect parseEffect(const std::string& spec, int num_joints, const std::string& what);
+/// The inverse of parseEffect: "compliance:2,4".
+std::string formatEffect(const Effect& e);
+/// Parameter blocks of an effect for an arm and a number of sessions.
+std::vector<ParamBlock> effectBlocks(const Effect& e, int num_sessions);
+
+// ---- The model ----------------------------------------------------------------------------------
+
+struct KinematicModel {
+  Arm arm;                                       ///< nominal geometry (and masses)
+  int sessions = 1;
+  FrameSharing base = FrameSharing::kKnown;      ///< how world_T_base is shared and whether it is estimated
+  FrameSharing marker = FrameSharing::kKnown;
+  /// Starting (nominal) frames: one, or one per session where per_session.
+  std::vector<Eigen::Isometry3d> world_T_base{Eigen::Isometry3d::Identity()};
+  std::vector<Eigen::Isometry3d> flange_T_marker{Eigen::Isometry3d::Identity()};
+  std::vector<Effect> effects;
+  bool geometry = true;                          ///< the DH errors are parameters
+  ParamLayout layout;                            ///< built by makeKinematicModel
+
+  const Eigen::Isometry3d& baseStart(int session) const;
+  const Eigen::Isometry3d& markerStart(int session) const;
+};
+
+/// Builds the layout: base blocks, marker blocks, geometry, then each effect's blocks. Frames given
+/// one per session where per_session (else one). Throws std::invalid_argument on inconsistent sizes.
+KinematicModel makeKinematicModel(Arm arm, int sessions, FrameSharing base, FrameSharing marker,
+                                  std::vector<Eigen::Isometry3d> world_T_base,
+                                  std::vector<Eigen::Isometry3d> flange_T_marker, std::vector<Effect> effects,
+                                  bool geometry = true);
+
+/// The seed 000 model: the flange pose in the base frame, geometry only, frames known (identity).
+KinematicModel flangeModel(const Arm& arm);
+
+/// Joint-angle corrections dq (rad, one per joint) of the joint effects at p for sample s.
+/// Throws std::invalid_argument when an effect needs a covariate the sample lacks (compliance: torque).
+Eigen::VectorXd jointCorrections(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s);
+
+/// The arm the chain is evaluated with: nominal DH rows + the geometric errors, lengths expanded by
+/// the thermal effect at the sample's temperature.
+Arm effectiveArm(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s);
+
+/// base_T_flange of the model at p for sample s (effects included; registration excluded).
+Eigen::Isometry3d flangePose(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s);
+
+/// world_T_marker at p for sample s. J_e_p (6 x layout.size()): Jacobian of the right perturbation
+/// in the marker frame; J_e_q (6 x joints): the same for the joint readings (to carry joint noise
+/// into a measurement covariance). Either may be null.
+Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s,
+                                    Eigen::MatrixXd* J_e_p = nullptr, Eigen::MatrixXd* J_e_q = nullptr);
+
+/// The model with p folded in: geometric errors added to the DH rows, registration frames moved,
+/// effect parameters returned in `effect_values` (the model keeps no values of its own). The
+/// returned model's p = effectValuesAsParams(...) reproduces world_T_marker(p) exactly.
+struct FoldedModel {
+  KinematicModel model;
+  Eigen::VectorXd p;  ///< zero except the effect parameters
+};
+FoldedModel foldParameters(const KinematicModel& m, const Eigen::VectorXd& p);
+
+/// (Exp(w), t) of a 6-vector [t; w]: the registration parameterization.
+Eigen::Isometry3d frameDelta(const Eigen::Ref<const Eigen::VectorXd>& tw);
+/// Right Jacobian of SO(3) at the rotation vector w: Exp(w + dw) ≈ Exp(w) Exp(Jr(w) dw).
+Eigen::Matrix3d rightJacobianSO3(const Eigen::Vector3d& w);
+
+}  // namespace orbcal::sim

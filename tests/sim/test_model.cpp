@@ -1,0 +1,194 @@
+// The kinematic model of geometry + registration + effects: every effect's analytic Jacobian against
+// central differences, alone and composed, in both DH conventions, at random parameters; the effects'
+// forward models against their defining formulas; folding parameters into the model.
+#include <catch2/catch.hpp>
+#include <random>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/io.hpp"
+#include "orbcal/sim/model.hpp"
+#include "orbcal/sim/se3.hpp"
+#include "test_util.hpp"
+
+using namespace orbcal::sim;
+
+namespace {
+
+// Columns are compared scaled by each parameter's typical magnitude, so that every entry is the pose
+// change (m, rad) a typical value of the parameter causes: 1e-5..1e-1 here. Central differences with a
+// step of 1e-3 typical: truncation ~ (1e-3)^2 relative (the pose is smooth on the scale of a typical
+// value), round-off ~ 1e-16 x 3 m / 1e-3 = 3e-13. A relative tolerance of 1e-5 of the column's
+// largest entry (plus 1e-11 absolute) is far above both, and far below what a wrong lever arm, sign,
+// frame or missing right Jacobian gives (errors of 1e-3 relative and more: a 1 deg rotation vector
+// changes Jr by 0.9%).
+constexpr double kRelativeStep = 1e-3;
+constexpr double kRelTol = 1e-5;
+constexpr double kAbsTol = 1e-11;
+
+JointSample randomSample(const Arm& arm, int session, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  JointSample s;
+  const int n = arm.numJoints();
+  s.q_rad.resize(n);
+  s.tau_Nm.resize(n);
+  s.direction.resize(n);
+  for (int j = 0; j < n; ++j) {
+    s.q_rad[j] = arm.lower_rad[j] + u(rng) * (arm.upper_rad[j] - arm.lower_rad[j]);
+    s.tau_Nm[j] = -60.0 + 120.0 * u(rng);
+    s.direction[j] = u(rng) < 0.5 ? -1.0 : 1.0;
+  }
+  s.temperature_C = 15.0 + 20.0 * u(rng);
+  s.time_s = 3600.0 * u(rng);
+  s.session = session;
+  return s;
+}
+
+Eigen::VectorXd randomParams(const KinematicModel& m, std::mt19937_64& rng) {
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const Eigen::VectorXd t = m.layout.typical();
+  Eigen::VectorXd p(t.size());
+  for (Eigen::Index i = 0; i < p.size(); ++i) p[i] = n01(rng) * t[i];
+  return p;
+}
+
+void checkJacobian(const KinematicModel& m, const JointSample& s, const Eigen::VectorXd& p) {
+  Eigen::MatrixXd J;
+  const Eigen::Isometry3d T = predictMarkerPose(m, p, s, &J);
+  REQUIRE(J.rows() == 6);
+  REQUIRE(J.cols() == m.layout.size());
+  const Eigen::VectorXd typical = m.layout.typical();
+  double largest = 0.0;
+  for (int c = 0; c < m.layout.size(); ++c) {
+    const double h = kRelativeStep * typical[c];
+    Eigen::VectorXd pp = p, pm = p;
+    pp[c] += h;
+    pm[c] -= h;
+    const Vector6d num =
+        (poseMinus(predictMarkerPose(m, pp, s), T) - poseMinus(predictMarkerPose(m, pm, s), T)) / (2.0 * h) * typical[c];
+    const Vector6d ana = J.col(c) * typical[c];
+    largest = std::max(largest, num.cwiseAbs().maxCoeff());
+    Eigen::Index r = 0;
+    const double err = (ana - num).cwiseAbs().maxCoeff(&r);
+    CAPTURE(m.layout.param(c).name, r, ana[r], num[r]);
+    REQUIRE(err <= kRelTol * num.cwiseAbs().maxCoeff() + kAbsTol);
+  }
+  REQUIRE(largest > 1e-4);  // the harness is not comparing zeros
+}
+
+KinematicModel modelWith(const Arm& arm, std::vector<Effect> effects, FrameSharing base = FrameSharing::kShared,
+                         FrameSharing marker = FrameSharing::kPerSession) {
+  const int sessions = 2;
+  const Eigen::Isometry3d W = fromXyzRpy({2.1, -0.7, 0.4}, Eigen::Vector3d(20, -110, 65) * kDegToRad);
+  const Eigen::Isometry3d M = fromXyzRpy({0.03, -0.05, 0.11}, Eigen::Vector3d(5, -8, 40) * kDegToRad);
+  const auto frames = [&](FrameSharing f, const Eigen::Isometry3d& T) {
+    return std::vector<Eigen::Isometry3d>(f == FrameSharing::kPerSession ? sessions : 1, T);
+  };
+  return makeKinematicModel(arm, sessions, base, marker, frames(base, W), frames(marker, M), std::move(effects));
+}
+
+std::vector<Effect> everyEffect(int n) {
+  return {Compliance{{1, 3}}, Cyclic{{0, n - 1}, 2}, Scale{{2}}, Backlash{{1, 4}}, Thermal{}, Drift{}, Mount{}};
+}
+
+}  // namespace
+
+TEST_CASE("each effect's Jacobian matches central differences, alone and composed", "[model]") {
+  for (const char* file : {"scenes/iiwa7.yaml", "scenes/ssrms.yaml"}) {
+    const Arm arm = loadArm(orbcal::test::sourcePath(file));
+    std::mt19937_64 rng(20261123);
+    std::vector<std::vector<Effect>> cases;
+    cases.push_back({});  // geometry + registration alone
+    for (const Effect& e : everyEffect(arm.numJoints())) cases.push_back({e});
+    cases.push_back(everyEffect(arm.numJoints()));
+    for (const auto& effects : cases) {
+      const KinematicModel m = modelWith(arm, effects);
+      for (int trial = 0; trial < 4; ++trial) {
+        CAPTURE(file, effects.size() == 1 ? formatEffect(effects[0]) : std::to_string(effects.size()) + " effects", trial);
+        checkJacobian(m, randomSample(arm, trial % 2, rng), randomParams(m, rng));
+      }
+    }
+    // Per-session bases and a shared marker; known frames.
+    checkJacobian(modelWith(arm, everyEffect(arm.numJoints()), FrameSharing::kPerSession, FrameSharing::kShared),
+                  randomSample(arm, 1, rng), randomParams(modelWith(arm, everyEffect(arm.numJoints()), FrameSharing::kPerSession, FrameSharing::kShared), rng));
+    const KinematicModel known = modelWith(arm, {Compliance{{1}}}, FrameSharing::kKnown, FrameSharing::kKnown);
+    checkJacobian(known, randomSample(arm, 0, rng), randomParams(known, rng));
+  }
+}
+
+TEST_CASE("joint effects follow their defining formulas", "[model]") {
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/iiwa7.yaml"));
+  const KinematicModel m = modelWith(arm, {Compliance{{1}}, Cyclic{{2}, 1}, Scale{{3}}, Backlash{{4}}});
+  std::mt19937_64 rng(7);
+  const JointSample s = randomSample(arm, 0, rng);
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(m.layout.size());
+  const auto at = [&](const std::string& name) {
+    for (int i = 0; i < m.layout.size(); ++i) {
+      if (m.layout.param(i).name == name) return i;
+    }
+    FAIL("no parameter " << name);
+    return -1;
+  };
+  p[at("c2")] = 2e-5;
+  p[at("cyclic3_sin1")] = 3e-4;
+  p[at("cyclic3_cos1")] = -1e-4;
+  p[at("s4")] = 5e-4;
+  p[at("b5")] = 2e-4;
+  const Eigen::VectorXd dq = jointCorrections(m, p, s);
+  CHECK(dq[0] == 0.0);
+  CHECK(dq[1] == Approx(2e-5 * s.tau_Nm[1]).epsilon(1e-14));
+  CHECK(dq[2] == Approx(3e-4 * std::sin(s.q_rad[2]) - 1e-4 * std::cos(s.q_rad[2])).epsilon(1e-14));
+  CHECK(dq[3] == Approx(5e-4 * s.q_rad[3]).epsilon(1e-14));
+  CHECK(dq[4] == Approx(2e-4 * s.direction[4]).epsilon(1e-14));
+  // The flange pose is the nominal arm's at the corrected joints.
+  const Eigen::Isometry3d F = flangePose(m, p, s);
+  CHECK((F.matrix() - forwardKinematics(arm, s.q_rad + dq).matrix()).cwiseAbs().maxCoeff() < 1e-15);
+}
+
+TEST_CASE("thermal expansion scales every DH length", "[model]") {
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/iiwa7.yaml"));
+  const KinematicModel m = modelWith(arm, {Thermal{20.0}});
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(m.layout.size());
+  p[m.layout.block(m.layout.find("thermal")).offset] = 2.3e-5;
+  JointSample s;
+  s.q_rad = Eigen::VectorXd::Zero(arm.numJoints());
+  s.temperature_C = 30.0;
+  const Arm warm = effectiveArm(m, p, s);
+  for (int j = 0; j < arm.numJoints(); ++j) CHECK(warm.joints[j].d_m == Approx(arm.joints[j].d_m * (1.0 + 2.3e-5 * 10.0)));
+  // At q = 0 the iiwa stands straight up: the flange rises by alpha dT (d1 + d3 + d5 + d7).
+  const double dz = flangePose(m, p, s).translation().z() - forwardKinematics(arm, s.q_rad).translation().z();
+  CHECK(dz == Approx(2.3e-4 * (0.34 + 0.4 + 0.4 + 0.126)).epsilon(1e-9));
+}
+
+TEST_CASE("folding parameters into the model keeps its predictions", "[model]") {
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/ssrms.yaml"));
+  const KinematicModel m = modelWith(arm, everyEffect(arm.numJoints()));
+  std::mt19937_64 rng(11);
+  const Eigen::VectorXd p = randomParams(m, rng);
+  const FoldedModel f = foldParameters(m, p);
+  for (int k = 0; k < 5; ++k) {
+    const JointSample s = randomSample(arm, k % 2, rng);
+    const Eigen::Isometry3d a = predictMarkerPose(m, p, s), b = predictMarkerPose(f.model, f.p, s);
+    CHECK((a.matrix() - b.matrix()).cwiseAbs().maxCoeff() < 1e-12);
+  }
+  CHECK(f.p.segment(f.model.layout.block(f.model.layout.find("geometry")).offset, arm.numParams()).isZero());
+}
+
+TEST_CASE("effect specifications parse and print back; bad ones are errors naming the option", "[model]") {
+  for (const char* spec : {"compliance:2,4", "cyclic:2", "cyclic:1,7/3", "scale:3", "backlash:1", "thermal", "drift", "mount"}) {
+    CHECK(formatEffect(parseEffect(spec, 7, "--effects")) == spec);
+  }
+  const auto message = [](const std::string& spec) {
+    try {
+      parseEffect(spec, 7, "--effects");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  CHECK_THAT(message("compliance:8"), Catch::Contains("--effects") && Catch::Contains("joint 8"));
+  CHECK_THAT(message("compliance"), Catch::Contains("needs joints"));
+  CHECK_THAT(message("thermal:2"), Catch::Contains("takes no joints"));
+  CHECK_THAT(message("bend:2"), Catch::Contains("unknown effect"));
+  CHECK_THAT(message("cyclic:2/0"), Catch::Contains("harmonics"));
+}
