@@ -4,6 +4,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <chrono>
 #include <set>
 
@@ -14,11 +15,22 @@ namespace orbcal::calib {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+std::vector<int> sortedUnique(std::vector<int> v) {
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+  return v;
+}
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-Eigen::VectorXd diagonalSigmas(const MeasurementModel& m, double angle, double length) {
+/// Per-parameter sigmas: `angle` for angles, `length` for lengths, and the layout's typical magnitude
+/// times `other_scale` for every other quantity (compliances, scale factors, ...).
+Eigen::VectorXd diagonalSigmas(const MeasurementModel& m, double angle, double length, double other_scale) {
   Eigen::VectorXd s(m.numParams());
-  for (int i = 0; i < m.numParams(); ++i) s[i] = m.isAngle(i) ? angle : length;
+  for (int i = 0; i < m.numParams(); ++i) {
+    const sim::ParamInfo& p = m.layout().param(i);
+    s[i] = p.quantity == sim::Quantity::kAngle ? angle : p.quantity == sim::Quantity::kLength ? length : p.typical * other_scale;
+  }
   return s;
 }
 
@@ -74,6 +86,13 @@ EkfOptions EkfOptions::paperLiteral() {
   return o;
 }
 
+Eigen::MatrixXd whitenedJacobian(const MeasurementModel& m, const Eigen::VectorXd& y) {
+  Eigen::MatrixXd A;
+  Eigen::VectorXd b;
+  stackedSystem(m, y, true, A, b);
+  return A;
+}
+
 double weightedCost(const MeasurementModel& m, const Eigen::VectorXd& y) {
   double c = 0.0;
   for (int k = 0; k < m.numSamples(); ++k) {
@@ -89,8 +108,8 @@ Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
   Estimate e;
   e.method = "EKF";
   e.y = Eigen::VectorXd::Zero(n);
-  Eigen::MatrixXd P = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m).array().square().matrix().asDiagonal();
-  const Eigen::VectorXd Q = diagonalSigmas(m, o.process_sigma_angle_rad, o.process_sigma_length_m).array().square();
+  Eigen::MatrixXd P = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m, 1.0).array().square().matrix().asDiagonal();
+  const Eigen::VectorXd Q = diagonalSigmas(m, o.process_sigma_angle_rad, o.process_sigma_length_m, 0.0).array().square();
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
   for (int k = 0; k < m.numSamples(); ++k) {
     P.diagonal() += Q;  // (12); (11) leaves y unchanged
@@ -122,7 +141,7 @@ Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
   e.seconds = since(t0);
   e.covariance = P;
   // Rank of the information the data added: eigenvalues of P0^-1/2 P P0^-1/2 well below 1.
-  const Eigen::VectorXd s0 = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m);
+  const Eigen::VectorXd s0 = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m, 1.0);
   const Eigen::MatrixXd Pn = s0.cwiseInverse().asDiagonal() * P * s0.cwiseInverse().asDiagonal();
   const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Pn).eigenvalues();
   e.rank = static_cast<int>((ev.array() < 0.5).count());
@@ -136,7 +155,7 @@ Estimate runLse(const MeasurementModel& m, const LseOptions& o) {
   Estimate e;
   e.method = o.weighted ? "LSE (weighted)" : "LSE (unweighted)";
   e.y = Eigen::VectorXd::Zero(m.numParams());
-  if (o.fix_unidentifiable) e.held = unidentifiableToFix(m, e.y, o.svd_cut);
+  e.held = o.fix_unidentifiable ? unidentifiableToFix(m, e.y, o.svd_cut, o.hold) : sortedUnique(o.hold);
   Eigen::MatrixXd A;
   Eigen::VectorXd b;
   TruncatedSolve step;
@@ -165,13 +184,21 @@ Estimate runLse(const MeasurementModel& m, const LseOptions& o) {
   return e;
 }
 
-std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::VectorXd& y, double cut) {
-  Eigen::MatrixXd A;
+std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::VectorXd& y, double cut,
+                                     const std::vector<int>& held) {
+  Eigen::MatrixXd A_all;
   Eigen::VectorXd b;
-  stackedSystem(m, y, true, A, b);
+  stackedSystem(m, y, true, A_all, b);
+  const std::vector<int> fixed_already = sortedUnique(held);
+  std::vector<int> free;  // columns of A -> parameters
+  for (int p = 0; p < m.numParams(); ++p) {
+    if (!std::binary_search(fixed_already.begin(), fixed_already.end(), p)) free.push_back(p);
+  }
+  Eigen::MatrixXd A(A_all.rows(), static_cast<Eigen::Index>(free.size()));
+  for (std::size_t c = 0; c < free.size(); ++c) A.col(static_cast<Eigen::Index>(c)) = A_all.col(free[c]);
   const sim::ScaledSvd svd = sim::scaledSvd(A, cut);
   const int lost = static_cast<int>(A.cols()) - svd.rank;
-  std::vector<int> fixed;
+  std::vector<int> fixed = fixed_already;
   if (lost == 0) return fixed;
   // Greedily hold the parameter most involved in the remaining null space (scaled coordinates), last
   // ones first on ties, until the free columns have full rank.
@@ -186,7 +213,7 @@ std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::Vec
         best = p;
       }
     }
-    fixed.push_back(static_cast<int>(best));
+    fixed.push_back(free[static_cast<std::size_t>(best)]);
     // The null directions left once it is held: those with no component along it.
     const Eigen::JacobiSVD<Eigen::MatrixXd> nsvd(N.row(best), Eigen::ComputeFullV);
     N = (N * nsvd.matrixV().rightCols(N.cols() - 1)).eval();
@@ -242,7 +269,7 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
     if (o.loss == LmOptions::Loss::kCauchy) loss = new ceres::CauchyLoss(o.loss_scale);
     problem.AddResidualBlock(new SampleCost(m, k, whitener(m.linearize(k, zero).R)), loss, e.y.data());
   }
-  if (o.fix_unidentifiable) e.held = unidentifiableToFix(m, zero, o.svd_cut);
+  e.held = o.fix_unidentifiable ? unidentifiableToFix(m, zero, o.svd_cut, o.hold) : sortedUnique(o.hold);
   const std::vector<int>& fixed = e.held;
   if (!fixed.empty()) problem.SetManifold(e.y.data(), new ceres::SubsetManifold(n, fixed));
   ceres::Solver::Options so;

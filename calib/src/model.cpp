@@ -10,6 +10,7 @@ PoseMeasurementModel::PoseMeasurementModel(sim::Arm nominal, std::vector<PoseObs
                                            PoseNoiseModel noise)
     : nominal_(std::move(nominal)), observations_(std::move(observations)), noise_(noise) {
   for (const PoseObservation& o : observations_) sim::checkJointVector(nominal_, o.q_rad, "PoseMeasurementModel");
+  layout_.add(sim::geometryBlock(nominal_));
 }
 
 Linearization PoseMeasurementModel::linearize(int k, const Eigen::VectorXd& y) const {

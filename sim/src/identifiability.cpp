@@ -38,10 +38,10 @@ Eigen::MatrixXd ScaledSvd::nullSpace() const {
 
 namespace {
 
-std::string formatCombination(const std::vector<int>& params, const Eigen::VectorXd& coeffs) {
+std::string formatCombination(const std::vector<std::string>& names, const Eigen::VectorXd& coeffs) {
   std::string out;
   char buf[64];
-  for (std::size_t i = 0; i < params.size(); ++i) {
+  for (std::size_t i = 0; i < names.size(); ++i) {
     const double c = coeffs[static_cast<Eigen::Index>(i)];
     if (std::abs(c) < 1e-6) continue;
     const bool unit = std::abs(std::abs(c) - 1.0) < 1e-6;
@@ -55,7 +55,7 @@ std::string formatCombination(const std::vector<int>& params, const Eigen::Vecto
       std::snprintf(buf, sizeof buf, "%.4g ", std::abs(c));
       out += buf;
     }
-    out += paramName(params[i]);
+    out += names[i];
   }
   return out;
 }
@@ -64,23 +64,31 @@ std::string formatCombination(const std::vector<int>& params, const Eigen::Vecto
 
 std::string Redundancy::describe() const {
   std::string names;
-  for (int p : params) names += (names.empty() ? "" : ", ") + paramName(p);
+  for (const std::string& n : this->names) names += (names.empty() ? "" : ", ") + n;
   std::string out = names + ": " + std::to_string(lost) + (lost == 1 ? " direction" : " directions") + " lost";
   if (observable.rows() == 0) return out + "; none of them is observable";
   out += "; observable only as ";
   for (Eigen::Index r = 0; r < observable.rows(); ++r) {
-    out += (r ? ", " : "") + formatCombination(params, observable.row(r).transpose());
+    out += (r ? ", " : "") + formatCombination(this->names, observable.row(r).transpose());
   }
   return out;
 }
 
 IdentifiabilityReport analyzeIdentifiability(const Arm& arm, const std::vector<Eigen::VectorXd>& configs,
                                              double rank_tolerance, ErrorFrame frame) {
+  std::vector<std::string> names;
+  for (int i = 0; i < arm.numParams(); ++i) names.push_back(paramName(i));
+  return analyzeJacobian(stackedJacobian(arm, configs, frame), names, static_cast<int>(configs.size()), rank_tolerance);
+}
+
+IdentifiabilityReport analyzeJacobian(const Eigen::MatrixXd& J, const std::vector<std::string>& names, int num_configs,
+                                      double rank_tolerance) {
   IdentifiabilityReport r;
-  r.num_params = arm.numParams();
-  r.num_configs = static_cast<int>(configs.size());
+  r.num_params = static_cast<int>(J.cols());
+  r.num_configs = num_configs;
+  r.num_rows = static_cast<int>(J.rows());
   r.rank_tolerance = rank_tolerance;
-  const ScaledSvd svd = scaledSvd(stackedJacobian(arm, configs, frame), rank_tolerance);
+  const ScaledSvd svd = scaledSvd(J, rank_tolerance);
   r.singular_values = svd.singular_values;
   r.rank = svd.rank;
   r.condition_number = r.rank > 0 ? r.singular_values[0] / r.singular_values[r.rank - 1] : 0.0;
@@ -117,7 +125,10 @@ IdentifiabilityReport analyzeIdentifiability(const Arm& arm, const std::vector<E
   for (int g = 0; g < groups; ++g) {
     Redundancy red;
     for (int p : involved) {
-      if (group[p] == g) red.params.push_back(p);
+      if (group[p] == g) {
+        red.params.push_back(p);
+        red.names.push_back(names[static_cast<std::size_t>(p)]);
+      }
     }
     const int m = static_cast<int>(red.params.size());
     // Physical null directions restricted to the group; their rank is what is lost in the group.
@@ -145,8 +156,8 @@ std::string formatIdentifiability(const IdentifiabilityReport& r) {
   std::string out;
   char buf[256];
   std::snprintf(buf, sizeof buf,
-                "Identifiability over %d configurations (%d pose-error rows, %d parameters, columns scaled to unit norm):\n",
-                r.num_configs, 6 * r.num_configs, r.num_params);
+                "Identifiability over %d configurations (%d rows, %d parameters, columns scaled to unit norm):\n",
+                r.num_configs, r.num_rows, r.num_params);
   out += buf;
   std::snprintf(buf, sizeof buf, "  numerical rank %d of %d (singular values below %.0e x sigma_max count as zero)\n",
                 r.rank, r.num_params, r.rank_tolerance);

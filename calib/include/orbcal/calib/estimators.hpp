@@ -28,7 +28,8 @@ struct Estimate {
 };
 
 struct EkfOptions {
-  /// P0 = diag(sigma^2): theta and alpha get prior_sigma_angle_rad, a and d prior_sigma_length_m.
+  /// P0 = diag(sigma^2): angles (the layout's Quantity::kAngle) get prior_sigma_angle_rad, lengths
+  /// prior_sigma_length_m, every other parameter its typical magnitude (sim::ParamInfo::typical).
   double prior_sigma_angle_rad = 1.0 * sim::kDegToRad;
   double prior_sigma_length_m = 5e-3;
   /// Q = diag(sigma^2) added at every step (eq. 12); 0 as in the paper.
@@ -50,6 +51,7 @@ struct LseOptions {
   /// alpha errors the d3/d4/d5 axes are slightly non-parallel at the estimate, so a weak direction
   /// appears and Gauss-Newton oscillates along it.
   bool fix_unidentifiable = true;
+  std::vector<int> hold;        ///< parameters held at zero whatever the data says
 };
 
 struct LmOptions {
@@ -62,17 +64,24 @@ struct LmOptions {
   /// picks a point on the unidentifiable manifold.
   bool fix_unidentifiable = true;
   double svd_cut = 1e-6;
+  std::vector<int> hold;        ///< parameters held at zero whatever the data says
 };
 
 Estimate runEkf(const MeasurementModel& model, const EkfOptions& options);
 Estimate runLse(const MeasurementModel& model, const LseOptions& options);
 Estimate runLm(const MeasurementModel& model, const LmOptions& options);
 
+/// The stacked Jacobian H over all samples at y, each sample's rows whitened by its R_k^-1/2
+/// (dimensionless rows, the input of identifiability analyses).
+Eigen::MatrixXd whitenedJacobian(const MeasurementModel& model, const Eigen::VectorXd& y);
+
 /// 0.5 sum_k nu_k(y)^T R_k^-1 nu_k(y).
 double weightedCost(const MeasurementModel& model, const Eigen::VectorXd& y);
 
-/// Parameters to hold so that the rest are identifiable, from the SVD of the whitened Jacobian at y:
-/// within each unidentifiable group, the last `lost` members.
-std::vector<int> unidentifiableToFix(const MeasurementModel& model, const Eigen::VectorXd& y, double svd_cut);
+/// Parameters to hold so that the rest are identifiable, from the SVD of the whitened Jacobian at y
+/// with the `held` parameters left out: within each unidentifiable group, the last `lost` members.
+/// The result includes `held`, sorted.
+std::vector<int> unidentifiableToFix(const MeasurementModel& model, const Eigen::VectorXd& y, double svd_cut,
+                                     const std::vector<int>& held = {});
 
 }  // namespace orbcal::calib

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "orbcal/sim/arm.hpp"
+#include "orbcal/sim/model.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::calib {
@@ -26,12 +27,13 @@ class MeasurementModel {
  public:
   virtual ~MeasurementModel() = default;
   virtual int numSamples() const = 0;
-  virtual int numParams() const = 0;
   virtual int rows(int k) const = 0;
-  virtual std::string paramName(int i) const = 0;
-  /// True for parameters measured in rad (printed in deg), false for m (printed in mm).
-  virtual bool isAngle(int i) const = 0;
+  /// What every parameter means: name, unit, typical magnitude (sim/model.hpp).
+  virtual const sim::ParamLayout& layout() const = 0;
   virtual Linearization linearize(int k, const Eigen::VectorXd& y) const = 0;
+
+  int numParams() const { return layout().size(); }
+  const std::string& paramName(int i) const { return layout().param(i).name; }
 };
 
 /// One measured end-effector pose.
@@ -61,10 +63,8 @@ class PoseMeasurementModel : public MeasurementModel {
  public:
   PoseMeasurementModel(sim::Arm nominal, std::vector<PoseObservation> observations, PoseNoiseModel noise);
   int numSamples() const override { return static_cast<int>(observations_.size()); }
-  int numParams() const override { return nominal_.numParams(); }
   int rows(int) const override { return 6; }
-  std::string paramName(int i) const override { return sim::paramName(i); }
-  bool isAngle(int i) const override { return sim::isAngleParam(i); }
+  const sim::ParamLayout& layout() const override { return layout_; }
   Linearization linearize(int k, const Eigen::VectorXd& y) const override;
   const sim::Arm& nominal() const { return nominal_; }
   const std::vector<PoseObservation>& observations() const { return observations_; }
@@ -73,6 +73,7 @@ class PoseMeasurementModel : public MeasurementModel {
   sim::Arm nominal_;
   std::vector<PoseObservation> observations_;
   PoseNoiseModel noise_;
+  sim::ParamLayout layout_;
 };
 
 /// Stacked innovations and Jacobians over all samples at y (for the batch estimators and identifiability).

@@ -35,6 +35,7 @@ ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance);
 
 struct Redundancy {
   std::vector<int> params;        ///< parameter indices of the group
+  std::vector<std::string> names; ///< their names
   int lost = 0;                   ///< null-space dimension within the group
   /// Observable combinations within the group, one per row (coefficients over `params`, largest = 1).
   Eigen::MatrixXd observable;
@@ -44,6 +45,7 @@ struct Redundancy {
 struct IdentifiabilityReport {
   int num_params = 0;
   int num_configs = 0;
+  int num_rows = 0;                 ///< rows of the stacked Jacobian
   int rank = 0;
   double condition_number = 0.0;    ///< sigma_max / sigma_min over the identifiable part (rank)
   Eigen::VectorXd singular_values;  ///< of the column-scaled stacked Jacobian, descending
@@ -55,6 +57,11 @@ struct IdentifiabilityReport {
 /// rank_tolerance: singular values below rank_tolerance * sigma_max count as zero.
 IdentifiabilityReport analyzeIdentifiability(const Arm& arm, const std::vector<Eigen::VectorXd>& configs,
                                              double rank_tolerance = 1e-9, ErrorFrame frame = ErrorFrame::kTool);
+
+/// The same analysis of any stacked (and, where rows have different units, whitened) Jacobian whose
+/// columns are the parameters `names`; `num_configs` is for the report only.
+IdentifiabilityReport analyzeJacobian(const Eigen::MatrixXd& J, const std::vector<std::string>& names, int num_configs,
+                                      double rank_tolerance = 1e-9);
 
 /// Human-readable report (what the main job prints).
 std::string formatIdentifiability(const IdentifiabilityReport& report);

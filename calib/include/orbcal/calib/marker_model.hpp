@@ -1,0 +1,58 @@
+#pragma once
+// The measurement model of measured data: the pose (or the position) of a marker on the flange in the
+// measuring system's frame, predicted by a sim::KinematicModel (geometry + registration + effects).
+//
+//   nu_k(y) = z_k ⊖ h_k(p0 + y):  full poses: poseMinus(measured, predicted), in the marker frame
+//                                 positions:  p_measured - p_predicted, in the measuring system's frame
+//   H_k = d h_k / d y, so that nu_k(y + dy) ≈ nu_k(y) - H_k dy (model.hpp's convention).
+//
+// y is the change from p0 (the starting parameters; zero for a fresh model), so every estimator starts
+// from y = 0 as it does for seed 000's model.
+#include <vector>
+
+#include "orbcal/calib/model.hpp"
+#include "orbcal/sim/model.hpp"
+
+namespace orbcal::calib {
+
+struct MarkerObservation {
+  sim::JointSample sample;
+  Eigen::Isometry3d world_T_marker = Eigen::Isometry3d::Identity();
+  bool has_rotation = true;
+  /// Covariance of the right perturbation of world_T_marker in the marker frame [m; rad] (e.g. from
+  /// vision); empty: MarkerNoise's sigmas.
+  Eigen::MatrixXd covariance;
+};
+
+struct MarkerNoise {
+  double sigma_position_m = 0.1e-3;                     ///< per axis
+  double sigma_rotation_rad = 0.01 * sim::kDegToRad;   ///< per axis
+  double joint_noise_sigma_rad = 0.0;                   ///< carried into R through the joint Jacobian
+};
+
+class MarkerPoseModel : public MeasurementModel {
+ public:
+  MarkerPoseModel(sim::KinematicModel model, std::vector<MarkerObservation> observations, MarkerNoise noise,
+                  Eigen::VectorXd p0 = {});
+  int numSamples() const override { return static_cast<int>(observations_.size()); }
+  int rows(int k) const override { return observations_[static_cast<std::size_t>(k)].has_rotation ? 6 : 3; }
+  const sim::ParamLayout& layout() const override { return model_.layout; }
+  Linearization linearize(int k, const Eigen::VectorXd& y) const override;
+
+  const sim::KinematicModel& model() const { return model_; }
+  const std::vector<MarkerObservation>& observations() const { return observations_; }
+  const Eigen::VectorXd& p0() const { return p0_; }
+  const MarkerNoise& noise() const { return noise_; }
+
+ private:
+  sim::KinematicModel model_;
+  std::vector<MarkerObservation> observations_;
+  MarkerNoise noise_;
+  Eigen::VectorXd p0_;
+};
+
+/// Residual of one observation at parameters p (not y): [position (m); rotation (rad)] as the model
+/// defines nu (the rotation part empty for position-only observations).
+Eigen::VectorXd markerResidual(const sim::KinematicModel& model, const Eigen::VectorXd& p, const MarkerObservation& o);
+
+}  // namespace orbcal::calib

@@ -1,0 +1,80 @@
+#pragma once
+// Calibrating measured data (sim/measured.hpp) with a kinematic model of geometry + registration +
+// effects: the closed-form start of the unknown frames, the fit with the measurement noise estimated
+// from the residuals where the data does not state it, what this data cannot identify, the residual
+// statistics, and the prediction of other data with a calibrated model (per-session frames refitted,
+// everything else held).
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "orbcal/calib/estimators.hpp"
+#include "orbcal/calib/marker_model.hpp"
+#include "orbcal/sim/identifiability.hpp"
+#include "orbcal/sim/measured.hpp"
+#include "orbcal/sim/model.hpp"
+
+namespace orbcal::calib {
+
+/// One observation per measured sample. Where `needs_torque` and the data has no torque column, the
+/// torques come from the robot file's mass model (throws InputError naming the description when it has
+/// none).
+std::vector<MarkerObservation> observationsFrom(const sim::MeasuredData& data, bool needs_torque);
+
+/// True when an effect of the list reads joint torques (compliance).
+bool needsTorque(const std::vector<sim::Effect>& effects);
+
+/// The starting model for `data`: the nominal arm, the data's frame sharing and sessions, the effects,
+/// and the unknown frames from the closed-form guess (calib/registration.hpp) on the nominal arm.
+sim::KinematicModel startingModel(const sim::MeasuredData& data, const std::vector<MarkerObservation>& observations,
+                                  std::vector<sim::Effect> effects);
+
+struct ResidualStats {
+  int samples = 0;
+  double position_mean_m = 0, position_rms_m = 0, position_max_m = 0;  ///< of |position residual|
+  double rotation_rms_rad = 0, rotation_max_rad = 0;                   ///< of the rotation angle; 0 without rotations
+};
+ResidualStats residualStats(const sim::KinematicModel& model, const Eigen::VectorXd& p,
+                            const std::vector<MarkerObservation>& observations);
+
+struct FitOptions {
+  enum class Method { kLm, kLse, kEkf };
+  Method method = Method::kLm;
+  /// Measurement noise per axis; estimated from the residuals (variance components of position and
+  /// rotation, two refits) when not given.
+  std::optional<double> sigma_position_m, sigma_rotation_rad;
+  double joint_noise_sigma_rad = 0.0;
+  std::vector<int> hold;  ///< parameters held at their start whatever the data says
+  bool fix_unidentifiable = true;
+};
+
+struct Fit {
+  sim::KinematicModel model;  ///< the starting model
+  Eigen::VectorXd p0;         ///< its starting parameters
+  Eigen::VectorXd p;          ///< fitted: p0 + estimate.y
+  Estimate estimate;          ///< y, its covariance, the held parameters
+  MarkerNoise noise;          ///< as used in the final fit
+  bool noise_estimated = false;
+  sim::IdentifiabilityReport identifiability;  ///< of the whitened Jacobian at the start
+  ResidualStats residuals;    ///< at the fit
+  double chi2 = 0.0;          ///< sum of whitened squared residuals at the fit
+  int dof = 0;                ///< rows - free parameters
+};
+Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObservation>& observations,
+                   const FitOptions& options, const Eigen::VectorXd& p0 = {});
+
+/// A calibrated model: the start with the fitted parameters folded in (sim::foldParameters).
+struct CalibratedModel {
+  sim::KinematicModel model;
+  Eigen::VectorXd p;  ///< the effect parameters (frames and geometry folded into the model)
+};
+CalibratedModel calibratedModel(const Fit& fit);
+
+/// Predicts other data with a calibrated model: shared frames and every geometric and effect
+/// parameter are kept; the per-session frames (and mount changes) of the new data's sessions are
+/// refitted (closed-form start, then LM). Returns the fit of those frames; its `residuals` are the
+/// prediction errors.
+Fit predictWithModel(const CalibratedModel& calibrated, const sim::MeasuredData& data,
+                     const std::vector<MarkerObservation>& observations, const FitOptions& options);
+
+}  // namespace orbcal::calib

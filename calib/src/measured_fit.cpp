@@ -1,0 +1,298 @@
+#include "orbcal/calib/measured_fit.hpp"
+
+#include <Eigen/SVD>
+#include <cmath>
+#include <map>
+
+#include "orbcal/calib/registration.hpp"
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/gravity.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::calib {
+
+bool needsTorque(const std::vector<sim::Effect>& effects) {
+  for (const sim::Effect& e : effects) {
+    if (std::holds_alternative<sim::Compliance>(e)) return true;
+  }
+  return false;
+}
+
+std::vector<MarkerObservation> observationsFrom(const sim::MeasuredData& data, bool needs_torque) {
+  if (needs_torque && !data.has_torque && data.arm.masses.empty()) {
+    throw sim::InputError(data.description + ": covariates.torque: compliance needs joint torques: the data has no torque "
+                          "column and the robot file (" + data.robot_file + ") no masses section to compute them from");
+  }
+  std::vector<MarkerObservation> obs;
+  obs.reserve(data.poses.size());
+  for (const sim::MeasuredPose& m : data.poses) {
+    MarkerObservation o{m.sample, m.world_T_marker, m.has_rotation, {}};
+    if (needs_torque && !o.sample.hasTorque()) o.sample.tau_Nm = sim::gravityTorques(data.arm, data.arm.masses, o.sample.q_rad);
+    obs.push_back(std::move(o));
+  }
+  return obs;
+}
+
+namespace {
+
+bool allRotations(const std::vector<MarkerObservation>& obs) {
+  for (const MarkerObservation& o : obs) {
+    if (!o.has_rotation) return false;
+  }
+  return true;
+}
+
+/// The chordal mean of rotations, projected onto SO(3), and the mean translation.
+Eigen::Isometry3d meanTransform(const std::vector<Eigen::Isometry3d>& Ts) {
+  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  for (const Eigen::Isometry3d& T : Ts) {
+    S += T.linear();
+    t += T.translation();
+  }
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(S, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
+  Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
+  out.linear() = svd.matrixU() * D * svd.matrixV().transpose();
+  out.translation() = t / static_cast<double>(Ts.size());
+  return out;
+}
+
+/// world_T_base with the marker known: from full poses, the mean of T_k M^-1 F_k^-1; from positions,
+/// the rigid registration of the predicted marker positions onto the measured ones.
+Eigen::Isometry3d baseWithKnownMarker(const std::vector<Eigen::Isometry3d>& T, const std::vector<Eigen::Isometry3d>& F,
+                                      const Eigen::Isometry3d& M, bool use_rotation) {
+  if (use_rotation) {
+    std::vector<Eigen::Isometry3d> W;
+    for (std::size_t k = 0; k < T.size(); ++k) W.push_back(T[k] * M.inverse() * F[k].inverse());
+    return meanTransform(W);
+  }
+  Eigen::Matrix3Xd src(3, static_cast<Eigen::Index>(T.size())), dst(3, static_cast<Eigen::Index>(T.size()));
+  for (std::size_t k = 0; k < T.size(); ++k) {
+    src.col(static_cast<Eigen::Index>(k)) = (F[k] * M).translation();
+    dst.col(static_cast<Eigen::Index>(k)) = T[k].translation();
+  }
+  return Eigen::Isometry3d(Eigen::umeyama(src, dst, false));
+}
+
+struct SessionPoses {
+  std::vector<Eigen::Isometry3d> T, F;
+};
+
+/// The unknown frames of `shape` (its sharing and known frames) from measured poses and the flange
+/// poses of a model at the same samples; the frames of `shape` that are estimated are replaced.
+void guessFrames(sim::KinematicModel& shape, const std::vector<MarkerObservation>& obs,
+                 const std::vector<Eigen::Isometry3d>& F) {
+  using sim::FrameSharing;
+  const bool rot = allRotations(obs);
+  const int S = shape.sessions;
+  std::vector<SessionPoses> per(static_cast<std::size_t>(S));
+  SessionPoses all;
+  for (std::size_t k = 0; k < obs.size(); ++k) {
+    per[static_cast<std::size_t>(obs[k].sample.session)].T.push_back(obs[k].world_T_marker);
+    per[static_cast<std::size_t>(obs[k].sample.session)].F.push_back(F[k]);
+    all.T.push_back(obs[k].world_T_marker);
+    all.F.push_back(F[k]);
+  }
+  std::size_t largest = 0;
+  for (std::size_t s = 0; s < per.size(); ++s) {
+    if (per[s].T.size() > per[largest].T.size()) largest = s;
+  }
+  const auto markerGiven = [&](const SessionPoses& sp, const Eigen::Isometry3d& W) { return initialMarker(sp.T, sp.F, W, rot); };
+  if (shape.base == FrameSharing::kPerSession) {
+    for (int s = 0; s < S; ++s) {
+      const SessionPoses& sp = per[static_cast<std::size_t>(s)];
+      if (shape.marker == FrameSharing::kKnown) {
+        shape.world_T_base[static_cast<std::size_t>(s)] = baseWithKnownMarker(sp.T, sp.F, shape.flange_T_marker[0], rot);
+        continue;
+      }
+      const RegistrationGuess g = initialRegistration(sp.T, sp.F, rot);
+      shape.world_T_base[static_cast<std::size_t>(s)] = g.world_T_base;
+      if (shape.marker == FrameSharing::kPerSession) shape.flange_T_marker[static_cast<std::size_t>(s)] = g.flange_T_marker;
+      if (shape.marker == FrameSharing::kShared && static_cast<std::size_t>(s) == largest) shape.flange_T_marker[0] = g.flange_T_marker;
+    }
+    return;
+  }
+  if (shape.base == FrameSharing::kShared) {
+    if (shape.marker == FrameSharing::kKnown) {
+      shape.world_T_base[0] = baseWithKnownMarker(all.T, all.F, shape.flange_T_marker[0], rot);
+      return;
+    }
+    // With a marker per session, the largest session alone fixes the base.
+    const RegistrationGuess g = initialRegistration(shape.marker == FrameSharing::kShared ? all.T : per[largest].T,
+                                                    shape.marker == FrameSharing::kShared ? all.F : per[largest].F, rot);
+    shape.world_T_base[0] = g.world_T_base;
+    if (shape.marker == FrameSharing::kShared) shape.flange_T_marker[0] = g.flange_T_marker;
+  }
+  if (shape.marker == FrameSharing::kPerSession) {
+    for (int s = 0; s < S; ++s) shape.flange_T_marker[static_cast<std::size_t>(s)] = markerGiven(per[static_cast<std::size_t>(s)], shape.world_T_base[0]);
+  } else if (shape.marker == FrameSharing::kShared && shape.base == FrameSharing::kKnown) {
+    shape.flange_T_marker[0] = markerGiven(all, shape.world_T_base[0]);
+  }
+}
+
+std::vector<Eigen::Isometry3d> framesFor(sim::FrameSharing sharing, int sessions, const Eigen::Isometry3d& T) {
+  return std::vector<Eigen::Isometry3d>(sharing == sim::FrameSharing::kPerSession ? static_cast<std::size_t>(sessions) : 1, T);
+}
+
+Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o) {
+  switch (o.method) {
+    case FitOptions::Method::kLse: {
+      LseOptions lo;
+      lo.weighted = true;
+      lo.hold = o.hold;
+      lo.fix_unidentifiable = o.fix_unidentifiable;
+      return runLse(m, lo);
+    }
+    case FitOptions::Method::kEkf:
+      return runEkf(m, EkfOptions{});
+    case FitOptions::Method::kLm:
+    default: {
+      LmOptions lo;
+      lo.hold = o.hold;
+      lo.fix_unidentifiable = o.fix_unidentifiable;
+      return runLm(m, lo);
+    }
+  }
+}
+
+}  // namespace
+
+sim::KinematicModel startingModel(const sim::MeasuredData& data, const std::vector<MarkerObservation>& observations,
+                                  std::vector<sim::Effect> effects) {
+  const int S = data.numSessions();
+  sim::KinematicModel shape = sim::makeKinematicModel(data.arm, S, data.base, data.marker, framesFor(data.base, S, data.world_T_base),
+                                                      framesFor(data.marker, S, data.flange_T_marker), std::move(effects));
+  std::vector<Eigen::Isometry3d> F;
+  for (const MarkerObservation& o : observations) F.push_back(sim::forwardKinematics(data.arm, o.sample.q_rad));
+  try {
+    guessFrames(shape, observations, F);
+  } catch (const std::invalid_argument& e) {
+    throw sim::InputError(data.description + ": registration: the samples cannot fix the unknown frames (" + e.what() + ")");
+  }
+  return shape;
+}
+
+ResidualStats residualStats(const sim::KinematicModel& model, const Eigen::VectorXd& p,
+                            const std::vector<MarkerObservation>& observations) {
+  ResidualStats s;
+  s.samples = static_cast<int>(observations.size());
+  if (observations.empty()) return s;
+  double pos2 = 0.0, rot2 = 0.0;
+  int nrot = 0;
+  for (const MarkerObservation& o : observations) {
+    const Eigen::VectorXd r = markerResidual(model, p, o);
+    const double e = r.head<3>().norm();
+    s.position_mean_m += e / s.samples;
+    pos2 += e * e;
+    s.position_max_m = std::max(s.position_max_m, e);
+    if (r.size() == 6) {
+      const double a = r.tail<3>().norm();
+      rot2 += a * a;
+      ++nrot;
+      s.rotation_max_rad = std::max(s.rotation_max_rad, a);
+    }
+  }
+  s.position_rms_m = std::sqrt(pos2 / s.samples);
+  s.rotation_rms_rad = nrot ? std::sqrt(rot2 / nrot) : 0.0;
+  return s;
+}
+
+Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObservation>& obs, const FitOptions& o,
+                   const Eigen::VectorXd& p0_in) {
+  Fit fit;
+  fit.model = start;
+  fit.p0 = p0_in.size() ? p0_in : Eigen::VectorXd::Zero(start.layout.size());
+  fit.noise.joint_noise_sigma_rad = o.joint_noise_sigma_rad;
+  if (o.sigma_position_m) fit.noise.sigma_position_m = *o.sigma_position_m;
+  if (o.sigma_rotation_rad) fit.noise.sigma_rotation_rad = *o.sigma_rotation_rad;
+  fit.noise_estimated = !(o.sigma_position_m && o.sigma_rotation_rad);
+  const int rounds = fit.noise_estimated ? 3 : 1;
+  int rows = 0;
+  for (const MarkerObservation& x : obs) rows += x.has_rotation ? 6 : 3;
+  for (int round = 0; round < rounds; ++round) {
+    const MarkerPoseModel m(start, obs, fit.noise, fit.p0);
+    if (round == 0) {
+      std::vector<std::string> names;
+      for (int i = 0; i < m.numParams(); ++i) names.push_back(m.paramName(i));
+      fit.identifiability = sim::analyzeJacobian(whitenedJacobian(m, Eigen::VectorXd::Zero(m.numParams())), names,
+                                                 m.numSamples(), 1e-6);
+    }
+    fit.estimate = runFitMethod(m, o);
+    fit.p = fit.p0 + fit.estimate.y;
+    fit.chi2 = 2.0 * fit.estimate.cost;
+    const int free = m.numParams() - static_cast<int>(fit.estimate.held.size());
+    fit.dof = std::max(1, rows - free);
+    if (round + 1 == rounds) break;
+    // Variance components: position and rotation sigmas from their residuals, corrected for the
+    // parameters fitted (rows / dof).
+    double pos2 = 0.0, rot2 = 0.0;
+    int npos = 0, nrot = 0;
+    for (const MarkerObservation& x : obs) {
+      const Eigen::VectorXd r = markerResidual(start, fit.p, x);
+      pos2 += r.head<3>().squaredNorm();
+      npos += 3;
+      if (r.size() == 6) {
+        rot2 += r.tail<3>().squaredNorm();
+        nrot += 3;
+      }
+    }
+    const double correction = static_cast<double>(rows) / fit.dof;
+    if (!o.sigma_position_m) fit.noise.sigma_position_m = std::max(1e-9, std::sqrt(pos2 / npos * correction));
+    if (!o.sigma_rotation_rad && nrot) fit.noise.sigma_rotation_rad = std::max(1e-9, std::sqrt(rot2 / nrot * correction));
+  }
+  fit.residuals = residualStats(start, fit.p, obs);
+  return fit;
+}
+
+CalibratedModel calibratedModel(const Fit& fit) {
+  sim::FoldedModel f = sim::foldParameters(fit.model, fit.p);
+  return {std::move(f.model), std::move(f.p)};
+}
+
+Fit predictWithModel(const CalibratedModel& c, const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
+                     const FitOptions& options) {
+  using sim::FrameSharing;
+  const sim::KinematicModel& cm = c.model;
+  const int S = data.numSessions();
+  // The new data's sessions: shared and known frames kept, per-session ones guessed anew.
+  const auto frames = [&](FrameSharing sharing, const std::vector<Eigen::Isometry3d>& old) {
+    return framesFor(sharing, S, old.front());
+  };
+  sim::KinematicModel m = sim::makeKinematicModel(cm.arm, S, cm.base, cm.marker, frames(cm.base, cm.world_T_base),
+                                                  frames(cm.marker, cm.flange_T_marker), cm.effects, false);
+  // Effect values by name (mount changes are per session: refitted, not carried).
+  std::map<std::string, double> value;
+  for (const sim::ParamBlock& b : cm.layout.blocks()) {
+    for (int i = 0; i < b.size(); ++i) value[b.params[static_cast<std::size_t>(i)].name] = c.p[b.offset + i];
+  }
+  Eigen::VectorXd p0 = Eigen::VectorXd::Zero(m.layout.size());
+  FitOptions o = options;
+  o.hold.clear();
+  for (const sim::ParamBlock& b : m.layout.blocks()) {
+    const bool refit = (b.session >= 0 && (b.effect == "base" || b.effect == "marker")) || b.effect == "mount";
+    for (int i = 0; i < b.size(); ++i) {
+      if (refit) continue;
+      o.hold.push_back(b.offset + i);
+      const auto it = value.find(b.params[static_cast<std::size_t>(i)].name);
+      if (it != value.end()) p0[b.offset + i] = it->second;
+    }
+  }
+  // Per-session frames from the calibrated model's flange poses.
+  std::vector<Eigen::Isometry3d> F;
+  for (const MarkerObservation& x : obs) F.push_back(sim::flangePose(m, p0, x.sample));
+  sim::KinematicModel shape = m;
+  if (cm.base == FrameSharing::kShared) shape.base = FrameSharing::kKnown;
+  if (cm.marker == FrameSharing::kShared) shape.marker = FrameSharing::kKnown;
+  try {
+    guessFrames(shape, obs, F);
+  } catch (const std::invalid_argument& e) {
+    throw sim::InputError(data.description + ": registration: the samples cannot fix the per-session frames (" + e.what() + ")");
+  }
+  m.world_T_base = shape.world_T_base;
+  m.flange_T_marker = shape.flange_T_marker;
+  return fitMarkerModel(m, obs, o, p0);
+}
+
+}  // namespace orbcal::calib
