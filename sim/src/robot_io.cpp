@@ -67,7 +67,6 @@ Arm loadArm(const std::string& path) {
   return arm;
 }
 
-namespace {
 std::string transformYaml(const Eigen::Isometry3d& T) {
   // R = Rz(yaw) Ry(pitch) Rx(roll), as ConfigNode::asTransform reads it.
   const Eigen::Vector3d ypr = T.linear().eulerAngles(2, 1, 0);
@@ -76,7 +75,6 @@ std::string transformYaml(const Eigen::Isometry3d& T) {
          exactNumber(ypr[2] * kRadToDeg) + ", " + exactNumber(ypr[1] * kRadToDeg) + ", " + exactNumber(ypr[0] * kRadToDeg) +
          "]}";
 }
-}  // namespace
 
 std::string formatArm(const Arm& arm, const std::string& header) {
   std::ostringstream s;

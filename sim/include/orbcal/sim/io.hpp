@@ -16,6 +16,9 @@ Arm loadArm(const std::string& path);
 /// A robot file for `arm` that loadArm reads back to the same kinematics (numbers written exactly;
 /// base and tool as {xyz_m, rpy_deg}). `header` goes first as '#' comment lines.
 std::string formatArm(const Arm& arm, const std::string& header = "");
+/// A rigid transform as the flow map {xyz_m: [...], rpy_deg: [...]} that ConfigNode::asTransform reads
+/// back (numbers written exactly).
+std::string transformYaml(const Eigen::Isometry3d& T);
 /// Loads the geometric part of a scene (camera, board, transforms, views). The rendering sections
 /// (lighting, degradations, meshes) are read by render::loadRenderSettings from the same file.
 Scene loadScene(const std::string& path);

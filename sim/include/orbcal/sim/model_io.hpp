@@ -1,0 +1,47 @@
+#pragma once
+// The calibrated-model file (`model.yaml`): a robot file for the geometry (the nominal DH rows with
+// the identified errors folded in), the registration frames, the effects with their parameter values,
+// and, for people, every fitted parameter with its 1-sigma. `orbcal calibrate` writes it, `orbcal
+// simulate` writes the truth of a simulated dataset in the same format, `orbcal evaluate` reads both.
+//
+//   format: orbcal-model-1
+//   robot: robot.yaml                  # relative to this file (written beside it)
+//   sessions: 2
+//   registration:
+//     base: shared                     # shared | per_session | known
+//     marker: per_session
+//     world_T_base: [{xyz_m: [...], rpy_deg: [...]}]         # one, or one per session
+//     flange_T_marker: [{...}, {...}]
+//   effects:
+//     - {spec: "compliance:2,4", parameters: {c2: 1.2e-05, c4: 3.1e-06}}   # SI values
+//   parameters:                        # informative: every fitted parameter (SI) and its 1-sigma
+//     - {name: theta2, effect: geometry, value: 1e-4, sigma: 2e-6, unit: rad, held: false}
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "orbcal/sim/model.hpp"
+
+namespace orbcal::sim {
+
+struct ParameterRow {
+  std::string name, effect, unit;
+  double value = 0.0, sigma = 0.0;  ///< SI; sigma NaN when not known
+  bool held = false;
+};
+
+/// Writes `robot_name` (the model's arm) and `model_name` into `folder` atomically. `p` holds the
+/// effect parameters (sim::foldParameters' p); `rows` are listed under `parameters:`. Returns the path
+/// of the model file.
+std::string writeModelFile(const KinematicModel& model, const Eigen::VectorXd& p, const std::vector<ParameterRow>& rows,
+                           const std::string& folder, const std::string& header, const std::string& model_name = "model.yaml",
+                           const std::string& robot_name = "robot.yaml");
+
+struct LoadedModel {
+  KinematicModel model;
+  Eigen::VectorXd p;  ///< effect parameters in model.layout (geometry and frames zero)
+};
+/// Reads a model file; errors are InputError naming the file and the key.
+LoadedModel loadModelFile(const std::string& path);
+
+}  // namespace orbcal::sim

@@ -1,0 +1,133 @@
+#include "orbcal/sim/model_io.hpp"
+
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <sstream>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/fileio.hpp"
+#include "orbcal/sim/io.hpp"
+
+namespace orbcal::sim {
+
+namespace {
+
+const char* sharingName(FrameSharing s) {
+  return s == FrameSharing::kShared ? "shared" : s == FrameSharing::kPerSession ? "per_session" : "known";
+}
+
+FrameSharing readSharing(const ConfigNode& n) {
+  const std::string v = n.asString();
+  if (v == "shared") return FrameSharing::kShared;
+  if (v == "per_session") return FrameSharing::kPerSession;
+  if (v == "known") return FrameSharing::kKnown;
+  n.fail("expected shared, per_session or known, got '" + v + "'");
+}
+
+std::string transformList(const std::vector<Eigen::Isometry3d>& frames) {
+  std::string s = "[";
+  for (std::size_t k = 0; k < frames.size(); ++k) s += (k ? ", " : "") + transformYaml(frames[k]);
+  return s + "]";
+}
+
+std::string number(double v) { return std::isfinite(v) ? exactNumber(v) : std::string(".nan"); }
+
+}  // namespace
+
+std::string writeModelFile(const KinematicModel& m, const Eigen::VectorXd& p, const std::vector<ParameterRow>& rows,
+                           const std::string& folder, const std::string& header, const std::string& model_name,
+                           const std::string& robot_name) {
+  if (p.size() != m.layout.size()) throw std::invalid_argument("writeModelFile: wrong parameter count");
+  makeDirectories(folder);
+  writeFileAtomic(folder + "/" + robot_name, formatArm(m.arm, header));
+  std::ostringstream s;
+  std::istringstream lines(header);
+  for (std::string line; std::getline(lines, line);) s << "# " << line << "\n";
+  s << "format: orbcal-model-1\n"
+    << "robot: " << robot_name << "\n"
+    << "sessions: " << m.sessions << "\n"
+    << "registration:\n"
+    << "  base: " << sharingName(m.base) << "\n"
+    << "  marker: " << sharingName(m.marker) << "\n"
+    << "  world_T_base: " << transformList(m.world_T_base) << "\n"
+    << "  flange_T_marker: " << transformList(m.flange_T_marker) << "\n"
+    << "effects:" << (m.effects.empty() ? " []" : "") << "\n";
+  for (const Effect& e : m.effects) {
+    s << "  - {spec: \"" << formatEffect(e) << "\", parameters: {";
+    bool first = true;
+    for (const ParamBlock& b : m.layout.blocks()) {
+      if (b.effect != effectName(e)) continue;
+      for (int i = 0; i < b.size(); ++i) {
+        s << (first ? "" : ", ") << b.params[static_cast<std::size_t>(i)].name << ": " << exactNumber(p[b.offset + i]);
+        first = false;
+      }
+    }
+    s << "}}\n";
+  }
+  s << "parameters:" << (rows.empty() ? " []" : "") << "\n";
+  for (const ParameterRow& r : rows) {
+    s << "  - {name: " << r.name << ", effect: " << r.effect << ", value: " << number(r.value) << ", sigma: " << number(r.sigma)
+      << ", unit: \"" << r.unit << "\", held: " << (r.held ? "true" : "false") << "}\n";
+  }
+  const std::string path = folder + "/" + model_name;
+  writeFileAtomic(path, s.str());
+  return path;
+}
+
+LoadedModel loadModelFile(const std::string& path) {
+  const ConfigNode root = ConfigNode::load(path);
+  root.requireOnlyKeys({"format", "robot", "sessions", "registration", "effects", "parameters"});
+  if (root["format"].asString() != "orbcal-model-1") root["format"].fail("expected orbcal-model-1");
+  const std::string robot = root["robot"].asString();
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  const Arm arm = loadArm(robot.rfind("builtin:", 0) == 0 || std::filesystem::path(robot).is_absolute()
+                              ? robot
+                              : (dir / robot).string());
+  const int sessions = root["sessions"].asInt();
+  if (sessions < 1) root["sessions"].fail("must be at least 1");
+  const ConfigNode reg = root["registration"];
+  reg.requireOnlyKeys({"base", "marker", "world_T_base", "flange_T_marker"});
+  const FrameSharing base = readSharing(reg["base"]), marker = readSharing(reg["marker"]);
+  const auto frames = [&](const char* key, FrameSharing sharing) {
+    const ConfigNode list = reg[key];
+    const std::size_t expected = sharing == FrameSharing::kPerSession ? static_cast<std::size_t>(sessions) : 1;
+    if (list.size() != expected) list.fail("expected " + std::to_string(expected) + " frames");
+    std::vector<Eigen::Isometry3d> out;
+    for (std::size_t k = 0; k < expected; ++k) out.push_back(list[k].asTransform());
+    return out;
+  };
+  std::vector<Effect> effects;
+  std::map<std::string, std::pair<double, ConfigNode>> values;
+  const ConfigNode list = root["effects"];
+  for (std::size_t k = 0; k < list.size(); ++k) {
+    const ConfigNode e = list[k];
+    e.requireOnlyKeys({"spec", "parameters"});
+    effects.push_back(parseEffect(e["spec"].asString(), arm.numJoints(), path + ": effects[" + std::to_string(k) + "].spec"));
+    (void)e["parameters"];
+  }
+  LoadedModel out;
+  out.model = makeKinematicModel(arm, sessions, base, marker, frames("world_T_base", base), frames("flange_T_marker", marker),
+                                 effects, false);
+  out.p = Eigen::VectorXd::Zero(out.model.layout.size());
+  for (std::size_t k = 0; k < list.size(); ++k) {
+    const ConfigNode params = list[k]["parameters"];
+    const std::string name = effectName(effects[k]);
+    std::vector<std::string> allowed;
+    for (const ParamBlock& b : out.model.layout.blocks()) {
+      if (b.effect != name) continue;
+      for (int i = 0; i < b.size(); ++i) {
+        const std::string& pname = b.params[static_cast<std::size_t>(i)].name;
+        allowed.push_back(pname);
+        out.p[b.offset + i] = params[pname].asDouble();
+      }
+    }
+    params.requireOnlyKeys(allowed);
+  }
+  const ConfigNode rows = root["parameters"];
+  (void)rows.size();  // a sequence (informative; not read back)
+  return out;
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,128 @@
+#include "orbcal/sim/simulate.hpp"
+
+#include <cmath>
+#include <random>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/gravity.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::sim {
+
+namespace {
+
+Eigen::Vector3d randomUnit(std::mt19937_64& rng) {
+  std::normal_distribution<double> n01(0.0, 1.0);
+  Eigen::Vector3d v(n01(rng), n01(rng), n01(rng));
+  return v.normalized();
+}
+
+}  // namespace
+
+SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
+  if (spec.samples < 1) throw InputError("simulate: samples: must be at least 1");
+  if (spec.sessions < 1 || spec.sessions > spec.samples) throw InputError("simulate: sessions: must be within 1..samples");
+  if (spec.payload_kg.empty()) throw InputError("simulate: payload_kg: give one payload, or one per session");
+  std::mt19937_64 rng = makeRng(spec.seed, 0x73696d756c617465ULL);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> n01(0.0, 1.0);
+  const int S = spec.sessions;
+
+  // The true frames: a tracker metres away, arbitrarily turned; a marker off the flange, twisted.
+  const auto trackerFrame = [&] {
+    Eigen::Isometry3d W = Eigen::Isometry3d::Identity();
+    W.linear() = expSO3(randomUnit(rng) * (0.5 + 2.5 * u(rng)));
+    W.translation() = randomUnit(rng) * spec.base_distance_m;
+    return W;
+  };
+  const auto markerFrame = [&] {
+    Eigen::Isometry3d M = Eigen::Isometry3d::Identity();
+    const double tilt = 5.0 * kDegToRad;
+    M.linear() = expSO3(Eigen::Vector3d(tilt * n01(rng), tilt * n01(rng), spec.marker_twist_deg * kDegToRad * (0.75 + 0.5 * u(rng))));
+    M.translation() = randomUnit(rng) * spec.marker_offset_m;
+    return M;
+  };
+  std::vector<Eigen::Isometry3d> W(spec.base == FrameSharing::kPerSession ? static_cast<std::size_t>(S) : 1);
+  std::vector<Eigen::Isometry3d> M(spec.marker == FrameSharing::kPerSession ? static_cast<std::size_t>(S) : 1);
+  for (auto& w : W) w = spec.base == FrameSharing::kKnown ? Eigen::Isometry3d::Identity() : trackerFrame();
+  for (auto& m : M) m = spec.marker == FrameSharing::kKnown ? Eigen::Isometry3d::Identity() : markerFrame();
+
+  SimulatedData out;
+  out.truth = makeKinematicModel(nominal, S, spec.base, spec.marker, W, M, spec.effects);
+  out.p_true = Eigen::VectorXd::Zero(out.truth.layout.size());
+  const ParamBlock& g = out.truth.layout.block(out.truth.layout.find("geometry"));
+  out.p_true.segment(g.offset, g.size()) = makeErrorSet(nominal, spec.geometry, "simulate: geometry");
+  const int first_effect = g.offset + g.size();
+  const int n_effect = out.truth.layout.size() - first_effect;
+  if (spec.effect_values.size() > 0) {
+    if (spec.effect_values.size() != n_effect) {
+      throw InputError("simulate: effect values: expected " + std::to_string(n_effect) + ", got " +
+                       std::to_string(spec.effect_values.size()));
+    }
+    out.p_true.tail(n_effect) = spec.effect_values;
+  } else {
+    const Eigen::VectorXd typical = out.truth.layout.typical();
+    for (int i = first_effect; i < out.truth.layout.size(); ++i) {
+      const double z = n01(rng);
+      out.p_true[i] = typical[i] * (z < 0 ? std::min(z, -0.5) : std::max(z, 0.5));
+    }
+  }
+
+  MeasuredData& d = out.data;
+  d.arm = nominal;
+  d.robot_file = nominal.source;
+  d.base = spec.base;
+  d.marker = spec.marker;
+  d.world_T_base = W.front();
+  d.flange_T_marker = M.front();
+  d.noise_position_m = spec.noise_position_m;
+  d.noise_rotation_rad = spec.rotation ? std::optional<double>(spec.noise_rotation_rad) : std::nullopt;
+  const bool torques = !nominal.masses.links.empty();
+  d.has_torque = torques;
+  d.has_temperature = d.has_time = true;
+  for (int s = 0; s < S; ++s) d.files.push_back("session" + std::to_string(s + 1) + ".csv");
+
+  Arm loaded = nominal;
+  for (int k = 0; k < spec.samples; ++k) {
+    const int session = std::min(S - 1, k * S / spec.samples);
+    MeasuredPose mp;
+    JointSample& s = mp.sample;
+    s.session = session;
+    s.q_rad.resize(nominal.numJoints());
+    for (int j = 0; j < nominal.numJoints(); ++j) {
+      const double mid = 0.5 * (nominal.lower_rad[j] + nominal.upper_rad[j]);
+      const double half = 0.5 * (nominal.upper_rad[j] - nominal.lower_rad[j]) * spec.joint_range_fraction;
+      s.q_rad[j] = mid + half * (2.0 * u(rng) - 1.0);
+    }
+    s.time_s = spec.sample_period_s * k;
+    s.temperature_C = spec.temperature_start_C + spec.temperature_rise_C * (1.0 - std::exp(-s.time_s / spec.temperature_tau_s));
+    if (torques) {
+      loaded.masses.payload_kg = spec.payload_kg[std::min<std::size_t>(spec.payload_kg.size() - 1, static_cast<std::size_t>(session))];
+      s.tau_Nm = gravityTorques(loaded, loaded.masses, s.q_rad);
+    }
+    mp.where = d.files[static_cast<std::size_t>(session)] + ": sample " + std::to_string(k);
+    d.poses.push_back(std::move(mp));
+  }
+  fillApproachDirections(d.poses);
+
+  // Measure: the true model at the true joints (readings + control noise), plus tracker noise; the
+  // torque sensors' noise is added to the recorded torques after the deflection is computed.
+  for (MeasuredPose& mp : d.poses) {
+    JointSample truth = mp.sample;
+    if (torques) truth.tau_Nm = mp.sample.tau_Nm;
+    for (Eigen::Index j = 0; j < truth.q_rad.size(); ++j) truth.q_rad[j] += spec.joint_noise_rad * n01(rng);
+    const Eigen::Isometry3d T = predictMarkerPose(out.truth, out.p_true, truth);
+    Vector6d e;
+    for (int i = 0; i < 3; ++i) e[i] = spec.noise_position_m * n01(rng);
+    for (int i = 3; i < 6; ++i) e[i] = spec.rotation ? spec.noise_rotation_rad * n01(rng) : 0.0;
+    mp.world_T_marker = posePlus(T, e);
+    mp.has_rotation = spec.rotation;
+    if (!spec.rotation) mp.world_T_marker.linear().setIdentity();
+    if (torques) {
+      for (Eigen::Index j = 0; j < mp.sample.tau_Nm.size(); ++j) mp.sample.tau_Nm[j] += spec.torque_noise_Nm * n01(rng);
+    }
+  }
+  return out;
+}
+
+}  // namespace orbcal::sim
