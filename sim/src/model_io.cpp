@@ -14,18 +14,6 @@ namespace orbcal::sim {
 
 namespace {
 
-const char* sharingName(FrameSharing s) {
-  return s == FrameSharing::kShared ? "shared" : s == FrameSharing::kPerSession ? "per_session" : "known";
-}
-
-FrameSharing readSharing(const ConfigNode& n) {
-  const std::string v = n.asString();
-  if (v == "shared") return FrameSharing::kShared;
-  if (v == "per_session") return FrameSharing::kPerSession;
-  if (v == "known") return FrameSharing::kKnown;
-  n.fail("expected shared, per_session or known, got '" + v + "'");
-}
-
 std::string transformList(const std::vector<Eigen::Isometry3d>& frames) {
   std::string s = "[";
   for (std::size_t k = 0; k < frames.size(); ++k) s += (k ? ", " : "") + transformYaml(frames[k]);
@@ -49,8 +37,8 @@ std::string writeModelFile(const KinematicModel& m, const Eigen::VectorXd& p, co
     << "robot: " << robot_name << "\n"
     << "sessions: " << m.sessions << "\n"
     << "registration:\n"
-    << "  base: " << sharingName(m.base) << "\n"
-    << "  marker: " << sharingName(m.marker) << "\n"
+    << "  base: " << frameSharingName(m.base) << "\n"
+    << "  marker: " << frameSharingName(m.marker) << "\n"
     << "  world_T_base: " << transformList(m.world_T_base) << "\n"
     << "  flange_T_marker: " << transformList(m.flange_T_marker) << "\n"
     << "effects:" << (m.effects.empty() ? " []" : "") << "\n";
@@ -89,7 +77,7 @@ LoadedModel loadModelFile(const std::string& path) {
   if (sessions < 1) root["sessions"].fail("must be at least 1");
   const ConfigNode reg = root["registration"];
   reg.requireOnlyKeys({"base", "marker", "world_T_base", "flange_T_marker"});
-  const FrameSharing base = readSharing(reg["base"]), marker = readSharing(reg["marker"]);
+  const FrameSharing base = readFrameSharing(reg["base"]), marker = readFrameSharing(reg["marker"]);
   const auto frames = [&](const char* key, FrameSharing sharing) {
     const ConfigNode list = reg[key];
     const std::size_t expected = sharing == FrameSharing::kPerSession ? static_cast<std::size_t>(sessions) : 1;

@@ -1,6 +1,8 @@
 #pragma once
 // Plain comma-separated tables with a header line, as orbcal writes them (no quoting: cells hold
-// numbers and relative paths). Errors name the file, the line and the column.
+// numbers and relative paths). Accepted as users' tools write them: a UTF-8 byte order mark, CRLF
+// line endings, spaces around cells, empty lines (skipped). Errors name the file, the line and the
+// column; a cell echoed in a message has non-printable bytes escaped (\xNN) and is cut at 40 characters.
 #include <Eigen/Core>
 #include <optional>
 #include <string>
@@ -10,7 +12,8 @@ namespace orbcal::sim {
 
 class CsvTable {
  public:
-  /// Throws InputError on an empty file or a row whose cell count differs from the header's.
+  /// Throws InputError on an empty file, a header naming a column twice, or a row whose cell count
+  /// differs from the header's.
   static CsvTable parse(const std::string& text, const std::string& source);
 
   int column(const std::string& name) const;          ///< -1 when absent

@@ -7,22 +7,33 @@
 //   format: orbcal-measurements-1
 //   robot: iiwa7.yaml                      # relative to this file or absolute, or builtin:NAME
 //   files: [run1_0kg.csv, run2_1.25kg.csv] # relative to this file or absolute; a file = a session
-//   joints: {columns: [theta_1, ..., theta_7], unit: rad}       # or deg
+//   joints: {columns: [theta_1, ..., theta_7], unit: rad}       # or deg; one name per joint of the robot
 //   pose:                                  # one of:
 //     matrix: [m_00, ..., m_33]            #   16 names, row-major homogeneous 4x4
 //     # position: [x, y, z]                #   3 names, with
 //     # quaternion_wxyz: [qw, qx, qy, qz]  #   optionally 4 names (without: position-only data)
 //     length_unit: mm                      #   m or mm
 //   covariates:                            # optional, by physical role
-//     torque: {columns: [tau_1, ..., tau_7], unit: N*m}
-//     temperature: {column: temp_C, unit: degC}
-//     time: {column: time_s, unit: s}
+//     torque: {columns: [tau_1, ..., tau_7], unit: N*m}   # or Nm
+//     temperature: {column: temp_C, unit: degC}           # or K
+//     time: {column: time_s, unit: s}                     # or ms, min, h
 //     direction: {columns: [dir_1, ..., dir_7]}   # approach direction per joint (+1/-1/0)
 //   registration: {base: shared, marker: per_session}   # shared | per_session | known
+//   world_T_base: {xyz_m: [x, y, z], rpy_deg: [r, p, y]}  # exactly when base: known
+//   flange_T_marker: {xyz_m: [...], rpy_deg: [...]}       # exactly when marker: known
 //   noise: {position_mm: 0.05, rotation_deg: 0.01}      # optional; estimated from the fit when absent
 //
+// Every key but covariates and noise (and their entries) is required; an unknown key or an empty
+// value (`unit:` and nothing) is an InputError naming the description and the key, never a default.
+//
 // CSV: a header line, then one sample per line; spaces after commas, CRLF line endings, a UTF-8 BOM
-// and trailing empty lines are accepted. Errors are InputError naming the file, the line and the column.
+// and trailing empty lines are accepted, columns the description does not name are ignored. Errors
+// are one-line InputErrors naming the file, the line and the column: a cell that is not a finite
+// number, a column named by the description but absent (or named twice in the header), a row with
+// the wrong cell count, a joint reading outside the robot's limits, a pose matrix whose bottom row is
+// not [0 0 0 1] or whose rotation is not orthonormal (max |R^T R - I| > 1e-6, or det < 0), a
+// quaternion whose norm differs from 1 by more than 1e-6, a file without data rows. A rotation
+// matrix within the tolerance is used as given; a quaternion within it is normalised.
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
@@ -33,6 +44,8 @@
 
 namespace orbcal::sim {
 
+class ConfigNode;
+
 /// How an unknown registration frame is shared between sessions.
 enum class FrameSharing {
   kShared,      ///< one frame for all sessions, estimated
@@ -40,11 +53,16 @@ enum class FrameSharing {
   kKnown        ///< given (world_T_base / flange_T_marker of MeasuredData), not estimated
 };
 
+/// "shared", "per_session", "known", as the description and the model file write them.
+const char* frameSharingName(FrameSharing s);
+/// Reads one of those names; InputError naming the file and the key otherwise.
+FrameSharing readFrameSharing(const ConfigNode& node);
+
 struct MeasuredPose {
   JointSample sample;
   Eigen::Isometry3d world_T_marker = Eigen::Isometry3d::Identity();  ///< measured; m
   bool has_rotation = true;  ///< false: position-only data (the rotation is identity and unused)
-  std::string where;         ///< "<file>: line L", for messages
+  std::string where;         ///< "<file>: line L", for messages (as loaded; not written)
 };
 
 struct MeasuredData {
@@ -61,26 +79,36 @@ struct MeasuredData {
   Eigen::Isometry3d flange_T_marker = Eigen::Isometry3d::Identity();
   std::optional<double> noise_position_m;      ///< 1 sigma per axis, when the description gives it
   std::optional<double> noise_rotation_rad;    ///< 1 sigma per axis
+  /// Which covariates the files give (then every sample has them). has_direction is false when the
+  /// directions were filled from the sample order (fillApproachDirections) rather than read.
   bool has_torque = false, has_temperature = false, has_time = false, has_direction = false;
 
   int numSessions() const { return static_cast<int>(files.size()); }
 };
 
-/// Reads a description and every CSV file it names. Joint angles outside the arm's limits, a
-/// non-orthonormal rotation (beyond 1e-6), a NaN, a missing column, a wrong count of joint columns,
-/// an unknown key: InputError naming the file, the line and the column (or the key).
+/// Reads a description and every CSV file it names; SI units inside (rad, m, N m, degC, s). The
+/// session of a sample is the index of its file in `files`. Without direction columns, each
+/// sample's direction is filled from the order (fillApproachDirections). Joint angles outside the
+/// arm's limits, a non-orthonormal rotation (beyond 1e-6), a NaN, a missing column, a wrong count
+/// of joint columns, an unknown key: InputError naming the file, the line and the column (or the key).
 MeasuredData loadMeasuredData(const std::string& description_path);
 
-/// Approach directions from the sample order within each session: sign(q_k - q_{k-1}) per joint,
-/// 0 where the joint moved less than `threshold_rad`; for the first sample of a session, the
-/// direction of its successor's move reversed is not known, so it is 0.
+/// Approach directions from the sample order within each session: sign(q_k - q_{k-1}) per joint.
+/// A joint that moved less than `threshold_rad` keeps the direction of its last real move (the gear
+/// stays against the flank that move left it on); before any move of the session it is 0.
 void fillApproachDirections(std::vector<MeasuredPose>& poses, double threshold_rad = 1e-6);
 
-/// Writes `data` as a description plus one CSV per session into `folder` (atomically), with the
-/// columns: index, q1_rad..qN_rad, [tau1_Nm..tauN_Nm], [temperature_C], [time_s], x_m, y_m, z_m,
-/// qw, qx, qy, qz (the pose as position and quaternion). `robot_file` is written as given
-/// (relative to the folder, or builtin:NAME). Returns the description's path. loadMeasuredData reads
-/// it back to the same samples (numbers written exactly).
+/// Writes `data` as a description plus one CSV per session (session_0.csv, session_1.csv, ...) into
+/// `folder` (created; every file written atomically), with the columns: index, q1_rad..qN_rad,
+/// [tau1_Nm..tauN_Nm], [temperature_C], [time_s], x_m, y_m, z_m, [qw, qx, qy, qz], [dir1..dirN]
+/// (the pose as position and quaternion; no quaternion when no sample has_rotation; covariates as
+/// the has_* flags say). Registration, known frames and noise are written too. `robot_file` is
+/// written as given (relative to the folder, absolute, or builtin:NAME). Returns the description's
+/// path. loadMeasuredData reads it back to the same samples and positions bit for bit (numbers
+/// written with %.17g); rotations (through a quaternion), known frames (through roll-pitch-yaw) and
+/// noise (through mm and deg) come back to rounding.
+/// std::invalid_argument when a session from 0 to the largest has no sample, or a sample lacks a
+/// value its columns need (or holds a NaN there).
 std::string writeMeasuredData(const MeasuredData& data, const std::string& folder, const std::string& robot_file,
                               const std::string& description_name = "measurements.yaml");
 

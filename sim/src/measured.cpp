@@ -1,0 +1,536 @@
+#include "orbcal/sim/measured.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/fileio.hpp"
+#include "orbcal/sim/io.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::sim {
+
+namespace {
+
+constexpr const char* kFormat = "orbcal-measurements-1";
+/// Largest accepted |entry of R^T R - I|, |bottom row - [0 0 0 1]| and ||q| - 1| of a measured pose.
+constexpr double kPoseTolerance = 1e-6;
+
+// ---------------------------------------------------------------------------------------------
+// Units: value_SI = value * multiply / divide + offset (divide keeps mm -> m exact as v / 1000).
+
+struct Unit {
+  const char* name = "";
+  double multiply = 1.0;
+  double divide = 1.0;
+  double offset = 0.0;
+  double toSi(double v) const {
+    const double scaled = v * multiply / divide;
+    return offset == 0.0 ? scaled : scaled + offset;  // keeps -0.0 as written
+  }
+  double fromSi(double si) const { return (si - offset) * divide / multiply; }
+};
+
+const std::vector<Unit> kAngleUnits = {{"rad"}, {"deg", kDegToRad}};
+const std::vector<Unit> kLengthUnits = {{"m"}, {"mm", 1.0, 1000.0}};
+const std::vector<Unit> kTorqueUnits = {{"N*m"}, {"Nm"}};
+const std::vector<Unit> kTemperatureUnits = {{"degC"}, {"K", 1.0, 1.0, -273.15}};
+const std::vector<Unit> kTimeUnits = {{"s"}, {"ms", 1.0, 1000.0}, {"min", 60.0}, {"h", 3600.0}};
+
+// ---------------------------------------------------------------------------------------------
+// The description: which columns hold what.
+
+/// Columns named by the description for one quantity, and their unit.
+struct ColumnGroup {
+  std::vector<std::string> names;  ///< empty: not in the files
+  Unit unit;
+  std::vector<int> index;          ///< of each name in the CSV file being read (bindColumns)
+  bool given() const { return !names.empty(); }
+};
+
+struct Layout {
+  ColumnGroup joints, matrix, position, quaternion, torque, temperature, time, direction;
+  Unit length;  ///< of the matrix's translation (position carries its own)
+  /// Every group, in the order the writer puts them in a row (after the index).
+  std::array<ColumnGroup*, 8> groups() {
+    return {&joints, &torque, &temperature, &time, &matrix, &position, &quaternion, &direction};
+  }
+  std::array<const ColumnGroup*, 8> groups() const {
+    return {&joints, &torque, &temperature, &time, &matrix, &position, &quaternion, &direction};
+  }
+};
+
+/// node[key], which must hold a value: an empty one (`key:` and nothing) is an error, never a default.
+ConfigNode valueOf(const ConfigNode& node, const std::string& key) {
+  const ConfigNode child = node[key];
+  if (!child.defined()) child.fail("empty value");
+  return child;
+}
+
+/// valueOf(node, key) when the key is present.
+std::optional<ConfigNode> optionalValueOf(const ConfigNode& node, const std::string& key) {
+  if (!node.has(key)) return std::nullopt;
+  return valueOf(node, key);
+}
+
+Unit readUnit(const ConfigNode& node, const std::vector<Unit>& known) {
+  const std::string name = node.asString();
+  std::string list;
+  for (const Unit& u : known) {
+    if (name == u.name) return u;
+    list += (list.empty() ? "" : ", ") + std::string(u.name);
+  }
+  node.fail("expected one of: " + list + ", got '" + name + "'");
+}
+
+/// A sequence of exactly `count` column names; `what` says why that many.
+std::vector<std::string> readNames(const ConfigNode& node, std::size_t count, const std::string& what) {
+  if (node.size() != count) {
+    node.fail("expected " + std::to_string(count) + " column names (" + what + "), got " + std::to_string(node.size()));
+  }
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < count; ++i) names.push_back(node[i].asString());
+  return names;
+}
+
+/// {columns: [...], unit: U} (without `unit` when `units` is empty).
+ColumnGroup readColumns(const ConfigNode& node, std::size_t count, const std::string& what,
+                        const std::vector<Unit>& units) {
+  ColumnGroup g;
+  if (units.empty()) {
+    node.requireOnlyKeys({"columns"});
+  } else {
+    node.requireOnlyKeys({"columns", "unit"});
+    g.unit = readUnit(valueOf(node, "unit"), units);
+  }
+  g.names = readNames(valueOf(node, "columns"), count, what);
+  return g;
+}
+
+/// {column: NAME, unit: U}.
+ColumnGroup readColumn(const ConfigNode& node, const std::vector<Unit>& units) {
+  node.requireOnlyKeys({"column", "unit"});
+  ColumnGroup g;
+  g.names = {valueOf(node, "column").asString()};
+  g.unit = readUnit(valueOf(node, "unit"), units);
+  return g;
+}
+
+void readPoseLayout(const ConfigNode& pose, Layout& l) {
+  pose.requireOnlyKeys({"matrix", "position", "quaternion_wxyz", "length_unit"});
+  l.length = readUnit(valueOf(pose, "length_unit"), kLengthUnits);
+  const auto matrix = optionalValueOf(pose, "matrix");
+  const auto position = optionalValueOf(pose, "position");
+  const auto quaternion = optionalValueOf(pose, "quaternion_wxyz");
+  if (matrix.has_value() == position.has_value()) {
+    pose.fail("expected either 'matrix' (16 column names) or 'position' (3, optionally with 'quaternion_wxyz')");
+  }
+  if (matrix && quaternion) quaternion->fail("not with 'matrix' (the matrix holds the rotation)");
+  if (matrix) l.matrix.names = readNames(*matrix, 16, "a row-major 4x4 matrix");
+  if (position) {
+    l.position.names = readNames(*position, 3, "x, y, z");
+    l.position.unit = l.length;
+  }
+  if (quaternion) l.quaternion.names = readNames(*quaternion, 4, "w, x, y, z");
+}
+
+void readCovariateLayout(const ConfigNode& cov, std::size_t joints, const std::string& per_joint, Layout& l) {
+  cov.requireOnlyKeys({"torque", "temperature", "time", "direction"});
+  if (const auto n = optionalValueOf(cov, "torque")) l.torque = readColumns(*n, joints, per_joint, kTorqueUnits);
+  if (const auto n = optionalValueOf(cov, "temperature")) l.temperature = readColumn(*n, kTemperatureUnits);
+  if (const auto n = optionalValueOf(cov, "time")) l.time = readColumn(*n, kTimeUnits);
+  if (const auto n = optionalValueOf(cov, "direction")) l.direction = readColumns(*n, joints, per_joint, {});
+}
+
+Layout readLayout(const ConfigNode& root, const Arm& arm) {
+  const auto joints = static_cast<std::size_t>(arm.numJoints());
+  const std::string per_joint = "one per joint of " + arm.source;
+  Layout l;
+  l.joints = readColumns(valueOf(root, "joints"), joints, per_joint, kAngleUnits);
+  readPoseLayout(valueOf(root, "pose"), l);
+  if (const auto cov = optionalValueOf(root, "covariates")) readCovariateLayout(*cov, joints, per_joint, l);
+  return l;
+}
+
+/// `path` relative to `folder` unless absolute or builtin:NAME.
+std::string resolvePath(const std::string& folder, const std::string& path) {
+  if (path.rfind("builtin:", 0) == 0 || std::filesystem::path(path).is_absolute() || folder.empty()) return path;
+  return (std::filesystem::path(folder) / path).string();
+}
+
+/// format, robot (loaded) and files.
+void readSources(const ConfigNode& root, MeasuredData& d) {
+  const ConfigNode format = valueOf(root, "format");
+  if (format.asString() != kFormat) format.fail("expected '" + std::string(kFormat) + "', got '" + format.asString() + "'");
+  const std::string folder = std::filesystem::path(d.description).parent_path().string();
+  d.robot_file = resolvePath(folder, valueOf(root, "robot").asString());
+  d.arm = loadArm(d.robot_file);
+  const ConfigNode files = valueOf(root, "files");
+  if (files.size() == 0) files.fail("expected at least one CSV file");
+  for (std::size_t i = 0; i < files.size(); ++i) d.files.push_back(resolvePath(folder, files[i].asString()));
+}
+
+
+/// The top-level `key` ({xyz_m, rpy_deg}): required when `sharing` is kKnown, an error otherwise.
+Eigen::Isometry3d readKnownFrame(const ConfigNode& root, const std::string& key, FrameSharing sharing,
+                                 const std::string& registration_key) {
+  const auto node = optionalValueOf(root, key);
+  if (sharing != FrameSharing::kKnown) {
+    if (node) node->fail("given, but registration." + registration_key + " is not 'known'");
+    return Eigen::Isometry3d::Identity();
+  }
+  if (!node) throw InputError(root.source() + ": " + key + ": missing (registration." + registration_key + " is 'known')");
+  return node->asTransform();
+}
+
+void readRegistration(const ConfigNode& root, MeasuredData& d) {
+  const ConfigNode reg = valueOf(root, "registration");
+  reg.requireOnlyKeys({"base", "marker"});
+  d.base = readFrameSharing(valueOf(reg, "base"));
+  d.marker = readFrameSharing(valueOf(reg, "marker"));
+  d.world_T_base = readKnownFrame(root, "world_T_base", d.base, "base");
+  d.flange_T_marker = readKnownFrame(root, "flange_T_marker", d.marker, "marker");
+}
+
+/// A positive number at `key`, times `to_si`, when given.
+std::optional<double> readSigma(const ConfigNode& noise, const std::string& key, double to_si) {
+  const auto node = optionalValueOf(noise, key);
+  if (!node) return std::nullopt;
+  const double v = node->asDouble();
+  if (!(v > 0.0)) node->fail("must be positive");
+  return v * to_si;
+}
+
+void readNoise(const ConfigNode& root, MeasuredData& d) {
+  const auto noise = optionalValueOf(root, "noise");
+  if (!noise) return;
+  noise->requireOnlyKeys({"position_mm", "rotation_deg"});
+  d.noise_position_m = readSigma(*noise, "position_mm", 1e-3);
+  d.noise_rotation_rad = readSigma(*noise, "rotation_deg", kDegToRad);
+}
+
+// ---------------------------------------------------------------------------------------------
+// The CSV files.
+
+/// `l` with the column index of every name in `t` (InputError naming the file for a missing one).
+Layout bindColumns(Layout l, const CsvTable& t) {
+  for (ColumnGroup* g : l.groups()) {
+    g->index.clear();
+    for (const std::string& name : g->names) g->index.push_back(t.requireColumn(name));
+  }
+  return l;
+}
+
+/// The cells of `g` on row r, in SI units.
+Eigen::VectorXd readGroup(const CsvTable& t, std::size_t r, const ColumnGroup& g) {
+  Eigen::VectorXd v(static_cast<Eigen::Index>(g.index.size()));
+  for (std::size_t i = 0; i < g.index.size(); ++i) v[static_cast<Eigen::Index>(i)] = g.unit.toSi(t.number(r, g.index[i]));
+  return v;
+}
+
+/// "<file>: line L: <first>..<last>: " for a message about a run of columns.
+std::string columnsAt(const CsvTable& t, std::size_t r, const std::string& first, const std::string& last) {
+  return t.where(r) + ": " + first + ".." + last + ": ";
+}
+
+Eigen::VectorXd readJoints(const CsvTable& t, std::size_t r, const ColumnGroup& g, const Arm& arm) {
+  const Eigen::VectorXd q = readGroup(t, r, g);
+  for (Eigen::Index j = 0; j < q.size(); ++j) {
+    if (q[j] >= arm.lower_rad[j] && q[j] <= arm.upper_rad[j]) continue;
+    const auto in = [&g](double si) { return formatNumber("%.9g", g.unit.fromSi(si)); };
+    throw InputError(t.where(r) + ": " + g.names[static_cast<std::size_t>(j)] + ": " + in(q[j]) + " " + g.unit.name +
+                     " is outside the joint limits [" + in(arm.lower_rad[j]) + ", " + in(arm.upper_rad[j]) + "] " +
+                     g.unit.name + " of " + arm.source);
+  }
+  return q;
+}
+
+/// Throws unless R is a rotation: max |R^T R - I| <= kPoseTolerance and det R > 0.
+void checkRotation(const Eigen::Matrix3d& R, const std::string& at) {
+  const double off = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (off > kPoseTolerance) {
+    throw InputError(at + "rotation is not orthonormal: max |R^T R - I| = " + formatNumber("%.3g", off) +
+                     " (tolerance 1e-6)");
+  }
+  if (R.determinant() < 0.0) throw InputError(at + "rotation is a reflection (det R = -1)");
+}
+
+Eigen::Isometry3d readMatrixPose(const CsvTable& t, std::size_t r, const Layout& l) {
+  const Eigen::VectorXd v = readGroup(t, r, l.matrix);
+  const Eigen::Matrix4d m = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(v.data());
+  const std::vector<std::string>& n = l.matrix.names;
+  if ((m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > kPoseTolerance) {
+    throw InputError(columnsAt(t, r, n[12], n[15]) + "bottom row of the pose matrix is [" + formatNumber("%.9g", m(3, 0)) +
+                     " " + formatNumber("%.9g", m(3, 1)) + " " + formatNumber("%.9g", m(3, 2)) + " " +
+                     formatNumber("%.9g", m(3, 3)) + "], expected [0 0 0 1]");
+  }
+  checkRotation(m.topLeftCorner<3, 3>(), columnsAt(t, r, n[0], n[10]));
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = m.topLeftCorner<3, 3>();
+  for (int i = 0; i < 3; ++i) T.translation()[i] = l.length.toSi(m(i, 3));
+  return T;
+}
+
+/// Unit quaternion from w, x, y, z; a norm within kPoseTolerance of 1 is normalised.
+Eigen::Quaterniond readQuaternion(const CsvTable& t, std::size_t r, const ColumnGroup& g) {
+  const Eigen::VectorXd v = readGroup(t, r, g);
+  Eigen::Quaterniond q(v[0], v[1], v[2], v[3]);
+  const double norm = q.norm();
+  if (std::abs(norm - 1.0) > kPoseTolerance) {
+    throw InputError(columnsAt(t, r, g.names.front(), g.names.back()) + "quaternion norm " + formatNumber("%.9g", norm) +
+                     " differs from 1 by more than 1e-6");
+  }
+  return q.normalized();
+}
+
+Eigen::VectorXd readDirections(const CsvTable& t, std::size_t r, const ColumnGroup& g) {
+  const Eigen::VectorXd d = readGroup(t, r, g);
+  for (Eigen::Index j = 0; j < d.size(); ++j) {
+    if (d[j] == -1.0 || d[j] == 0.0 || d[j] == 1.0) continue;
+    throw InputError(t.where(r) + ": " + g.names[static_cast<std::size_t>(j)] +
+                     ": expected an approach direction of -1, 0 or 1, got " + formatNumber("%.9g", d[j]));
+  }
+  return d;
+}
+
+MeasuredPose readPose(const CsvTable& t, std::size_t r, const Layout& l, const Arm& arm, int session) {
+  MeasuredPose p;
+  p.where = t.where(r);
+  JointSample& s = p.sample;
+  s.session = session;
+  s.q_rad = readJoints(t, r, l.joints, arm);
+  if (l.matrix.given()) {
+    p.world_T_marker = readMatrixPose(t, r, l);
+  } else {
+    p.world_T_marker.translation() = readGroup(t, r, l.position);
+    p.has_rotation = l.quaternion.given();
+    if (p.has_rotation) p.world_T_marker.linear() = readQuaternion(t, r, l.quaternion).toRotationMatrix();
+  }
+  if (l.torque.given()) s.tau_Nm = readGroup(t, r, l.torque);
+  if (l.temperature.given()) s.temperature_C = readGroup(t, r, l.temperature)[0];
+  if (l.time.given()) s.time_s = readGroup(t, r, l.time)[0];
+  if (l.direction.given()) s.direction = readDirections(t, r, l.direction);
+  return p;
+}
+
+void readSession(const std::string& path, int session, const Layout& layout, MeasuredData& d) {
+  const CsvTable t = CsvTable::parse(readTextSource(path), path);
+  if (t.rows() == 0) throw InputError(path + ": no data rows (expected one sample per line after the header)");
+  const Layout bound = bindColumns(layout, t);
+  for (std::size_t r = 0; r < t.rows(); ++r) d.poses.push_back(readPose(t, r, bound, d.arm, session));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Writing.
+
+/// The columns writeMeasuredData writes, SI units.
+Layout outputLayout(const MeasuredData& d, int joints) {
+  const auto perJoint = [joints](const std::string& prefix, const std::string& suffix) {
+    std::vector<std::string> names;
+    for (int j = 1; j <= joints; ++j) names.push_back(prefix + std::to_string(j) + suffix);
+    return names;
+  };
+  Layout l;
+  l.joints = {perJoint("q", "_rad"), kAngleUnits[0], {}};
+  l.position = {{"x_m", "y_m", "z_m"}, kLengthUnits[0], {}};
+  bool rotation = false;
+  for (const MeasuredPose& p : d.poses) rotation |= p.has_rotation;
+  if (rotation) l.quaternion.names = {"qw", "qx", "qy", "qz"};
+  if (d.has_torque) l.torque = {perJoint("tau", "_Nm"), kTorqueUnits[0], {}};
+  if (d.has_temperature) l.temperature = {{"temperature_C"}, kTemperatureUnits[0], {}};
+  if (d.has_time) l.time = {{"time_s"}, kTimeUnits[0], {}};
+  if (d.has_direction) l.direction.names = perJoint("dir", "");
+  l.length = kLengthUnits[0];
+  return l;
+}
+
+/// The cells of one written row (SI units), in the order of Layout::groups().
+std::vector<double> rowCells(const MeasuredPose& p, const Layout& l) {
+  std::vector<double> c;
+  const auto add = [&c](const Eigen::VectorXd& v) { c.insert(c.end(), v.data(), v.data() + v.size()); };
+  add(p.sample.q_rad);
+  if (l.torque.given()) add(p.sample.tau_Nm);
+  if (l.temperature.given()) c.push_back(p.sample.temperature_C);
+  if (l.time.given()) c.push_back(p.sample.time_s);
+  add(p.world_T_marker.translation());
+  if (l.quaternion.given()) {
+    const Eigen::Quaterniond q(p.world_T_marker.linear());
+    add(Eigen::Vector4d(q.w(), q.x(), q.y(), q.z()));
+  }
+  if (l.direction.given()) add(p.sample.direction);
+  return c;
+}
+
+std::string formatSessionCsv(const std::vector<const MeasuredPose*>& poses, const Layout& l) {
+  std::ostringstream out;
+  out << "index";
+  std::size_t columns = 0;
+  for (const ColumnGroup* g : l.groups()) {
+    for (const std::string& name : g->names) out << "," << name;
+    columns += g->names.size();
+  }
+  out << "\n";
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    const std::vector<double> cells = rowCells(*poses[k], l);
+    const bool finite = std::all_of(cells.begin(), cells.end(), [](double v) { return std::isfinite(v); });
+    if (cells.size() != columns || !finite) {
+      throw std::invalid_argument("writeMeasuredData: sample " + std::to_string(k) + " of its session (" +
+                                  poses[k]->where + "): " + std::to_string(cells.size()) + " values for " +
+                                  std::to_string(columns) + " columns, or one not finite");
+    }
+    out << k;
+    for (double v : cells) out << "," << exactNumber(v);
+    out << "\n";
+  }
+  return out.str();
+}
+
+/// A YAML double-quoted string (paths may hold ',', '#' or ': ').
+std::string quoted(const std::string& text) {
+  std::string q = "\"";
+  for (char c : text) q += (c == '"' || c == '\\') ? std::string("\\") + c : std::string(1, c);
+  return q + "\"";
+}
+
+std::string joined(const std::vector<std::string>& items) {
+  std::string s;
+  for (const std::string& item : items) s += (s.empty() ? "" : ", ") + item;
+  return s;
+}
+
+std::string yamlList(const std::vector<std::string>& items) { return "[" + joined(items) + "]"; }
+
+
+
+std::string formatCovariates(const Layout& l) {
+  std::ostringstream s;
+  if (l.torque.given()) s << "  torque: {columns: " << yamlList(l.torque.names) << ", unit: N*m}\n";
+  if (l.temperature.given()) s << "  temperature: {column: " << l.temperature.names[0] << ", unit: degC}\n";
+  if (l.time.given()) s << "  time: {column: " << l.time.names[0] << ", unit: s}\n";
+  if (l.direction.given()) s << "  direction: {columns: " << yamlList(l.direction.names) << "}\n";
+  const std::string body = s.str();
+  return body.empty() ? "" : "covariates:\n" + body;
+}
+
+std::string formatDescription(const MeasuredData& d, const std::string& robot_file,
+                              const std::vector<std::string>& files, const Layout& l) {
+  std::ostringstream s;
+  s << "# Measured data written by orbcal " << ORBCAL_VERSION << " (format: sim/include/orbcal/sim/measured.hpp)\n";
+  s << "format: " << kFormat << "\n";
+  std::vector<std::string> quoted_files;
+  for (const std::string& f : files) quoted_files.push_back(quoted(f));
+  s << "robot: " << quoted(robot_file) << "\n";
+  s << "files: " << yamlList(quoted_files) << "\n";
+  s << "joints: {columns: " << yamlList(l.joints.names) << ", unit: rad}\n";
+  s << "pose: {position: " << yamlList(l.position.names);
+  if (l.quaternion.given()) s << ", quaternion_wxyz: " << yamlList(l.quaternion.names);
+  s << ", length_unit: m}\n";
+  s << formatCovariates(l);
+  s << "registration: {base: " << frameSharingName(d.base) << ", marker: " << frameSharingName(d.marker) << "}\n";
+  if (d.base == FrameSharing::kKnown) s << "world_T_base: " << transformYaml(d.world_T_base) << "\n";
+  if (d.marker == FrameSharing::kKnown) s << "flange_T_marker: " << transformYaml(d.flange_T_marker) << "\n";
+  if (d.noise_position_m || d.noise_rotation_rad) {
+    std::vector<std::string> keys;
+    if (d.noise_position_m) keys.push_back("position_mm: " + exactNumber(*d.noise_position_m * 1e3));
+    if (d.noise_rotation_rad) keys.push_back("rotation_deg: " + exactNumber(*d.noise_rotation_rad * kRadToDeg));
+    s << "noise: {" << joined(keys) << "}\n";
+  }
+  return s.str();
+}
+
+/// The poses of each session, in order; every session from 0 to the largest must have one.
+std::vector<std::vector<const MeasuredPose*>> posesBySession(const MeasuredData& d) {
+  std::vector<std::vector<const MeasuredPose*>> sessions(static_cast<std::size_t>(d.numSessions()));
+  for (const MeasuredPose& p : d.poses) {
+    if (p.sample.session < 0) throw std::invalid_argument("writeMeasuredData: " + p.where + ": negative session");
+    const auto s = static_cast<std::size_t>(p.sample.session);
+    if (s >= sessions.size()) sessions.resize(s + 1);
+    sessions[s].push_back(&p);
+  }
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    if (sessions[s].empty()) throw std::invalid_argument("writeMeasuredData: session " + std::to_string(s) + " has no samples");
+  }
+  return sessions;
+}
+
+}  // namespace
+
+MeasuredData loadMeasuredData(const std::string& description_path) {
+  const ConfigNode root = ConfigNode::load(description_path);
+  root.requireOnlyKeys({"format", "robot", "files", "joints", "pose", "covariates", "registration", "noise",
+                        "world_T_base", "flange_T_marker"});
+  MeasuredData d;
+  d.description = description_path;
+  readSources(root, d);
+  const Layout layout = readLayout(root, d.arm);
+  readRegistration(root, d);
+  readNoise(root, d);
+  for (std::size_t s = 0; s < d.files.size(); ++s) readSession(d.files[s], static_cast<int>(s), layout, d);
+  d.has_torque = layout.torque.given();
+  d.has_temperature = layout.temperature.given();
+  d.has_time = layout.time.given();
+  d.has_direction = layout.direction.given();
+  if (!d.has_direction) fillApproachDirections(d.poses);
+  return d;
+}
+
+const char* frameSharingName(FrameSharing s) {
+  switch (s) {
+    case FrameSharing::kShared: return "shared";
+    case FrameSharing::kPerSession: return "per_session";
+    case FrameSharing::kKnown: return "known";
+  }
+  return "shared";
+}
+
+FrameSharing readFrameSharing(const ConfigNode& node) {
+  const std::string s = node.asString();
+  if (s == "shared") return FrameSharing::kShared;
+  if (s == "per_session") return FrameSharing::kPerSession;
+  if (s == "known") return FrameSharing::kKnown;
+  node.fail("expected shared, per_session or known, got '" + s + "'");
+}
+
+void fillApproachDirections(std::vector<MeasuredPose>& poses, double threshold_rad) {
+  std::map<int, std::pair<Eigen::VectorXd, Eigen::VectorXd>> previous;  // last readings and directions of each session
+  for (MeasuredPose& p : poses) {
+    const Eigen::VectorXd& q = p.sample.q_rad;
+    Eigen::VectorXd& dir = p.sample.direction;
+    const auto it = previous.find(p.sample.session);
+    if (it == previous.end()) {
+      dir = Eigen::VectorXd::Zero(q.size());
+    } else {
+      const auto& [q_prev, dir_prev] = it->second;
+      if (q_prev.size() != q.size()) throw std::invalid_argument("fillApproachDirections: " + p.where + ": joint count changed");
+      dir = dir_prev;
+      for (Eigen::Index j = 0; j < q.size(); ++j) {
+        const double dq = q[j] - q_prev[j];
+        if (std::abs(dq) >= threshold_rad) dir[j] = dq > 0.0 ? 1.0 : -1.0;
+      }
+    }
+    previous[p.sample.session] = {q, dir};
+  }
+}
+
+std::string writeMeasuredData(const MeasuredData& data, const std::string& folder, const std::string& robot_file,
+                              const std::string& description_name) {
+  const auto sessions = posesBySession(data);
+  const Layout layout = outputLayout(data, data.arm.numJoints());
+  makeDirectories(folder);
+  std::vector<std::string> files;
+  for (std::size_t s = 0; s < sessions.size(); ++s) {
+    files.push_back("session_" + std::to_string(s) + ".csv");
+    writeFileAtomic(folder + "/" + files.back(), formatSessionCsv(sessions[s], layout));
+  }
+  const std::string path = folder + "/" + description_name;
+  writeFileAtomic(path, formatDescription(data, robot_file, files, layout));
+  return path;
+}
+
+}  // namespace orbcal::sim
