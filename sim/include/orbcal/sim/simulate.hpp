@@ -10,6 +10,7 @@
 #include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/measured.hpp"
 #include "orbcal/sim/model.hpp"
+#include "orbcal/sim/se3.hpp"
 
 namespace orbcal::sim {
 
