@@ -1,35 +1,102 @@
-// `orbcal calibrate <dataset>`: the parameter errors from a dataset's images and joint readings.
+// `orbcal calibrate <dataset | description.yaml>`: the parameter errors from a dataset's images and
+// joint readings, or geometry + registration + effects from measured data (a measurement description).
 #include <cstdio>
+#include <filesystem>
 
 #include "calibrate.hpp"
 #include "cli.hpp"
+#include "measured.hpp"
+#include "orbcal/sim/config.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::tools {
 
 namespace {
 
+void printMeasured(const MeasuredCalibrateResult& r) {
+  if (r.worse) {
+    std::fprintf(stderr,
+                 "orbcal: calibrate: the calibrated model predicts the %d held-out samples worse than the nominal arm "
+                 "(position RMS %.4f -> %.4f mm)%s\n",
+                 r.held_out, r.heldout_before.position_rms_m * 1e3, r.heldout_after.position_rms_m * 1e3,
+                 r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "");
+  }
+  std::printf("%d samples: %d fitted, %d held out; %d parameters, %zu held as unidentifiable\n", r.samples, r.identification,
+              r.held_out, r.fit.model.layout.size(), r.fit.estimate.held.size());
+  std::printf("noise (1 sigma per axis): position %.4f mm, rotation %.4f deg%s\n", r.fit.noise.sigma_position_m * 1e3,
+              r.fit.noise.sigma_rotation_rad * sim::kRadToDeg, r.fit.noise_estimated ? " (estimated)" : "");
+  if (r.held_out > 0) {
+    std::printf("held-out position RMS: nominal arm %.4f mm -> calibrated %.4f mm (max %.4f -> %.4f mm)\n",
+                r.heldout_before.position_rms_m * 1e3, r.heldout_after.position_rms_m * 1e3, r.heldout_before.position_max_m * 1e3,
+                r.heldout_after.position_max_m * 1e3);
+  }
+  if (!r.model_path.empty()) std::printf("model: %s\n", r.model_path.c_str());
+  std::printf("report: %s\n", r.report_path.c_str());
+}
+
 void addCalibrateCommand(CLI::App& app) {
-  auto o = std::make_shared<CalibrateOptions>();
+  struct Opts {
+    CalibrateOptions images;
+    MeasuredCalibrateOptions measured;
+    std::string method;
+    double holdout = 0.2;
+    std::uint64_t seed = 1;
+    std::string out;
+    double noise_position_mm = -1, noise_rotation_deg = -1;
+  };
+  auto o = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate",
-      "Identify the arm's parameter errors from a dataset (rendered or real images with joint readings) and write "
-      "the calibrated robot file; the gain is measured on held-out samples");
-  cmd->add_option("dataset", o->dataset, "dataset folder (layout: README, 'Dataset layout')")->required();
-  cmd->add_option("--method", o->method, "estimator: EKF, IEKF, LM, LM (Huber), LSE (weighted), LSE (paper), EKF (paper), ...")
-      ->capture_default_str();
+      "Calibrate an arm. From an image dataset (folder): the DH errors, written as a calibrated robot file. From "
+      "measured data (a measurement description, .yaml): geometry + the unknown registration frames + the chosen "
+      "effects (--effects), written as model.yaml. The gain is measured on held-out samples; a model that predicts "
+      "them worse than the nominal arm is refused (exit 1) unless --accept-worse.");
+  cmd->add_option("dataset", o->images.dataset, "image dataset folder, or measurement description (.yaml)")->required();
+  cmd->add_option("--method", o->method,
+                  "estimator. Images: EKF (default), IEKF, LM, LM (Huber), LSE (weighted), LSE (paper), EKF (paper), ... "
+                  "Measured data: LM (default), LSE, EKF");
+  cmd->add_option("--effects", o->measured.effects,
+                  "measured data: effects to fit, effect:joints (joints from 1): compliance:2,4 cyclic:2 (2 harmonics; "
+                  "cyclic:2/3 for 3) scale:1 backlash:1 thermal drift mount");
   cmd->add_option_function<double>(
-         "--joint-noise-deg", [o](double d) { o->joint_noise_sigma_rad = d * sim::kDegToRad; },
-         "joint noise carried into R, 1 sigma [deg] (default: the manifest's, else 0.01)")
+         "--joint-noise-deg", [o](double d) { o->images.joint_noise_sigma_rad = d * sim::kDegToRad; },
+         "images: joint noise carried into R, 1 sigma [deg] (default: the manifest's, else 0.01)")
       ->check(CLI::Range(0.0, 10.0));
+  cmd->add_option("--noise-position-mm", o->noise_position_mm,
+                  "measured data: tracker position noise, 1 sigma per axis [mm] (default: the description's, else estimated)")
+      ->check(CLI::Range(1e-6, 100.0));
+  cmd->add_option("--noise-rotation-deg", o->noise_rotation_deg,
+                  "measured data: tracker rotation noise, 1 sigma per axis [deg] (default: the description's, else estimated)")
+      ->check(CLI::Range(1e-7, 10.0));
   cmd->add_option("--holdout", o->holdout, "fraction of the usable samples kept out for validation")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 0.9));
   cmd->add_option("--seed", o->seed, "seed of the hold-out draw")->capture_default_str();
-  cmd->add_option("-o,--out", o->out, "output folder (default: <dataset>/calibration)");
-  cmd->add_flag("--quiet", o->quiet, "no progress output");
+  cmd->add_flag("--accept-worse", o->measured.accept_worse, "measured data: write the model even if it predicts worse");
+  cmd->add_option("-o,--out", o->out, "output folder (default: calibration/ beside the dataset or description)");
+  cmd->add_flag("--quiet", o->images.quiet, "no progress output");
   cmd->callback([o] {
-    const CalibrateResult r = runCalibrate(*o);
+    if (std::filesystem::is_regular_file(o->images.dataset)) {
+      MeasuredCalibrateOptions m = o->measured;
+      m.description = o->images.dataset;
+      m.method = parseFitMethod(o->method.empty() ? "LM" : o->method, "--method");
+      m.holdout = o->holdout;
+      m.seed = o->seed;
+      m.out = o->out;
+      if (o->noise_position_mm > 0) m.noise_position_m = o->noise_position_mm * 1e-3;
+      if (o->noise_rotation_deg > 0) m.noise_rotation_rad = o->noise_rotation_deg * sim::kDegToRad;
+      const MeasuredCalibrateResult r = runMeasuredCalibrate(m);
+      printMeasured(r);
+      if (r.worse && !m.accept_worse) throw CLI::RuntimeError(1);
+      return;
+    }
+    if (!o->measured.effects.empty()) throw sim::InputError("--effects: only for measured data (a measurement description)");
+    CalibrateOptions c = o->images;
+    c.method = o->method.empty() ? "EKF" : o->method;
+    c.holdout = o->holdout;
+    c.seed = o->seed;
+    c.out = o->out;
+    const CalibrateResult r = runCalibrate(c);
     std::printf("%d images, %d usable: %d for identification, %d held out\n", r.images, r.usable, r.identification,
                 r.held_out);
     if (r.held_out > 0) {

@@ -39,6 +39,8 @@ int main(int argc, char** argv) {
   orbcal::tools::addRegisteredCommands(app);
   try {
     app.parse(argc, argv);
+  } catch (const CLI::RuntimeError& e) {
+    return e.get_exit_code();  // the command said why (e.g. a calibration that would make the arm worse)
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e);  // prints help or the usage error
     return code == 0 ? 0 : 2;

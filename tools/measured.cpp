@@ -1,0 +1,215 @@
+#include "measured.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <random>
+#include <sstream>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/fileio.hpp"
+#include "orbcal/sim/io.hpp"
+#include "orbcal/sim/model_io.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::tools {
+
+using sim::formatNumber;
+
+calib::FitOptions::Method parseFitMethod(const std::string& name, const std::string& what) {
+  if (name == "LM") return calib::FitOptions::Method::kLm;
+  if (name == "LSE") return calib::FitOptions::Method::kLse;
+  if (name == "EKF") return calib::FitOptions::Method::kEkf;
+  throw sim::InputError(what + ": '" + name + "': expected LM, LSE or EKF for measured data");
+}
+
+std::vector<sim::ParameterRow> parameterRows(const calib::Fit& fit) {
+  std::vector<sim::ParameterRow> rows;
+  const sim::ParamLayout& L = fit.model.layout;
+  for (int i = 0; i < L.size(); ++i) {
+    const bool held = std::binary_search(fit.estimate.held.begin(), fit.estimate.held.end(), i);
+    const double var = fit.estimate.covariance.rows() > i ? fit.estimate.covariance(i, i) : NAN;
+    rows.push_back({L.param(i).name, L.block(L.blockOf(i)).effect, L.param(i).unit, fit.p[i],
+                    held ? 0.0 : std::sqrt(std::max(0.0, var)), held});
+  }
+  return rows;
+}
+
+std::string residualJson(const calib::ResidualStats& s) {
+  std::ostringstream j;
+  j << "{\"samples\": " << s.samples << ", \"position_mean_mm\": " << sim::exactNumber(s.position_mean_m * 1e3)
+    << ", \"position_rms_mm\": " << sim::exactNumber(s.position_rms_m * 1e3)
+    << ", \"position_max_mm\": " << sim::exactNumber(s.position_max_m * 1e3)
+    << ", \"rotation_rms_deg\": " << sim::exactNumber(s.rotation_rms_rad * sim::kRadToDeg)
+    << ", \"rotation_max_deg\": " << sim::exactNumber(s.rotation_max_rad * sim::kRadToDeg) << "}";
+  return j.str();
+}
+
+namespace {
+
+std::string statsRow(const std::string& what, const calib::ResidualStats& s) {
+  return "| " + what + " | " + std::to_string(s.samples) + " | " + formatNumber("%.4f", s.position_mean_m * 1e3) + " | " +
+         formatNumber("%.4f", s.position_rms_m * 1e3) + " | " + formatNumber("%.4f", s.position_max_m * 1e3) + " | " +
+         formatNumber("%.4f", s.rotation_rms_rad * sim::kRadToDeg) + " |\n";
+}
+const char* kStatsHeader =
+    "| model | samples | position mean (mm) | position RMS (mm) | position max (mm) | rotation RMS (deg) |\n"
+    "|---|---|---|---|---|---|\n";
+
+std::string parameterTable(const calib::Fit& fit) {
+  std::string md = "| parameter | block | value | 1-sigma | unit |\n|---|---|---|---|---|\n";
+  const sim::ParamLayout& L = fit.model.layout;
+  const std::vector<sim::ParameterRow> rows = parameterRows(fit);
+  for (int i = 0; i < L.size(); ++i) {
+    const sim::ParamInfo& info = L.param(i);
+    const sim::ParameterRow& r = rows[static_cast<std::size_t>(i)];
+    md += "| " + r.name + " | " + r.effect + " | " + formatNumber("%+.5g", r.value * info.display_scale) + " | " +
+          (r.held ? std::string("held (unidentifiable here)") : formatNumber("%.3g", r.sigma * info.display_scale)) + " | " +
+          info.display_unit + " |\n";
+  }
+  return md;
+}
+
+std::string folderOf(const std::string& path) {
+  const std::filesystem::path p = std::filesystem::path(path).parent_path();
+  return p.empty() ? "." : p.string();
+}
+
+}  // namespace
+
+MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) {
+  if (!(o.holdout >= 0.0 && o.holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
+  MeasuredCalibrateResult r;
+  const sim::MeasuredData data = sim::loadMeasuredData(o.description);
+  std::vector<sim::Effect> effects;
+  for (const std::string& e : o.effects) effects.push_back(sim::parseEffect(e, data.arm.numJoints(), "--effects"));
+  const std::vector<calib::MarkerObservation> all = calib::observationsFrom(data, calib::needsTorque(effects));
+  r.samples = static_cast<int>(all.size());
+
+  // Seeded hold-out, stratified by session so that every session's frames stay identifiable.
+  std::vector<calib::MarkerObservation> ident, held;
+  std::mt19937_64 rng = sim::makeRng(o.seed, 0x686f6c646f7574ULL);
+  for (int s = 0; s < data.numSessions(); ++s) {
+    std::vector<std::size_t> idx;
+    for (std::size_t k = 0; k < all.size(); ++k) {
+      if (all[k].sample.session == s) idx.push_back(k);
+    }
+    std::shuffle(idx.begin(), idx.end(), rng);
+    const std::size_t n_hold = static_cast<std::size_t>(std::floor(o.holdout * static_cast<double>(idx.size())));
+    std::sort(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(n_hold));
+    std::sort(idx.begin() + static_cast<std::ptrdiff_t>(n_hold), idx.end());
+    for (std::size_t i = 0; i < idx.size(); ++i) (i < n_hold ? held : ident).push_back(all[idx[i]]);
+  }
+  r.identification = static_cast<int>(ident.size());
+  r.held_out = static_cast<int>(held.size());
+
+  calib::FitOptions fo;
+  fo.method = o.method;
+  fo.sigma_position_m = o.noise_position_m ? o.noise_position_m : data.noise_position_m;
+  fo.sigma_rotation_rad = o.noise_rotation_rad ? o.noise_rotation_rad : data.noise_rotation_rad;
+  const sim::KinematicModel start = calib::startingModel(data, ident, effects);
+  r.fit = calib::fitMarkerModel(start, ident, fo);
+
+  // The reference: the nominal arm with only the registration fitted.
+  calib::FitOptions ref = fo;
+  ref.method = calib::FitOptions::Method::kLm;
+  for (const sim::ParamBlock& b : start.layout.blocks()) {
+    if (b.effect == "base" || b.effect == "marker" || b.effect == "mount") continue;
+    for (int i = 0; i < b.size(); ++i) ref.hold.push_back(b.offset + i);
+  }
+  const calib::Fit reference = calib::fitMarkerModel(start, ident, ref);
+  if (!held.empty()) {
+    r.heldout_before = calib::residualStats(start, reference.p, held);
+    r.heldout_after = calib::residualStats(start, r.fit.p, held);
+    r.worse = r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
+  }
+
+  const std::string out = o.out.empty() ? folderOf(o.description) + "/calibration" : o.out;
+  const calib::CalibratedModel cm = calib::calibratedModel(r.fit);
+  std::ostringstream header;
+  header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate) from " << o.description << "\n"
+         << "nominal: " << data.robot_file << "; effects: " << (o.effects.empty() ? "none" : "");
+  for (const std::string& e : o.effects) header << e << " ";
+  const bool write_model = !r.worse || o.accept_worse;
+  sim::makeDirectories(out);
+  if (write_model) {
+    r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(r.fit), out, header.str());
+  }
+
+  std::ostringstream md;
+  md << "# Calibration of " << data.arm.name << " from measured data\n\n";
+  if (r.worse) {
+    md << "**The calibrated model predicts the held-out samples WORSE than the nominal arm (position RMS "
+       << formatNumber("%.4f", r.heldout_before.position_rms_m * 1e3) << " -> " << formatNumber("%.4f", r.heldout_after.position_rms_m * 1e3)
+       << " mm).** " << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.")
+       << "\n\n";
+  }
+  md << "Description `" << o.description << "`: " << r.samples << " samples in " << data.numSessions() << " session(s); "
+     << r.identification << " fitted, " << r.held_out << " held out (seed " << o.seed << ", per session).\n\n"
+     << "Model: geometry (" << data.arm.numParams() << " DH errors) + registration (base " << sim::frameSharingName(data.base)
+     << ", marker " << sim::frameSharingName(data.marker) << ")";
+  for (const std::string& e : o.effects) md << " + " << e;
+  md << "; " << r.fit.model.layout.size() << " parameters, " << r.fit.estimate.held.size() << " held as unidentifiable.\n\n"
+     << "Measurement noise (1 sigma per axis): position " << formatNumber("%.4f", r.fit.noise.sigma_position_m * 1e3) << " mm, rotation "
+     << formatNumber("%.4f", r.fit.noise.sigma_rotation_rad * sim::kRadToDeg) << " deg"
+     << (r.fit.noise_estimated ? " (estimated from the residuals)" : " (given)") << ". chi-square " << formatNumber("%.1f", r.fit.chi2)
+     << " for " << r.fit.dof << " degrees of freedom.\n\n"
+     << "## Held-out prediction\n\n" << kStatsHeader << statsRow("nominal arm, registration fitted", r.heldout_before)
+     << statsRow("calibrated", r.heldout_after) << "\n## Fit residuals\n\n" << kStatsHeader << statsRow("calibrated (fitted samples)", r.fit.residuals)
+     << "\n## What this data cannot identify\n\n```\n" << sim::formatIdentifiability(r.fit.identifiability) << "```\n\n"
+     << "Held parameters stay at their nominal value; the rest carry their observable combinations.\n\n"
+     << "## Parameters\n\n" << parameterTable(r.fit) << "\n";
+  r.report_path = out + "/report.md";
+  sim::writeFileAtomic(r.report_path, md.str());
+  return r;
+}
+
+EvaluateResult runEvaluate(const std::string& model_file, const std::string& description, const std::string& out) {
+  const sim::LoadedModel lm = sim::loadModelFile(model_file);
+  sim::MeasuredData data = sim::loadMeasuredData(description);
+  if (data.arm.numJoints() != lm.model.arm.numJoints()) {
+    throw sim::InputError(description + ": robot: " + std::to_string(data.arm.numJoints()) + " joints, but the model " +
+                          model_file + " has " + std::to_string(lm.model.arm.numJoints()));
+  }
+  data.arm.masses = lm.model.arm.masses.empty() ? data.arm.masses : lm.model.arm.masses;
+  const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(data, calib::needsTorque(lm.model.effects));
+  calib::FitOptions fo;
+  fo.sigma_position_m = data.noise_position_m;
+  fo.sigma_rotation_rad = data.noise_rotation_rad;
+  EvaluateResult r;
+  r.fit = calib::predictWithModel({lm.model, lm.p}, data, obs, fo);
+  sim::makeDirectories(out);
+  r.json_path = out + "/evaluation.json";
+  std::string json = residualJson(r.fit.residuals);
+  json.insert(json.size() - 1, ", \"model\": \"" + model_file + "\", \"data\": \"" + description + "\"");
+  sim::writeFileAtomic(r.json_path, json + "\n");
+  std::ostringstream md;
+  md << "# Evaluation of `" << model_file << "` on `" << description << "`\n\n"
+     << "Every geometric and effect parameter is the model's; the per-session frames of the data were refitted ("
+     << r.fit.model.layout.size() - static_cast<int>(r.fit.estimate.held.size()) << " parameters).\n\n"
+     << kStatsHeader << statsRow("prediction", r.fit.residuals);
+  r.report_path = out + "/evaluation.md";
+  sim::writeFileAtomic(r.report_path, md.str());
+  return r;
+}
+
+sim::SimulatedData runSimulate(const std::string& robot_file, const sim::SimulationSpec& spec, const std::string& out) {
+  const sim::Arm arm = sim::loadArm(robot_file);
+  sim::SimulatedData s = sim::simulateMeasured(arm, spec);
+  sim::makeDirectories(out);
+  sim::writeFileAtomic(out + "/robot.yaml", sim::formatArm(arm, "Nominal robot of a dataset simulated by orbcal simulate from " + robot_file));
+  s.data.description = sim::writeMeasuredData(s.data, out, "robot.yaml");
+  const sim::FoldedModel truth = sim::foldParameters(s.truth, s.p_true);
+  std::vector<sim::ParameterRow> rows;
+  for (int i = 0; i < s.truth.layout.size(); ++i) {
+    const sim::ParamInfo& p = s.truth.layout.param(i);
+    rows.push_back({p.name, s.truth.layout.block(s.truth.layout.blockOf(i)).effect, p.unit, s.p_true[i], 0.0, false});
+  }
+  sim::writeModelFile(truth.model, truth.p, rows, out + "/truth", "The truth of the dataset simulated by orbcal simulate (seed " +
+                                                                        std::to_string(spec.seed) + ")");
+  return s;
+}
+
+}  // namespace orbcal::tools
