@@ -1,4 +1,5 @@
 #include <sstream>
+#include <string>
 
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
@@ -31,11 +32,49 @@ Eigen::Isometry3d readFixed(const ConfigNode& n, DhConvention convention) {
   return n.asTransform();
 }
 
+/// A non-negative finite mass (kg).
+double readMass(const ConfigNode& n) {
+  const double m = n.asDouble();
+  if (m < 0.0) n.fail("must not be negative");
+  return m;
+}
+
+/// The optional `masses:` section (sim/gravity.hpp): gravity, one link per joint, an optional payload.
+MassModel readMasses(const ConfigNode& n, int num_joints) {
+  MassModel masses;
+  if (!n.defined()) return masses;
+  n.requireOnlyKeys({"gravity_m_s2", "links", "payload"});
+  const ConfigNode gravity = n.optional("gravity_m_s2");
+  if (gravity.defined()) masses.gravity_base = gravity.asVector(3);
+  const ConfigNode links = n.optional("links");
+  if (links.defined()) {
+    if (static_cast<int>(links.size()) != num_joints) {
+      links.fail("expected one entry per joint (" + std::to_string(num_joints) + "), got " + std::to_string(links.size()));
+    }
+    for (std::size_t i = 0; i < links.size(); ++i) {
+      const ConfigNode l = links[i];
+      l.requireOnlyKeys({"mass_kg", "com_m"});
+      LinkMass link;
+      link.mass_kg = readMass(l["mass_kg"]);
+      link.com_m = l["com_m"].asVector(3);
+      masses.links.push_back(link);
+    }
+  }
+  const ConfigNode payload = n.optional("payload");
+  if (payload.defined()) {
+    payload.requireOnlyKeys({"mass_kg", "com_m"});
+    masses.payload_kg = readMass(payload["mass_kg"]);
+    const ConfigNode com = payload.optional("com_m");
+    if (com.defined()) masses.payload_com_flange_m = com.asVector(3);
+  }
+  return masses;
+}
+
 }  // namespace
 
 Arm loadArm(const std::string& path) {
   const ConfigNode root = ConfigNode::load(path);
-  root.requireOnlyKeys({"name", "convention", "base", "joints", "tool", "source_notes"});
+  root.requireOnlyKeys({"name", "convention", "base", "joints", "tool", "masses", "source_notes"});
   Arm arm;
   arm.source = path;
   arm.name = root["name"].asString();
@@ -64,6 +103,7 @@ Arm loadArm(const std::string& path) {
     arm.lower_rad[static_cast<Eigen::Index>(i)] = lo * kDegToRad;
     arm.upper_rad[static_cast<Eigen::Index>(i)] = hi * kDegToRad;
   }
+  arm.masses = readMasses(root.optional("masses"), arm.numJoints());
   return arm;
 }
 
@@ -75,6 +115,34 @@ std::string transformYaml(const Eigen::Isometry3d& T) {
          exactNumber(ypr[2] * kRadToDeg) + ", " + exactNumber(ypr[1] * kRadToDeg) + ", " + exactNumber(ypr[0] * kRadToDeg) +
          "]}";
 }
+namespace {
+
+std::string vectorYaml(const Eigen::Vector3d& v) {
+  return "[" + exactNumber(v.x()) + ", " + exactNumber(v.y()) + ", " + exactNumber(v.z()) + "]";
+}
+
+/// True when `m` is what loadArm makes of a file without a `masses:` section (nothing to write).
+bool isDefault(const MassModel& m) {
+  const MassModel d;
+  return m.empty() && m.gravity_base == d.gravity_base && m.payload_com_flange_m == d.payload_com_flange_m;
+}
+
+std::string massesYaml(const MassModel& m) {
+  std::ostringstream s;
+  s << "masses:\n";
+  s << "  gravity_m_s2: " << vectorYaml(m.gravity_base) << "\n";
+  if (!m.links.empty()) {
+    s << "  links:\n";
+    for (const LinkMass& l : m.links) {
+      s << "    - {mass_kg: " << exactNumber(l.mass_kg) << ", com_m: " << vectorYaml(l.com_m) << "}\n";
+    }
+  }
+  if (m.payload_kg != 0.0 || !m.payload_com_flange_m.isZero(0.0)) {
+    s << "  payload: {mass_kg: " << exactNumber(m.payload_kg) << ", com_m: " << vectorYaml(m.payload_com_flange_m) << "}\n";
+  }
+  return s.str();
+}
+}  // namespace
 
 std::string formatArm(const Arm& arm, const std::string& header) {
   std::ostringstream s;
@@ -92,6 +160,7 @@ std::string formatArm(const Arm& arm, const std::string& header) {
       << "}\n";
   }
   s << "tool: " << transformYaml(arm.last_T_flange) << "\n";
+  if (!isDefault(arm.masses)) s << massesYaml(arm.masses);
   return s.str();
 }
 

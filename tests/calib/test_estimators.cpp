@@ -158,12 +158,24 @@ TEST_CASE("Table 3 errors, paper noise: EKF and LM improve position and every or
   noise.joint_noise_sigma_rad = joint_sigma;
   const calib::PoseMeasurementModel model(f.nominal, obs, noise);
   const calib::ErrorSummary initial = calib::summarize(calib::poseErrors(f.nominal, valid));
+  // The floor: what the true parameters leave on the same validation samples (the control noise alone).
+  const calib::ErrorSummary floor = calib::summarize(calib::poseErrors(f.truth, valid));
   for (const calib::Estimate& e : {calib::runEkf(model, {}), calib::runLm(model, {})}) {
     const calib::ErrorSummary after = calib::summarize(calib::poseErrors(sim::withErrors(f.nominal, e.y), valid));
-    CAPTURE(e.method, initial.position_avg_m, after.position_avg_m);
+    CAPTURE(e.method, initial.position_avg_m, after.position_avg_m, floor.position_avg_m);
+    INFO(e.method << ": after / floor = " << after.position_avg_m / floor.position_avg_m << " (position), "
+                  << (after.orientation_avg_rad.array() / floor.orientation_avg_rad.array()).transpose() << " (X Y Z)");
+    // Seed 000's claim, kept as stated; alone it would pass at 3.9 x the floor (initial = 39 x floor).
     CHECK(calib::improvement(initial.position_avg_m, after.position_avg_m) >= 0.90);
+    // The bound with teeth: the README's runs land at 1.02-1.09 x floor. 1.25 leaves margin for this
+    // test's smaller draw (50 identification, 200 validation samples); measured 1.04 (EKF), 1.04 (LM).
+    CHECK(after.position_avg_m <= 1.25 * floor.position_avg_m);
+    // Orientation keeps only the 90% bar (which allows 3.8-4.9 x floor): with seed 000's 0.5 deg
+    // orientation noise, about the size of the initial orientation errors, the orientation parameters
+    // come from the positions alone and land at 2.4-3.5 x the orientation floor here (1.0-1.05 x with
+    // 0.05 deg of orientation noise), so a floor bound would only restate the 90% bar.
     for (int a = 0; a < 3; ++a) {
-      CAPTURE(a, initial.orientation_avg_rad[a], after.orientation_avg_rad[a]);
+      CAPTURE(a, initial.orientation_avg_rad[a], after.orientation_avg_rad[a], floor.orientation_avg_rad[a]);
       CHECK(calib::improvement(initial.orientation_avg_rad[a], after.orientation_avg_rad[a]) >= 0.90);
     }
   }

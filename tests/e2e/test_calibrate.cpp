@@ -1,11 +1,14 @@
 // `orbcal calibrate` on a rendered dataset, with and without the simulation's ground truth.
 #include <catch2/catch.hpp>
+#include <filesystem>
 #include <fstream>
 #include <regex>
 #include <sstream>
 
 #include "calibrate.hpp"
 #include "orbcal/render/dataset_writer.hpp"
+#include "orbcal/sim/dataset.hpp"
+#include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/io.hpp"
 #include "test_util.hpp"
 
@@ -32,6 +35,39 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
   // Seed 000's bar (90%) on held-out samples, against the camera's measurements and against the truth.
   CHECK(calib::improvement(r.before.position_avg_m, r.after.position_avg_m) >= 0.90);
   CHECK(calib::improvement(r.truth_before.position_avg_m, r.truth_after.position_avg_m) >= 0.90);
+
+  // Alone, the 90% bar passes at 4 x the floor. The floor on the same held-out samples: calibrate a
+  // copy of the dataset whose nominal robot is the true arm (nominal + true errors, true errors zero).
+  // Its images, usable set and hold-out draw are the same, so its "before" errors are what the true
+  // parameters leave there: against the truth, the control noise alone; against the camera, that plus
+  // the measurement noise.
+  {
+    const std::string copy = test::tempDir("calibrate-floor") + "/dataset";
+    std::filesystem::copy(job.out, copy, std::filesystem::copy_options::recursive);
+    sim::Dataset d = sim::loadDataset(copy);
+    REQUIRE(d.manifest.true_errors);
+    sim::writeFileAtomic(copy + "/" + d.manifest.robot_file, sim::formatArm(sim::withErrors(d.arm, *d.manifest.true_errors)));
+    d.manifest.true_errors = Eigen::VectorXd::Zero(d.arm.numParams());
+    sim::writeDatasetTables(d, d.arm.numJoints());
+    tools::CalibrateOptions fo = o;
+    fo.dataset = copy;
+    const tools::CalibrateResult at_truth = tools::runCalibrate(fo);
+    REQUIRE(at_truth.usable == r.usable);
+    REQUIRE(at_truth.held_out == r.held_out);
+    REQUIRE(at_truth.has_truth);
+    const calib::ErrorSummary& floor = at_truth.truth_before;          // control noise alone
+    const calib::ErrorSummary& floor_measured = at_truth.before;      // plus the camera's noise
+    INFO("after / floor, position: " << r.truth_after.position_avg_m / floor.position_avg_m << " against the truth, "
+                                     << r.after.position_avg_m / floor_measured.position_avg_m << " against the camera");
+    CAPTURE(r.usable, r.held_out, r.truth_before.position_avg_m, r.before.position_avg_m);
+    CAPTURE(r.truth_after.position_avg_m, floor.position_avg_m, r.after.position_avg_m, floor_measured.position_avg_m);
+    // The README's runs (50 + 200 views) land at 1.02-1.09 x floor; here the mean is over
+    // only 7 held-out samples (and 32 identification images), so the ratio scatters more: measured
+    // 1.11 against the truth and 1.06 against the camera. 1.4 leaves room for that scatter; the 90%
+    // bar allows 4.0 x the floor here.
+    CHECK(r.truth_after.position_avg_m <= 1.4 * floor.position_avg_m);
+    CHECK(r.after.position_avg_m <= 1.4 * floor_measured.position_avg_m);
+  }
 
   // The calibrated robot file is a robot file: it loads, and its kinematics are nominal + estimate.
   const sim::Arm nominal = sim::loadArm(job.out + "/robot.yaml");

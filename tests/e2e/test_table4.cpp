@@ -33,8 +33,17 @@ TEST_CASE("reduced table4 from rendered images: the EKF improves every error by 
   }
   // The control noise sets the floor; 30 views of 26 identifiable combinations add estimation error on
   // top, but a correctly weighted estimator stays near it (the full 50-view run measures 1.02-1.09).
+  // The 90% bars above pass at up to 3.2 x the floor in position and 3.2-5.0 x in orientation; these
+  // are the checks with teeth. Measured: position 1.04, orientation X / Y / Z 1.10 / 1.16 / 1.16 x
+  // floor; 1.35 on orientation leaves ~15% over the worst axis for another draw of 30 + 50 views.
+  INFO("EKF / floor: position " << ekf->summary.position_avg_m / c.floor.position_avg_m << ", orientation X Y Z "
+                                << (ekf->summary.orientation_avg_rad.array() / c.floor.orientation_avg_rad.array()).transpose());
   CHECK(ekf->summary.position_avg_m <= 1.2 * c.floor.position_avg_m);
   CHECK(ekf->summary.position_avg_m >= c.floor.position_avg_m * 0.95);  // nothing beats the floor by much
+  for (int a = 0; a < 3; ++a) {
+    CAPTURE(a, c.initial.orientation_avg_rad[a], c.floor.orientation_avg_rad[a], ekf->summary.orientation_avg_rad[a]);
+    CHECK(ekf->summary.orientation_avg_rad[a] <= 1.35 * c.floor.orientation_avg_rad[a]);
+  }
 
   // What the settings change: the paper-literal EKF (0.01 deg / 0.01 mm prior, joint noise not in R) is
   // worse than orbcal's default EKF on the same data.

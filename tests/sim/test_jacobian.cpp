@@ -67,7 +67,14 @@ TEST_CASE("identification Jacobian holds away from the nominal parameters", "[si
   Eigen::VectorXd y(28);
   std::mt19937_64 rng(3);
   std::normal_distribution<double> n01;
-  for (int i = 0; i < 28; ++i) y[i] = n01(rng) * (isAngleParam(i) ? 0.01 : 0.01);
+  // Spreads per unit, chosen rather than one number for both units: 0.5 deg on angles (in rad) and
+  // 5 mm on lengths (in m), 2-5 times seed 000's Table 3 errors (0.2-0.3 deg, 0.5-1 mm), i.e. where
+  // the iterated estimators re-linearise. Large enough to test something: the Jacobian at the nominal
+  // parameters differs from the true one at p_nom + y by >= 0.1 at the random configurations, 1e6 x
+  // kJacobianTol, so a formula that ignored y would fail.
+  constexpr double kAngleSpread = 0.5 * kDegToRad;  // rad
+  constexpr double kLengthSpread = 0.005;           // m
+  for (int i = 0; i < 28; ++i) y[i] = n01(rng) * (isAngleParam(i) ? kAngleSpread : kLengthSpread);
   for (const auto& q : testConfigurations(7, 13)) checkAgainstNumeric(withErrors(arm, y), q, ErrorFrame::kTool);
 }
 

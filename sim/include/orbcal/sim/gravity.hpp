@@ -14,7 +14,11 @@
 
 namespace orbcal::sim {
 
-/// Joint torques (N m) holding the arm still at q under the mass model (payload included).
+/// Joint torques (N m) holding the arm still at q under the mass model (payload included). Joints and
+/// links numbered from 1: link i's COM is in DH frame i (chainFrames(...)[i]) in both conventions;
+/// joint i turns about z of frame i in modified DH and about z of frame i - 1 in standard DH; the
+/// payload's COM is in the flange frame. Link masses may be empty (payload only), else one per joint.
+/// Throws std::invalid_argument on a wrong q or link count.
 Eigen::VectorXd gravityTorques(const Arm& arm, const MassModel& masses, const Eigen::VectorXd& q);
 
 }  // namespace orbcal::sim

@@ -12,9 +12,13 @@ namespace orbcal::sim {
 inline const char* kDefaultRobot = "builtin:ssrms.yaml";
 inline const char* kDefaultScene = "builtin:default_scene.yaml";
 
+/// Reads a robot file: name, convention, base, joints, tool and the optional `masses:` section
+/// (gravity_m_s2, links: one {mass_kg, com_m} per joint with the COM in that joint's body DH frame,
+/// payload: {mass_kg, com_m} at the flange) for sim::gravityTorques.
 Arm loadArm(const std::string& path);
-/// A robot file for `arm` that loadArm reads back to the same kinematics (numbers written exactly;
-/// base and tool as {xyz_m, rpy_deg}). `header` goes first as '#' comment lines.
+/// A robot file for `arm` that loadArm reads back to the same kinematics and mass model (numbers
+/// written exactly; base and tool as {xyz_m, rpy_deg}; `masses:` only when the arm has one).
+/// `header` goes first as '#' comment lines.
 std::string formatArm(const Arm& arm, const std::string& header = "");
 /// A rigid transform as the flow map {xyz_m: [...], rpy_deg: [...]} that ConfigNode::asTransform reads
 /// back (numbers written exactly).
