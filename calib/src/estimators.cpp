@@ -271,7 +271,11 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   }
   e.held = o.fix_unidentifiable ? unidentifiableToFix(m, zero, o.svd_cut, o.hold) : sortedUnique(o.hold);
   const std::vector<int>& fixed = e.held;
-  if (!fixed.empty()) problem.SetManifold(e.y.data(), new ceres::SubsetManifold(n, fixed));
+  if (static_cast<int>(fixed.size()) == n) {
+    problem.SetParameterBlockConstant(e.y.data());
+  } else if (!fixed.empty()) {
+    problem.SetManifold(e.y.data(), new ceres::SubsetManifold(n, fixed));
+  }
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = o.max_iterations;

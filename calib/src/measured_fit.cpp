@@ -256,12 +256,14 @@ Fit predictWithModel(const CalibratedModel& c, const sim::MeasuredData& data, co
   using sim::FrameSharing;
   const sim::KinematicModel& cm = c.model;
   const int S = data.numSessions();
-  // The new data's sessions: shared and known frames kept, per-session ones guessed anew.
-  const auto frames = [&](FrameSharing sharing, const std::vector<Eigen::Isometry3d>& old) {
-    return framesFor(sharing, S, old.front());
+  // The data's per-session frames are refitted; every other frame is the model's (its first where
+  // the model had one per session).
+  const auto sharing = [](FrameSharing in_data) {
+    return in_data == FrameSharing::kPerSession ? FrameSharing::kPerSession : FrameSharing::kKnown;
   };
-  sim::KinematicModel m = sim::makeKinematicModel(cm.arm, S, cm.base, cm.marker, frames(cm.base, cm.world_T_base),
-                                                  frames(cm.marker, cm.flange_T_marker), cm.effects, false);
+  const FrameSharing base = sharing(data.base), marker = sharing(data.marker);
+  sim::KinematicModel m = sim::makeKinematicModel(cm.arm, S, base, marker, framesFor(base, S, cm.world_T_base.front()),
+                                                  framesFor(marker, S, cm.flange_T_marker.front()), cm.effects, false);
   // Effect values by name (mount changes are per session: refitted, not carried).
   std::map<std::string, double> value;
   for (const sim::ParamBlock& b : cm.layout.blocks()) {
@@ -271,7 +273,7 @@ Fit predictWithModel(const CalibratedModel& c, const sim::MeasuredData& data, co
   FitOptions o = options;
   o.hold.clear();
   for (const sim::ParamBlock& b : m.layout.blocks()) {
-    const bool refit = (b.session >= 0 && (b.effect == "base" || b.effect == "marker")) || b.effect == "mount";
+    const bool refit = b.effect == "base" || b.effect == "marker" || b.effect == "mount";
     for (int i = 0; i < b.size(); ++i) {
       if (refit) continue;
       o.hold.push_back(b.offset + i);
@@ -279,19 +281,22 @@ Fit predictWithModel(const CalibratedModel& c, const sim::MeasuredData& data, co
       if (it != value.end()) p0[b.offset + i] = it->second;
     }
   }
+  if (static_cast<int>(o.hold.size()) == m.layout.size()) {
+    // Nothing to refit: the model predicts the data as it is.
+    Fit fit;
+    fit.model = m;
+    fit.p0 = fit.p = p0;
+    fit.residuals = residualStats(m, p0, obs);
+    return fit;
+  }
   // Per-session frames from the calibrated model's flange poses.
   std::vector<Eigen::Isometry3d> F;
   for (const MarkerObservation& x : obs) F.push_back(sim::flangePose(m, p0, x.sample));
-  sim::KinematicModel shape = m;
-  if (cm.base == FrameSharing::kShared) shape.base = FrameSharing::kKnown;
-  if (cm.marker == FrameSharing::kShared) shape.marker = FrameSharing::kKnown;
   try {
-    guessFrames(shape, obs, F);
+    guessFrames(m, obs, F);
   } catch (const std::invalid_argument& e) {
     throw sim::InputError(data.description + ": registration: the samples cannot fix the per-session frames (" + e.what() + ")");
   }
-  m.world_T_base = shape.world_T_base;
-  m.flange_T_marker = shape.flange_T_marker;
   return fitMarkerModel(m, obs, o, p0);
 }
 

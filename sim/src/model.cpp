@@ -198,7 +198,8 @@ std::vector<ParamBlock> effectBlocks(const Effect& e, int num_sessions) {
           },
           [&](const Scale& x) {
             jointBlock(x.joints, [](ParamBlock& b, const std::string& j) {
-              b.params.push_back({"s" + j, "1", "ppm", 1e6, 1e-3, Quantity::kOther});
+              // 2e-4 (200 ppm): the order of the joint-scale errors identified on industrial arms.
+              b.params.push_back({"s" + j, "1", "ppm", 1e6, 2e-4, Quantity::kOther});
             });
           },
           [&](const Backlash& x) {

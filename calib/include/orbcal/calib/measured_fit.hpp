@@ -70,10 +70,10 @@ struct CalibratedModel {
 };
 CalibratedModel calibratedModel(const Fit& fit);
 
-/// Predicts other data with a calibrated model: shared frames and every geometric and effect
-/// parameter are kept; the per-session frames (and mount changes) of the new data's sessions are
-/// refitted (closed-form start, then LM). Returns the fit of those frames; its `residuals` are the
-/// prediction errors.
+/// Predicts other data with a calibrated model: every geometric and effect parameter is kept, and so
+/// is every frame the data's description calls shared or known (the model's); the frames it calls
+/// per_session (e.g. a marker re-mounted for this run) and mount changes are refitted (closed-form
+/// start, then LM). Returns the fit of those frames; its `residuals` are the prediction errors.
 Fit predictWithModel(const CalibratedModel& calibrated, const sim::MeasuredData& data,
                      const std::vector<MarkerObservation>& observations, const FitOptions& options);
 
