@@ -2,6 +2,7 @@
 
 #include <Eigen/SVD>
 #include <cmath>
+#include <algorithm>
 #include <map>
 
 #include "orbcal/calib/registration.hpp"
@@ -243,6 +244,13 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     if (!o.sigma_rotation_rad && nrot) fit.noise.sigma_rotation_rad = std::max(1e-9, std::sqrt(rot2 / nrot * correction));
   }
   fit.residuals = residualStats(start, fit.p, obs);
+  const Eigen::VectorXd typical = start.layout.typical();
+  for (int i = 0; i < start.layout.size(); ++i) {
+    if (std::binary_search(fit.estimate.held.begin(), fit.estimate.held.end(), i)) continue;
+    if (fit.estimate.covariance.rows() > i && std::sqrt(std::max(0.0, fit.estimate.covariance(i, i))) > typical[i]) {
+      fit.weak.push_back(i);
+    }
+  }
   return fit;
 }
 

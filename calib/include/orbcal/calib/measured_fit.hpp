@@ -57,6 +57,10 @@ struct Fit {
   bool noise_estimated = false;
   sim::IdentifiabilityReport identifiability;  ///< of the whitened Jacobian at the start
   ResidualStats residuals;    ///< at the fit
+  /// Free parameters this data determines no better than their typical magnitude (1-sigma above
+  /// sim::ParamInfo::typical): numerically identifiable, physically not (e.g. the compliance of a
+  /// joint whose torque never leaves the sensor's noise).
+  std::vector<int> weak;
   double chi2 = 0.0;          ///< sum of whitened squared residuals at the fit
   int dof = 0;                ///< rows - free parameters
 };
