@@ -72,6 +72,12 @@ std::string parameterTable(const calib::Fit& fit) {
   return md;
 }
 
+std::string weakList(const calib::Fit& fit) {
+  std::string out;
+  for (int i : fit.weak) out += (out.empty() ? "" : ", ") + fit.model.layout.param(i).name;
+  return out.empty() ? "none" : out;
+}
+
 std::string folderOf(const std::string& path) {
   const std::filesystem::path p = std::filesystem::path(path).parent_path();
   return p.empty() ? "." : p.string();
@@ -160,6 +166,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << statsRow("calibrated", r.heldout_after) << "\n## Fit residuals\n\n" << kStatsHeader << statsRow("calibrated (fitted samples)", r.fit.residuals)
      << "\n## What this data cannot identify\n\n```\n" << sim::formatIdentifiability(r.fit.identifiability) << "```\n\n"
      << "Held parameters stay at their nominal value; the rest carry their observable combinations.\n\n"
+     << "Determined no better than their typical magnitude (1-sigma above it; the data barely informs them): "
+     << weakList(r.fit) << ".\n\n"
      << "## Parameters\n\n" << parameterTable(r.fit) << "\n";
   r.report_path = out + "/report.md";
   sim::writeFileAtomic(r.report_path, md.str());
