@@ -67,6 +67,11 @@ std::string Redundancy::describe() const {
   for (const std::string& n : this->names) names += (names.empty() ? "" : ", ") + n;
   std::string out = names + ": " + std::to_string(lost) + (lost == 1 ? " direction" : " directions") + " lost";
   if (observable.rows() == 0) return out + "; none of them is observable";
+  if (this->names.size() > 6) {
+    // Long combinations over many parameters say nothing a person can use: the count does.
+    return out + " among " + std::to_string(this->names.size()) + " parameters; observable only as " +
+           std::to_string(observable.rows()) + " combinations of them";
+  }
   out += "; observable only as ";
   for (Eigen::Index r = 0; r < observable.rows(); ++r) {
     out += (r ? ", " : "") + formatCombination(this->names, observable.row(r).transpose());
