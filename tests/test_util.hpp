@@ -1,11 +1,14 @@
 #pragma once
 // Helpers shared by the test suites.
+#include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <random>
 #include <string>
+
+#include "orbcal/sim/config.hpp"
 
 namespace orbcal::test {
 
@@ -28,6 +31,24 @@ inline std::string slurp(const std::string& path) {
   std::stringstream s;
   s << in.rdbuf();
   return s.str();
+}
+
+/// Writes `text` to `path` as it is (binary: no newline translation).
+inline void write(const std::string& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+
+/// The message of the InputError that fn throws, checked to be one line; fails the test if fn throws
+/// nothing or something else.
+template <class Fn>
+std::string inputError(Fn fn) {
+  try {
+    fn();
+  } catch (const orbcal::sim::InputError& e) {
+    const std::string msg = e.what();
+    CHECK(msg.find('\n') == std::string::npos);  // one line
+    return msg;
+  }
+  FAIL("expected an InputError");
+  return "";
 }
 
 }  // namespace orbcal::test

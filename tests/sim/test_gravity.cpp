@@ -89,18 +89,8 @@ Arm singleLink(DhConvention convention, const Eigen::Matrix3d& base_rotation, do
   return arm;
 }
 
-void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
-
-template <class Fn>
-std::string inputError(Fn fn) {
-  try {
-    fn();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  FAIL("expected an InputError");
-  return "";
-}
+using orbcal::test::inputError;
+using orbcal::test::write;
 
 }  // namespace
 

@@ -20,21 +20,8 @@ using namespace orbcal::sim;
 namespace {
 using orbcal::test::slurp;
 
-void write(const std::string& path, const std::string& text) { std::ofstream(path) << text; }
-
-/// The message of the InputError that fn throws; fails the test if it throws nothing or something else.
-template <class Fn>
-std::string inputError(Fn fn) {
-  try {
-    fn();
-  } catch (const InputError& e) {
-    const std::string msg = e.what();
-    CHECK(msg.find('\n') == std::string::npos);  // one line
-    return msg;
-  }
-  FAIL("expected an InputError");
-  return "";
-}
+using orbcal::test::inputError;
+using orbcal::test::write;
 
 /// The SSRMS file with one line replaced.
 std::string ssrmsWith(const std::string& from, const std::string& to) {

@@ -17,7 +17,7 @@ using Catch::Contains;
 
 namespace {
 
-void write(const std::string& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+using orbcal::test::write;
 
 // Two joints of +-90 deg.
 const char* kRobot =
@@ -63,15 +63,7 @@ std::string with(std::string text, const std::string& from, const std::string& t
 
 /// The one-line InputError message of loading `description`; fails the test when there is none.
 std::string loadError(const std::string& description) {
-  try {
-    loadMeasuredData(description);
-  } catch (const InputError& e) {
-    const std::string msg = e.what();
-    CHECK(msg.find('\n') == std::string::npos);
-    return msg;
-  }
-  FAIL("expected an InputError");
-  return "";
+  return orbcal::test::inputError([&] { loadMeasuredData(description); });
 }
 
 /// The message of loading the matrix description with data.csv = header, row A, `row_b`.
