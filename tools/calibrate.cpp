@@ -16,6 +16,58 @@
 
 namespace orbcal::tools {
 
+namespace {
+
+/// Camera poses as marker poses: world = the board, marker = the camera, world_T_marker = board_T_camera,
+/// with the vision covariance moved from the flange frame to the camera frame.
+std::vector<calib::MarkerObservation> cameraObservations(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
+                                                         const std::vector<std::size_t>& which) {
+  const sim::Matrix6d Ad = sim::adjoint(d.scene.flange_T_camera.inverse());  // camera <- flange
+  std::vector<calib::MarkerObservation> obs;
+  for (std::size_t k : which) {
+    calib::MarkerObservation o;
+    o.sample.q_rad = d.samples[k].q_rad;
+    o.world_T_marker = meas[k].camera_T_board.inverse();
+    o.covariance = Ad * meas[k].covariance * Ad.transpose();
+    obs.push_back(std::move(o));
+  }
+  return obs;
+}
+
+FrameEstimate estimateFrames(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
+                             const std::vector<std::size_t>& ident, const std::vector<std::size_t>& hold,
+                             double joint_noise_sigma_rad) {
+  sim::MeasuredData md;
+  md.description = d.folder;
+  md.arm = d.arm;
+  md.files = {d.folder};
+  const std::vector<calib::MarkerObservation> obs = cameraObservations(d, meas, ident), held = cameraObservations(d, meas, hold);
+  const sim::KinematicModel start = calib::startingModel(md, obs, {});
+  calib::FitOptions fo;
+  fo.joint_noise_sigma_rad = joint_noise_sigma_rad;
+  fo.sigma_position_m = fo.sigma_rotation_rad = 1.0;  // unused: every observation has its covariance
+  FrameEstimate f;
+  f.fit = calib::fitMarkerModel(start, obs, fo);
+  calib::FitOptions ref = fo;
+  const sim::ParamBlock& g = start.layout.block(start.layout.find("geometry"));
+  for (int i = 0; i < g.size(); ++i) ref.hold.push_back(g.offset + i);
+  const calib::Fit reference = calib::fitMarkerModel(start, obs, ref);
+  f.heldout_before = calib::residualStats(start, reference.p, held);
+  f.heldout_after = calib::residualStats(start, f.fit.p, held);
+  const calib::CalibratedModel cm = calib::calibratedModel(f.fit);
+  f.base_T_board = cm.model.world_T_base.front().inverse();
+  f.flange_T_camera = cm.model.flange_T_marker.front();
+  return f;
+}
+
+std::string frameDifference(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b) {
+  const Eigen::Isometry3d d = a.inverse() * b;
+  return formatNumber("%.3f", d.translation().norm() * 1e3) + " mm, " +
+         formatNumber("%.4f", sim::rotationAngle(d.linear()) * sim::kRadToDeg) + " deg";
+}
+
+}  // namespace
+
 CalibrateResult runCalibrate(const CalibrateOptions& o) {
   CalibrateResult r;
   const std::string out = o.out.empty() ? o.dataset + "/calibration" : o.out;
@@ -88,6 +140,8 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
     r.truth_after = calib::summarize(calib::poseErrors(calibrated, truth));
   }
 
+  if (o.estimate_frames) r.frames = estimateFrames(d, meas, ident, hold, r.joint_noise_sigma_rad);
+
   // Outputs.
   sim::makeDirectories(out);
   std::ostringstream header;
@@ -140,6 +194,23 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   if (r.has_truth) {
     md << "## Hold-out validation against the true poses (simulated dataset)\n\n"
        << calib::formatTable4(r.truth_before, {{method.name, r.truth_after}}) << "\n";
+  }
+  if (r.frames) {
+    const FrameEstimate& f = *r.frames;
+    md << "## Geometry with base_T_board and flange_T_camera estimated\n\n"
+       << "Closed-form start from the camera poses, then LM over the DH errors and both frames ("
+       << f.fit.estimate.held.size() << " parameters held as unidentifiable). Estimated frames against the scene's: base_T_board "
+       << frameDifference(d.scene.base_T_board, f.base_T_board) << "; flange_T_camera "
+       << frameDifference(d.scene.flange_T_camera, f.flange_T_camera) << ".\n\n"
+       << "base_T_board: " << sim::transformYaml(f.base_T_board) << "\n\nflange_T_camera: " << sim::transformYaml(f.flange_T_camera)
+       << "\n\nHeld-out camera poses (board_T_camera), position RMS: nominal arm with the frames refitted "
+       << formatNumber("%.4f", f.heldout_before.position_rms_m * 1e3) << " mm, calibrated "
+       << formatNumber("%.4f", f.heldout_after.position_rms_m * 1e3) << " mm.\n\n";
+  }
+  if (r.frames) {
+    sim::writeFileAtomic(out + "/frames.yaml", "# base_T_board and flange_T_camera estimated by orbcal calibrate --estimate-frames "
+                                               "(paste into the scene)\nbase_T_board: " + sim::transformYaml(r.frames->base_T_board) +
+                                               "\nflange_T_camera: " + sim::transformYaml(r.frames->flange_T_camera) + "\n");
   }
   md << "Files: `robot_calibrated.yaml` (load it with `--robot`), `estimates.csv`; measurements in `"
      << o.dataset << "/measurements.csv`.\n";

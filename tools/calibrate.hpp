@@ -8,6 +8,8 @@
 #include <string>
 
 #include "orbcal/calib/experiment.hpp"
+#include "orbcal/calib/measured_fit.hpp"
+#include <optional>
 
 namespace orbcal::tools {
 
@@ -19,6 +21,16 @@ struct CalibrateOptions {
   double holdout = 0.2;                  ///< fraction of the usable samples kept out for validation
   std::uint64_t seed = 1;                ///< of the hold-out draw
   bool quiet = false;
+  /// Estimate base_T_board and flange_T_camera with the arm's parameters (closed-form start from the
+  /// camera poses, then LM), instead of taking the scene's as exact.
+  bool estimate_frames = false;
+};
+
+/// With CalibrateOptions::estimate_frames: the fit of geometry + the two frames, and the frames it found.
+struct FrameEstimate {
+  calib::Fit fit;
+  Eigen::Isometry3d base_T_board, flange_T_camera;          ///< estimated
+  calib::ResidualStats heldout_before, heldout_after;       ///< scene frames refitted on the nominal arm vs calibrated
 };
 
 struct CalibrateResult {
@@ -29,6 +41,7 @@ struct CalibrateResult {
   calib::ErrorSummary truth_before, truth_after;  ///< hold-out errors against the true poses (simulation)
   std::string robot_path, report_path;
   double joint_noise_sigma_rad = 0.0;
+  std::optional<FrameEstimate> frames;   ///< with estimate_frames
 };
 
 CalibrateResult runCalibrate(const CalibrateOptions& o);
