@@ -86,6 +86,10 @@ EkfOptions EkfOptions::paperLiteral() {
   return o;
 }
 
+void whitenedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, Eigen::MatrixXd& A, Eigen::VectorXd& b) {
+  stackedSystem(m, y, true, A, b);
+}
+
 Eigen::MatrixXd whitenedJacobian(const MeasurementModel& m, const Eigen::VectorXd& y) {
   Eigen::MatrixXd A;
   Eigen::VectorXd b;

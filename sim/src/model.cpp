@@ -1,5 +1,6 @@
 #include "orbcal/sim/model.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -269,11 +270,23 @@ KinematicModel makeKinematicModel(Arm arm, int sessions, FrameSharing base, Fram
   addFrames("base", base);
   addFrames("marker", marker);
   if (geometry) m.layout.add(geometryBlock(m.arm));
+  std::vector<std::string> seen;  // "compliance:2", "thermal", ... once each
   for (const Effect& e : m.effects) {
-    for (const int j : effectJoints(e)) {
+    const std::vector<int> joints = effectJoints(e);
+    std::vector<std::string> keys;
+    if (joints.empty()) keys.push_back(effectName(e));
+    for (const int j : joints) {
       if (j < 0 || j >= m.arm.numJoints()) throw std::invalid_argument("makeKinematicModel: effect joint out of range");
+      keys.push_back(effectName(e) + ":" + std::to_string(j + 1));
     }
-    for (ParamBlock& b : effectBlocks(e, sessions)) m.layout.add(std::move(b));
+    for (const std::string& k : keys) {
+      if (std::find(seen.begin(), seen.end(), k) != seen.end()) {
+        throw std::invalid_argument("the effect " + k + " is given twice");
+      }
+      seen.push_back(k);
+    }
+    std::vector<int>& mine = m.effect_blocks.emplace_back();
+    for (ParamBlock& b : effectBlocks(e, sessions)) mine.push_back(m.layout.add(std::move(b)));
   }
   return m;
 }
@@ -373,12 +386,8 @@ void addJointEffect(const Effect& e, const ParamBlock& b, const Eigen::VectorXd&
 /// Walks the effects with their layout blocks (effects with several blocks, i.e. mount, visit each).
 template <class F>
 void forEachEffectBlock(const KinematicModel& m, F&& f) {
-  std::size_t next = 0;
-  const auto& blocks = m.layout.blocks();
-  for (const Effect& e : m.effects) {
-    const std::string name = effectName(e);
-    while (next < blocks.size() && blocks[next].effect != name) ++next;
-    while (next < blocks.size() && blocks[next].effect == name) f(e, blocks[next++]);
+  for (std::size_t i = 0; i < m.effects.size(); ++i) {
+    for (const int b : m.effect_blocks[i]) f(m.effects[i], m.layout.block(b));
   }
 }
 

@@ -42,11 +42,11 @@ std::string writeModelFile(const KinematicModel& m, const Eigen::VectorXd& p, co
     << "  world_T_base: " << transformList(m.world_T_base) << "\n"
     << "  flange_T_marker: " << transformList(m.flange_T_marker) << "\n"
     << "effects:" << (m.effects.empty() ? " []" : "") << "\n";
-  for (const Effect& e : m.effects) {
-    s << "  - {spec: \"" << formatEffect(e) << "\", parameters: {";
+  for (std::size_t k = 0; k < m.effects.size(); ++k) {
+    s << "  - {spec: \"" << formatEffect(m.effects[k]) << "\", parameters: {";
     bool first = true;
-    for (const ParamBlock& b : m.layout.blocks()) {
-      if (b.effect != effectName(e)) continue;
+    for (const int blk : m.effect_blocks[k]) {
+      const ParamBlock& b = m.layout.block(blk);
       for (int i = 0; i < b.size(); ++i) {
         s << (first ? "" : ", ") << b.params[static_cast<std::size_t>(i)].name << ": " << exactNumber(p[b.offset + i]);
         first = false;
@@ -96,15 +96,18 @@ LoadedModel loadModelFile(const std::string& path) {
     (void)e["parameters"];
   }
   LoadedModel out;
-  out.model = makeKinematicModel(arm, sessions, base, marker, frames("world_T_base", base), frames("flange_T_marker", marker),
-                                 effects, false);
+  try {
+    out.model = makeKinematicModel(arm, sessions, base, marker, frames("world_T_base", base),
+                                   frames("flange_T_marker", marker), effects, false);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(path + ": effects: " + e.what());
+  }
   out.p = Eigen::VectorXd::Zero(out.model.layout.size());
   for (std::size_t k = 0; k < list.size(); ++k) {
     const ConfigNode params = list[k]["parameters"];
-    const std::string name = effectName(effects[k]);
     std::vector<std::string> allowed;
-    for (const ParamBlock& b : out.model.layout.blocks()) {
-      if (b.effect != name) continue;
+    for (const int blk : out.model.effect_blocks[k]) {
+      const ParamBlock& b = out.model.layout.block(blk);
       for (int i = 0; i < b.size(); ++i) {
         const std::string& pname = b.params[static_cast<std::size_t>(i)].name;
         allowed.push_back(pname);

@@ -116,6 +116,20 @@ TEST_CASE("each effect's Jacobian matches central differences, alone and compose
   }
 }
 
+TEST_CASE("two effects of one kind on different joints keep their own parameters; a repeated one is refused", "[model]") {
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/iiwa7.yaml"));
+  const KinematicModel m = modelWith(arm, {Compliance{{1}}, Cyclic{{2}, 1}, Compliance{{3}}});
+  std::mt19937_64 rng(3);
+  checkJacobian(m, randomSample(arm, 0, rng), randomParams(m, rng));
+  JointSample s = randomSample(arm, 0, rng);
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(m.layout.size());
+  p[m.layout.block(m.effect_blocks[2][0]).offset] = 1e-4;  // c4 only
+  const Eigen::VectorXd dq = jointCorrections(m, p, s);
+  CHECK(dq[1] == 0.0);
+  CHECK(dq[3] == Approx(1e-4 * s.tau_Nm[3]).epsilon(1e-14));
+  CHECK_THROWS_WITH(modelWith(arm, {Compliance{{1, 3}}, Compliance{{3}}}), Catch::Contains("compliance:4 is given twice"));
+}
+
 TEST_CASE("joint effects follow their defining formulas", "[model]") {
   const Arm arm = loadArm(orbcal::test::sourcePath("scenes/iiwa7.yaml"));
   const KinematicModel m = modelWith(arm, {Compliance{{1}}, Cyclic{{2}, 1}, Scale{{3}}, Backlash{{4}}});

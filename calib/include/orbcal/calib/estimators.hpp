@@ -74,6 +74,8 @@ Estimate runLm(const MeasurementModel& model, const LmOptions& options);
 /// The stacked Jacobian H over all samples at y, each sample's rows whitened by its R_k^-1/2
 /// (dimensionless rows, the input of identifiability analyses).
 Eigen::MatrixXd whitenedJacobian(const MeasurementModel& model, const Eigen::VectorXd& y);
+/// The same with the whitened stacked innovation b = W nu(y).
+void whitenedSystem(const MeasurementModel& model, const Eigen::VectorXd& y, Eigen::MatrixXd& A, Eigen::VectorXd& b);
 
 /// 0.5 sum_k nu_k(y)^T R_k^-1 nu_k(y).
 double weightedCost(const MeasurementModel& model, const Eigen::VectorXd& y);

@@ -133,13 +133,15 @@ struct KinematicModel {
   std::vector<Effect> effects;
   bool geometry = true;                          ///< the DH errors are parameters
   ParamLayout layout;                            ///< built by makeKinematicModel
+  std::vector<std::vector<int>> effect_blocks;   ///< layout blocks of each effect (mount: one per session)
 
   const Eigen::Isometry3d& baseStart(int session) const;
   const Eigen::Isometry3d& markerStart(int session) const;
 };
 
 /// Builds the layout: base blocks, marker blocks, geometry, then each effect's blocks. Frames given
-/// one per session where per_session (else one). Throws std::invalid_argument on inconsistent sizes.
+/// one per session where per_session (else one). Throws std::invalid_argument on inconsistent sizes
+/// and on an effect given twice (the same kind on the same joint, or a global effect twice).
 KinematicModel makeKinematicModel(Arm arm, int sessions, FrameSharing base, FrameSharing marker,
                                   std::vector<Eigen::Isometry3d> world_T_base,
                                   std::vector<Eigen::Isometry3d> flange_T_marker, std::vector<Effect> effects,

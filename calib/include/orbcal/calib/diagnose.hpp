@@ -1,0 +1,102 @@
+#pragma once
+// Model diagnosis (`orbcal diagnose`): from measured data, does the model (geometry + registration)
+// leave structure in its residuals, which physical cause of the effect catalog explains it, with which
+// parameters, and how much better does the extended model predict data it has not seen?
+//
+//  1. Cross-validation: k folds by configuration (repeated measurements of one configuration stay in
+//     one fold), seeded; every model is scored by its held-out whitened squared error.
+//  2. Evidence: the held-out residuals of the base model regressed on each variable (joint angles with
+//     harmonics, torques, temperature, time, workspace position, approach direction, sample order);
+//     F tests, Holm's step-down control of the family-wise error.
+//  3. Candidates: every effect of the catalog the data can express (compliance needs torques, thermal a
+//     temperature that varies, ...), each tested by Rao's score test at the current fit (its Jacobian
+//     columns with the model's own column space projected out: what the model cannot already absorb),
+//     Holm-controlled; the significant ones are fitted and scored by cross-validation. Forward: the
+//     best cross-validated gain is added while it exceeds a penalty per parameter; backward: an effect
+//     whose removal costs less than its penalty is dropped. Stops when nothing significant is left.
+//  4. Confounding: candidates whose projected columns span nearly the same space (canonical
+//     correlation above a threshold), or that the geometry absorbs, are named as a set, with the
+//     measurement that would separate them.
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "orbcal/calib/measured_fit.hpp"
+
+namespace orbcal::calib {
+
+struct DiagnoseOptions {
+  int folds = 5;
+  std::uint64_t seed = 1;
+  double alpha = 0.01;              ///< family-wise error rate of each step's candidate tests (Holm)
+  double penalty_per_param = 2.0;   ///< cross-validated gain (whitened SSE) an added parameter must earn
+  int max_effects = 4;
+  int harmonics = 2;                ///< of the cyclic candidates
+  double confounding_correlation = 0.9;  ///< canonical correlation above which two causes are one set
+  std::optional<double> sigma_position_m, sigma_rotation_rad;  ///< else estimated from the base fit
+  int threads = 0;                  ///< 0: hardware threads
+};
+
+/// One row of the evidence table: held-out residuals against one variable.
+struct VariableTest {
+  std::string variable;   ///< e.g. "q2 harmonics", "torque 4", "temperature"
+  double statistic = 0;   ///< F statistic
+  int dof = 0;            ///< regressors
+  double p_value = 1, p_adjusted = 1;  ///< Holm-adjusted over the family
+};
+
+/// One candidate at one forward step.
+struct CandidateResult {
+  sim::Effect effect;
+  int params = 0;
+  int rank = 0;           ///< of its columns beyond the current model's (0: absorbed by it)
+  double score = 0;       ///< score statistic (chi-square scale)
+  double p_value = 1, p_adjusted = 1;
+  bool significant = false;
+  std::optional<double> cv_gain;  ///< held-out whitened SSE decrease, where fitted
+  int step = 0;
+};
+
+struct ConfoundedSet {
+  std::vector<sim::Effect> effects;  ///< may hold one effect confounded with the geometry
+  bool with_geometry = false;        ///< the geometry/registration absorbs most of it
+  std::string separate_by;           ///< the measurement that would separate them
+};
+
+struct HeldoutStats {
+  ResidualStats base, selected;  ///< of the cross-validated held-out residuals
+};
+
+struct Diagnosis {
+  bool clean = true;
+  std::vector<sim::Effect> selected;
+  Fit fit;                       ///< the selected model on all the data
+  Fit base_fit;                  ///< geometry + registration on all the data
+  std::vector<ConfoundedSet> confounded;
+  std::vector<CandidateResult> candidates;  ///< every step's tests
+  std::vector<VariableTest> evidence;       ///< base model's held-out residuals vs variables
+  HeldoutStats heldout;
+  double cv_base = 0, cv_selected = 0;      ///< held-out whitened SSE
+  /// Held-out residuals (position, m) per sample of the base and the selected model, for figures.
+  std::vector<Eigen::VectorXd> residual_base, residual_selected;
+  std::string verdict;                      ///< one sentence a user can act on
+  double seconds = 0;
+};
+
+/// `data` gives the arm, the sessions and the frame sharing; `observations` the samples (torques filled
+/// where compliance candidates need them: calib::observationsFrom(data, true) when the data or the
+/// robot's masses allow it).
+Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObservation>& observations,
+                   const DiagnoseOptions& options);
+
+/// The survival function of the chi-square distribution with k degrees of freedom: P(X > x).
+double chiSquareSurvival(double x, double k);
+/// The survival function of the F distribution F(d1, d2): P(X > f).
+double fSurvival(double f, double d1, double d2);
+/// Holm's step-down adjusted p-values (family-wise error control), same order as the input.
+std::vector<double> holmAdjust(const std::vector<double>& p);
+
+/// "compliance of joint 2", "thermal expansion", ... (people's words for an effect).
+std::string describeEffect(const sim::Effect& e);
+
+}  // namespace orbcal::calib
