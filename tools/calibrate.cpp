@@ -18,31 +18,13 @@ namespace orbcal::tools {
 
 namespace {
 
-/// Camera poses as marker poses: world = the board, marker = the camera, world_T_marker = board_T_camera,
-/// with the vision covariance moved from the flange frame to the camera frame.
-std::vector<calib::MarkerObservation> cameraObservations(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
-                                                         const std::vector<std::size_t>& which) {
-  const sim::Matrix6d Ad = sim::adjoint(d.scene.flange_T_camera.inverse());  // camera <- flange
-  std::vector<calib::MarkerObservation> obs;
-  for (std::size_t k : which) {
-    calib::MarkerObservation o;
-    o.sample.q_rad = d.samples[k].q_rad;
-    o.world_T_marker = meas[k].camera_T_board.inverse();
-    o.covariance = Ad * meas[k].covariance * Ad.transpose();
-    obs.push_back(std::move(o));
-  }
-  return obs;
-}
-
 FrameEstimate estimateFrames(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
                              const std::vector<std::size_t>& ident, const std::vector<std::size_t>& hold,
                              double joint_noise_sigma_rad) {
-  sim::MeasuredData md;
-  md.description = d.folder;
-  md.arm = d.arm;
-  md.files = {d.folder};
-  const std::vector<calib::MarkerObservation> obs = cameraObservations(d, meas, ident), held = cameraObservations(d, meas, hold);
-  const sim::KinematicModel start = calib::startingModel(md, obs, {});
+  const ImageMeasuredData fitted = imageMeasuredData(d, meas, ident);
+  const std::vector<calib::MarkerObservation>& obs = fitted.observations;
+  const std::vector<calib::MarkerObservation> held = imageMeasuredData(d, meas, hold).observations;
+  const sim::KinematicModel start = calib::startingModel(fitted.data, obs, {});
   calib::FitOptions fo;
   fo.joint_noise_sigma_rad = joint_noise_sigma_rad;
   fo.sigma_position_m = fo.sigma_rotation_rad = 1.0;  // unused: every observation has its covariance
@@ -67,6 +49,28 @@ std::string frameDifference(const Eigen::Isometry3d& a, const Eigen::Isometry3d&
 }
 
 }  // namespace
+
+ImageMeasuredData imageMeasuredData(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
+                                    const std::vector<std::size_t>& which) {
+  ImageMeasuredData out;
+  sim::MeasuredData& md = out.data;
+  md.description = d.folder;
+  md.robot_file = d.manifest.robot_file;
+  md.arm = d.arm;
+  md.files = {d.folder};
+  const sim::Matrix6d Ad = sim::adjoint(d.scene.flange_T_camera.inverse());  // camera <- flange
+  for (std::size_t k : which) {
+    sim::MeasuredPose p;
+    p.sample.q_rad = d.samples[k].q_rad;
+    p.world_T_marker = meas[k].camera_T_board.inverse();
+    p.where = d.folder + ": " + d.samples[k].image;
+    md.poses.push_back(std::move(p));
+  }
+  sim::fillApproachDirections(md.poses);
+  out.observations = calib::observationsFrom(md, !md.arm.masses.empty());
+  for (std::size_t i = 0; i < which.size(); ++i) out.observations[i].covariance = Ad * meas[which[i]].covariance * Ad.transpose();
+  return out;
+}
 
 CalibrateResult runCalibrate(const CalibrateOptions& o) {
   CalibrateResult r;

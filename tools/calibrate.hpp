@@ -9,6 +9,8 @@
 
 #include "orbcal/calib/experiment.hpp"
 #include "orbcal/calib/measured_fit.hpp"
+#include "orbcal/sim/dataset.hpp"
+#include "orbcal/vision/measurement.hpp"
 #include <optional>
 
 namespace orbcal::tools {
@@ -45,5 +47,16 @@ struct CalibrateResult {
 };
 
 CalibrateResult runCalibrate(const CalibrateOptions& o);
+
+/// An image dataset's samples `which` as measured data: world = the board, marker = the camera,
+/// world_T_marker = board_T_camera with the vision covariance moved to the camera frame; both frames
+/// estimated (shared); torques from the robot file's masses where it has them; approach directions
+/// from the sample order.
+struct ImageMeasuredData {
+  sim::MeasuredData data;
+  std::vector<calib::MarkerObservation> observations;
+};
+ImageMeasuredData imageMeasuredData(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
+                                    const std::vector<std::size_t>& which);
 
 }  // namespace orbcal::tools

@@ -3,6 +3,7 @@
 
   plot_report.py boxplot  validation_errors.csv out.png [model ...]   # seed 000 Figs. 7 and 9 style
   plot_report.py curve    fig8.csv out.png                            # seed 000 Fig. 8 style
+  plot_report.py residuals residuals.csv COLUMN LABEL out.png          # orbcal diagnose: held-out errors vs a variable
 """
 import csv
 import sys
@@ -67,7 +68,24 @@ def curve(csv_path, png_path):
     fig.savefig(png_path, dpi=110)
 
 
+def residuals(csv_path, column, label, png_path):
+    rows = read_rows(csv_path)
+    x = [float(r[column]) for r in rows]
+    fig, ax = plt.subplots(figsize=(8, 5))
+    ax.scatter(x, [float(r["base_mm"]) for r in rows], s=10, alpha=0.7, label="geometry + registration")
+    ax.scatter(x, [float(r["selected_mm"]) for r in rows], s=10, alpha=0.7, label="selected model")
+    ax.set_xlabel(label)
+    ax.set_ylabel("held-out position error (mm)")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+
+
 def main(argv):
+    if len(argv) >= 6 and argv[1] == "residuals":
+        residuals(argv[2], argv[3], argv[4], argv[5])
+        return
     if len(argv) < 4 or argv[1] not in ("boxplot", "curve"):
         sys.exit(__doc__)
     if argv[1] == "boxplot":

@@ -14,9 +14,9 @@
 //     Holm-controlled; the significant ones are fitted and scored by cross-validation. Forward: the
 //     best cross-validated gain is added while it exceeds a penalty per parameter; backward: an effect
 //     whose removal costs less than its penalty is dropped. Stops when nothing significant is left.
-//  4. Confounding: candidates whose projected columns span nearly the same space (canonical
-//     correlation above a threshold), or that the geometry absorbs, are named as a set, with the
-//     measurement that would separate them.
+//  4. Confounding: candidates that predict held-out data about as well as the chosen one (their
+//     cross-validated gains within a margin), or a cause the geometry mostly absorbs, are named as a
+//     set, with the measurement that would separate them.
 #include <optional>
 #include <string>
 #include <vector>
@@ -32,7 +32,9 @@ struct DiagnoseOptions {
   double penalty_per_param = 2.0;   ///< cross-validated gain (whitened SSE) an added parameter must earn
   int max_effects = 4;
   int harmonics = 2;                ///< of the cyclic candidates
-  double confounding_correlation = 0.9;  ///< canonical correlation above which two causes are one set
+  /// Two significant causes are one set when either, fitted alone, reaches the other's cross-validated
+  /// gain to within this fraction: the data cannot tell which it is.
+  double confounding_gain_margin = 0.1;
   std::optional<double> sigma_position_m, sigma_rotation_rad;  ///< else estimated from the base fit
   int threads = 0;                  ///< 0: hardware threads
 };

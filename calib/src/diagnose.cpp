@@ -1,0 +1,576 @@
+#include "orbcal/calib/diagnose.hpp"
+
+#include <Eigen/QR>
+#include <Eigen/SVD>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <future>
+#include <map>
+#include <numeric>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::calib {
+
+// ---- Distributions ------------------------------------------------------------------------------
+
+namespace {
+
+/// Regularized lower incomplete gamma P(a, x): series (x < a + 1) or continued fraction.
+double gammaP(double a, double x) {
+  if (x <= 0.0) return 0.0;
+  const double gln = std::lgamma(a);
+  if (x < a + 1.0) {
+    double sum = 1.0 / a, del = sum, ap = a;
+    for (int n = 0; n < 1000; ++n) {
+      ap += 1.0;
+      del *= x / ap;
+      sum += del;
+      if (std::abs(del) < std::abs(sum) * 1e-15) break;
+    }
+    return sum * std::exp(-x + a * std::log(x) - gln);
+  }
+  double b = x + 1.0 - a, c = 1.0 / 1e-300, d = 1.0 / b, h = d;
+  for (int i = 1; i < 1000; ++i) {
+    const double an = -i * (i - a);
+    b += 2.0;
+    d = an * d + b;
+    if (std::abs(d) < 1e-300) d = 1e-300;
+    c = b + an / c;
+    if (std::abs(c) < 1e-300) c = 1e-300;
+    d = 1.0 / d;
+    const double del = d * c;
+    h *= del;
+    if (std::abs(del - 1.0) < 1e-15) break;
+  }
+  return 1.0 - std::exp(-x + a * std::log(x) - gln) * h;
+}
+
+/// Continued fraction of the incomplete beta function (Lentz).
+double betaContinuedFraction(double a, double b, double x) {
+  const double qab = a + b, qap = a + 1.0, qam = a - 1.0;
+  double c = 1.0, d = 1.0 - qab * x / qap;
+  if (std::abs(d) < 1e-300) d = 1e-300;
+  d = 1.0 / d;
+  double h = d;
+  for (int m = 1; m < 1000; ++m) {
+    const int m2 = 2 * m;
+    double aa = m * (b - m) * x / ((qam + m2) * (a + m2));
+    d = 1.0 + aa * d;
+    if (std::abs(d) < 1e-300) d = 1e-300;
+    c = 1.0 + aa / c;
+    if (std::abs(c) < 1e-300) c = 1e-300;
+    d = 1.0 / d;
+    h *= d * c;
+    aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2));
+    d = 1.0 + aa * d;
+    if (std::abs(d) < 1e-300) d = 1e-300;
+    c = 1.0 + aa / c;
+    if (std::abs(c) < 1e-300) c = 1e-300;
+    d = 1.0 / d;
+    const double del = d * c;
+    h *= del;
+    if (std::abs(del - 1.0) < 1e-15) break;
+  }
+  return h;
+}
+
+/// Regularized incomplete beta I_x(a, b).
+double betaI(double a, double b, double x) {
+  if (x <= 0.0) return 0.0;
+  if (x >= 1.0) return 1.0;
+  const double bt = std::exp(std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log(1.0 - x));
+  if (x < (a + 1.0) / (a + b + 2.0)) return bt * betaContinuedFraction(a, b, x) / a;
+  return 1.0 - bt * betaContinuedFraction(b, a, 1.0 - x) / b;
+}
+
+}  // namespace
+
+double chiSquareSurvival(double x, double k) { return x <= 0.0 ? 1.0 : 1.0 - gammaP(0.5 * k, 0.5 * x); }
+
+double fSurvival(double f, double d1, double d2) {
+  if (f <= 0.0) return 1.0;
+  return betaI(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * f));
+}
+
+std::vector<double> holmAdjust(const std::vector<double>& p) {
+  const std::size_t n = p.size();
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return p[a] < p[b]; });
+  std::vector<double> adj(n);
+  double running = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    running = std::max(running, std::min(1.0, static_cast<double>(n - i) * p[order[i]]));
+    adj[order[i]] = running;
+  }
+  return adj;
+}
+
+std::string describeEffect(const sim::Effect& e) {
+  const std::vector<int> joints = sim::effectJoints(e);
+  std::string js;
+  for (std::size_t i = 0; i < joints.size(); ++i) js += (i ? (i + 1 == joints.size() ? " and " : ", ") : "") + std::to_string(joints[i] + 1);
+  const std::string of = (joints.size() > 1 ? " of joints " : " of joint ") + js;
+  const std::string name = sim::effectName(e);
+  if (name == "compliance") return "compliance" + of + " (deflection under its torque)";
+  if (name == "cyclic") return "a cyclic transmission error" + of;
+  if (name == "scale") return "an encoder scale error" + of;
+  if (name == "backlash") return "backlash" + of;
+  if (name == "thermal") return "thermal expansion of the links";
+  if (name == "drift") return "a drift of the base with time";
+  return "a change of the marker mount between sessions";
+}
+
+// ---- Diagnosis ----------------------------------------------------------------------------------
+
+namespace {
+
+using sim::Effect;
+
+struct Folds {
+  std::vector<int> fold;  ///< fold of each observation
+  int k = 0;
+};
+
+/// Folds by configuration: observations with the same joint readings (to 1e-9 rad) stay together.
+Folds makeFolds(const std::vector<MarkerObservation>& obs, int k, std::uint64_t seed) {
+  std::map<std::vector<long long>, std::vector<int>> groups;
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    std::vector<long long> key{obs[i].sample.session};
+    for (Eigen::Index j = 0; j < obs[i].sample.q_rad.size(); ++j) key.push_back(std::llround(obs[i].sample.q_rad[j] * 1e9));
+    groups[key].push_back(static_cast<int>(i));
+  }
+  // Per session, shuffled groups dealt round-robin: every fold's training set sees every session.
+  std::map<int, std::vector<const std::vector<int>*>> by_session;
+  for (const auto& [key, members] : groups) by_session[static_cast<int>(key[0])].push_back(&members);
+  std::mt19937_64 rng = sim::makeRng(seed, 0x666f6c6473ULL);
+  Folds f;
+  f.k = k;
+  f.fold.assign(obs.size(), 0);
+  int next = 0;
+  for (auto& [session, list] : by_session) {
+    std::shuffle(list.begin(), list.end(), rng);
+    for (const std::vector<int>* g : list) {
+      for (int i : *g) f.fold[static_cast<std::size_t>(i)] = next % k;
+      ++next;
+    }
+  }
+  return f;
+}
+
+struct CvResult {
+  double sse = 0.0;                           ///< held-out whitened SSE
+  std::vector<Eigen::VectorXd> residual;      ///< held-out residual per observation
+  bool ok = true;
+};
+
+class Diagnoser {
+ public:
+  Diagnoser(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o)
+      : data_(data), obs_(obs), o_(o), folds_(makeFolds(obs, std::max(2, o.folds), o.seed)) {}
+
+  FitOptions fitOptions() const {
+    FitOptions f;
+    f.sigma_position_m = noise_.sigma_position_m;
+    f.sigma_rotation_rad = noise_.sigma_rotation_rad;
+    return f;
+  }
+
+  Fit fitAll(const std::vector<Effect>& effects) const {
+    return fitMarkerModel(startingModel(data_, obs_, effects), obs_, fitOptions());
+  }
+
+  /// Cross-validated held-out whitened SSE and residuals of a model with `effects`.
+  CvResult crossValidate(const std::vector<Effect>& effects) const {
+    std::vector<std::future<std::pair<double, std::vector<std::pair<int, Eigen::VectorXd>>>>> jobs;
+    for (int f = 0; f < folds_.k; ++f) {
+      jobs.push_back(std::async(std::launch::async, [this, f, &effects] {
+        std::vector<MarkerObservation> train, test;
+        std::vector<int> test_index;
+        for (std::size_t i = 0; i < obs_.size(); ++i) {
+          if (folds_.fold[i] == f) {
+            test.push_back(obs_[i]);
+            test_index.push_back(static_cast<int>(i));
+          } else {
+            train.push_back(obs_[i]);
+          }
+        }
+        const sim::KinematicModel start = startingModel(data_, train, effects);
+        const Fit fit = fitMarkerModel(start, train, fitOptions());
+        const MarkerPoseModel held(start, test, noise_, fit.p);
+        std::vector<std::pair<int, Eigen::VectorXd>> residuals;
+        for (std::size_t t = 0; t < test.size(); ++t) residuals.emplace_back(test_index[t], markerResidual(start, fit.p, test[t]));
+        return std::make_pair(2.0 * weightedCost(held, Eigen::VectorXd::Zero(held.numParams())), residuals);
+      }));
+    }
+    CvResult r;
+    r.residual.resize(obs_.size());
+    for (auto& j : jobs) {
+      auto [sse, res] = j.get();
+      r.sse += sse;
+      for (auto& [i, v] : res) r.residual[static_cast<std::size_t>(i)] = std::move(v);
+    }
+    return r;
+  }
+
+  /// Score tests of the candidates at the full fit of `current`.
+  struct Projection {
+    Eigen::MatrixXd Bperp;  ///< candidate columns beyond the current model's column space
+    double absorbed = 0.0;  ///< fraction of the columns' norm the current model absorbs
+  };
+  std::vector<CandidateResult> scoreTests(const std::vector<Effect>& current, const Fit& fit,
+                                          const std::vector<Effect>& candidates, int step,
+                                          std::vector<Projection>* projections) const {
+    std::vector<Effect> all = current;
+    all.insert(all.end(), candidates.begin(), candidates.end());
+    const sim::KinematicModel ext = sim::makeKinematicModel(fit.model.arm, fit.model.sessions, fit.model.base, fit.model.marker,
+                                                            fit.model.world_T_base, fit.model.flange_T_marker, all);
+    Eigen::VectorXd p = Eigen::VectorXd::Zero(ext.layout.size());
+    p.head(fit.p.size()) = fit.p;
+    const MarkerPoseModel m(ext, obs_, noise_, p);
+    Eigen::MatrixXd A;
+    Eigen::VectorXd b;
+    whitenedSystem(m, Eigen::VectorXd::Zero(ext.layout.size()), A, b);
+    // The current model's free columns and an orthonormal basis of their span.
+    std::vector<int> free;
+    for (int i = 0; i < fit.model.layout.size(); ++i) {
+      if (!std::binary_search(fit.estimate.held.begin(), fit.estimate.held.end(), i)) free.push_back(i);
+    }
+    Eigen::MatrixXd Af(A.rows(), static_cast<Eigen::Index>(free.size()));
+    for (std::size_t c = 0; c < free.size(); ++c) Af.col(static_cast<Eigen::Index>(c)) = A.col(free[c]);
+    const Eigen::VectorXd norms = Af.colwise().norm().transpose().cwiseMax(1e-300);
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(Af * norms.cwiseInverse().asDiagonal(), Eigen::ComputeThinU);
+    int rank = 0;
+    for (Eigen::Index i = 0; i < svd.singularValues().size(); ++i) rank += svd.singularValues()[i] > 1e-9 * svd.singularValues()[0];
+    const Eigen::MatrixXd Q = svd.matrixU().leftCols(rank);
+    const Eigen::VectorXd e = b - Q * (Q.transpose() * b);  // the residual (orthogonal to the model at its optimum)
+    const double dof = std::max(1.0, static_cast<double>(A.rows() - rank));
+    const double s2 = e.squaredNorm() / dof;  // residual variance in whitened units (1 when the noise is right)
+
+    std::vector<CandidateResult> out;
+    if (projections) projections->clear();
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+      CandidateResult r;
+      r.effect = candidates[c];
+      r.step = step;
+      // The candidate's columns at its parameters' typical magnitudes: each column is then the whitened
+      // change a typical-size effect makes to the data.
+      const Eigen::VectorXd typical = ext.layout.typical();
+      Eigen::MatrixXd B(A.rows(), 0);
+      for (const int blk : ext.effect_blocks[current.size() + c]) {
+        const sim::ParamBlock& pb = ext.layout.block(blk);
+        B.conservativeResize(Eigen::NoChange, B.cols() + pb.size());
+        B.rightCols(pb.size()) = A.middleCols(pb.offset, pb.size()) * typical.segment(pb.offset, pb.size()).asDiagonal();
+      }
+      r.params = static_cast<int>(B.cols());
+      const Eigen::MatrixXd Bp = B - Q * (Q.transpose() * B);
+      Projection pr;
+      pr.absorbed = B.norm() > 0 ? 1.0 - Bp.norm() / B.norm() : 1.0;
+      // What this data can see of it: the directions beyond the current model along which an effect of
+      // typical size moves the whitened data by at least one noise sigma in all (singular values of the
+      // typical-scaled projected columns above 1). A joint that never moves, a torque that is only
+      // sensor noise: rank 0, not testable here.
+      const Eigen::JacobiSVD<Eigen::MatrixXd> bs(Bp, Eigen::ComputeThinU);
+      int q = 0;
+      for (Eigen::Index i = 0; i < bs.singularValues().size(); ++i) q += bs.singularValues()[i] > 1.0;
+      r.rank = q;
+      pr.Bperp = bs.matrixU().leftCols(q);
+      if (q > 0) {
+        const Eigen::VectorXd proj = pr.Bperp.transpose() * e;
+        r.score = proj.squaredNorm() / s2;
+        // F form: the residual variance is estimated from the same fit.
+        r.p_value = fSurvival(r.score / q, q, dof - q);
+      }
+      out.push_back(r);
+      if (projections) projections->push_back(std::move(pr));
+    }
+    std::vector<double> ps;
+    for (const CandidateResult& r : out) ps.push_back(r.p_value);
+    const std::vector<double> adj = holmAdjust(ps);
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      out[i].p_adjusted = adj[i];
+      out[i].significant = out[i].rank > 0 && adj[i] < o_.alpha;
+    }
+    return out;
+  }
+
+  std::vector<Effect> catalog() const {
+    std::vector<Effect> c;
+    const int n = data_.arm.numJoints();
+    const bool torque = data_.has_torque || !data_.arm.masses.empty();
+    bool moves_direction = false;
+    for (const sim::MeasuredPose& p : data_.poses) moves_direction |= p.sample.direction.size() > 0 && p.sample.direction.cwiseAbs().sum() > 0;
+    for (int j = 0; j < n; ++j) {
+      if (torque) c.push_back(sim::Compliance{{j}});
+      c.push_back(sim::Cyclic{{j}, o_.harmonics});
+      c.push_back(sim::Scale{{j}});
+      if (moves_direction) c.push_back(sim::Backlash{{j}});
+    }
+    if (data_.has_temperature) c.push_back(sim::Thermal{});
+    if (data_.has_time) c.push_back(sim::Drift{});
+    if (data_.numSessions() > 1 && data_.marker == sim::FrameSharing::kShared) c.push_back(sim::Mount{});
+    return c;
+  }
+
+  void setNoise(const MarkerNoise& n) { noise_ = n; }
+  const Folds& folds() const { return folds_; }
+
+ private:
+  const sim::MeasuredData& data_;
+  const std::vector<MarkerObservation>& obs_;
+  DiagnoseOptions o_;
+  Folds folds_;
+  MarkerNoise noise_;
+};
+
+std::string separationAdvice(const std::vector<Effect>& set, bool with_geometry) {
+  std::vector<std::string> kinds;
+  for (const Effect& e : set) kinds.push_back(sim::effectName(e));
+  const auto has = [&](const char* k) { return std::find(kinds.begin(), kinds.end(), k) != kinds.end(); };
+  if (has("compliance") && (set.size() > 1 || with_geometry)) {
+    return "measure with several payloads (or poses that load the joints differently), so that each joint's torque varies "
+           "independently of the others and of the pose";
+  }
+  if (has("thermal") && has("drift")) return "measure while the temperature also falls (a cool-down), so that temperature and time part";
+  if (has("cyclic") || has("scale")) return "move the joints over a wider range, with more distinct angles per joint";
+  if (has("backlash")) return "approach the same configurations from both directions";
+  if (has("thermal")) return "measure over a wider temperature range";
+  if (has("drift")) return "repeat a reference configuration throughout the run";
+  return "add configurations that move the joints involved independently";
+}
+
+/// Evidence: held-out residuals against each variable (F test of a linear regression, pooled over the
+/// residual components), Holm-adjusted.
+std::vector<VariableTest> residualEvidence(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
+                                           const std::vector<Eigen::VectorXd>& residual, const MarkerNoise& noise,
+                                           const sim::KinematicModel& model, const Eigen::VectorXd& p) {
+  const int n = static_cast<int>(obs.size());
+  if (n < 10) return {};
+  const int m = static_cast<int>(residual.front().size());
+  Eigen::MatrixXd Y(n, m);
+  for (int i = 0; i < n; ++i) {
+    for (int c = 0; c < m; ++c) Y(i, c) = residual[static_cast<std::size_t>(i)][c] / (c < 3 ? noise.sigma_position_m : noise.sigma_rotation_rad);
+  }
+  std::vector<std::pair<std::string, Eigen::MatrixXd>> vars;
+  const int J = data.arm.numJoints();
+  const auto column = [&](auto get) {
+    Eigen::VectorXd v(n);
+    for (int i = 0; i < n; ++i) v[i] = get(obs[static_cast<std::size_t>(i)], i);
+    return v;
+  };
+  const auto varies = [](const Eigen::VectorXd& v) { return (v.array() - v.mean()).abs().maxCoeff() > 1e-12; };
+  for (int j = 0; j < J; ++j) {
+    const Eigen::VectorXd q = column([&](const MarkerObservation& o, int) { return o.sample.q_rad[j]; });
+    if (!varies(q)) continue;
+    Eigen::MatrixXd X(n, 4);
+    X << q.array().sin().matrix(), q.array().cos().matrix(), (2.0 * q.array()).sin().matrix(), (2.0 * q.array()).cos().matrix();
+    vars.emplace_back("joint " + std::to_string(j + 1) + " angle (harmonics 1, 2)", X);
+    if (obs.front().sample.hasTorque()) {
+      const Eigen::VectorXd t = column([&](const MarkerObservation& o, int) { return o.sample.tau_Nm[j]; });
+      if (varies(t)) vars.emplace_back("joint " + std::to_string(j + 1) + " torque", t);
+    }
+    if (obs.front().sample.direction.size() == J) {
+      const Eigen::VectorXd d = column([&](const MarkerObservation& o, int) { return o.sample.direction[j]; });
+      if (varies(d)) vars.emplace_back("joint " + std::to_string(j + 1) + " approach direction", d);
+    }
+  }
+  if (data.has_temperature) vars.emplace_back("temperature", column([](const MarkerObservation& o, int) { return o.sample.temperature_C; }));
+  if (data.has_time) vars.emplace_back("time", column([](const MarkerObservation& o, int) { return o.sample.time_s; }));
+  vars.emplace_back("sample order", column([](const MarkerObservation&, int i) { return static_cast<double>(i); }));
+  Eigen::MatrixXd W(n, 3);
+  for (int i = 0; i < n; ++i) W.row(i) = sim::predictMarkerPose(model, p, obs[static_cast<std::size_t>(i)].sample).translation().transpose();
+  vars.emplace_back("workspace position", W);
+  if (data.numSessions() > 1) {
+    Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n, data.numSessions() - 1);
+    for (int i = 0; i < n; ++i) {
+      if (obs[static_cast<std::size_t>(i)].sample.session > 0) S(i, obs[static_cast<std::size_t>(i)].sample.session - 1) = 1.0;
+    }
+    vars.emplace_back("session", S);
+  }
+  std::vector<VariableTest> out;
+  const Eigen::MatrixXd Yc = Y.rowwise() - Y.colwise().mean();
+  const double total = Yc.squaredNorm();
+  for (auto& [name, X] : vars) {
+    Eigen::MatrixXd Xc = X.rowwise() - X.colwise().mean();
+    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Xc);
+    const int d = static_cast<int>(qr.rank());
+    if (d == 0 || n - d - 1 <= 0) continue;
+    const Eigen::MatrixXd fitted = Xc * qr.solve(Yc);
+    const double explained = fitted.squaredNorm();
+    const double resid = std::max(1e-300, total - explained);
+    VariableTest t;
+    t.variable = name;
+    t.dof = d;
+    t.statistic = (explained / (m * d)) / (resid / (m * (n - d - 1)));
+    t.p_value = fSurvival(t.statistic, m * d, m * (n - d - 1));
+    out.push_back(t);
+  }
+  std::vector<double> ps;
+  for (const VariableTest& t : out) ps.push_back(t.p_value);
+  const std::vector<double> adj = holmAdjust(ps);
+  for (std::size_t i = 0; i < out.size(); ++i) out[i].p_adjusted = adj[i];
+  return out;
+}
+
+ResidualStats statsOf(const std::vector<Eigen::VectorXd>& residual) {
+  ResidualStats s;
+  s.samples = static_cast<int>(residual.size());
+  double p2 = 0, r2 = 0;
+  int nr = 0;
+  for (const Eigen::VectorXd& r : residual) {
+    const double e = r.head<3>().norm();
+    s.position_mean_m += e / s.samples;
+    p2 += e * e;
+    s.position_max_m = std::max(s.position_max_m, e);
+    if (r.size() == 6) {
+      const double a = r.tail<3>().norm();
+      r2 += a * a;
+      ++nr;
+      s.rotation_max_rad = std::max(s.rotation_max_rad, a);
+    }
+  }
+  s.position_rms_m = std::sqrt(p2 / std::max(1, s.samples));
+  s.rotation_rms_rad = nr ? std::sqrt(r2 / nr) : 0.0;
+  return s;
+}
+
+}  // namespace
+
+Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Diagnoser d(data, obs, o);
+  Diagnosis out;
+
+  // The noise: given, or from the base model's fit (variance components).
+  FitOptions first;
+  first.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
+  first.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
+  out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, first);
+  d.setNoise(out.base_fit.noise);
+
+  CvResult cv_base = d.crossValidate({});
+  out.cv_base = cv_base.sse;
+  out.residual_base = cv_base.residual;
+  out.evidence = residualEvidence(data, obs, cv_base.residual, out.base_fit.noise, out.base_fit.model, out.base_fit.p);
+
+  // Forward selection.
+  std::vector<Effect> selected;
+  CvResult cv_current = cv_base;
+  Fit current_fit = out.base_fit;
+  const std::vector<Effect> catalog = d.catalog();
+  const auto sameCause = [](const Effect& a, const Effect& b) { return sim::formatEffect(a) == sim::formatEffect(b); };
+  for (int step = 1; step <= o.max_effects; ++step) {
+    std::vector<Effect> remaining;
+    for (const Effect& c : catalog) {
+      if (std::none_of(selected.begin(), selected.end(), [&](const Effect& s) { return sameCause(s, c); })) remaining.push_back(c);
+    }
+    if (remaining.empty()) break;
+    std::vector<Diagnoser::Projection> proj;
+    std::vector<CandidateResult> tests = d.scoreTests(selected, current_fit, remaining, step, &proj);
+    // Fit the significant ones, most significant first (at most 5 per step: the time budget).
+    std::vector<std::size_t> order;
+    for (std::size_t i = 0; i < tests.size(); ++i) {
+      if (tests[i].significant) order.push_back(i);
+    }
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return tests[a].score / std::max(1, tests[a].rank) > tests[b].score / std::max(1, tests[b].rank); });
+    if (order.size() > 5) order.resize(5);
+    std::optional<std::size_t> best;
+    CvResult best_cv;
+    double best_gain = 0.0;
+    for (std::size_t i : order) {
+      std::vector<Effect> trial = selected;
+      trial.push_back(tests[i].effect);
+      CvResult cv = d.crossValidate(trial);
+      const double gain = cv_current.sse - cv.sse;
+      tests[i].cv_gain = gain;
+      if (gain > o.penalty_per_param * tests[i].params && (!best || gain > best_gain)) {
+        best = i;
+        best_gain = gain;
+        best_cv = std::move(cv);
+      }
+    }
+    // Causes the data cannot tell from the chosen one: significant candidates that, fitted instead of
+    // it, predict the held-out data about as well (their cross-validated gain within
+    // confounding_gain_margin of the chosen one's); and the geometry, when it absorbs most of the
+    // chosen cause's columns.
+    if (best) {
+      ConfoundedSet set;
+      set.effects.push_back(tests[*best].effect);
+      set.with_geometry = proj[*best].absorbed > 0.9;
+      for (std::size_t i = 0; i < tests.size(); ++i) {
+        if (i == *best || !tests[i].significant || !tests[i].cv_gain) continue;
+        if (*tests[i].cv_gain >= (1.0 - o.confounding_gain_margin) * best_gain) set.effects.push_back(tests[i].effect);
+      }
+      if (set.effects.size() > 1 || set.with_geometry) {
+        set.separate_by = separationAdvice(set.effects, set.with_geometry);
+        out.confounded.push_back(set);
+      }
+    }
+    out.candidates.insert(out.candidates.end(), tests.begin(), tests.end());
+    if (!best) break;
+    selected.push_back(tests[*best].effect);
+    cv_current = std::move(best_cv);
+    current_fit = d.fitAll(selected);
+  }
+
+  // Backward: every selected effect must keep earning its place.
+  for (bool removed = true; removed && !selected.empty();) {
+    removed = false;
+    for (std::size_t i = 0; i < selected.size(); ++i) {
+      std::vector<Effect> without = selected;
+      without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
+      CvResult cv = d.crossValidate(without);
+      int params = 0;
+      for (const sim::ParamBlock& b : sim::effectBlocks(selected[i], data.numSessions())) params += b.size();
+      if (cv.sse - cv_current.sse < o.penalty_per_param * params) {
+        selected = without;
+        cv_current = std::move(cv);
+        removed = true;
+        break;
+      }
+    }
+  }
+
+  out.selected = selected;
+  out.clean = selected.empty();
+  out.fit = selected.empty() ? out.base_fit : d.fitAll(selected);
+  out.cv_selected = cv_current.sse;
+  out.residual_selected = cv_current.residual;
+  out.heldout.base = statsOf(out.residual_base);
+  out.heldout.selected = statsOf(out.residual_selected);
+  // Keep only the confounded sets of effects that stayed.
+  std::vector<ConfoundedSet> kept;
+  for (const ConfoundedSet& c : out.confounded) {
+    if (std::any_of(selected.begin(), selected.end(), [&](const Effect& e) { return sameCause(e, c.effects.front()); })) kept.push_back(c);
+  }
+  out.confounded = kept;
+
+  std::ostringstream v;
+  if (out.clean) {
+    v << "No unmodelled effect: the geometry + registration model leaves no significant structure in its held-out residuals "
+      << "(held-out position RMS " << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " mm); calibrate it as it is.";
+  } else {
+    v << "The model misses ";
+    for (std::size_t i = 0; i < selected.size(); ++i) {
+      v << (i ? (i + 1 == selected.size() ? " and " : ", ") : "") << describeEffect(selected[i]);
+    }
+    v << ": adding " << (selected.size() > 1 ? "them" : "it") << " cuts the held-out position RMS from "
+      << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " to "
+      << sim::formatNumber("%.3f", out.heldout.selected.position_rms_m * 1e3) << " mm; calibrate with --effects";
+    for (const Effect& e : selected) v << " " << sim::formatEffect(e);
+    v << (out.confounded.empty() ? "." : " (some causes are confounded in this data: see below).");
+  }
+  out.verdict = v.str();
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace orbcal::calib

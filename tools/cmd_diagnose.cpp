@@ -1,0 +1,51 @@
+// `orbcal diagnose`: what the model gets wrong, the physical cause, the extended model and its gain.
+#include <cstdio>
+
+#include "cli.hpp"
+#include "diagnose.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::tools {
+
+namespace {
+
+void addDiagnoseCommand(CLI::App& app) {
+  auto o = std::make_shared<DiagnoseRunOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "diagnose",
+      "From measured data (a measurement description, .yaml) or an image dataset (folder): does the geometry + "
+      "registration model leave structure in its cross-validated residuals, which effect of the catalog explains it "
+      "(compliance, cyclic, scale, backlash, thermal, drift, mount), with which parameters, and how much better the "
+      "extended model predicts held-out data. Writes report.md (verdict first), diagnosis.json, model.yaml, figures.");
+  cmd->add_option("input", o->input, "measurement description (.yaml) or image dataset folder")->required();
+  cmd->add_option("-o,--out", o->out, "output folder (default: diagnosis/ beside the input)");
+  cmd->add_option("--folds", o->diagnose.folds, "cross-validation folds")->capture_default_str()->check(CLI::Range(2, 20));
+  cmd->add_option("--seed", o->diagnose.seed, "seed of the folds")->capture_default_str();
+  cmd->add_option("--alpha", o->diagnose.alpha, "family-wise error rate of each step's candidate tests (Holm)")
+      ->capture_default_str()
+      ->check(CLI::Range(1e-6, 0.5));
+  cmd->add_option("--penalty", o->diagnose.penalty_per_param,
+                  "held-out whitened squared error an added parameter must save")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 100.0));
+  cmd->add_option("--max-effects", o->diagnose.max_effects, "effects added at most")->capture_default_str()->check(CLI::Range(1, 10));
+  cmd->add_flag("--no-plots", [o](std::int64_t) { o->plots = false; }, "skip the PNG figures");
+  cmd->add_flag("--quiet", o->quiet, "no progress output");
+  cmd->callback([o] {
+    const DiagnoseRunResult r = runDiagnose(*o);
+    std::printf("%s\n", r.diagnosis.verdict.c_str());
+    for (const calib::ConfoundedSet& c : r.diagnosis.confounded) {
+      std::printf("confounded in this data:");
+      for (const sim::Effect& e : c.effects) std::printf(" %s", sim::formatEffect(e).c_str());
+      if (c.with_geometry) std::printf(" geometry");
+      std::printf(" (to separate them: %s)\n", c.separate_by.c_str());
+    }
+    std::printf("report: %s\ndiagnosis: %s\nmodel: %s\n", r.report_path.c_str(), r.json_path.c_str(), r.model_path.c_str());
+  });
+}
+
+}  // namespace
+
+ORBCAL_COMMAND(48, addDiagnoseCommand);
+
+}  // namespace orbcal::tools
