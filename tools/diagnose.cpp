@@ -1,6 +1,9 @@
 #include "diagnose.hpp"
 
+#include <chrono>
 #include <cmath>
+#include <optional>
+#include <random>
 #include <filesystem>
 #include <sstream>
 
@@ -12,7 +15,10 @@
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/model_io.hpp"
+#include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "orbcal/sim/simulate.hpp"
 #include "orbcal/vision/measurement.hpp"
 #include "progress.hpp"
 
@@ -220,6 +226,86 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   r.report_path = out + "/report.md";
   sim::writeFileAtomic(r.report_path, md.str());
   return r;
+}
+
+StudyResult runDiagnoseStudy(const StudyOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const sim::Arm arm = sim::loadArm(o.robot);
+  StudyResult out;
+  std::vector<std::string> kinds = o.effects;
+  kinds.push_back("clean");
+  int total = 0;
+  for (const std::string& k : kinds) total += k == "clean" ? o.clean : o.per_effect;
+  Progress bar(o.quiet ? "" : "diagnose datasets", o.quiet ? 0 : total);
+  int done = 0;
+  for (std::size_t ki = 0; ki < kinds.size(); ++ki) {
+    const std::string& kind = kinds[ki];
+    StudyRow row;
+    row.injected = kind;
+    const int n = kind == "clean" ? o.clean : o.per_effect;
+    for (int t = 0; t < n; ++t) {
+      std::mt19937_64 rng = sim::makeRng(o.seed, 1000 * ki + static_cast<std::uint64_t>(t));
+      std::uniform_int_distribution<int> joint(0, arm.numJoints() - 1);
+      sim::SimulationSpec spec;
+      spec.samples = o.samples;
+      spec.sessions = 2;
+      spec.payload_kg = {0.0, 1.25};
+      spec.seed = rng();
+      spec.geometry.seed = spec.seed;
+      if (kind == "mount") spec.marker = sim::FrameSharing::kShared;  // a mount change is a change of a shared marker
+      std::optional<sim::Effect> injected;
+      if (kind != "clean") {
+        const bool joint_effect = kind == "compliance" || kind == "cyclic" || kind == "scale" || kind == "backlash";
+        injected = sim::parseEffect(joint_effect ? kind + ":" + std::to_string(joint(rng) + 1) : kind, arm.numJoints(), "study");
+        spec.effects = {*injected};
+        Eigen::VectorXd values(0);
+        for (const sim::ParamBlock& b : sim::effectBlocks(*injected, spec.sessions)) {
+          for (const sim::ParamInfo& p : b.params) {
+            std::uniform_real_distribution<double> mag(0.5, 2.0);
+            values.conservativeResize(values.size() + 1);
+            values[values.size() - 1] = p.typical * mag(rng) * (rng() % 2 ? 1.0 : -1.0);
+          }
+        }
+        spec.effect_values = values;
+      }
+      const sim::SimulatedData s = sim::simulateMeasured(arm, spec);
+      const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(s.data, true);
+      const calib::Diagnosis d = calib::diagnose(s.data, obs, o.diagnose);
+      ++row.datasets;
+      if (d.clean) {
+        ++row.clean_verdict;
+      } else if (injected) {
+        const auto same = [&](const sim::Effect& e) { return sim::formatEffect(e) == sim::formatEffect(*injected); };
+        const auto kindOnly = [&](const sim::Effect& e) { return sim::effectName(e) == kind; };
+        if (std::any_of(d.selected.begin(), d.selected.end(), same)) {
+          ++row.named;
+          if (d.selected.size() > 1) ++row.extra;
+        } else if (std::any_of(d.selected.begin(), d.selected.end(), kindOnly)) {
+          ++row.wrong_joint;
+        } else {
+          ++row.other;
+        }
+      } else {
+        ++row.other;
+      }
+      bar.update(++done);
+    }
+    out.rows.push_back(row);
+  }
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+std::string formatStudy(const StudyResult& r) {
+  std::string md = "| injected | datasets | named (right joint) | same effect, wrong joint | other effects only | clean verdict | named + extra effects |\n"
+                   "|---|---|---|---|---|---|---|\n";
+  for (const StudyRow& row : r.rows) {
+    const auto pct = [&](int k) { return std::to_string(k) + " (" + sim::formatNumber("%.0f", 100.0 * k / std::max(1, row.datasets)) + "%)"; };
+    md += "| " + row.injected + " | " + std::to_string(row.datasets) + " | " + (row.injected == "clean" ? "" : pct(row.named)) + " | " +
+          (row.injected == "clean" ? "" : pct(row.wrong_joint)) + " | " + pct(row.other) + " | " + pct(row.clean_verdict) + " | " +
+          (row.injected == "clean" ? "" : pct(row.extra)) + " |\n";
+  }
+  return md;
 }
 
 }  // namespace orbcal::tools
