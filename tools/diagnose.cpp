@@ -16,6 +16,7 @@
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/gravity.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/simulate.hpp"
@@ -236,6 +237,27 @@ StudyResult runDiagnoseStudy(const StudyOptions& o) {
   kinds.push_back("clean");
   int total = 0;
   for (const std::string& k : kinds) total += k == "clean" ? o.clean : o.per_effect;
+  // Compliance is drawn among the joints gravity loads: RMS torque over random configurations (with the
+  // heavier payload) above 1 N m, which bends a joint of typical compliance (1e-4 rad/(N m)) by 0.006
+  // deg. A joint about a vertical axis carries no gravity torque: its compliance has nothing to show.
+  std::vector<int> loaded;
+  {
+    sim::Arm heavy = arm;
+    heavy.masses.payload_kg = 1.25;
+    std::mt19937_64 rng = sim::makeRng(o.seed, 0x6c6f61646564ULL);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    Eigen::VectorXd sum = Eigen::VectorXd::Zero(arm.numJoints());
+    const int n = 500;
+    for (int k = 0; k < n; ++k) {
+      Eigen::VectorXd q(arm.numJoints());
+      for (int j = 0; j < arm.numJoints(); ++j) q[j] = arm.lower_rad[j] + u(rng) * (arm.upper_rad[j] - arm.lower_rad[j]);
+      sum += sim::gravityTorques(heavy, heavy.masses, q).array().square().matrix();
+    }
+    for (int j = 0; j < arm.numJoints(); ++j) {
+      if (std::sqrt(sum[j] / n) > 1.0) loaded.push_back(j);
+    }
+    if (loaded.empty()) throw sim::InputError(o.robot + ": masses: no joint carries a gravity torque above 1 N m");
+  }
   Progress bar(o.quiet ? "" : "diagnose datasets", o.quiet ? 0 : total);
   int done = 0;
   for (std::size_t ki = 0; ki < kinds.size(); ++ki) {
@@ -256,7 +278,9 @@ StudyResult runDiagnoseStudy(const StudyOptions& o) {
       std::optional<sim::Effect> injected;
       if (kind != "clean") {
         const bool joint_effect = kind == "compliance" || kind == "cyclic" || kind == "scale" || kind == "backlash";
-        injected = sim::parseEffect(joint_effect ? kind + ":" + std::to_string(joint(rng) + 1) : kind, arm.numJoints(), "study");
+        std::uniform_int_distribution<std::size_t> pick(0, loaded.size() - 1);
+        const int j = kind == "compliance" ? loaded[pick(rng)] : joint(rng);
+        injected = sim::parseEffect(joint_effect ? kind + ":" + std::to_string(j + 1) : kind, arm.numJoints(), "study");
         spec.effects = {*injected};
         Eigen::VectorXd values(0);
         for (const sim::ParamBlock& b : sim::effectBlocks(*injected, spec.sessions)) {
@@ -272,8 +296,12 @@ StudyResult runDiagnoseStudy(const StudyOptions& o) {
       const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(s.data, true);
       const calib::Diagnosis d = calib::diagnose(s.data, obs, o.diagnose);
       ++row.datasets;
+      std::string named;
+      for (const sim::Effect& e : d.selected) named += (named.empty() ? "" : " ") + sim::formatEffect(e);
+      const std::string miss = (injected ? sim::formatEffect(*injected) : std::string("clean")) + " -> " + (d.clean ? "clean" : named);
       if (d.clean) {
         ++row.clean_verdict;
+        if (injected) row.misses.push_back(miss);
       } else if (injected) {
         const auto same = [&](const sim::Effect& e) { return sim::formatEffect(e) == sim::formatEffect(*injected); };
         const auto kindOnly = [&](const sim::Effect& e) { return sim::effectName(e) == kind; };
@@ -282,11 +310,14 @@ StudyResult runDiagnoseStudy(const StudyOptions& o) {
           if (d.selected.size() > 1) ++row.extra;
         } else if (std::any_of(d.selected.begin(), d.selected.end(), kindOnly)) {
           ++row.wrong_joint;
+          row.misses.push_back(miss);
         } else {
           ++row.other;
+          row.misses.push_back(miss);
         }
       } else {
         ++row.other;
+        row.misses.push_back(miss);
       }
       bar.update(++done);
     }
@@ -305,7 +336,11 @@ std::string formatStudy(const StudyResult& r) {
           (row.injected == "clean" ? "" : pct(row.wrong_joint)) + " | " + pct(row.other) + " | " + pct(row.clean_verdict) + " | " +
           (row.injected == "clean" ? "" : pct(row.extra)) + " |\n";
   }
-  return md;
+  std::string misses;
+  for (const StudyRow& row : r.rows) {
+    for (const std::string& m : row.misses) misses += (misses.empty() ? "" : "; ") + m;
+  }
+  return md + (misses.empty() ? "" : "\nNot named right (injected -> named): " + misses + "\n");
 }
 
 }  // namespace orbcal::tools

@@ -43,6 +43,7 @@ struct StudyRow {
   int clean_verdict = 0;  ///< "clean"
   int other = 0;          ///< named only other effects
   int extra = 0;          ///< named the injected one plus others
+  std::vector<std::string> misses;  ///< "scale:3 -> cyclic:3" for every dataset not named right
 };
 struct StudyResult {
   std::vector<StudyRow> rows;

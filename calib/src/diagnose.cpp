@@ -483,19 +483,30 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
     std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return tests[a].score / std::max(1, tests[a].rank) > tests[b].score / std::max(1, tests[b].rank); });
     if (order.size() > 5) order.resize(5);
     std::optional<std::size_t> best;
-    CvResult best_cv;
     double best_gain = 0.0;
+    std::map<std::size_t, CvResult> cvs;
     for (std::size_t i : order) {
       std::vector<Effect> trial = selected;
       trial.push_back(tests[i].effect);
-      CvResult cv = d.crossValidate(trial);
-      const double gain = cv_current.sse - cv.sse;
-      tests[i].cv_gain = gain;
-      if (gain > o.penalty_per_param * tests[i].params && (!best || gain > best_gain)) {
-        best = i;
-        best_gain = gain;
-        best_cv = std::move(cv);
+      cvs[i] = d.crossValidate(trial);
+      tests[i].cv_gain = cv_current.sse - cvs[i].sse;
+    }
+    // The largest penalized gain; then parsimony: among the candidates whose gain comes within the
+    // confounding margin of it (the data cannot tell them apart), the one with the fewest parameters.
+    const auto penalized = [&](std::size_t i) { return *tests[i].cv_gain - o.penalty_per_param * tests[i].params; };
+    for (std::size_t i : order) {
+      if (penalized(i) > 0.0 && (!best || penalized(i) > penalized(*best))) best = i;
+    }
+    if (best) {
+      const double top = *tests[*best].cv_gain;
+      for (std::size_t i : order) {
+        if (penalized(i) > 0.0 && *tests[i].cv_gain >= (1.0 - o.confounding_gain_margin) * top &&
+            (tests[i].params < tests[*best].params ||
+             (tests[i].params == tests[*best].params && *tests[i].cv_gain > *tests[*best].cv_gain))) {
+          best = i;
+        }
       }
+      best_gain = *tests[*best].cv_gain;
     }
     // Causes the data cannot tell from the chosen one: significant candidates that, fitted instead of
     // it, predict the held-out data about as well (their cross-validated gain within
@@ -517,7 +528,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
     out.candidates.insert(out.candidates.end(), tests.begin(), tests.end());
     if (!best) break;
     selected.push_back(tests[*best].effect);
-    cv_current = std::move(best_cv);
+    cv_current = std::move(cvs[*best]);
     current_fit = d.fitAll(selected);
   }
 
