@@ -5,6 +5,7 @@
 #include <chrono>
 
 #include "bench.hpp"
+#include "orbcal/calib/diagnose.hpp"
 #include "orbcal/calib/measured_fit.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/simulate.hpp"
@@ -37,6 +38,19 @@ void benchMeasured() {
   };
   timed("LM fit, geometry + registration (baseline), 200 tracker samples", {}, "");
   timed("LM fit, geometry + registration + compliance:2,4, 200 tracker samples", {sim::Compliance{{1, 3}}}, "< 500 ms");
+
+  // orbcal diagnose on 200 samples: clean data (the usual case) and data hiding compliance:2,4.
+  const auto diagnoseTimed = [&](const std::string& name, const sim::SimulatedData& data) {
+    const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(data.data, true);
+    std::vector<double> t;
+    for (int i = 0; i < 3; ++i) t.push_back(calib::diagnose(data.data, obs, {}).seconds);
+    std::sort(t.begin(), t.end());
+    printFigure(name, t, "s ", 1.0, "< 10 s");
+  };
+  sim::SimulationSpec clean = spec;
+  clean.effects.clear();
+  diagnoseTimed("diagnose, 200 tracker samples, clean (5 folds, 2 threads)", sim::simulateMeasured(arm, clean));
+  diagnoseTimed("diagnose, 200 tracker samples hiding compliance:2,4", s);
 }
 
 }  // namespace
