@@ -137,7 +137,13 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
     data = std::move(im.data);
     obs = std::move(im.observations);
   }
-  r.diagnosis = calib::diagnose(data, obs, o.diagnose);
+  calib::DiagnoseOptions options = o.diagnose;
+  if (!measured && options.joint_noise_sigma_rad == 0.0) {
+    // As orbcal calibrate: the manifest's joint noise, else seed 000's 0.01 deg.
+    const sim::Dataset d = sim::loadDataset(o.input);
+    options.joint_noise_sigma_rad = d.manifest.joint_noise_sigma_rad > 0.0 ? d.manifest.joint_noise_sigma_rad : 0.01 * sim::kDegToRad;
+  }
+  r.diagnosis = calib::diagnose(data, obs, options);
   const calib::Diagnosis& dg = r.diagnosis;
 
   const std::string out = o.out.empty() ? (measured ? std::filesystem::path(o.input).parent_path().string() : o.input) + "/diagnosis" : o.out;

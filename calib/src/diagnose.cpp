@@ -181,6 +181,7 @@ class Diagnoser {
     FitOptions f;
     f.sigma_position_m = noise_.sigma_position_m;
     f.sigma_rotation_rad = noise_.sigma_rotation_rad;
+    f.joint_noise_sigma_rad = noise_.joint_noise_sigma_rad;
     return f;
   }
 
@@ -453,6 +454,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   FitOptions first;
   first.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
   first.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
+  first.joint_noise_sigma_rad = o.joint_noise_sigma_rad;
   out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, first);
   d.setNoise(out.base_fit.noise);
 

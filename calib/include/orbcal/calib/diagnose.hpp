@@ -36,6 +36,7 @@ struct DiagnoseOptions {
   /// gain to within this fraction: the data cannot tell which it is.
   double confounding_gain_margin = 0.1;
   std::optional<double> sigma_position_m, sigma_rotation_rad;  ///< else estimated from the base fit
+  double joint_noise_sigma_rad = 0.0;  ///< joint readings vs true angles, carried into every R
   int threads = 0;                  ///< 0: hardware threads
 };
 
