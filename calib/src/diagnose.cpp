@@ -421,28 +421,6 @@ std::vector<VariableTest> residualEvidence(const sim::MeasuredData& data, const 
   return out;
 }
 
-ResidualStats statsOf(const std::vector<Eigen::VectorXd>& residual) {
-  ResidualStats s;
-  s.samples = static_cast<int>(residual.size());
-  double p2 = 0, r2 = 0;
-  int nr = 0;
-  for (const Eigen::VectorXd& r : residual) {
-    const double e = r.head<3>().norm();
-    s.position_mean_m += e / s.samples;
-    p2 += e * e;
-    s.position_max_m = std::max(s.position_max_m, e);
-    if (r.size() == 6) {
-      const double a = r.tail<3>().norm();
-      r2 += a * a;
-      ++nr;
-      s.rotation_max_rad = std::max(s.rotation_max_rad, a);
-    }
-  }
-  s.position_rms_m = std::sqrt(p2 / std::max(1, s.samples));
-  s.rotation_rms_rad = nr ? std::sqrt(r2 / nr) : 0.0;
-  return s;
-}
-
 }  // namespace
 
 Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o) {
@@ -557,8 +535,8 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   out.fit = selected.empty() ? out.base_fit : d.fitAll(selected);
   out.cv_selected = cv_current.sse;
   out.residual_selected = cv_current.residual;
-  out.heldout.base = statsOf(out.residual_base);
-  out.heldout.selected = statsOf(out.residual_selected);
+  out.heldout.base = residualStats(out.residual_base);
+  out.heldout.selected = residualStats(out.residual_selected);
   // Keep only the confounded sets of effects that stayed.
   std::vector<ConfoundedSet> kept;
   for (const ConfoundedSet& c : out.confounded) {

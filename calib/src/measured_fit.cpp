@@ -175,15 +175,13 @@ sim::KinematicModel startingModel(const sim::MeasuredData& data, const std::vect
   return shape;
 }
 
-ResidualStats residualStats(const sim::KinematicModel& model, const Eigen::VectorXd& p,
-                            const std::vector<MarkerObservation>& observations) {
+ResidualStats residualStats(const std::vector<Eigen::VectorXd>& residuals) {
   ResidualStats s;
-  s.samples = static_cast<int>(observations.size());
-  if (observations.empty()) return s;
+  s.samples = static_cast<int>(residuals.size());
+  if (residuals.empty()) return s;
   double pos2 = 0.0, rot2 = 0.0;
   int nrot = 0;
-  for (const MarkerObservation& o : observations) {
-    const Eigen::VectorXd r = markerResidual(model, p, o);
+  for (const Eigen::VectorXd& r : residuals) {
     const double e = r.head<3>().norm();
     s.position_mean_m += e / s.samples;
     pos2 += e * e;
@@ -198,6 +196,14 @@ ResidualStats residualStats(const sim::KinematicModel& model, const Eigen::Vecto
   s.position_rms_m = std::sqrt(pos2 / s.samples);
   s.rotation_rms_rad = nrot ? std::sqrt(rot2 / nrot) : 0.0;
   return s;
+}
+
+ResidualStats residualStats(const sim::KinematicModel& model, const Eigen::VectorXd& p,
+                            const std::vector<MarkerObservation>& observations) {
+  std::vector<Eigen::VectorXd> residuals;
+  residuals.reserve(observations.size());
+  for (const MarkerObservation& o : observations) residuals.push_back(markerResidual(model, p, o));
+  return residualStats(residuals);
 }
 
 Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObservation>& obs, const FitOptions& o,

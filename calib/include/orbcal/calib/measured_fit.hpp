@@ -36,6 +36,8 @@ struct ResidualStats {
 };
 ResidualStats residualStats(const sim::KinematicModel& model, const Eigen::VectorXd& p,
                             const std::vector<MarkerObservation>& observations);
+/// The same statistics of given residuals ([position; rotation] or [position]).
+ResidualStats residualStats(const std::vector<Eigen::VectorXd>& residuals);
 
 struct FitOptions {
   enum class Method { kLm, kLse, kEkf };
