@@ -11,6 +11,7 @@
 #include "orbcal/sim/identifiability.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "orbcal/sim/truth.hpp"
 #include "orbcal/vision/measurement.hpp"
 #include "progress.hpp"
 
@@ -121,16 +122,20 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   }
   r.estimate = calib::runMethod(method, d.arm, obs);
 
-  // Hold-out validation against the measured poses (and the true ones where the dataset has them).
+  // Hold-out validation against the measured poses (and the true ones where the dataset has them: the
+  // plant of its true_errors and, where it has one, its errors.yaml with the effects; sample k as the
+  // renderer numbered it, approach direction from sample k - 1).
   calib::PlantSamples measured, truth;
-  const std::optional<sim::Arm> true_arm =
-      d.manifest.true_errors ? std::optional<sim::Arm>(sim::withErrors(d.arm, *d.manifest.true_errors)) : std::nullopt;
+  const std::optional<sim::TrueArm> true_arm = sim::datasetTrueArm(d);
   for (std::size_t k : hold) {
     measured.q_commanded.push_back(d.samples[k].q_rad);
     measured.base_T_flange_true.push_back(meas[k].base_T_flange);
-    if (true_arm && d.samples[k].q_true_rad) {
+    const std::optional<Eigen::VectorXd>& q_true = d.samples[k].q_true_rad;
+    if (true_arm && q_true) {
+      const std::optional<Eigen::VectorXd>* previous = k > 0 ? &d.samples[k - 1].q_true_rad : nullptr;
       truth.q_commanded.push_back(d.samples[k].q_rad);
-      truth.base_T_flange_true.push_back(sim::forwardKinematics(*true_arm, *d.samples[k].q_true_rad));
+      truth.base_T_flange_true.push_back(
+          true_arm->flangePose(static_cast<int>(k), *q_true, previous && *previous ? &**previous : nullptr));
     }
   }
   const sim::Arm calibrated = sim::withErrors(d.arm, r.estimate.y);
@@ -198,6 +203,10 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   if (r.has_truth) {
     md << "## Hold-out validation against the true poses (simulated dataset)\n\n"
        << calib::formatTable4(r.truth_before, {{method.name, r.truth_after}}) << "\n";
+    if (true_arm->hasEffects()) {
+      md << "The true poses include the effects of `" << d.manifest.error_set_file
+         << "`, which a geometric calibration cannot represent:\n\n```\n" << sim::formatEffects(*true_arm) << "```\n\n";
+    }
   }
   if (r.frames) {
     const FrameEstimate& f = *r.frames;

@@ -13,7 +13,9 @@ void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o) {
   cmd.add_option("--scene", o.scene, "scene (YAML; or builtin:default_scene.yaml)")->capture_default_str();
   cmd.add_option("-o,--out", o.out, "output folder (reports under <out>/<preset>, datasets under <out>/datasets)")
       ->capture_default_str();
-  cmd.add_option("--errors", o.errors.name, "injected error set: table3 (seed 000), zero, random")->capture_default_str();
+  cmd.add_option("--errors", o.errors.name,
+                 "injected error set: table3 (seed 000), zero, random, or an error-set file (YAML: DH errors + effects)")
+      ->capture_default_str();
   cmd.add_option("--error-seed", o.errors.seed, "seed of --errors random")->capture_default_str();
   cmd.add_option_function<double>(
          "--error-angle-sigma-deg", [&o](double d) { o.errors.angle_sigma_rad = d * sim::kDegToRad; },

@@ -22,13 +22,14 @@ void addRenderCommand(CLI::App& app) {
   auto opt = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand(
       "render",
-      "Render a calibration dataset: configurations on the nominal arm, the true arm (nominal + injected errors) "
+      "Render a calibration dataset: configurations on the nominal arm, the true arm (nominal + injected errors and effects) "
       "at the noisy plant joints, and the eye-in-hand camera's images of the board (OSMesa, no display or GPU). "
       "Rerunning with the same inputs resumes: finished images are kept.");
   addArmSceneOptions(*cmd, opt->as);
-  cmd->add_option("--errors", opt->job.errors.name, "errors injected into the true arm: table3, zero or random")
-      ->capture_default_str()
-      ->check(CLI::IsMember({"table3", "zero", "random"}));
+  cmd->add_option("--errors", opt->job.errors.name,
+                  "errors injected into the true arm: table3, zero, random, or an error-set file (YAML: DH errors + "
+                  "effects; README, 'Rendered datasets')")
+      ->capture_default_str();
   cmd->add_option("--error-seed", opt->job.errors.seed, "seed of --errors random")->capture_default_str();
   cmd->add_option("--error-angle-sigma-deg", opt->error_angle_sigma_deg, "spread of random theta/alpha errors [deg]")
       ->capture_default_str();

@@ -18,6 +18,7 @@
 #include "orbcal/sim/identifiability.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "orbcal/sim/truth.hpp"
 #include "progress.hpp"
 
 namespace orbcal::tools {
@@ -35,9 +36,15 @@ void log(const ExperimentOptions& o, const std::string& line) {
 
 std::string quote(const std::string& s) { return "'" + s + "'"; }
 
-sim::Arm trueArm(const sim::Dataset& d) { return sim::withErrors(d.arm, *d.manifest.true_errors); }
+/// The plant of a rendered dataset (its true_errors and errors.yaml).
+sim::TrueArm trueArm(const sim::Dataset& d) {
+  std::optional<sim::TrueArm> t = sim::datasetTrueArm(d);
+  if (!t) throw sim::InputError(d.folder + "/manifest.yaml: true_errors: missing (not a rendered dataset)");
+  return std::move(*t);
+}
 
-std::string inputsSection(const ExperimentOptions& o, const sim::Arm& arm, const Eigen::VectorXd& y_true) {
+std::string inputsSection(const ExperimentOptions& o, const sim::Arm& arm, const sim::TrueArm& truth) {
+  const Eigen::VectorXd y_true = truth.geometryErrors();
   std::ostringstream s;
   s << "## Inputs\n\n"
     << "- robot: `" << o.robot << "` (" << arm.name << ", " << arm.numJoints() << " joints, " << arm.numParams()
@@ -47,7 +54,8 @@ std::string inputsSection(const ExperimentOptions& o, const sim::Arm& arm, const
     << " deg (1 sigma); seed " << o.seed << "\n"
     << "- program: orbcal " << ORBCAL_VERSION << "\n\n"
     << "Injected errors (per joint: theta, alpha in deg; a, d in mm):\n\n```\n"
-    << sim::formatErrorSet(y_true) << "```\n\n";
+    << sim::formatErrorSet(y_true) << "```\n\n"
+    << injectedEffects(truth, o.errors.name);
   return s.str();
 }
 
@@ -58,6 +66,12 @@ std::string methodsLegend(const std::vector<calib::MethodSpec>& methods) {
 }
 
 }  // namespace
+
+std::string injectedEffects(const sim::TrueArm& truth, const std::string& source) {
+  if (!truth.hasEffects()) return "";
+  return "Injected effects (`" + source + "`; the floor is the true model with them):\n\n```\n" + sim::formatEffects(truth) +
+         "```\n\n";
+}
 
 std::string drawFigure(const ExperimentOptions& o, const std::string& folder, const std::string& args,
                        const std::string& png, const std::string& caption) {
@@ -93,8 +107,11 @@ std::uint64_t fingerprint(const std::string& text) {
 MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& prefix, int count, std::uint64_t seed) {
   MeasuredSet m;
   // The folder is named by everything that determines the dataset, so runs with the same inputs
-  // reuse (and resume) it, and runs with other inputs never collide with it.
-  const std::string inputs = sim::readTextSource(o.robot) + '\0' + sim::readTextSource(o.scene) + '\0' + o.errors.name +
+  // reuse (and resume) it, and runs with other inputs never collide with it. An error-set file counts
+  // by its content, not its path (checked here before anything is rendered).
+  const sim::TrueArm plant = sim::makeTrueArm(sim::loadArm(o.robot), o.errors, "--errors");
+  const std::string errors = plant.fromFile() ? "file:" + plant.file_text : o.errors.name;
+  const std::string inputs = sim::readTextSource(o.robot) + '\0' + sim::readTextSource(o.scene) + '\0' + errors +
                              '\0' + std::to_string(o.errors.seed) + '\0' + formatNumber("%.17g", o.errors.angle_sigma_rad) +
                              '\0' + formatNumber("%.17g", o.errors.length_sigma_m) + '\0' +
                              formatNumber("%.17g", o.joint_noise_sigma_rad) + '\0' + std::to_string(count) + '\0' +
@@ -126,12 +143,15 @@ MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& pref
   m.measure_seconds = since(t0);
   sim::writeFileAtomic(job.out + "/measurements.csv", vision::formatMeasurementsCsv(m.measurements));
   m.summary = vision::summarize(m.measurements);
-  const sim::Arm truth = trueArm(m.dataset);
+  const sim::TrueArm truth = trueArm(m.dataset);
   for (std::size_t k = 0; k < m.dataset.samples.size(); ++k) {
     const sim::DatasetSample& s = m.dataset.samples[k];
+    const sim::DatasetSample* previous = k > 0 ? &m.dataset.samples[k - 1] : nullptr;
+    const int i = static_cast<int>(k);  // the plant's sample index, as the renderer numbered it
     m.plant.q_commanded.push_back(s.q_rad);
     m.plant.q_true.push_back(*s.q_true_rad);
-    m.plant.base_T_flange_true.push_back(sim::forwardKinematics(truth, *s.q_true_rad));
+    m.plant.base_T_flange_true.push_back(truth.flangePose(i, *s.q_true_rad, previous ? &*previous->q_true_rad : nullptr));
+    m.plant.commanded_samples.push_back(truth.sample(i, s.q_rad, previous ? &previous->q_rad : nullptr));
     const vision::Measurement& meas = m.measurements[k];
     if (!meas.found()) continue;
     calib::PoseObservation obs;
@@ -151,14 +171,15 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
   r.identification = renderAndMeasure(o, folder_name + "-ident", o.identification, o.seed);
   r.validation = renderAndMeasure(o, folder_name + "-valid", o.validation, o.seed + kValidationSeedOffset);
   const sim::Arm& nominal = r.identification.dataset.arm;
-  const Eigen::VectorXd y_true = *r.identification.dataset.manifest.true_errors;
+  const sim::TrueArm truth = trueArm(r.identification.dataset);
+  const Eigen::VectorXd y_true = truth.geometryErrors();
   if (r.identification.observations.empty()) {
     throw sim::InputError(o.out + "/datasets: no identification image gave a pose (" +
                           vision::formatSummary(r.identification.summary) + ")");
   }
   const auto methods = calib::comparisonMethods(o.joint_noise_sigma_rad);
   log(o, "estimating with " + std::to_string(methods.size()) + " methods ...");
-  r.comparison = calib::compareMethods(nominal, y_true, r.identification.observations, r.validation.plant, methods);
+  r.comparison = calib::compareMethods(nominal, truth, r.identification.observations, r.validation.plant, methods);
   // Validation as a camera would see it: against the measured validation poses (found ones only).
   calib::PlantSamples measured;
   for (std::size_t k = 0; k < r.validation.measurements.size(); ++k) {
@@ -166,8 +187,9 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
     measured.q_commanded.push_back(r.validation.plant.q_commanded[k]);
     measured.q_true.push_back(r.validation.plant.q_true[k]);
     measured.base_T_flange_true.push_back(r.validation.measurements[k].base_T_flange);
+    measured.commanded_samples.push_back(r.validation.plant.commanded_samples[k]);
   }
-  r.measured_comparison = calib::revalidate(r.comparison, nominal, y_true, measured);
+  r.measured_comparison = calib::revalidate(r.comparison, nominal, truth, measured);
 
   sim::writeFileAtomic(folder + "/validation_errors.csv", calib::formatValidationErrorsCsv(r.comparison));
   sim::writeFileAtomic(folder + "/validation_errors_measured.csv", calib::formatValidationErrorsCsv(r.measured_comparison));
@@ -182,7 +204,7 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
      << nominal.numParams() << " errors. Validation: " << o.validation
      << " further configurations, against the true flange poses (the paper's setting) and against the poses "
      << "the camera measures.\n\n"
-     << inputsSection(o, nominal, y_true)
+     << inputsSection(o, nominal, truth)
      << "## Images\n\n"
      << "- identification: " << vision::formatSummary(r.identification.summary) << " (render "
      << fmt("%.1f", r.identification.render_seconds) << " s, measure " << fmt("%.1f", r.identification.measure_seconds)

@@ -12,6 +12,7 @@
 #include "orbcal/calib/experiment.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/truth.hpp"
 #include "orbcal/vision/measurement.hpp"
 
 namespace CLI {
@@ -24,7 +25,7 @@ struct ExperimentOptions {
   std::string robot = "builtin:ssrms.yaml";
   std::string scene = "builtin:default_scene.yaml";
   std::string out = "orbcal-out";
-  sim::ErrorSetSpec errors;                            ///< injected (default: seed 000 Table 3)
+  sim::ErrorSetSpec errors;                            ///< injected (default: seed 000 Table 3; or an error-set file)
   double joint_noise_sigma_rad = 0.01 * 3.14159265358979323846 / 180.0;  ///< seed 000: 0.01 deg
   int identification = 50;
   int validation = 200;
@@ -40,7 +41,7 @@ struct MeasuredSet {
   sim::Dataset dataset;
   std::vector<vision::Measurement> measurements;
   vision::MeasurementSummary summary;
-  calib::PlantSamples plant;                      ///< commanded and true joints, true flange poses
+  calib::PlantSamples plant;                      ///< commanded and true joints, true flange poses, covariates
   std::vector<calib::PoseObservation> observations;  ///< the found ones, with the vision covariance
   double render_seconds = 0, measure_seconds = 0;
 };
@@ -74,6 +75,9 @@ std::string table4Headline(const Table4Result& r);
 /// s + kValidationSeedOffset + r for its validation set, so the two never share configurations or noise.
 inline constexpr std::uint64_t kValidationSeedOffset = 1000000;
 using sim::formatNumber;  // printf-style formatting of one number (sim/csv.hpp)
+/// The injected effects of a plant for a report (a paragraph naming `source`, the error-set file, and a
+/// code block); "" without effects.
+std::string injectedEffects(const sim::TrueArm& truth, const std::string& source);
 /// Draws <folder>/<png> with tools/plot_report.py (`args` = its kind and CSV path, quoted); returns the
 /// Markdown image line, or a line saying why the figure was not drawn (also warned on stderr).
 std::string drawFigure(const ExperimentOptions& o, const std::string& folder, const std::string& args,

@@ -22,13 +22,13 @@ std::string fmt(const char* f, double v) { return formatNumber(f, v); }
 struct Setup {
   sim::Arm nominal;
   sim::Scene scene;
-  Eigen::VectorXd y_true;
-  sim::Arm truth;
+  sim::TrueArm truth;      ///< the plant: DH errors, and the effects of an error-set file
+  Eigen::VectorXd y_true;  ///< its DH errors
 };
 Setup setup(const ExperimentOptions& o) {
   Setup s{sim::loadArm(o.robot), sim::loadScene(o.scene), {}, {}};
-  s.y_true = sim::makeErrorSet(s.nominal, o.errors, "--errors");
-  s.truth = sim::withErrors(s.nominal, s.y_true);
+  s.truth = sim::makeTrueArm(s.nominal, o.errors, "--errors");
+  s.y_true = s.truth.geometryErrors();
   return s;
 }
 
@@ -88,7 +88,7 @@ void runTable5(const ExperimentOptions& o) {
       } else {
         obs = renderAndMeasure(o, "table5-ident", o.identification, o.seed + r).observations;
       }
-      const calib::Comparison c = calib::compareMethods(s.nominal, s.y_true, obs, valid, methods);
+      const calib::Comparison c = calib::compareMethods(s.nominal, s.truth, obs, valid, methods);
       for (const calib::MethodOutcome& m : c.methods) {
         results[{col.name, m.method.name}].emplace_back(m.summary.position_avg_m, m.summary.position_max_m);
         rows << col.name << "," << r << "," << m.method.name << "," << fmt("%.6f", m.summary.position_avg_m * 1e3) << ","
@@ -109,7 +109,7 @@ void runTable5(const ExperimentOptions& o) {
      << o.validation << " validation configurations) with " << o.repetitions
      << " repetitions instead of the paper's single runs, and a fifth column measured from rendered images. "
      << "Each cell: mean over repetitions of the average (and of the extreme) validation position error, mm; "
-     << "+- the standard deviation over repetitions.\n\n| method |";
+     << "+- the standard deviation over repetitions.\n\n" << injectedEffects(s.truth, o.errors.name) << "| method |";
   for (const Column& c : columns) md << " " << c.name << " avg | ext |";
   md << "\n|---|";
   for (std::size_t i = 0; i < columns.size(); ++i) md << "---|---|";
@@ -165,7 +165,7 @@ void runFig8(const ExperimentOptions& o) {
     const double floor = calib::summarize(calib::poseErrors(s.truth, valid)).position_avg_m;
     for (int n = 10; n <= n_max && n <= static_cast<int>(pool.size()); n += 10) {
       const std::vector<calib::PoseObservation> obs(pool.begin(), pool.begin() + n);
-      const calib::Comparison c = calib::compareMethods(s.nominal, s.y_true, obs, valid, methods);
+      const calib::Comparison c = calib::compareMethods(s.nominal, s.truth, obs, valid, methods);
       for (const calib::MethodOutcome& m : c.methods) {
         avg[{m.method.name, n}].push_back(m.summary.position_avg_m);
         rows << m.method.name << "," << n << "," << r << "," << fmt("%.6f", m.summary.position_avg_m * 1e3) << ","
@@ -178,6 +178,7 @@ void runFig8(const ExperimentOptions& o) {
   md << "# Fig. 8: validation position error against the identification set size\n\n"
      << "Measurements: " << (o.source == "images" ? "rendered images" : "synthetic poses, 0.3 mm / 0.5 deg")
      << "; " << o.repetitions << " repetitions; mean of the average validation position error (mm) over them.\n\n"
+     << injectedEffects(s.truth, o.errors.name)
      << "| n |";
   for (const auto& m : methods) md << " " << m.name << " |";
   md << "\n|---|";
@@ -218,7 +219,7 @@ void runFloor(const ExperimentOptions& o) {
   md << "# Floor: the validation error the control noise alone leaves\n\n"
      << "The true parameters, " << o.validation << " validation configurations, joint control noise "
      << fmt("%.4g", o.joint_noise_sigma_rad * sim::kRadToDeg) << " deg (1 sigma), " << o.repetitions
-     << " repetitions: no estimator can do better on average.\n\n"
+     << " repetitions: no estimator can do better on average.\n\n" << injectedEffects(s.truth, o.errors.name)
      << "- mean of the average position error: **" << fmt("%.4f", mean * 1e3) << " mm**\n"
      << "- largest position error seen: " << fmt("%.4f", worst * 1e3) << " mm\n\nFile: `floor.csv`.\n";
   sim::writeFileAtomic(folder + "/report.md", md.str());

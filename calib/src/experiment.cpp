@@ -70,10 +70,15 @@ Estimate runMethod(const MethodSpec& method, const sim::Arm& nominal, const std:
 
 Comparison compareMethods(const sim::Arm& nominal, const Eigen::VectorXd& y_true, const std::vector<PoseObservation>& obs,
                           const PlantSamples& validation, const std::vector<MethodSpec>& methods) {
+  return compareMethods(nominal, sim::geometricTrueArm(nominal, y_true), obs, validation, methods);
+}
+
+Comparison compareMethods(const sim::Arm& nominal, const sim::TrueArm& truth, const std::vector<PoseObservation>& obs,
+                          const PlantSamples& validation, const std::vector<MethodSpec>& methods) {
   Comparison c;
   c.observations = static_cast<int>(obs.size());
   c.initial_errors = poseErrors(nominal, validation);
-  c.floor_errors = poseErrors(sim::withErrors(nominal, y_true), validation);
+  c.floor_errors = poseErrors(truth, validation);
   c.initial = summarize(c.initial_errors);
   c.floor = summarize(c.floor_errors);
   for (const MethodSpec& m : methods) {
@@ -89,9 +94,14 @@ Comparison compareMethods(const sim::Arm& nominal, const Eigen::VectorXd& y_true
 
 Comparison revalidate(const Comparison& c, const sim::Arm& nominal, const Eigen::VectorXd& y_true,
                       const PlantSamples& validation) {
+  return revalidate(c, nominal, sim::geometricTrueArm(nominal, y_true), validation);
+}
+
+Comparison revalidate(const Comparison& c, const sim::Arm& nominal, const sim::TrueArm& truth,
+                      const PlantSamples& validation) {
   Comparison out = c;
   out.initial_errors = poseErrors(nominal, validation);
-  out.floor_errors = poseErrors(sim::withErrors(nominal, y_true), validation);
+  out.floor_errors = poseErrors(truth, validation);
   out.initial = summarize(out.initial_errors);
   out.floor = summarize(out.floor_errors);
   for (MethodOutcome& m : out.methods) {

@@ -18,15 +18,51 @@ PlantSamples simulatePlant(const sim::Arm& true_arm, const std::vector<Eigen::Ve
   return p;
 }
 
-PoseErrors poseErrors(const sim::Arm& model, const PlantSamples& plant) {
+PlantSamples simulatePlant(const sim::TrueArm& truth, const std::vector<Eigen::VectorXd>& q_commanded,
+                           double joint_noise_sigma_rad, std::mt19937_64& rng) {
+  PlantSamples p;
+  p.q_commanded = q_commanded;
+  p.commanded_samples = commandedSamples(truth, q_commanded);
+  for (std::size_t k = 0; k < q_commanded.size(); ++k) {
+    p.q_true.push_back(sim::addJointNoise(q_commanded[k], joint_noise_sigma_rad, rng));
+    const Eigen::VectorXd* previous = k > 0 ? &p.q_true[k - 1] : nullptr;
+    p.base_T_flange_true.push_back(truth.flangePose(static_cast<int>(k), p.q_true[k], previous));
+  }
+  return p;
+}
+
+std::vector<sim::JointSample> commandedSamples(const sim::TrueArm& truth, const std::vector<Eigen::VectorXd>& q) {
+  std::vector<sim::JointSample> out;
+  for (std::size_t k = 0; k < q.size(); ++k) {
+    out.push_back(truth.sample(static_cast<int>(k), q[k], k > 0 ? &q[k - 1] : nullptr));
+  }
+  return out;
+}
+
+namespace {
+/// Pose errors of predicted flange poses against the plant's true ones.
+template <class Predict>
+PoseErrors poseErrorsOf(const PlantSamples& plant, Predict predict) {
   PoseErrors e;
   for (std::size_t k = 0; k < plant.q_commanded.size(); ++k) {
-    const Eigen::Isometry3d T = sim::forwardKinematics(model, plant.q_commanded[k]);
+    const Eigen::Isometry3d T = predict(k);
     const Eigen::Isometry3d& truth = plant.base_T_flange_true[k];
     e.position_m.push_back((truth.translation() - T.translation()).norm());
     e.orientation_rad.push_back(sim::logSO3(truth.linear() * T.linear().transpose()).cwiseAbs());
   }
   return e;
+}
+}  // namespace
+
+PoseErrors poseErrors(const sim::Arm& model, const PlantSamples& plant) {
+  return poseErrorsOf(plant, [&](std::size_t k) { return sim::forwardKinematics(model, plant.q_commanded[k]); });
+}
+
+PoseErrors poseErrors(const sim::TrueArm& truth, const PlantSamples& plant) {
+  const std::vector<sim::JointSample> samples = plant.commanded_samples.size() == plant.q_commanded.size()
+                                                    ? plant.commanded_samples
+                                                    : commandedSamples(truth, plant.q_commanded);
+  return poseErrorsOf(plant, [&](std::size_t k) { return truth.flangePose(samples[k]); });
 }
 
 ErrorSummary summarize(const PoseErrors& e) {

@@ -21,6 +21,7 @@
 #include "orbcal/sim/configurations.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/fileio.hpp"
+#include "orbcal/sim/truth.hpp"
 
 namespace orbcal::render {
 
@@ -129,7 +130,7 @@ struct MeshCopy {
 bool reservedInDataset(const std::filesystem::path& relative, const sim::DatasetManifest& m) {
   const std::string first = relative.begin()->string();
   return first == m.robot_file || first == m.scene_file || first == m.samples_file || first == "manifest.yaml" ||
-         first == "images";
+         first == "images" || (!m.error_set_file.empty() && first == m.error_set_file);
 }
 
 /// Where each mesh goes in the dataset folder, so that the copied scene.yaml (at DIR/scene.yaml; relative
@@ -264,6 +265,7 @@ std::vector<std::string> manifestDifferences(const sim::DatasetManifest& old, co
   check(old.noise_seed == fresh.noise_seed, "seeds.joint_noise");
   check(old.render_seed == fresh.render_seed, "seeds.render");
   check(old.error_set == fresh.error_set, "true_errors.name");
+  check(old.error_set_file == fresh.error_set_file, "true_errors.file");
   bool errors_same = old.true_errors.has_value() == fresh.true_errors.has_value();
   if (errors_same && old.true_errors) {
     errors_same = old.true_errors->size() == fresh.true_errors->size();
@@ -316,19 +318,19 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   const sim::Arm nominal = sim::loadArm(job.robot);
   const sim::Scene scene = sim::loadScene(job.scene);
   const RenderSettings settings = loadRenderSettings(job.scene);
-  const Eigen::VectorXd y_true = sim::makeErrorSet(nominal, job.errors, "--errors");
-  const sim::Arm true_arm = sim::withErrors(nominal, y_true);
+  const sim::TrueArm truth = sim::makeTrueArm(nominal, job.errors, "--errors");
 
   sim::Dataset dataset;
   dataset.folder = job.out;
   sim::DatasetManifest& m = dataset.manifest;
+  if (truth.fromFile()) m.error_set_file = sim::kDatasetErrorSetFile;  // before the meshes are placed
   // The meshes go into the folder too, so that the dataset stands alone (see planMeshCopies).
   const std::vector<MeshCopy> meshes = planMeshCopies(settings, m);
   const std::string scene_copy = rewriteMeshPaths(scene_text, settings, meshes);
   m.program_version = ORBCAL_VERSION;
   m.num_samples = job.count;
-  m.true_errors = y_true;
-  m.error_set = job.errors.name;
+  m.true_errors = truth.geometryErrors();
+  m.error_set = truth.fromFile() ? "file" : job.errors.name;
   m.joint_noise_sigma_rad = job.joint_noise_sigma_rad;
   m.configuration_seed = job.configuration_seed;
   m.noise_seed = job.noise_seed;
@@ -354,6 +356,9 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
     }
     if (!fileEquals(dataset.path(m.robot_file), robot_text)) differ.push_back(m.robot_file);
     if (!fileEquals(dataset.path(m.scene_file), scene_copy)) differ.push_back(m.scene_file);
+    if (truth.fromFile() && !fileEquals(dataset.path(m.error_set_file), truth.file_text)) {
+      differ.push_back(m.error_set_file);
+    }
     for (const MeshCopy& c : meshes) {
       if (!fileEquals(dataset.path(c.relative), c.bytes)) differ.push_back(c.relative);
     }
@@ -368,11 +373,13 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
     } else {
       removeForForce(dataset.path(m.samples_file), false);
       removeForForce(manifest_path, false);
+      if (!truth.fromFile()) removeForForce(dataset.path(sim::kDatasetErrorSetFile), false);  // an earlier run's
       removeForForce(dataset.path("images"), true);
     }
   }
 
-  // Configurations on the nominal arm; the plant's joints and the true board pose.
+  // Configurations on the nominal arm; the plant's joints and the true board pose (sample i of the
+  // plant: its covariates at t_i, the approach direction from sample i - 1).
   sim::GeneratorSettings gen;
   gen.count = job.count;
   gen.seed = job.configuration_seed;
@@ -385,7 +392,8 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
     s.image = imageName(i);
     s.q_rad = commanded[i];
     s.q_true_rad = sim::addJointNoise(commanded[i], job.joint_noise_sigma_rad, noise_rng);
-    s.camera_T_board_true = sim::cameraTBoard(true_arm, scene, *s.q_true_rad);
+    const Eigen::VectorXd* previous = i > 0 ? &*dataset.samples[i - 1].q_true_rad : nullptr;
+    s.camera_T_board_true = sim::cameraTBoard(truth.flangePose(i, *s.q_true_rad, previous), scene);
     dataset.samples.push_back(std::move(s));
   }
 
@@ -394,6 +402,7 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   sim::makeDirectories(dataset.path("images"));
   if (!report.resumed) {
     sim::writeFileAtomic(dataset.path(m.robot_file), robot_text);
+    if (truth.fromFile()) sim::writeFileAtomic(dataset.path(m.error_set_file), truth.file_text);
     for (const MeshCopy& c : meshes) {
       sim::makeDirectories(std::filesystem::path(dataset.path(c.relative)).parent_path().string());
       sim::writeFileAtomic(dataset.path(c.relative), c.bytes);

@@ -24,7 +24,11 @@ double singularityMeasure(const Arm& arm, const Eigen::VectorXd& q, int locked_j
 }
 
 Eigen::Isometry3d cameraTBoard(const Arm& arm, const Scene& scene, const Eigen::VectorXd& q) {
-  return (forwardKinematics(arm, q) * scene.flange_T_camera).inverse() * scene.base_T_board;
+  return cameraTBoard(forwardKinematics(arm, q), scene);
+}
+
+Eigen::Isometry3d cameraTBoard(const Eigen::Isometry3d& base_T_flange, const Scene& scene) {
+  return (base_T_flange * scene.flange_T_camera).inverse() * scene.base_T_board;
 }
 
 namespace {

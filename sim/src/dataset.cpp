@@ -39,7 +39,8 @@ bool DatasetManifest::operator==(const DatasetManifest& o) const {
   }
   return format == o.format && program_version == o.program_version && robot_file == o.robot_file &&
          scene_file == o.scene_file && samples_file == o.samples_file && num_samples == o.num_samples &&
-         errors_equal && error_set == o.error_set && sameValue(joint_noise_sigma_rad, o.joint_noise_sigma_rad) &&
+         errors_equal && error_set == o.error_set && error_set_file == o.error_set_file &&
+         sameValue(joint_noise_sigma_rad, o.joint_noise_sigma_rad) &&
          configuration_seed == o.configuration_seed && noise_seed == o.noise_seed && render_seed == o.render_seed;
 }
 
@@ -58,6 +59,7 @@ std::string formatManifest(const DatasetManifest& m) {
   if (m.true_errors) {
     s << "true_errors:   # injected into the plant, per joint (y order); angles in deg, lengths in mm\n";
     s << "  name: " << (m.error_set.empty() ? "custom" : m.error_set) << "\n";
+    if (!m.error_set_file.empty()) s << "  file: " << m.error_set_file << "   # the error-set file: these + its effects\n";
     s << "  joints:\n";
     const Eigen::VectorXd& y = *m.true_errors;
     for (Eigen::Index j = 0; j < y.size() / Arm::kParamsPerJoint; ++j) {
@@ -92,8 +94,9 @@ DatasetManifest parseManifest(const std::string& text, const std::string& source
   }
   const ConfigNode te = root.optional("true_errors");
   if (te.defined()) {
-    te.requireOnlyKeys({"name", "joints"});
+    te.requireOnlyKeys({"name", "file", "joints"});
     m.error_set = te.optional("name").asString("custom");
+    m.error_set_file = te.optional("file").asString("");
     const ConfigNode joints = te["joints"];
     Eigen::VectorXd y(static_cast<Eigen::Index>(joints.size() * Arm::kParamsPerJoint));
     for (std::size_t j = 0; j < joints.size(); ++j) {

@@ -54,7 +54,8 @@ ConfigNode ConfigNode::operator[](const std::string& key) const {
 
 ConfigNode ConfigNode::optional(const std::string& key) const {
   if (node_.IsDefined() && !node_.IsNull() && !node_.IsMap()) fail("expected a map with key '" + key + "'");
-  YAML::Node child = (node_.IsMap() ? node_[key] : YAML::Node(YAML::NodeType::Undefined));
+  // An absent node (itself optional and missing) has no type to ask for: its children are absent too.
+  YAML::Node child = (node_.IsDefined() && node_.IsMap() ? node_[key] : YAML::Node(YAML::NodeType::Undefined));
   return ConfigNode(child, source_, childPath(key));
 }
 

@@ -26,6 +26,20 @@ TEST_CASE("manifest round-trips with the true errors", "[sim][dataset]") {
   (*other.true_errors)[5] += 1e-9;  // 1 nm: a different error set
   CHECK_FALSE(other == m);
   CHECK_THROWS_WITH(parseManifest("format: other\n", "m.yaml"), "m.yaml: format: expected 'orbcal-dataset-1', got 'other'");
+
+  // The error-set file of a plant with effects (sim/truth.hpp): written, read back, compared; a manifest
+  // without it (older, or a named set) reads as none.
+  CHECK(back.error_set_file.empty());
+  DatasetManifest with_file = m;
+  with_file.error_set = "file";
+  with_file.error_set_file = "errors.yaml";
+  CHECK(formatManifest(with_file).find("  file: errors.yaml") != std::string::npos);
+  const DatasetManifest file_back = parseManifest(formatManifest(with_file), "manifest.yaml");
+  CHECK(file_back.error_set_file == "errors.yaml");
+  CHECK(file_back == with_file);
+  with_file.error_set_file.clear();
+  with_file.error_set = "file";
+  CHECK_FALSE(file_back == with_file);
 }
 
 TEST_CASE("samples round-trip, optional columns stay optional", "[sim][dataset]") {

@@ -44,15 +44,22 @@ struct Comparison {
   int observations = 0;
   PoseErrors initial_errors, floor_errors;
   ErrorSummary initial;  ///< nominal model
-  ErrorSummary floor;    ///< true parameters: what the control noise alone leaves
+  ErrorSummary floor;    ///< the true model (effects included): what the control noise alone leaves
   std::vector<MethodOutcome> methods;
 };
 
+/// The floor is poseErrors(truth, validation): the true model with its effects, driven by the
+/// commanded joints. The y_true form is a plant of DH errors alone (sim::geometricTrueArm).
+Comparison compareMethods(const sim::Arm& nominal, const sim::TrueArm& truth,
+                          const std::vector<PoseObservation>& observations, const PlantSamples& validation,
+                          const std::vector<MethodSpec>& methods);
 Comparison compareMethods(const sim::Arm& nominal, const Eigen::VectorXd& y_true,
                           const std::vector<PoseObservation>& observations, const PlantSamples& validation,
                           const std::vector<MethodSpec>& methods);
 
 /// The same estimates validated against another plant (e.g. the validation poses a camera measured).
+Comparison revalidate(const Comparison& c, const sim::Arm& nominal, const sim::TrueArm& truth,
+                      const PlantSamples& validation);
 Comparison revalidate(const Comparison& c, const sim::Arm& nominal, const Eigen::VectorXd& y_true,
                       const PlantSamples& validation);
 

@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "orbcal/sim/arm.hpp"
+#include "orbcal/sim/sample.hpp"
+#include "orbcal/sim/truth.hpp"
 
 namespace orbcal::calib {
 
@@ -17,9 +19,21 @@ struct PlantSamples {
   std::vector<Eigen::VectorXd> q_commanded;
   std::vector<Eigen::VectorXd> q_true;
   std::vector<Eigen::Isometry3d> base_T_flange_true;
+  /// Where the plant has effects (sim::TrueArm): each commanded configuration with the covariates the
+  /// effects read there (TrueArm::sample of its index in the run, approach direction from the previous
+  /// commanded configuration), so that a plant filtered to some of its samples keeps them. May be
+  /// empty: poseErrors(TrueArm, ...) then takes sample k of q_commanded in order.
+  std::vector<sim::JointSample> commanded_samples;
 };
 PlantSamples simulatePlant(const sim::Arm& true_arm, const std::vector<Eigen::VectorXd>& q_commanded,
                            double joint_noise_sigma_rad, std::mt19937_64& rng);
+/// The same with a plant that may have effects: sample k's true pose is truth.flangePose(k, q_true[k],
+/// q_true[k - 1]). Without effects the same poses (bit for bit) and the same noise draws as above.
+PlantSamples simulatePlant(const sim::TrueArm& truth, const std::vector<Eigen::VectorXd>& q_commanded,
+                           double joint_noise_sigma_rad, std::mt19937_64& rng);
+/// The commanded samples of a run of configurations (TrueArm::sample of each, in order).
+std::vector<sim::JointSample> commandedSamples(const sim::TrueArm& truth,
+                                               const std::vector<Eigen::VectorXd>& q_commanded);
 
 /// Pose errors of `model` (driven by the commanded joints) against the plant's true poses.
 struct PoseErrors {
@@ -27,6 +41,9 @@ struct PoseErrors {
   std::vector<Eigen::Vector3d> orientation_rad;  ///< |components| of log(R_true R_model^T), base frame X/Y/Z
 };
 PoseErrors poseErrors(const sim::Arm& model, const PlantSamples& plant);
+/// The errors of the true model itself, effects included, driven by the commanded joints and their
+/// covariates (plant.commanded_samples): the floor, what the control noise alone leaves.
+PoseErrors poseErrors(const sim::TrueArm& truth, const PlantSamples& plant);
 
 struct ErrorSummary {
   double position_avg_m = 0, position_max_m = 0;

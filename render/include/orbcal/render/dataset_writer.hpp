@@ -4,10 +4,13 @@
 //  1. configurations: sim::generateConfigurations on the NOMINAL arm (the planner knows only the
 //     nominal model), seed = configuration seed;
 //  2. true joints = commanded + N(0, joint noise) (sim::addJointNoise, stream kJointNoiseStream);
-//  3. ground truth camera_T_board = sim::cameraTBoard(TRUE arm = nominal + injected errors, q_true);
+//  3. ground truth camera_T_board = sim::cameraTBoard(the TRUE arm's flange pose at q_true): sim::TrueArm,
+//     nominal + injected DH errors, plus the effects of an error-set file (sample i at t_i, approach
+//     direction from sample i - 1; sim/truth.hpp);
 //  4. that pose rendered (BoardRenderer::render, degradations drawn from makeRng(render seed,
 //     kRenderStream + index)), written as images/NNNNNN.png.
-// Order on disk: robot.yaml, the scene's mesh files, scene.yaml and manifest.yaml first; the images
+// Order on disk: robot.yaml, errors.yaml (a verbatim copy of an error-set file, when --errors names one), the
+// scene's mesh files, scene.yaml and manifest.yaml first; the images
 // (PNG-encoded and written on a worker thread while the next frame renders, each atomically);
 // samples.csv last, so a dataset without samples.csv is an unfinished run.
 // The folder stands alone: robot.yaml is a verbatim copy of the robot file and every mesh the scene
@@ -18,12 +21,12 @@
 // NOT verbatim: that `file:` value is rewritten to the copy's path and a comment at the top of the copy
 // lists the original paths. Otherwise scene.yaml is a verbatim copy. Only the mesh files themselves are
 // copied (not side files such as an .obj's .mtl: the renderer uses only the geometry).
-// Resume: rerunning with the same inputs (manifest, robot.yaml, scene.yaml and mesh bytes) into the
-// same folder deletes the temporary files a killed run left in images/ (NAME.tmp.PID), keeps every
-// image that exists and decodes as 8-bit grey of the camera's size, and renders the rest. Different
-// inputs: refused (InputError naming manifest.yaml and the manifest fields or files that differ) unless
-// `force`, which deletes the old images, samples.csv and manifest.yaml first (InputError naming any file
-// it cannot remove).
+// Resume: rerunning with the same inputs (manifest, robot.yaml, errors.yaml, scene.yaml and mesh
+// bytes) into the same folder deletes the temporary files a killed run left in images/ (NAME.tmp.PID),
+// keeps every image that exists and decodes as 8-bit grey of the camera's size, and renders the rest.
+// Different inputs: refused (InputError naming manifest.yaml and the manifest fields or files that
+// differ) unless `force`, which deletes the old images, samples.csv and manifest.yaml first, and
+// errors.yaml when the new plant has no error-set file (InputError naming any file it cannot remove).
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -41,7 +44,7 @@ inline constexpr std::uint64_t kRenderStream = 0x72656e6465720000ULL;      // "r
 struct DatasetJob {
   std::string robot = sim::kDefaultRobot;  ///< file or builtin:NAME
   std::string scene = sim::kDefaultScene;
-  sim::ErrorSetSpec errors;                ///< injected into the true arm
+  sim::ErrorSetSpec errors;                ///< injected into the true arm: table3 | zero | random | an error-set file
   int count = 50;
   std::uint64_t configuration_seed = 1;
   std::uint64_t noise_seed = 1;

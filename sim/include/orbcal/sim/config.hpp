@@ -35,6 +35,9 @@ class ConfigNode {
   /// Child by key, or an undefined node (has() false) when absent.
   ConfigNode optional(const std::string& key) const;
   bool defined() const { return node_.IsDefined() && !node_.IsNull(); }
+  bool isScalar() const { return node_.IsDefined() && node_.IsScalar(); }
+  bool isSequence() const { return node_.IsDefined() && node_.IsSequence(); }
+  bool isMap() const { return node_.IsDefined() && node_.IsMap(); }
   /// Sequence element; throws unless this is a sequence with index < size().
   ConfigNode operator[](std::size_t index) const;
   std::size_t size() const;  ///< sequence length; throws unless a sequence

@@ -50,5 +50,7 @@ double singularityMeasure(const Arm& arm, const Eigen::VectorXd& q, int locked_j
 
 /// camera_T_board seen at joint angles q: (base_T_flange * flange_T_camera)^-1 * base_T_board.
 Eigen::Isometry3d cameraTBoard(const Arm& arm, const Scene& scene, const Eigen::VectorXd& q);
+/// The same from the flange pose (e.g. a sim::TrueArm's, effects included).
+Eigen::Isometry3d cameraTBoard(const Eigen::Isometry3d& base_T_flange, const Scene& scene);
 
 }  // namespace orbcal::sim

@@ -6,6 +6,8 @@
 //                            injected errors (simulation only), joint noise
 //   <folder>/robot.yaml      the arm (copied in, so the dataset stands alone)
 //   <folder>/scene.yaml      the scene
+//   <folder>/errors.yaml     simulation only, when the plant came from an error-set file (sim/truth.hpp):
+//                            that file, copied in; the manifest names it as true_errors.file
 //   <folder>/samples.csv     one row per sample, header line first:
 //       index, image, q1_rad..qN_rad              joint readings the model is driven with (commanded or encoder)
 //       [, q1_true_rad..qN_true_rad]              true plant joints after control noise (simulation only)
@@ -34,7 +36,10 @@ struct DatasetManifest {
   std::string samples_file = "samples.csv";
   int num_samples = 0;
   std::optional<Eigen::VectorXd> true_errors;  ///< SI, y order (arm.hpp); simulation only
-  std::string error_set;                       ///< e.g. "table3"
+  std::string error_set;                       ///< e.g. "table3"; "file" for an error-set file
+  /// The error-set file copied into the dataset (sim::kDatasetErrorSetFile), whose effects the plant had
+  /// on top of true_errors; empty for a named set (and in manifests older than the key).
+  std::string error_set_file;
   double joint_noise_sigma_rad = 0.0;
   std::uint64_t configuration_seed = 0;
   std::uint64_t noise_seed = 0;

@@ -1,0 +1,281 @@
+#include "orbcal/sim/truth.hpp"
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/gravity.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::sim {
+
+namespace {
+
+bool readsTorque(const KinematicModel& m) {
+  for (const Effect& e : m.effects) {
+    if (std::holds_alternative<Compliance>(e)) return true;
+  }
+  return false;
+}
+bool hasDrift(const KinematicModel& m) {
+  for (const Effect& e : m.effects) {
+    if (std::holds_alternative<Drift>(e)) return true;
+  }
+  return false;
+}
+
+TrueArm assemble(const Arm& arm, const Eigen::VectorXd& y, std::vector<Effect> effects) {
+  TrueArm t;
+  t.model = makeKinematicModel(arm, 1, FrameSharing::kKnown, FrameSharing::kKnown, {Eigen::Isometry3d::Identity()},
+                               {Eigen::Isometry3d::Identity()}, std::move(effects));
+  t.p = Eigen::VectorXd::Zero(t.model.layout.size());
+  const ParamBlock& g = t.model.layout.block(t.model.layout.find("geometry"));
+  t.p.segment(g.offset, g.size()) = y;
+  t.covariates.payload_kg = arm.masses.payload_kg;
+  return t;
+}
+
+double nonNegative(const ConfigNode& n, double fallback) {
+  const double v = n.asDouble(fallback);
+  if (v < 0.0) n.fail("must not be negative");
+  return v;
+}
+double positive(const ConfigNode& n, double fallback) {
+  const double v = n.asDouble(fallback);
+  if (!(v > 0.0)) n.fail("must be positive");
+  return v;
+}
+
+Eigen::VectorXd readGeometry(const Arm& arm, const ConfigNode& g) {
+  const std::string expected = "expected table3, zero, random, {random: {angle_sigma_deg, length_sigma_mm, seed}} or one "
+                               "{theta_deg, alpha_deg, a_mm, d_mm} per joint";
+  ErrorSetSpec spec;
+  if (g.isScalar()) {
+    spec.name = g.asString();
+    if (!isNamedErrorSet(spec.name)) g.fail(expected + ", got '" + spec.name + "'");
+    return makeErrorSet(arm, spec, g.source() + ": " + g.path());
+  }
+  if (g.isMap()) {
+    g.requireOnlyKeys({"random"});
+    const ConfigNode r = g["random"];
+    spec.name = "random";
+    if (r.defined()) {
+      r.requireOnlyKeys({"angle_sigma_deg", "length_sigma_mm", "seed"});
+      // Only the keys given replace ErrorSetSpec's defaults (no round trip through deg and mm).
+      if (r.has("angle_sigma_deg")) spec.angle_sigma_rad = nonNegative(r["angle_sigma_deg"], 0.0) * kDegToRad;
+      if (r.has("length_sigma_mm")) spec.length_sigma_m = nonNegative(r["length_sigma_mm"], 0.0) * 1e-3;
+      if (r.has("seed")) {
+        const int seed = r["seed"].asInt();
+        if (seed < 0) r["seed"].fail("must not be negative");
+        spec.seed = static_cast<std::uint64_t>(seed);
+      }
+    }
+    return makeErrorSet(arm, spec, g.source() + ": " + g.path());
+  }
+  if (g.isSequence()) {
+    if (static_cast<int>(g.size()) != arm.numJoints()) {
+      g.fail("expected one row per joint: " + std::to_string(arm.numJoints()) + " (as " + arm.source + "), got " +
+             std::to_string(g.size()));
+    }
+    Eigen::VectorXd y(arm.numParams());
+    for (int j = 0; j < arm.numJoints(); ++j) {
+      const ConfigNode row = g[static_cast<std::size_t>(j)];
+      row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm"});
+      y[paramIndex(j, kTheta)] = row["theta_deg"].asDouble() * kDegToRad;
+      y[paramIndex(j, kAlpha)] = row["alpha_deg"].asDouble() * kDegToRad;
+      y[paramIndex(j, kA)] = row["a_mm"].asDouble() * 1e-3;
+      y[paramIndex(j, kD)] = row["d_mm"].asDouble() * 1e-3;
+    }
+    return y;
+  }
+  g.fail(expected);
+}
+
+}  // namespace
+
+double CovariateProfile::temperatureAt(double t_s) const {
+  return temperature_start_C + temperature_rise_C * (1.0 - std::exp(-t_s / temperature_tau_s));
+}
+
+Eigen::VectorXd TrueArm::geometryErrors() const {
+  const ParamBlock& g = model.layout.block(model.layout.find("geometry"));
+  return p.segment(g.offset, g.size());
+}
+
+JointSample TrueArm::sample(int k, const Eigen::VectorXd& q, const Eigen::VectorXd* q_previous) const {
+  JointSample s;
+  s.q_rad = q;
+  s.time_s = covariates.sample_period_s * k;
+  s.temperature_C = covariates.temperatureAt(s.time_s);
+  if (readsTorque(model)) s.tau_Nm = gravityTorques(model.arm, model.arm.masses, q);
+  std::vector<MeasuredPose> moves(q_previous ? 2 : 1);
+  if (q_previous) moves.front().sample.q_rad = *q_previous;
+  moves.back().sample.q_rad = q;
+  fillApproachDirections(moves);
+  s.direction = moves.back().sample.direction;
+  return s;
+}
+
+Eigen::Isometry3d TrueArm::flangePose(const JointSample& s) const {
+  // The frames are known (identity), so world_T_marker is D(t) base_T_flange; without drift that is
+  // sim::flangePose, which without effects is forwardKinematics(withErrors(nominal, y), q) exactly.
+  return hasDrift(model) ? predictMarkerPose(model, p, s) : sim::flangePose(model, p, s);
+}
+
+Eigen::Isometry3d TrueArm::flangePose(int k, const Eigen::VectorXd& q, const Eigen::VectorXd* q_previous) const {
+  return flangePose(sample(k, q, q_previous));
+}
+
+bool isNamedErrorSet(const std::string& name) { return name == "table3" || name == "zero" || name == "random"; }
+
+TrueArm geometricTrueArm(const Arm& nominal, const Eigen::VectorXd& y, const std::string& name) {
+  TrueArm t = assemble(nominal, y, {});
+  t.name = name;
+  return t;
+}
+
+TrueArm makeTrueArm(const Arm& nominal, const ErrorSetSpec& spec, const std::string& what) {
+  if (isNamedErrorSet(spec.name)) return geometricTrueArm(nominal, makeErrorSet(nominal, spec, what), spec.name);
+  std::string text;
+  try {
+    text = readTextSource(spec.name);
+  } catch (const InputError& e) {
+    throw InputError(what + ": '" + spec.name + "' is neither table3, zero, random nor a readable error-set file (" +
+                     e.what() + ")");
+  }
+  TrueArm t = parseTrueArm(nominal, text, spec.name);
+  t.name = spec.name;
+  return t;
+}
+
+TrueArm parseTrueArm(const Arm& nominal, const std::string& text, const std::string& source) {
+  const ConfigNode root = ConfigNode::parse(text, source);
+  root.requireOnlyKeys({"format", "geometry", "effects", "covariates"});
+  if (root["format"].asString() != kErrorSetFormat) {
+    root["format"].fail("expected " + std::string(kErrorSetFormat) + ", got '" + root["format"].asString() + "'");
+  }
+  const Eigen::VectorXd y = readGeometry(nominal, root["geometry"]);
+
+  // Covariates first: the effects are checked against them.
+  CovariateProfile cov;
+  const ConfigNode c = root.optional("covariates");
+  if (c.defined()) c.requireOnlyKeys({"payload_kg", "temperature", "sample_period_s"});
+  cov.payload_kg = nonNegative(c.optional("payload_kg"), nominal.masses.payload_kg);
+  const ConfigNode temp = c.optional("temperature");
+  if (temp.defined()) {
+    temp.requireOnlyKeys({"start_C", "rise_C", "tau_s"});
+    cov.temperature_start_C = temp.optional("start_C").asDouble(cov.temperature_start_C);
+    cov.temperature_rise_C = temp.optional("rise_C").asDouble(cov.temperature_rise_C);
+    cov.temperature_tau_s = positive(temp.optional("tau_s"), cov.temperature_tau_s);
+  }
+  cov.sample_period_s = positive(c.optional("sample_period_s"), cov.sample_period_s);
+  Arm arm = nominal;
+  arm.masses.payload_kg = cov.payload_kg;
+
+  std::vector<Effect> effects;
+  std::set<std::string> seen;
+  const ConfigNode list = root.optional("effects");
+  const std::size_t n_effects = list.defined() ? list.size() : 0;
+  for (std::size_t k = 0; k < n_effects; ++k) {
+    const ConfigNode e = list[k];
+    e.requireOnlyKeys({"spec", "parameters"});
+    const ConfigNode spec = e["spec"];
+    Effect effect = parseEffect(spec.asString(), arm.numJoints(), source + ": " + spec.path());
+    const std::string name = effectName(effect);
+    if (!seen.insert(name).second) {
+      spec.fail("a second " + name + " effect: list every joint in one spec (e.g. " + name + ":2,4)");
+    }
+    if (std::holds_alternative<Mount>(effect)) {
+      spec.fail("mount (the marker re-mounted between sessions) has no meaning in a simulated plant: a dataset is one "
+                "session");
+    }
+    if (std::holds_alternative<Compliance>(effect) && arm.masses.empty()) {
+      spec.fail("compliance deflects the joints under the gravity torques of the robot file's masses, and " + nominal.source +
+                " has no masses: section and covariates.payload_kg is 0");
+    }
+    if (std::holds_alternative<Thermal>(effect) && !temp.defined()) {
+      spec.fail("thermal reads the temperature: give covariates.temperature ({start_C, rise_C, tau_s}); at the "
+                "reference 20 degC it would do nothing");
+    }
+    effects.push_back(std::move(effect));
+  }
+
+  TrueArm t = assemble(arm, y, effects);
+  t.name = source;
+  t.file_text = text;
+  t.covariates = cov;
+  for (std::size_t k = 0; k < n_effects; ++k) {
+    const ConfigNode params = list[k]["parameters"];
+    const std::string name = effectName(effects[k]);
+    std::vector<std::string> allowed;
+    for (const ParamBlock& b : t.model.layout.blocks()) {
+      if (b.effect != name) continue;
+      for (int i = 0; i < b.size(); ++i) allowed.push_back(b.params[static_cast<std::size_t>(i)].name);
+    }
+    params.requireOnlyKeys(allowed);
+    for (const ParamBlock& b : t.model.layout.blocks()) {
+      if (b.effect != name) continue;
+      for (int i = 0; i < b.size(); ++i) t.p[b.offset + i] = params[b.params[static_cast<std::size_t>(i)].name].asDouble();
+    }
+  }
+  return t;
+}
+
+std::optional<TrueArm> datasetTrueArm(const Dataset& d) {
+  const DatasetManifest& m = d.manifest;
+  if (!m.true_errors) return std::nullopt;
+  if (m.error_set_file.empty()) return geometricTrueArm(d.arm, *m.true_errors, m.error_set);
+  const std::string path = d.path(m.error_set_file);
+  TrueArm t = parseTrueArm(d.arm, readTextSource(path), path);
+  // The manifest prints the errors in deg and mm with 12 significant digits.
+  const Eigen::VectorXd y = t.geometryErrors();
+  for (Eigen::Index i = 0; i < y.size(); ++i) {
+    if (std::abs(y[i] - (*m.true_errors)[i]) > 1e-11 * std::max(std::abs(y[i]), std::abs((*m.true_errors)[i]))) {
+      throw InputError(path + ": geometry: " + paramName(static_cast<int>(i)) + " differs from " + d.folder +
+                       "/manifest.yaml's true_errors (the dataset was rendered from another file)");
+    }
+  }
+  return t;
+}
+
+std::string formatEffects(const TrueArm& t) {
+  if (!t.hasEffects()) return "";
+  std::ostringstream s;
+  bool time = false, temperature = false, torque = false, direction = false;
+  for (const Effect& e : t.model.effects) {
+    s << "  " << formatEffect(e) << ":";
+    const std::string name = effectName(e);
+    bool first = true;
+    for (const ParamBlock& b : t.model.layout.blocks()) {
+      if (b.effect != name) continue;
+      for (int i = 0; i < b.size(); ++i) {
+        const ParamInfo& info = b.params[static_cast<std::size_t>(i)];
+        s << (first ? " " : ", ") << info.name << " " << formatNumber("%+.6g", t.p[b.offset + i] * info.display_scale) << " "
+          << info.display_unit;
+        first = false;
+      }
+    }
+    s << "\n";
+    time |= std::holds_alternative<Drift>(e) || std::holds_alternative<Thermal>(e);
+    temperature |= std::holds_alternative<Thermal>(e);
+    torque |= std::holds_alternative<Compliance>(e);
+    direction |= std::holds_alternative<Backlash>(e);
+  }
+  const CovariateProfile& c = t.covariates;
+  if (time) s << "  sample k at t = k * " << formatNumber("%.6g", c.sample_period_s) << " s\n";
+  if (temperature) {
+    s << "  temperature " << formatNumber("%.6g", c.temperature_start_C) << " degC + "
+      << formatNumber("%.6g", c.temperature_rise_C) << " degC (1 - exp(-t / " << formatNumber("%.6g", c.temperature_tau_s)
+      << " s))\n";
+  }
+  if (torque) {
+    s << "  torques: gravity of " << (t.model.arm.masses.links.empty() ? "the payload" : "the robot file's masses")
+      << " with a payload of " << formatNumber("%.6g", c.payload_kg) << " kg\n";
+  }
+  if (direction) s << "  approach direction: from the previous sample's joints\n";
+  return s.str();
+}
+
+}  // namespace orbcal::sim
