@@ -4,7 +4,10 @@
 #include <catch2/catch.hpp>
 #include <filesystem>
 
+#include <random>
+
 #include "diagnose.hpp"
+#include "orbcal/render/dataset_writer.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
@@ -51,4 +54,37 @@ TEST_CASE("diagnose writes its report, diagnosis.json and a model evaluate can r
   const std::string report = test::slurp(r.report_path);
   CHECK(report.find(d.verdict) != std::string::npos);
   CHECK(std::filesystem::exists(r.model_path));
+}
+
+TEST_CASE("diagnose names a cyclic error of joint 2 from rendered images alone; clean images stay clean",
+          "[e2e][diagnose][images]") {
+  const std::string dir = test::tempDir("diagnose-images");
+  // A seeded amplitude of 0.04..0.08 deg (random sign) on sin(q2): 4 to 8 times the 0.01 deg control
+  // noise of the plant; the 0.01 deg of scenes/errors_cyclic.yaml is below what 100 views resolve.
+  std::mt19937_64 rng(77);
+  const double amplitude = (0.04 + 0.04 * std::uniform_real_distribution<double>(0.0, 1.0)(rng)) * (rng() % 2 ? 1.0 : -1.0);
+  test::write(dir + "/errors.yaml", "format: orbcal-errors-1\ngeometry: table3\neffects:\n  - spec: \"cyclic:2\"\n    parameters: {cyclic2_sin1: " +
+                                        std::to_string(amplitude * 3.14159265358979 / 180.0) +
+                                        ", cyclic2_cos1: 0, cyclic2_sin2: 0, cyclic2_cos2: 0}\n");
+  const auto renderAndDiagnose = [&](const std::string& name, const std::string& errors) {
+    render::DatasetJob job;
+    job.scene = test::sourcePath("scenes/quick_scene.yaml");
+    job.count = 100;
+    job.errors.name = errors;
+    job.out = dir + "/" + name;
+    render::renderDataset(job);
+    tools::DiagnoseRunOptions o;
+    o.input = job.out;
+    o.out = job.out + "/diagnosis";
+    o.plots = false;
+    o.quiet = true;
+    return tools::runDiagnose(o).diagnosis;
+  };
+  const calib::Diagnosis hidden = renderAndDiagnose("cyclic", dir + "/errors.yaml");
+  CAPTURE(amplitude, hidden.verdict);
+  REQUIRE_FALSE(hidden.clean);
+  CHECK(sim::formatEffect(hidden.selected.front()) == "cyclic:2");
+  const calib::Diagnosis clean = renderAndDiagnose("clean", "table3");
+  CAPTURE(clean.verdict);
+  CHECK(clean.clean);
 }
