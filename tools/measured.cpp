@@ -115,7 +115,12 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   fo.method = o.method;
   fo.sigma_position_m = o.noise_position_m ? o.noise_position_m : data.noise_position_m;
   fo.sigma_rotation_rad = o.noise_rotation_rad ? o.noise_rotation_rad : data.noise_rotation_rad;
-  const sim::KinematicModel start = calib::startingModel(data, ident, effects);
+  sim::KinematicModel start;
+  try {
+    start = calib::startingModel(data, ident, effects);
+  } catch (const std::invalid_argument& e) {
+    throw sim::InputError(std::string("--effects: ") + e.what());
+  }
   r.fit = calib::fitMarkerModel(start, ident, fo);
 
   // The reference: the nominal arm with only the registration fitted.

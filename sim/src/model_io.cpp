@@ -93,7 +93,7 @@ LoadedModel loadModelFile(const std::string& path) {
     const ConfigNode e = list[k];
     e.requireOnlyKeys({"spec", "parameters"});
     effects.push_back(parseEffect(e["spec"].asString(), arm.numJoints(), path + ": effects[" + std::to_string(k) + "].spec"));
-    (void)e["parameters"];
+    (void)e["parameters"];  // required (read below, once the layout is known)
   }
   LoadedModel out;
   try {
