@@ -1,5 +1,6 @@
 #include "orbcal/sim/simulate.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -93,6 +94,7 @@ SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
       const double mid = 0.5 * (nominal.lower_rad[j] + nominal.upper_rad[j]);
       const double half = 0.5 * (nominal.upper_rad[j] - nominal.lower_rad[j]) * spec.joint_range_fraction;
       s.q_rad[j] = mid + half * (2.0 * u(rng) - 1.0);
+      if (std::find(spec.still_joints.begin(), spec.still_joints.end(), j) != spec.still_joints.end()) s.q_rad[j] = 0.0;
     }
     s.time_s = spec.sample_period_s * k;
     s.temperature_C = spec.temperature_start_C + spec.temperature_rise_C * (1.0 - std::exp(-s.time_s / spec.temperature_tau_s));

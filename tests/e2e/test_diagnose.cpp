@@ -8,6 +8,8 @@
 
 #include "diagnose.hpp"
 #include "orbcal/render/dataset_writer.hpp"
+#include "orbcal/sim/io.hpp"
+#include "orbcal/sim/simulate.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
@@ -87,4 +89,29 @@ TEST_CASE("diagnose names a cyclic error of joint 2 from rendered images alone; 
   const calib::Diagnosis clean = renderAndDiagnose("clean", "table3");
   CAPTURE(clean.verdict);
   CHECK(clean.clean);
+}
+
+TEST_CASE("diagnose names causes the data cannot separate as a set, and says how to separate them", "[e2e][diagnose]") {
+  // As in the real iiwa7 runs: one payload, only joints 1 and 2 move. The torques of joints 2 and 4
+  // then both follow q2, so a compliance of joint 2 and one of joint 4 explain nearly the same motion.
+  const sim::Arm arm = sim::loadArm(test::sourcePath("scenes/iiwa7.yaml"));
+  sim::SimulationSpec spec;
+  spec.samples = 200;
+  spec.seed = 31;
+  spec.payload_kg = {0.0};
+  spec.marker = sim::FrameSharing::kShared;
+  spec.still_joints = {2, 3, 4, 5, 6};
+  spec.effects = {sim::Compliance{{1}}};
+  spec.effect_values = Eigen::VectorXd::Constant(1, 1e-4);
+  const sim::SimulatedData s = sim::simulateMeasured(arm, spec);
+  const calib::Diagnosis d = calib::diagnose(s.data, calib::observationsFrom(s.data, true), {});
+  CAPTURE(d.verdict);
+  REQUIRE_FALSE(d.clean);
+  REQUIRE_FALSE(d.confounded.empty());
+  std::vector<std::string> set;
+  for (const sim::Effect& e : d.confounded.front().effects) set.push_back(sim::formatEffect(e));
+  CAPTURE(set);
+  CHECK(std::find(set.begin(), set.end(), "compliance:2") != set.end());
+  CHECK(set.size() >= 2);
+  CHECK(d.confounded.front().separate_by.find("payload") != std::string::npos);
 }

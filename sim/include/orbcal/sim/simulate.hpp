@@ -40,6 +40,7 @@ struct SimulationSpec {
   double temperature_start_C = 20.0, temperature_rise_C = 10.0, temperature_tau_s = 1800.0;
   double sample_period_s = 15.0;     ///< time between samples
   double joint_range_fraction = 0.8;  ///< configurations drawn uniformly within this fraction of each joint's range
+  std::vector<int> still_joints;      ///< joints (from 0) held at 0 rad in every configuration (a sweep of the others)
 };
 
 struct SimulatedData {
