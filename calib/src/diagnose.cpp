@@ -189,11 +189,22 @@ class Diagnoser {
     return fitMarkerModel(startingModel(data_, obs_, effects), obs_, fitOptions());
   }
 
-  /// Cross-validated held-out whitened SSE and residuals of a model with `effects`.
-  CvResult crossValidate(const std::vector<Effect>& effects) const {
+  /// Cross-validated held-out whitened SSE and residuals of a model with `effects`. With `warm` (a
+  /// fit of all the data whose effects are the first of `effects`), every fold starts from its frames
+  /// and parameters (the added effects at zero) instead of the closed-form start: the same optimum,
+  /// fewer iterations.
+  CvResult crossValidate(const std::vector<Effect>& effects, const Fit* warm = nullptr) const {
+    std::optional<sim::KinematicModel> warm_model;
+    Eigen::VectorXd warm_p;
+    if (warm) {
+      const sim::KinematicModel& w = warm->model;
+      warm_model = sim::makeKinematicModel(w.arm, w.sessions, w.base, w.marker, w.world_T_base, w.flange_T_marker, effects);
+      warm_p = Eigen::VectorXd::Zero(warm_model->layout.size());
+      warm_p.head(warm->p.size()) = warm->p;
+    }
     std::vector<std::future<std::pair<double, std::vector<std::pair<int, Eigen::VectorXd>>>>> jobs;
     for (int f = 0; f < folds_.k; ++f) {
-      jobs.push_back(std::async(std::launch::async, [this, f, &effects] {
+      jobs.push_back(std::async(std::launch::async, [this, f, &effects, &warm_model, &warm_p] {
         std::vector<MarkerObservation> train, test;
         std::vector<int> test_index;
         for (std::size_t i = 0; i < obs_.size(); ++i) {
@@ -204,8 +215,8 @@ class Diagnoser {
             train.push_back(obs_[i]);
           }
         }
-        const sim::KinematicModel start = startingModel(data_, train, effects);
-        const Fit fit = fitMarkerModel(start, train, fitOptions());
+        const sim::KinematicModel start = warm_model ? *warm_model : startingModel(data_, train, effects);
+        const Fit fit = fitMarkerModel(start, train, fitOptions(), warm_model ? warm_p : Eigen::VectorXd());
         const MarkerPoseModel held(start, test, noise_, fit.p);
         std::vector<std::pair<int, Eigen::VectorXd>> residuals;
         for (std::size_t t = 0; t < test.size(); ++t) residuals.emplace_back(test_index[t], markerResidual(start, fit.p, test[t]));
@@ -468,7 +479,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
     for (std::size_t i : order) {
       std::vector<Effect> trial = selected;
       trial.push_back(tests[i].effect);
-      cvs[i] = d.crossValidate(trial);
+      cvs[i] = d.crossValidate(trial, &current_fit);
       tests[i].cv_gain = cv_current.sse - cvs[i].sse;
     }
     // The largest penalized gain; then parsimony: among the candidates whose gain comes within the
