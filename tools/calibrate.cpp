@@ -19,9 +19,56 @@ namespace orbcal::tools {
 
 namespace {
 
+std::vector<calib::CornerObservation> cornerObservations(const std::vector<calib::MarkerObservation>& obs,
+                                                         const std::vector<vision::Measurement>& meas,
+                                                         const std::vector<std::size_t>& which) {
+  std::vector<calib::CornerObservation> out;
+  for (std::size_t i = 0; i < which.size(); ++i) out.push_back({obs[i].sample, meas[which[i]].corners_px});
+  return out;
+}
+
+/// Geometry + both frames + chain effects (+ distortion) on the corner model, from the closed-form
+/// frame start; the pixel sigma from the residuals. Joint noise is not in R (see corner_model.hpp).
+CornerEstimate estimateOnCorners(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
+                                 const std::vector<std::size_t>& ident, const std::vector<std::size_t>& hold,
+                                 const std::vector<sim::Effect>& effects, bool distortion) {
+  CornerEstimate c;
+  c.effects = effects;
+  c.distortion = distortion;
+  const ImageMeasuredData fitted = imageMeasuredData(d, meas, ident);
+  if (calib::needsTorque(effects) && d.arm.masses.empty()) {
+    throw sim::InputError("--effects: compliance deflects the joints under gravity torques, and " + d.manifest.robot_file +
+                          " has no masses: section");
+  }
+  const sim::KinematicModel start = calib::startingModel(fitted.data, fitted.observations, effects);
+  const std::vector<calib::CornerObservation> obs = cornerObservations(fitted.observations, meas, ident);
+  const ImageMeasuredData held_data = imageMeasuredData(d, meas, hold);
+  const std::vector<calib::CornerObservation> held = cornerObservations(held_data.observations, meas, hold);
+  const int off = start.layout.size();
+  std::vector<int> distortion_params;
+  for (int i = 0; i < 4; ++i) distortion_params.push_back(off + i);
+  calib::CornerNoise noise;  // the starting sigma; re-estimated from the residuals
+  c.fit = calib::fitCornerModel(start, d.scene.camera, d.scene.board, obs, noise, true, {},
+                                distortion ? std::vector<int>{} : distortion_params);
+  noise.sigma_px = c.fit.sigma_px;
+  const calib::CornerMeasurementModel held_model(start, d.scene.camera, d.scene.board, held, noise);
+  c.layout = held_model.layout();
+  c.heldout_rms_px = held.empty() ? 0.0 : calib::cornerResidualRms(held_model, c.fit.p);
+  if (distortion) {
+    c.without = calib::fitCornerModel(start, d.scene.camera, d.scene.board, obs, noise, true, {}, distortion_params);
+    c.heldout_rms_px_without = held.empty() ? 0.0 : calib::cornerResidualRms(held_model, c.without.p);
+    for (int i = 0; i < 4; ++i) {
+      c.dk[i] = c.fit.p[off + i];
+      c.dk_sigma[i] = std::sqrt(std::max(0.0, c.fit.estimate.covariance(off + i, off + i)));
+    }
+  }
+  if (const std::optional<sim::TrueArm> t = sim::datasetTrueArm(d)) c.dk_true = t->camera_distortion_delta;
+  return c;
+}
+
 FrameEstimate estimateFrames(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
                              const std::vector<std::size_t>& ident, const std::vector<std::size_t>& hold,
-                             double joint_noise_sigma_rad) {
+                             double joint_noise_sigma_rad, const std::vector<std::string>& effect_specs) {
   const ImageMeasuredData fitted = imageMeasuredData(d, meas, ident);
   const std::vector<calib::MarkerObservation>& obs = fitted.observations;
   const std::vector<calib::MarkerObservation> held = imageMeasuredData(d, meas, hold).observations;
@@ -40,6 +87,18 @@ FrameEstimate estimateFrames(const sim::Dataset& d, const std::vector<vision::Me
   const calib::CalibratedModel cm = calib::calibratedModel(f.fit);
   f.base_T_board = cm.model.world_T_base.front().inverse();
   f.flange_T_camera = cm.model.flange_T_marker.front();
+  if (!effect_specs.empty()) {
+    std::vector<sim::Effect> effects;
+    bool distortion = false;
+    for (const std::string& e : effect_specs) {
+      if (sim::isCameraEffect(e, "--effects")) {
+        distortion = true;
+      } else {
+        effects.push_back(sim::parseEffect(e, d.arm.numJoints(), "--effects"));
+      }
+    }
+    f.corners = estimateOnCorners(d, meas, ident, hold, effects, distortion);
+  }
   return f;
 }
 
@@ -47,6 +106,55 @@ std::string frameDifference(const Eigen::Isometry3d& a, const Eigen::Isometry3d&
   const Eigen::Isometry3d d = a.inverse() * b;
   return formatNumber("%.3f", d.translation().norm() * 1e3) + " mm, " +
          formatNumber("%.4f", sim::rotationAngle(d.linear()) * sim::kRadToDeg) + " deg";
+}
+
+std::string cornerSection(const CornerEstimate& c) {
+  std::ostringstream md;
+  md << "## Effects fitted on the detected corners\n\n"
+     << "Geometry, both frames";
+  for (const sim::Effect& e : c.effects) md << ", `" << sim::formatEffect(e) << "`";
+  if (c.distortion) md << " and the lens distortion the scene's camera does not model (`distortion`)";
+  md << ", by LM on the corner model (every detected corner against its projection; closed-form frame start). Pixel "
+     << "noise estimated from the residuals: " << formatNumber("%.4f", c.fit.sigma_px) << " px (joint noise is not in R: "
+     << "it counts as pixel noise); " << c.fit.estimate.held.size() << " parameters held as unidentifiable.\n\n"
+     << "Corner residual RMS: " << formatNumber("%.4f", c.fit.rms_px) << " px fitted, "
+     << formatNumber("%.4f", c.heldout_rms_px) << " px held out";
+  if (c.distortion) {
+    md << " (without the distortion block: " << formatNumber("%.4f", c.without.rms_px) << " px fitted, "
+       << formatNumber("%.4f", c.heldout_rms_px_without) << " px held out)";
+  }
+  md << ".\n\n";
+  const int off = c.layout.size() - 4;
+  if (c.distortion) {
+    md << "| distortion | estimate +- 1 sigma |" << (c.dk_true ? " injected |" : "") << "\n|---|---|" << (c.dk_true ? "---|" : "")
+       << "\n";
+    for (int i = 0; i < 4; ++i) {
+      md << "| " << c.layout.param(off + i).name << " | " << formatNumber("%+.5f", c.dk[i]) << " +- "
+         << formatNumber("%.5f", c.dk_sigma[i]) << " |";
+      if (c.dk_true) md << " " << formatNumber("%+.5f", (*c.dk_true)[i]) << " |";
+      md << "\n";
+    }
+    md << "\n(added to the scene camera's k1, k2, p1, p2; dimensionless)\n\n";
+  }
+  if (!c.effects.empty()) {
+    md << "| effect parameter | estimate +- 1 sigma |\n|---|---|\n";
+    for (const sim::ParamBlock& b : c.layout.blocks()) {
+      if (b.effect == "geometry" || b.effect == "base" || b.effect == "marker" || b.effect == "distortion") continue;
+      for (int i = 0; i < b.size(); ++i) {
+        const int k = b.offset + i;
+        const sim::ParamInfo& info = c.layout.param(k);
+        const bool held = std::binary_search(c.fit.estimate.held.begin(), c.fit.estimate.held.end(), k);
+        md << "| " << info.name << " | " << formatNumber("%+.5g", c.fit.p[k] * info.display_scale) << " "
+           << info.display_unit
+           << (held ? " (held)"
+                    : " +- " + formatNumber("%.3g", std::sqrt(std::max(0.0, c.fit.estimate.covariance(k, k))) *
+                                                         info.display_scale))
+           << " |\n";
+      }
+    }
+    md << "\n";
+  }
+  return md.str();
 }
 
 }  // namespace
@@ -77,7 +185,16 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   CalibrateResult r;
   const std::string out = o.out.empty() ? o.dataset + "/calibration" : o.out;
   if (!(o.holdout >= 0.0 && o.holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
+  if (!o.effects.empty() && !o.estimate_frames) {
+    throw sim::InputError("--effects: an image dataset's effects are fitted with its frames: add --estimate-frames");
+  }
+  for (const std::string& e : o.effects) {  // before any work: names and joints
+    if (!sim::isCameraEffect(e, "--effects")) sim::parseEffect(e, 64, "--effects");
+  }
   const sim::Dataset d = sim::loadDataset(o.dataset);
+  for (const std::string& e : o.effects) {
+    if (!sim::isCameraEffect(e, "--effects")) sim::parseEffect(e, d.arm.numJoints(), "--effects");
+  }
   calib::findMethod(calib::comparisonMethods(0.0), o.method);  // an unknown name fails before any work
 
   std::vector<vision::Measurement> meas;
@@ -149,7 +266,7 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
     r.truth_after = calib::summarize(calib::poseErrors(calibrated, truth));
   }
 
-  if (o.estimate_frames) r.frames = estimateFrames(d, meas, ident, hold, r.joint_noise_sigma_rad);
+  if (o.estimate_frames) r.frames = estimateFrames(d, meas, ident, hold, r.joint_noise_sigma_rad, o.effects);
 
   // Outputs.
   sim::makeDirectories(out);
@@ -219,6 +336,7 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
        << "\n\nHeld-out camera poses (board_T_camera), position RMS: nominal arm with the frames refitted "
        << formatNumber("%.4f", f.heldout_before.position_rms_m * 1e3) << " mm, calibrated "
        << formatNumber("%.4f", f.heldout_after.position_rms_m * 1e3) << " mm.\n\n";
+    if (f.corners) md << cornerSection(*f.corners);
   }
   if (r.frames) {
     sim::writeFileAtomic(out + "/frames.yaml", "# base_T_board and flange_T_camera estimated by orbcal calibrate --estimate-frames "

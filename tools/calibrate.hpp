@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <string>
 
+#include "orbcal/calib/corner_model.hpp"
 #include "orbcal/calib/experiment.hpp"
 #include "orbcal/calib/measured_fit.hpp"
 #include "orbcal/sim/dataset.hpp"
@@ -26,6 +27,22 @@ struct CalibrateOptions {
   /// Estimate base_T_board and flange_T_camera with the arm's parameters (closed-form start from the
   /// camera poses, then LM), instead of taking the scene's as exact.
   bool estimate_frames = false;
+  /// With estimate_frames: effects fitted on the corner model (calib/corner_model.hpp), as --effects
+  /// takes them: chain effects of the catalog and `distortion` (the camera's).
+  std::vector<std::string> effects;
+};
+
+/// With CalibrateOptions::effects: geometry + both frames + the chain effects + the distortion block,
+/// fitted by LM on the detected corners (calib::CornerMeasurementModel) from the closed-form frame start.
+struct CornerEstimate {
+  std::vector<sim::Effect> effects;     ///< the chain effects
+  bool distortion = false;              ///< the distortion block is free (else held at 0)
+  sim::ParamLayout layout;              ///< the corner model's
+  calib::CornerFit fit;                 ///< with the effects (and the distortion where asked)
+  calib::CornerFit without;             ///< the same with the distortion block held at 0 (with distortion only)
+  Eigen::Vector4d dk = Eigen::Vector4d::Zero(), dk_sigma = Eigen::Vector4d::Zero();
+  std::optional<Eigen::Vector4d> dk_true;  ///< the injected distortion of a simulated dataset (0 where none)
+  double heldout_rms_px = 0.0, heldout_rms_px_without = 0.0;  ///< corner residual RMS on the held-out images
 };
 
 /// With CalibrateOptions::estimate_frames: the fit of geometry + the two frames, and the frames it found.
@@ -33,6 +50,7 @@ struct FrameEstimate {
   calib::Fit fit;
   Eigen::Isometry3d base_T_board, flange_T_camera;          ///< estimated
   calib::ResidualStats heldout_before, heldout_after;       ///< scene frames refitted on the nominal arm vs calibrated
+  std::optional<CornerEstimate> corners;                    ///< with CalibrateOptions::effects
 };
 
 struct CalibrateResult {

@@ -7,6 +7,7 @@
 #include "cli.hpp"
 #include "measured.hpp"
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::tools {
@@ -56,8 +57,9 @@ void addCalibrateCommand(CLI::App& app) {
                   "estimator. Images: EKF (default), IEKF, LM, LM (Huber), LSE (weighted), LSE (paper), EKF (paper), ... "
                   "Measured data: LM (default), LSE, EKF");
   cmd->add_option("--effects", o->measured.effects,
-                  "measured data: effects to fit, effect:joints (joints from 1): compliance:2,4 cyclic:2 (2 harmonics; "
-                  "cyclic:2/3 for 3) scale:1 backlash:1 thermal drift mount");
+                  "effects to fit, effect:joints (joints from 1): compliance:2,4 cyclic:2 (2 harmonics; "
+                  "cyclic:2/3 for 3) scale:1 backlash:1 thermal drift mount; image datasets (with --estimate-frames, "
+                  "fitted on the detected corners): these and distortion (lens distortion the scene's camera lacks)");
   cmd->add_option_function<double>(
          "--joint-noise-deg", [o](double d) { o->images.joint_noise_sigma_rad = d * sim::kDegToRad; },
          "images: joint noise carried into R, 1 sigma [deg] (default: the manifest's, else 0.01)")
@@ -92,8 +94,8 @@ void addCalibrateCommand(CLI::App& app) {
       if (r.worse && !m.accept_worse) throw CLI::RuntimeError(1);
       return;
     }
-    if (!o->measured.effects.empty()) throw sim::InputError("--effects: only for measured data (a measurement description)");
     CalibrateOptions c = o->images;
+    c.effects = o->measured.effects;  // with --estimate-frames (runCalibrate says so otherwise)
     c.method = o->method.empty() ? "EKF" : o->method;
     c.holdout = o->holdout;
     c.seed = o->seed;
@@ -114,6 +116,20 @@ void addCalibrateCommand(CLI::App& app) {
       std::printf("with base_T_board and flange_T_camera estimated: held-out camera position RMS %.4f mm (nominal arm, frames "
                   "refitted: %.4f mm)\n",
                   r.frames->heldout_after.position_rms_m * 1e3, r.frames->heldout_before.position_rms_m * 1e3);
+    }
+    if (r.frames && r.frames->corners) {
+      const CornerEstimate& ce = *r.frames->corners;
+      std::printf("on the detected corners: residual RMS %.4f px (held out %.4f px)", ce.fit.rms_px, ce.heldout_rms_px);
+      if (ce.distortion) {
+        std::printf("; without the distortion block %.4f px (held out %.4f px)\n", ce.without.rms_px, ce.heldout_rms_px_without);
+        for (int i = 0; i < 4; ++i) {
+          std::printf("  %s %+.5f +- %.5f%s", ce.layout.param(ce.layout.size() - 4 + i).name.c_str(), ce.dk[i], ce.dk_sigma[i],
+                      ce.dk_true ? sim::formatNumber(" (injected %+.5f)", (*ce.dk_true)[i]).c_str() : "");
+          std::printf("\n");
+        }
+      } else {
+        std::printf("\n");
+      }
     }
     std::printf("calibrated robot: %s\nreport: %s\n", r.robot_path.c_str(), r.report_path.c_str());
   });

@@ -411,7 +411,11 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
     sim::writeFileAtomic(manifest_path, sim::formatManifest(m));
   }
 
-  BoardRenderer renderer(scene, settings);
+  // The images are taken through the plant's camera: the scene's plus the error-set file's distortion
+  // effect, which the copied scene.yaml does not have (lens distortion the calibration does not model).
+  sim::Scene taken = scene;
+  taken.camera = truth.camera(scene.camera);
+  BoardRenderer renderer(taken, settings);
   report.msaa_samples = renderer.msaaSamples();
   report.warnings = renderer.warnings();
   const auto t0 = std::chrono::steady_clock::now();

@@ -159,9 +159,27 @@ Effect parseEffect(const std::string& spec, int num_joints, const std::string& w
   if (name == "drift") return Drift{};
   if (name == "mount") return Mount{};
   if (name == "distortion") {
-    throw InputError(what + ": '" + spec + "': distortion is a camera effect of image datasets, not a chain effect");
+    throw InputError(what + ": '" + spec + "': distortion is a camera effect of image datasets (error-set files and "
+                     "orbcal calibrate DATASET_DIR --estimate-frames), not an effect of the arm's chain");
   }
   throw InputError(what + ": '" + spec + "': unknown effect (expected compliance, cyclic, scale, backlash, thermal, drift or mount)");
+}
+
+bool isCameraEffect(const std::string& spec, const std::string& what) {
+  const std::string name = spec.substr(0, spec.find(':'));
+  if (name != "distortion") return false;
+  if (spec != name) throw InputError(what + ": '" + spec + "': distortion takes no joints");
+  return true;
+}
+
+ParamBlock distortionBlock() {
+  ParamBlock b;
+  b.effect = "distortion";
+  b.params.push_back({"dk1", "1", "1", 1.0, 1e-2, Quantity::kOther});
+  b.params.push_back({"dk2", "1", "1", 1.0, 1e-2, Quantity::kOther});
+  b.params.push_back({"dp1", "1", "1", 1.0, 1e-3, Quantity::kOther});
+  b.params.push_back({"dp2", "1", "1", 1.0, 1e-3, Quantity::kOther});
+  return b;
 }
 
 std::string formatEffect(const Effect& e) {

@@ -124,6 +124,12 @@ Eigen::Isometry3d TrueArm::flangePose(const JointSample& s) const {
   return hasDrift(model) ? predictMarkerPose(model, p, s) : sim::flangePose(model, p, s);
 }
 
+Camera TrueArm::camera(const Camera& scene_camera) const {
+  Camera c = scene_camera;
+  for (int i = 0; i < 4; ++i) c.distortion[static_cast<std::size_t>(i)] += camera_distortion_delta[i];
+  return c;
+}
+
 Eigen::Isometry3d TrueArm::flangePose(int k, const Eigen::VectorXd& q, const Eigen::VectorXd* q_previous) const {
   return flangePose(sample(k, q, q_previous));
 }
@@ -175,13 +181,27 @@ TrueArm parseTrueArm(const Arm& nominal, const std::string& text, const std::str
   arm.masses.payload_kg = cov.payload_kg;
 
   std::vector<Effect> effects;
+  std::vector<std::size_t> effect_entries;  // the list entry of each chain effect
   std::set<std::string> seen;
   const ConfigNode list = root.optional("effects");
   const std::size_t n_effects = list.defined() ? list.size() : 0;
+  Eigen::Vector4d distortion = Eigen::Vector4d::Zero();
+  bool has_distortion = false;
   for (std::size_t k = 0; k < n_effects; ++k) {
     const ConfigNode e = list[k];
     e.requireOnlyKeys({"spec", "parameters"});
     const ConfigNode spec = e["spec"];
+    if (isCameraEffect(spec.asString(), source + ": " + spec.path())) {
+      if (has_distortion) spec.fail("a second distortion effect");
+      has_distortion = true;
+      const ParamBlock b = distortionBlock();
+      std::vector<std::string> names;
+      for (const ParamInfo& info : b.params) names.push_back(info.name);
+      const ConfigNode params = e["parameters"];
+      params.requireOnlyKeys(names);
+      for (int i = 0; i < 4; ++i) distortion[i] = params[names[static_cast<std::size_t>(i)]].asDouble();
+      continue;
+    }
     Effect effect = parseEffect(spec.asString(), arm.numJoints(), source + ": " + spec.path());
     const std::string name = effectName(effect);
     if (!seen.insert(name).second) {
@@ -200,14 +220,17 @@ TrueArm parseTrueArm(const Arm& nominal, const std::string& text, const std::str
                 "reference 20 degC it would do nothing");
     }
     effects.push_back(std::move(effect));
+    effect_entries.push_back(k);
   }
 
   TrueArm t = assemble(arm, y, effects);
   t.name = source;
   t.file_text = text;
   t.covariates = cov;
-  for (std::size_t k = 0; k < n_effects; ++k) {
-    const ConfigNode params = list[k]["parameters"];
+  t.camera_distortion_delta = distortion;
+  t.has_camera_distortion = has_distortion;
+  for (std::size_t k = 0; k < effects.size(); ++k) {
+    const ConfigNode params = list[effect_entries[k]]["parameters"];
     const std::string name = effectName(effects[k]);
     std::vector<std::string> allowed;
     for (const ParamBlock& b : t.model.layout.blocks()) {
@@ -275,6 +298,15 @@ std::string formatEffects(const TrueArm& t) {
       << " with a payload of " << formatNumber("%.6g", c.payload_kg) << " kg\n";
   }
   if (direction) s << "  approach direction: from the previous sample's joints\n";
+  if (t.has_camera_distortion) {
+    const ParamBlock b = distortionBlock();
+    s << "  distortion (camera, added to the scene's):";
+    for (int i = 0; i < 4; ++i) {
+      s << (i ? ", " : " ") << b.params[static_cast<std::size_t>(i)].name << " "
+        << formatNumber("%+.6g", t.camera_distortion_delta[i]);
+    }
+    s << "\n";
+  }
   return s.str();
 }
 

@@ -229,7 +229,40 @@ TEST_CASE("error-set file errors name the file and the key", "[sim][truth]") {
   CHECK_THAT(message(head + "effects: [{spec: \"mount\", parameters: {}}]\n"), Contains("effects[0].spec: mount"));
   CHECK_THAT(message(head + "effects: [{spec: \"thermal\", parameters: {alpha_thermal: 2e-5}}]\n"),
              Contains("effects[0].spec: thermal reads the temperature") && Contains("covariates.temperature"));
+  CHECK_THAT(message(head + "effects: [{spec: \"distortion\", parameters: {dk1: 0, dk2: 0, dp1: 0}}]\n"),
+             Contains("effects[0].parameters.dp2: missing"));
+  CHECK_THAT(message(head + "effects: [{spec: \"distortion:1\", parameters: {}}]\n"),
+             Contains("effects[0].spec") && Contains("distortion takes no joints"));
+  CHECK_THAT(message(head + "effects: [{spec: distortion, parameters: {dk1: 0, dk2: 0, dp1: 0, dp2: 0}}, "
+                            "{spec: distortion, parameters: {dk1: 0, dk2: 0, dp1: 0, dp2: 0}}]\n"),
+             Contains("effects[1].spec: a second distortion effect"));
   // A name that is neither a set nor a file.
   CHECK_THAT(test::inputError([&] { load(ssrms, dir + "/no_such.yaml"); }),
              Contains("--errors: '" + dir + "/no_such.yaml' is neither table3, zero, random nor a readable error-set file"));
+}
+
+TEST_CASE("the distortion effect changes the plant's camera, not its chain", "[sim][truth]") {
+  const std::string dir = test::tempDir("truth-distortion");
+  const Arm ssrms = loadArm(kDefaultRobot);
+  const std::string path = errorFile(dir, "d.yaml",
+                                     "format: orbcal-errors-1\ngeometry: table3\neffects:\n"
+                                     "  - {spec: \"cyclic:2\", parameters: {cyclic2_sin1: 1e-4, cyclic2_cos1: 0, cyclic2_sin2: 0, cyclic2_cos2: 0}}\n"
+                                     "  - {spec: distortion, parameters: {dk1: -0.05, dk2: 0.02, dp1: 1e-4, dp2: -2e-4}}\n");
+  const TrueArm t = load(ssrms, path);
+  REQUIRE(t.has_camera_distortion);
+  REQUIRE(t.model.effects.size() == 1);  // cyclic only: the chain
+  CHECK(t.camera_distortion_delta.isApprox(Eigen::Vector4d(-0.05, 0.02, 1e-4, -2e-4)));
+  CHECK(t.hasEffects());
+  Camera c;
+  c.distortion = {0.1, 0.2, 0.3, 0.4, 0.5};
+  const Camera taken = t.camera(c);
+  CHECK(taken.distortion[0] == Approx(0.05));
+  CHECK(taken.distortion[1] == Approx(0.22));
+  CHECK(taken.distortion[3] == Approx(0.4 - 2e-4));
+  CHECK(taken.distortion[4] == 0.5);
+  CHECK_THAT(formatEffects(t), Contains("distortion") && Contains("dk1 -0.05"));
+  // parseEffect keeps the chain: distortion is named as a camera effect there.
+  CHECK_THAT(test::inputError([&] { parseEffect("distortion", 7, "--effects"); }), Contains("camera effect"));
+  CHECK(isCameraEffect("distortion", "--effects"));
+  CHECK_FALSE(isCameraEffect("cyclic:2", "--effects"));
 }

@@ -97,6 +97,7 @@ Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim
     return m;
   }
   m.camera_T_board = pose.camera_T_board;
+  m.corners_px = det.corners_px;
   m.base_T_flange = measuredFlangePose(scene, pose.camera_T_board);
   m.covariance = flangeCovariance(scene.flange_T_camera, pose.covariance_camera);
   if (q.size() > 0) {

@@ -113,8 +113,21 @@ std::vector<int> effectJoints(const Effect& e);
 const std::vector<std::string>& effectNames();
 /// Parses "compliance:2,4", "cyclic:2" (K = 2 harmonics), "cyclic:2,3/3" (K = 3), "thermal",
 /// "drift", "mount" (joints from 1). Throws InputError naming `what` (e.g. "--effects") for an
-/// unknown name, a joint out of range or a joint effect without joints.
+/// unknown name, a joint out of range or a joint effect without joints, and for "distortion": a camera
+/// effect, which the callers that have a camera (error-set files, the corner model of image datasets)
+/// take out with isCameraEffect before parsing the chain effects.
 Effect parseEffect(const std::string& spec, int num_joints, const std::string& what);
+/// True for the camera effects of the catalog: "distortion" (takes no joints; throws InputError naming
+/// `what` for "distortion:..." with anything after the name).
+bool isCameraEffect(const std::string& spec, const std::string& what);
+/// The `distortion` block: lens distortion the scene's camera does not model, added to its OpenCV
+/// coefficients (dk1, dk2, dp1, dp2; dimensionless, in normalised image coordinates). Typical
+/// magnitudes: 0.01 for dk1 and dk2 (what a refocused or re-mounted lens, or intrinsics calibrated at
+/// another temperature or distance, leave of k1 ~ -0.1..-0.3: a few percent of it; at the corner of a
+/// 0.6-radius field it moves a point by ~2 px at f = 1000 px), 1e-3 for dp1 and dp2 (decentring is an
+/// order smaller than radial distortion in assembled lenses). k3 is left to the scene: with k1 and k2
+/// free it is nearly collinear with them over a board that does not fill the field.
+ParamBlock distortionBlock();
 /// The inverse of parseEffect: "compliance:2,4".
 std::string formatEffect(const Effect& e);
 /// Parameter blocks of an effect for an arm and a number of sessions.

@@ -10,6 +10,7 @@
 //   effects:                    # optional; SI values, parameter names as sim::effectBlocks gives them
 //     - {spec: "cyclic:2", parameters: {cyclic2_sin1: 2.6e-4, cyclic2_cos1: 0, cyclic2_sin2: 0, cyclic2_cos2: 8.7e-5}}
 //     - {spec: "compliance:2", parameters: {c2: 1.0e-4}}
+//     - {spec: "distortion", parameters: {dk1: -0.05, dk2: 0.02, dp1: 0, dp2: 0}}   # a camera effect
 //   covariates:                 # optional: what the effects read, sample by sample
 //     payload_kg: 0             # at the flange; default: the robot file's masses.payload
 //     temperature: {start_C: 20, rise_C: 10, tau_s: 1800}   # each key optional: 20, 0, 1800
@@ -28,6 +29,9 @@
 // robot file has no masses and the payload is 0 (no torques to deflect under), `thermal` without
 // covariates.temperature (a constant 20 degC, the reference, would hide it), and `mount` (a marker
 // re-mounted between sessions: a rendered dataset is one session). `drift` moves the base with t_k.
+// `distortion` (sim::distortionBlock) is a camera effect: the images are taken through the scene
+// camera's OpenCV distortion plus (dk1, dk2, dp1, dp2), while the dataset's scene.yaml keeps the
+// scene's, so the calibration sees lens distortion its camera model does not have (TrueArm::camera).
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
@@ -35,6 +39,7 @@
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/model.hpp"
+#include "orbcal/sim/scene.hpp"
 
 namespace orbcal::sim {
 
@@ -59,9 +64,15 @@ struct TrueArm {
   KinematicModel model;        ///< frames known (identity), geometry, effects; arm = nominal with the payload
   Eigen::VectorXd p;           ///< in model.layout: the DH errors, then the effects' values (SI)
   CovariateProfile covariates;
+  /// The `distortion` camera effect: (dk1, dk2, dp1, dp2) added to the scene camera's (k1, k2, p1, p2).
+  Eigen::Vector4d camera_distortion_delta = Eigen::Vector4d::Zero();
+  bool has_camera_distortion = false;  ///< the error-set file lists `distortion`
 
   bool fromFile() const { return !file_text.empty(); }
-  bool hasEffects() const { return !model.effects.empty(); }
+  /// Chain effects or a camera effect.
+  bool hasEffects() const { return !model.effects.empty() || has_camera_distortion; }
+  /// The camera the plant's images are taken with: `scene_camera` with the distortion effect added.
+  Camera camera(const Camera& scene_camera) const;
   /// The 4n DH errors (y order; what manifests store as true_errors).
   Eigen::VectorXd geometryErrors() const;
   /// The covariates of the k-th sample at joints q (q_previous: the sample before, or null for the first).

@@ -55,6 +55,9 @@ struct Measurement {
   sim::Matrix6d covariance = sim::Matrix6d::Zero();  ///< of e_f (pose.hpp)
   bool has_pose_error = false;                       ///< a joint reading q was given
   sim::Vector6d pose_error = sim::Vector6d::Zero();  ///< poseMinus(base_T_flange, FK(nominal, q)); zero without q
+  /// The detected inner corners (px), k as in sim::cornerInBoard; in memory only (measurements.csv
+  /// does not hold them, so loadMeasurements leaves this empty). Filled when found.
+  std::vector<Eigen::Vector2d> corners_px;
   bool found() const { return status == ImageStatus::kFound; }
 };
 
