@@ -17,8 +17,6 @@
 
 namespace orbcal::tools {
 
-namespace {
-
 std::vector<calib::CornerObservation> cornerObservations(const std::vector<calib::MarkerObservation>& obs,
                                                          const std::vector<vision::Measurement>& meas,
                                                          const std::vector<std::size_t>& which) {
@@ -26,6 +24,8 @@ std::vector<calib::CornerObservation> cornerObservations(const std::vector<calib
   for (std::size_t i = 0; i < which.size(); ++i) out.push_back({obs[i].sample, meas[which[i]].corners_px});
   return out;
 }
+
+namespace {
 
 /// Geometry + both frames + chain effects (+ distortion) on the corner model, from the closed-form
 /// frame start; the pixel sigma from the residuals. Joint noise is not in R (see corner_model.hpp).

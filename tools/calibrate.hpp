@@ -74,6 +74,10 @@ struct ImageMeasuredData {
   sim::MeasuredData data;
   std::vector<calib::MarkerObservation> observations;
 };
+/// The detected corners of the samples `which` (obs[i] is sample which[i]), for the corner model.
+std::vector<calib::CornerObservation> cornerObservations(const std::vector<calib::MarkerObservation>& obs,
+                                                         const std::vector<vision::Measurement>& meas,
+                                                         const std::vector<std::size_t>& which);
 ImageMeasuredData imageMeasuredData(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
                                     const std::vector<std::size_t>& which);
 

@@ -1,6 +1,8 @@
 #include "diagnose.hpp"
 
+#include <algorithm>
 #include <chrono>
+#include <numeric>
 #include <cmath>
 #include <optional>
 #include <random>
@@ -21,6 +23,8 @@
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/simulate.hpp"
 #include "orbcal/vision/measurement.hpp"
+
+#include <opencv2/calib3d.hpp>
 #include "progress.hpp"
 
 namespace orbcal::tools {
@@ -88,7 +92,7 @@ std::pair<std::string, std::string> revealingVariable(const sim::Effect& e) {
 
 }  // namespace
 
-std::string diagnosisJson(const calib::Diagnosis& d) {
+std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& distortion) {
   std::ostringstream j;
   j << "{\"verdict\": " << jsonString(d.clean ? "clean" : "effects") << ",\n \"sentence\": " << jsonString(d.verdict)
     << ",\n \"selected\": [";
@@ -99,6 +103,15 @@ std::string diagnosisJson(const calib::Diagnosis& d) {
       const auto& [info, value, sigma] = sel[k].params[i];
       j << (i ? ", " : "") << "{\"name\": " << jsonString(info->name) << ", \"value\": " << sim::exactNumber(value)
         << ", \"sigma\": " << sim::exactNumber(sigma) << ", \"unit\": " << jsonString(info->unit) << "}";
+    }
+    j << "]}";
+  }
+  if (distortion.selected) {
+    static const char* kNames[4] = {"dk1", "dk2", "dp1", "dp2"};
+    j << (sel.empty() ? "\n   " : ",\n   ") << "{\"effect\": \"distortion\", \"joints\": [], \"parameters\": [";
+    for (std::size_t i = 0; i < 4; ++i) {
+      j << (i ? ", " : "") << "{\"name\": \"" << kNames[i] << "\", \"value\": " << sim::exactNumber(distortion.dk[i])
+        << ", \"sigma\": " << sim::exactNumber(distortion.dk_sigma[i]) << ", \"unit\": \"1\"}";
     }
     j << "]}";
   }
@@ -114,42 +127,174 @@ std::string diagnosisJson(const calib::Diagnosis& d) {
   return j.str();
 }
 
+namespace {
+
+/// OpenCV's camera matrix and distortion of a scene camera plus a delta (dk1, dk2, dp1, dp2).
+std::pair<cv::Mat, cv::Mat> cvCamera(const sim::Camera& c, const std::array<double, 4>& delta) {
+  cv::Mat K = (cv::Mat_<double>(3, 3) << c.fx_px, 0, c.cx_px, 0, c.fy_px, c.cy_px, 0, 0, 1);
+  cv::Mat D = (cv::Mat_<double>(1, 5) << c.distortion[0] + delta[0], c.distortion[1] + delta[1], c.distortion[2] + delta[2],
+               c.distortion[3] + delta[3], c.distortion[4]);
+  return {K, D};
+}
+
+/// Corner residuals (px) of each image in `which` at its own best pose (IPPE, then LM) under a camera.
+Eigen::VectorXd perImageResiduals(const std::vector<std::vector<cv::Point3f>>& object,
+                                  const std::vector<std::vector<cv::Point2f>>& image, const std::vector<std::size_t>& which,
+                                  const cv::Mat& K, const cv::Mat& D) {
+  std::vector<double> r;
+  for (std::size_t i : which) {
+    cv::Mat rvec, tvec;
+    cv::solvePnP(object[i], image[i], K, D, rvec, tvec, false, cv::SOLVEPNP_IPPE);
+    cv::solvePnPRefineLM(object[i], image[i], K, D, rvec, tvec);
+    std::vector<cv::Point2f> projected;
+    cv::projectPoints(object[i], rvec, tvec, K, D, projected);
+    for (std::size_t c = 0; c < projected.size(); ++c) {
+      r.push_back(image[i][c].x - projected[c].x);
+      r.push_back(image[i][c].y - projected[c].y);
+    }
+  }
+  return Eigen::Map<Eigen::VectorXd>(r.data(), static_cast<Eigen::Index>(r.size()));
+}
+
+/// dk (k1, k2, p1, p2 beyond the scene's) from images `which`, each with its own pose: Gauss-Newton on
+/// the 4 coefficients with every pose re-optimized at each evaluation (variable projection; the
+/// Jacobian by central differences of the re-optimized residuals), focal lengths, principal point and
+/// k3 held at the scene's. sigma: 1-sigma from (J^T J)^-1 and the residual variance.
+std::array<double, 4> fitDistortion(const std::vector<std::vector<cv::Point3f>>& object,
+                                    const std::vector<std::vector<cv::Point2f>>& image, const std::vector<std::size_t>& which,
+                                    const sim::Camera& camera, std::array<double, 4>* sigma = nullptr) {
+  std::array<double, 4> dk{0, 0, 0, 0};
+  const auto residuals = [&](const std::array<double, 4>& at) {
+    const auto [K, D] = cvCamera(camera, at);
+    return perImageResiduals(object, image, which, K, D);
+  };
+  constexpr double kStep[4] = {1e-4, 1e-4, 1e-5, 1e-5};  // well inside the coefficients' typical sizes
+  Eigen::MatrixXd J;
+  Eigen::VectorXd r = residuals(dk);
+  for (int it = 0; it < 8; ++it) {
+    J.resize(r.size(), 4);
+    for (int j = 0; j < 4; ++j) {
+      std::array<double, 4> plus = dk, minus = dk;
+      plus[static_cast<std::size_t>(j)] += kStep[j];
+      minus[static_cast<std::size_t>(j)] -= kStep[j];
+      J.col(j) = (residuals(plus) - residuals(minus)) / (2.0 * kStep[j]);
+    }
+    // r = observed - projected: r(dk + d) ≈ r + J d; minimize |r + J d|.
+    const Eigen::Vector4d step = -(J.transpose() * J).ldlt().solve(J.transpose() * r);
+    for (int j = 0; j < 4; ++j) dk[static_cast<std::size_t>(j)] += step[j];
+    r = residuals(dk);
+    if ((step.array().abs() < Eigen::Array4d(1e-7, 1e-7, 1e-8, 1e-8)).all()) break;
+  }
+  if (sigma) {
+    const double dof = std::max(1.0, static_cast<double>(r.size()) - 6.0 * static_cast<double>(which.size()) - 4.0);
+    const Eigen::Matrix4d cov = (J.transpose() * J).inverse() * (r.squaredNorm() / dof);
+    for (int j = 0; j < 4; ++j) (*sigma)[static_cast<std::size_t>(j)] = std::sqrt(std::max(0.0, cov(j, j)));
+  }
+  return dk;
+}
+
+DistortionCheck checkDistortion(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
+                                const std::vector<std::size_t>& usable, const calib::DiagnoseOptions& o) {
+  DistortionCheck c;
+  const int n = static_cast<int>(usable.size());
+  const int k = std::max(2, o.folds);
+  if (n < 2 * k) return c;
+  c.tested = true;
+  // Distortion is a pattern within each image: every image gets its own pose here, so the arm's
+  // errors and the joint noise (a rigid shift of each image's corners) cannot pose as distortion.
+  std::vector<std::vector<cv::Point3f>> object(static_cast<std::size_t>(n));
+  std::vector<std::vector<cv::Point2f>> image(static_cast<std::size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const std::vector<Eigen::Vector2d>& px = meas[usable[static_cast<std::size_t>(i)]].corners_px;
+    for (std::size_t c2 = 0; c2 < px.size(); ++c2) {
+      const Eigen::Vector3d b = sim::cornerInBoard(d.scene.board, static_cast<int>(c2));
+      object[static_cast<std::size_t>(i)].emplace_back(static_cast<float>(b.x()), static_cast<float>(b.y()), static_cast<float>(b.z()));
+      image[static_cast<std::size_t>(i)].emplace_back(static_cast<float>(px[c2].x()), static_cast<float>(px[c2].y()));
+    }
+  }
+  std::vector<std::size_t> all(static_cast<std::size_t>(n));
+  std::iota(all.begin(), all.end(), 0);
+  std::size_t coords = 0;
+  for (const auto& im : image) coords += 2 * im.size();
+  const auto [K0, D0] = cvCamera(d.scene.camera, {0, 0, 0, 0});
+  const double sse0 = perImageResiduals(object, image, all, K0, D0).squaredNorm();
+  c.dk = fitDistortion(object, image, all, d.scene.camera, &c.dk_sigma);
+  const auto [K1, D1] = cvCamera(d.scene.camera, c.dk);
+  const double sse1 = perImageResiduals(object, image, all, K1, D1).squaredNorm();
+  const double dof = static_cast<double>(coords) - 6.0 * n - 4.0;
+  const double s2 = sse1 / std::max(1.0, dof);  // the detector's noise, with the distortion modelled
+  c.sigma_px = std::sqrt(s2);
+  c.lr = (sse0 - sse1) / s2;
+  c.p_value = calib::fSurvival(c.lr / 4.0, 4.0, dof);
+  // Folds by image, seeded: dk from the training images, each held-out image's own pose under it.
+  std::vector<std::size_t> order = all;
+  std::mt19937_64 rng = sim::makeRng(o.seed, 0x6469737466ULL);
+  std::shuffle(order.begin(), order.end(), rng);
+  double held0 = 0.0, held1 = 0.0;
+  for (int f = 0; f < k; ++f) {
+    std::vector<std::size_t> train, test;
+    for (int i = 0; i < n; ++i) (i % k == f ? test : train).push_back(order[static_cast<std::size_t>(i)]);
+    const auto [Kf, Df] = cvCamera(d.scene.camera, fitDistortion(object, image, train, d.scene.camera));
+    held0 += perImageResiduals(object, image, test, K0, D0).squaredNorm();
+    held1 += perImageResiduals(object, image, test, Kf, Df).squaredNorm();
+  }
+  c.cv_gain = (held0 - held1) / s2;
+  c.heldout_rms_without_px = std::sqrt(held0 / static_cast<double>(coords));
+  c.heldout_rms_with_px = std::sqrt(held1 / static_cast<double>(coords));
+  c.selected = c.p_value < o.alpha && c.cv_gain > 4.0 * o.penalty_per_param;
+  return c;
+}
+
+}  // namespace
+
 DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   DiagnoseRunResult r;
   sim::MeasuredData data;
   std::vector<calib::MarkerObservation> obs;
   const bool measured = std::filesystem::is_regular_file(o.input);
+  std::optional<sim::Dataset> dataset;
+  std::vector<vision::Measurement> meas;
+  std::vector<std::size_t> usable;
+  calib::DiagnoseOptions options = o.diagnose;
   if (measured) {
     data = sim::loadMeasuredData(o.input);
     obs = calib::observationsFrom(data, data.has_torque || !data.arm.masses.empty());
   } else {
-    const sim::Dataset d = sim::loadDataset(o.input);
-    std::vector<vision::Measurement> meas;
+    dataset = sim::loadDataset(o.input);
     {
-      Progress bar(o.quiet ? "" : "measure images", o.quiet ? 0 : static_cast<int>(d.samples.size()));
-      meas = vision::measureDataset(d, {}, [&](int done, int) { bar.update(done); });
+      Progress bar(o.quiet ? "" : "measure images", o.quiet ? 0 : static_cast<int>(dataset->samples.size()));
+      meas = vision::measureDataset(*dataset, {}, [&](int done, int) { bar.update(done); });
     }
-    std::vector<std::size_t> usable;
     for (std::size_t k = 0; k < meas.size(); ++k) {
       if (meas[k].found()) usable.push_back(k);
     }
-    ImageMeasuredData im = imageMeasuredData(d, meas, usable);
+    ImageMeasuredData im = imageMeasuredData(*dataset, meas, usable);
     data = std::move(im.data);
     obs = std::move(im.observations);
-  }
-  calib::DiagnoseOptions options = o.diagnose;
-  if (!measured && options.joint_noise_sigma_rad == 0.0) {
     // As orbcal calibrate: the manifest's joint noise, else seed 000's 0.01 deg.
-    const sim::Dataset d = sim::loadDataset(o.input);
-    options.joint_noise_sigma_rad = d.manifest.joint_noise_sigma_rad > 0.0 ? d.manifest.joint_noise_sigma_rad : 0.01 * sim::kDegToRad;
+    if (options.joint_noise_sigma_rad == 0.0) {
+      options.joint_noise_sigma_rad =
+          dataset->manifest.joint_noise_sigma_rad > 0.0 ? dataset->manifest.joint_noise_sigma_rad : 0.01 * sim::kDegToRad;
+    }
   }
   r.diagnosis = calib::diagnose(data, obs, options);
+  if (dataset) {
+    r.distortion = checkDistortion(*dataset, meas, usable, options);
+    if (r.distortion.selected) {
+      calib::Diagnosis& dg = r.diagnosis;
+      const std::string lens = "lens distortion the scene's camera does not model (held-out corner RMS " +
+                               sim::formatNumber("%.3f", r.distortion.heldout_rms_without_px) + " -> " +
+                               sim::formatNumber("%.3f", r.distortion.heldout_rms_with_px) + " px; calibrate with --estimate-frames --effects distortion)";
+      dg.verdict = dg.clean ? "The model misses " + lens + "." : dg.verdict + " It also misses " + lens + ".";
+      dg.clean = false;
+    }
+  }
   const calib::Diagnosis& dg = r.diagnosis;
 
   const std::string out = o.out.empty() ? (measured ? std::filesystem::path(o.input).parent_path().string() : o.input) + "/diagnosis" : o.out;
   sim::makeDirectories(out);
   r.json_path = out + "/diagnosis.json";
-  sim::writeFileAtomic(r.json_path, diagnosisJson(dg));
+  sim::writeFileAtomic(r.json_path, diagnosisJson(dg, r.distortion));
   const calib::CalibratedModel cm = calib::calibratedModel(dg.fit);
   r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(dg.fit), out,
                                      "Selected by orbcal " ORBCAL_VERSION " (orbcal diagnose) from " + o.input);
@@ -212,6 +357,20 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
            << " | " << sim::formatNumber("%.2g", sigma * info->display_scale) << " | " << info->display_unit << " |\n";
       }
     }
+  }
+  if (r.distortion.tested) {
+    const DistortionCheck& c = r.distortion;
+    md << "\n## The camera: lens distortion the scene does not model\n\n"
+       << "Each image's own pose (solvePnP) under the scene's camera, and under the scene's camera plus dk1, dk2, dp1, dp2 "
+       << "fitted with every image's pose free (focal lengths, principal point and k3 held; "
+       << o.diagnose.folds << " folds by image): held-out corner RMS " << sim::formatNumber("%.4f", c.heldout_rms_without_px) << " -> "
+       << sim::formatNumber("%.4f", c.heldout_rms_with_px) << " px, held-out gain " << sim::formatNumber("%.1f", c.cv_gain)
+       << " (must exceed " << sim::formatNumber("%.0f", 4 * o.diagnose.penalty_per_param) << "), likelihood ratio "
+       << sim::formatNumber("%.1f", c.lr) << " (F test p " << sim::formatNumber("%.2g", c.p_value) << "). "
+       << (c.selected ? "**Named.**" : "Not named.") << " Fitted on all images: dk1 " << sim::formatNumber("%+.4g", c.dk[0]) << " +- "
+       << sim::formatNumber("%.2g", c.dk_sigma[0]) << ", dk2 " << sim::formatNumber("%+.4g", c.dk[1]) << " +- "
+       << sim::formatNumber("%.2g", c.dk_sigma[1]) << ", dp1 " << sim::formatNumber("%+.3g", c.dk[2]) << ", dp2 "
+       << sim::formatNumber("%+.3g", c.dk[3]) << ".\n";
   }
   md << "\n## Candidates\n\nScore test of each candidate's columns beyond the current model (rank: what the model cannot "
         "absorb); the significant ones fitted and cross-validated.\n\n| step | candidate | params | rank | score | p (Holm) | CV gain |\n|---|---|---|---|---|---|---|\n";

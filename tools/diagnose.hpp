@@ -1,6 +1,7 @@
 #pragma once
 // `orbcal diagnose`: the diagnosis (calib/diagnose.hpp) of measured data or of an image dataset, and its
 // outputs: report.md (verdict first), diagnosis.json, model.yaml (the selected model), figures.
+#include <array>
 #include <string>
 
 #include "orbcal/calib/diagnose.hpp"
@@ -15,8 +16,24 @@ struct DiagnoseRunOptions {
   bool quiet = false;
 };
 
+/// Image datasets: the camera effect `distortion` (lens distortion the scene's camera does not model),
+/// tested on the detected corners with every image's own pose (so neither the arm's errors nor joint
+/// noise can pose as a pattern within the images): the scene's camera against the scene's camera plus
+/// (dk1, dk2, dp1, dp2) fitted with every image's pose re-optimized and the other intrinsics held, cross-validated
+/// by image; named when the held-out corner error falls by more than the penalty for 4 parameters and
+/// the F test of the fit is significant at the diagnosis's alpha.
+struct DistortionCheck {
+  bool tested = false, selected = false;
+  double cv_gain = 0.0;        ///< held-out corner SSE decrease, in units of the detector's noise variance
+  double lr = 0.0, p_value = 1.0;
+  double sigma_px = 0.0;       ///< the detector's noise, with the distortion modelled
+  double heldout_rms_without_px = 0.0, heldout_rms_with_px = 0.0;
+  std::array<double, 4> dk{}, dk_sigma{};  ///< dk1, dk2, dp1, dp2 on all images, and 1-sigma
+};
+
 struct DiagnoseRunResult {
   calib::Diagnosis diagnosis;
+  DistortionCheck distortion;
   std::string report_path, json_path, model_path;
 };
 
@@ -54,6 +71,6 @@ StudyResult runDiagnoseStudy(const StudyOptions& o);
 std::string formatStudy(const StudyResult& r);
 
 /// diagnosis.json (the machine-readable result).
-std::string diagnosisJson(const calib::Diagnosis& d);
+std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& distortion = {});
 
 }  // namespace orbcal::tools

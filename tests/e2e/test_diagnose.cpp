@@ -80,15 +80,31 @@ TEST_CASE("diagnose names a cyclic error of joint 2 from rendered images alone; 
     o.out = job.out + "/diagnosis";
     o.plots = false;
     o.quiet = true;
-    return tools::runDiagnose(o).diagnosis;
+    return tools::runDiagnose(o);
   };
-  const calib::Diagnosis hidden = renderAndDiagnose("cyclic", dir + "/errors.yaml");
+  const calib::Diagnosis hidden = renderAndDiagnose("cyclic", dir + "/errors.yaml").diagnosis;
   CAPTURE(amplitude, hidden.verdict);
   REQUIRE_FALSE(hidden.clean);
   CHECK(sim::formatEffect(hidden.selected.front()) == "cyclic:2");
-  const calib::Diagnosis clean = renderAndDiagnose("clean", "table3");
-  CAPTURE(clean.verdict);
-  CHECK(clean.clean);
+  const tools::DiagnoseRunResult clean = renderAndDiagnose("clean", "table3");
+  CAPTURE(clean.diagnosis.verdict);
+  CHECK(clean.diagnosis.clean);
+  CHECK(clean.distortion.tested);
+  CHECK_FALSE(clean.distortion.selected);
+
+  // Lens distortion the scene's camera does not model (a re-focused or never-calibrated lens): dk1
+  // drawn in [-0.10, -0.05], dk2 in [0, 0.04] (the corners then move by 0.1-0.3 px at the edge of the
+  // quick scene's views, against the detector's ~0.035 px).
+  const double dk1 = -0.05 - 0.05 * std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+  const double dk2 = 0.04 * std::uniform_real_distribution<double>(0.0, 1.0)(rng);
+  test::write(dir + "/lens.yaml", "format: orbcal-errors-1\ngeometry: table3\neffects:\n  - {spec: distortion, parameters: {dk1: " +
+                                      std::to_string(dk1) + ", dk2: " + std::to_string(dk2) + ", dp1: 0, dp2: 0}}\n");
+  const tools::DiagnoseRunResult lens = renderAndDiagnose("lens", dir + "/lens.yaml");
+  CAPTURE(dk1, dk2, lens.diagnosis.verdict, lens.distortion.dk[0], lens.distortion.dk_sigma[0]);
+  CHECK(lens.distortion.selected);
+  CHECK_FALSE(lens.diagnosis.clean);
+  CHECK(std::abs(lens.distortion.dk[0] - dk1) < 3.0 * lens.distortion.dk_sigma[0]);
+  CHECK(test::slurp(lens.json_path).find("\"effect\": \"distortion\"") != std::string::npos);
 }
 
 TEST_CASE("diagnose names causes the data cannot separate as a set, and says how to separate them", "[e2e][diagnose]") {
