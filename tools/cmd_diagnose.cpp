@@ -15,7 +15,7 @@ void addDiagnoseCommand(CLI::App& app) {
       "diagnose",
       "From measured data (a measurement description, .yaml) or an image dataset (folder): does the geometry + "
       "registration model leave structure in its cross-validated residuals, which effect of the catalog explains it "
-      "(compliance, cyclic, scale, backlash, thermal, drift, mount), with which parameters, and how much better the "
+      "(compliance, cyclic, scale, backlash, thermal, drift, mount; on image datasets also the lens distortion), with which parameters, and how much better the "
       "extended model predicts held-out data. Writes report.md (verdict first), diagnosis.json, model.yaml, figures.");
   cmd->add_option("input", o->input, "measurement description (.yaml) or image dataset folder")->required();
   cmd->add_option("-o,--out", o->out, "output folder (default: diagnosis/ beside the input)");
