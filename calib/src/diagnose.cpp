@@ -333,7 +333,6 @@ class Diagnoser {
   }
 
   void setNoise(const MarkerNoise& n) { noise_ = n; }
-  const Folds& folds() const { return folds_; }
 
  private:
   const sim::MeasuredData& data_;
