@@ -282,9 +282,10 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   calib::Comparison single;
   single.methods.push_back({method, r.estimate, {}, {}});
   const Eigen::VectorXd* y_true = d.manifest.true_errors ? &*d.manifest.true_errors : nullptr;
-  sim::writeFileAtomic(out + "/estimates.csv", calib::formatEstimatesCsv(single, y_true));
+  sim::writeFileAtomic(out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true));
 
   std::ostringstream md;
+  const bool hayati = d.arm.convention == sim::DhConvention::kHayati;
   md << "# Calibration of " << d.arm.name << "\n\n"
      << "Dataset `" << o.dataset << "`; method **" << method.name << "** (" << method.description
      << "); joint noise in R: " << formatNumber("%.4g", r.joint_noise_sigma_rad * sim::kRadToDeg) << " deg.\n\n"
@@ -294,13 +295,14 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
      << sim::formatIdentifiability(sim::analyzeIdentifiability(d.arm, ident_configs)) << "```\n\n"
      << "## Estimate\n\n"
      << r.estimate.iterations << " iterations, rank " << r.estimate.rank << ", " << formatNumber("%.2f", r.estimate.seconds * 1e3)
-     << " ms" << (r.estimate.converged ? "" : ", NOT converged") << ". Per joint, theta and alpha in deg, a and d in mm, "
-     << "+- 1 sigma" << (y_true ? "; truth in brackets" : "") << ":\n\n| joint | theta | alpha | a | d |\n|---|---|---|---|---|\n";
+     << " ms" << (r.estimate.converged ? "" : ", NOT converged") << ". Per joint, " << (hayati ? "theta, alpha and beta" : "theta and alpha")
+     << " in deg, a and d in mm, +- 1 sigma" << (y_true ? "; truth in brackets" : "") << ":\n\n"
+     << (hayati ? "| joint | theta | alpha | a | d | beta |\n|---|---|---|---|---|---|\n" : "| joint | theta | alpha | a | d |\n|---|---|---|---|---|\n");
   for (int j = 0; j < d.arm.numJoints(); ++j) {
     md << "| " << j + 1 << " |";
-    for (int k = 0; k < sim::Arm::kParamsPerJoint; ++k) {
-      const int i = sim::paramIndex(j, static_cast<sim::ParamKind>(k));
-      const double s = sim::isAngleParam(i) ? sim::kRadToDeg : 1e3;
+    for (int k = 0; k < d.arm.paramsPerJoint(); ++k) {
+      const int i = sim::paramIndex(d.arm, j, static_cast<sim::ParamKind>(k));
+      const double s = sim::isAngleParam(d.arm, i) ? sim::kRadToDeg : 1e3;
       const bool held = std::find(r.estimate.held.begin(), r.estimate.held.end(), i) != r.estimate.held.end();
       md << " " << formatNumber("%+.4f", r.estimate.y[i] * s);
       if (held) {

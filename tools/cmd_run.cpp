@@ -22,7 +22,7 @@ void addRunCommand(CLI::App& app) {
     const sim::Arm arm = sim::loadArm(opt->robot);
     const sim::Scene scene = sim::loadScene(opt->scene);
     std::printf("Arm: %s (%s), %d revolute joints, %s DH, %d parameter errors\n", arm.name.c_str(), arm.source.c_str(),
-                arm.numJoints(), arm.convention == sim::DhConvention::kModified ? "modified (Craig)" : "standard",
+                arm.numJoints(), arm.convention == sim::DhConvention::kModified ? "modified (Craig)" : sim::conventionName(arm.convention),
                 arm.numParams());
     std::printf("Scene: %s (%s): camera %dx%d px, board %dx%d inner corners of %.1f mm\n", scene.name.c_str(),
                 scene.source.c_str(), scene.camera.width_px, scene.camera.height_px, scene.board.corners_x,

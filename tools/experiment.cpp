@@ -53,8 +53,9 @@ std::string inputsSection(const ExperimentOptions& o, const sim::Arm& arm, const
     << "- injected errors: `" << o.errors.name << "`; joint control noise " << fmt("%.4g", o.joint_noise_sigma_rad * sim::kRadToDeg)
     << " deg (1 sigma); seed " << o.seed << "\n"
     << "- program: orbcal " << ORBCAL_VERSION << "\n\n"
-    << "Injected errors (per joint: theta, alpha in deg; a, d in mm):\n\n```\n"
-    << sim::formatErrorSet(y_true) << "```\n\n"
+    << "Injected errors (per joint: theta, alpha" << (arm.paramsPerJoint() > sim::kBeta ? ", beta" : "")
+    << " in deg; a, d in mm):\n\n```\n"
+    << sim::formatErrorSet(arm, y_true) << "```\n\n"
     << injectedEffects(truth, o.errors.name);
   return s.str();
 }
@@ -193,7 +194,7 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
 
   sim::writeFileAtomic(folder + "/validation_errors.csv", calib::formatValidationErrorsCsv(r.comparison));
   sim::writeFileAtomic(folder + "/validation_errors_measured.csv", calib::formatValidationErrorsCsv(r.measured_comparison));
-  sim::writeFileAtomic(folder + "/estimates.csv", calib::formatEstimatesCsv(r.comparison, &y_true));
+  sim::writeFileAtomic(folder + "/estimates.csv", calib::formatEstimatesCsv(nominal, r.comparison, &y_true));
 
   std::vector<Eigen::VectorXd> ident_configs = r.identification.plant.q_commanded;
   std::ostringstream md;
@@ -219,7 +220,7 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
      << "ratio = (initial - calibrated) / initial. `floor` = the true parameters: the error the control noise "
      << "alone leaves, which no estimator can beat.\n\n"
      << calib::formatComparisonTable4(r.comparison) << "\n"
-     << calib::formatMethodsTable(r.comparison, y_true) << "\n"
+     << calib::formatMethodsTable(nominal, r.comparison, y_true) << "\n"
      << drawFigure(o, folder, "boxplot " + quote(folder + "/validation_errors.csv"), "validation_boxplot.png",
                    "validation errors")
      << "\n## Validation against the poses the camera measured\n\n"

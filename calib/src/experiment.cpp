@@ -142,18 +142,18 @@ std::string formatValidationErrorsCsv(const Comparison& c) {
   return out.str();
 }
 
-std::string formatEstimatesCsv(const Comparison& c, const Eigen::VectorXd* y_true) {
+std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd* y_true) {
   std::ostringstream out;
   out << "method,parameter,unit,estimate,sigma,truth,held\n";
   char buf[200];
   for (const MethodOutcome& m : c.methods) {
     const Estimate& e = m.estimate;
     for (Eigen::Index i = 0; i < e.y.size(); ++i) {
-      const bool angle = sim::isAngleParam(static_cast<int>(i));
+      const bool angle = sim::isAngleParam(nominal, static_cast<int>(i));
       const double s = angle ? sim::kRadToDeg : 1e3;
       const bool held = std::find(e.held.begin(), e.held.end(), static_cast<int>(i)) != e.held.end();
       const std::string truth = y_true ? formatNumber("%.6f", (*y_true)[i] * s) : "";
-      std::snprintf(buf, sizeof buf, ",%s,%s,%.6f,%.6f,%s,%d\n", sim::paramName(static_cast<int>(i)).c_str(),
+      std::snprintf(buf, sizeof buf, ",%s,%s,%.6f,%.6f,%s,%d\n", sim::paramName(nominal, static_cast<int>(i)).c_str(),
                     angle ? "deg" : "mm", e.y[i] * s, std::sqrt(std::max(0.0, e.covariance(i, i))) * s, truth.c_str(),
                     held ? 1 : 0);
       out << m.method.name << buf;
@@ -164,11 +164,11 @@ std::string formatEstimatesCsv(const Comparison& c, const Eigen::VectorXd* y_tru
 
 namespace {
 /// RMS over the length parameters (a and d) of y, mm.
-double lengthRmsMm(const Eigen::VectorXd& y) {
+double lengthRmsMm(const sim::Arm& nominal, const Eigen::VectorXd& y) {
   double sum = 0.0;
   int n = 0;
   for (Eigen::Index i = 0; i < y.size(); ++i) {
-    if (sim::isAngleParam(static_cast<int>(i))) continue;
+    if (sim::isAngleParam(nominal, static_cast<int>(i))) continue;
     sum += y[i] * y[i];
     ++n;
   }
@@ -176,24 +176,24 @@ double lengthRmsMm(const Eigen::VectorXd& y) {
 }
 }  // namespace
 
-std::string formatMethodsTable(const Comparison& c, const Eigen::VectorXd& y_true) {
+std::string formatMethodsTable(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd& y_true) {
   char buf[640];
   std::snprintf(buf, sizeof buf,
                 "| method | settings | iterations | rank | time (ms) | converged | held | RMS a, d estimate (mm; true %.3f) | "
                 "avg position (mm) | / floor |\n|---|---|---|---|---|---|---|---|---|---|\n",
-                lengthRmsMm(y_true));
+                lengthRmsMm(nominal, y_true));
   std::string out = buf;
   for (const MethodOutcome& m : c.methods) {
     std::string held;
-    for (int p : m.estimate.held) held += (held.empty() ? "" : " ") + sim::paramName(p);
+    for (int p : m.estimate.held) held += (held.empty() ? "" : " ") + sim::paramName(nominal, p);
     std::snprintf(buf, sizeof buf, "| %s | %s | %d | %d | %.2f | %s | %s | %.3f | %.4f | %.3f |\n", m.method.name.c_str(),
                   m.method.description.c_str(), m.estimate.iterations, m.estimate.rank, m.estimate.seconds * 1e3,
-                  m.estimate.converged ? "yes" : "no", held.empty() ? "-" : held.c_str(), lengthRmsMm(m.estimate.y),
+                  m.estimate.converged ? "yes" : "no", held.empty() ? "-" : held.c_str(), lengthRmsMm(nominal, m.estimate.y),
                   m.summary.position_avg_m * 1e3, m.summary.position_avg_m / c.floor.position_avg_m);
     out += buf;
   }
   std::snprintf(buf, sizeof buf, "| floor | true parameters, control noise only | | | | | | %.3f | %.4f | 1.000 |\n",
-                lengthRmsMm(y_true), c.floor.position_avg_m * 1e3);
+                lengthRmsMm(nominal, y_true), c.floor.position_avg_m * 1e3);
   return out + buf;
 }
 

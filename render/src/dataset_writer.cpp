@@ -330,6 +330,7 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   m.program_version = ORBCAL_VERSION;
   m.num_samples = job.count;
   m.true_errors = truth.geometryErrors();
+  m.true_errors_per_joint = nominal.paramsPerJoint();
   m.error_set = truth.fromFile() ? "file" : job.errors.name;
   m.joint_noise_sigma_rad = job.joint_noise_sigma_rad;
   m.configuration_seed = job.configuration_seed;

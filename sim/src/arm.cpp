@@ -5,14 +5,23 @@
 
 namespace orbcal::sim {
 
-std::string paramName(int index) {
-  static const char* kNames[] = {"theta", "alpha", "a", "d"};
-  return kNames[index % Arm::kParamsPerJoint] + std::to_string(index / Arm::kParamsPerJoint + 1);
+const char* conventionName(DhConvention convention) {
+  switch (convention) {
+    case DhConvention::kModified: return "modified";
+    case DhConvention::kStandard: return "standard";
+    case DhConvention::kHayati: return "hayati";
+  }
+  return "?";
 }
 
-bool isAngleParam(int index) {
-  const int kind = index % Arm::kParamsPerJoint;
-  return kind == kTheta || kind == kAlpha;
+std::string paramName(const Arm& arm, int index) {
+  static const char* kNames[] = {"theta", "alpha", "a", "d", "beta"};
+  return kNames[paramKind(arm, index)] + std::to_string(index / arm.paramsPerJoint() + 1);
+}
+
+bool isAngleParam(const Arm& arm, int index) {
+  const ParamKind kind = paramKind(arm, index);
+  return kind == kTheta || kind == kAlpha || kind == kBeta;
 }
 
 namespace {
@@ -49,10 +58,17 @@ Eigen::Isometry3d linkTransform(DhConvention convention, const DhRow& row, doubl
         st * ca, ct * ca, -sa, -sa * row.d_m,  //
         st * sa, ct * sa, ca, ca * row.d_m,    //
         0.0, 0.0, 0.0, 1.0;
-  } else {
+  } else if (convention == DhConvention::kStandard) {
     M << ct, -st * ca, st * sa, row.a_m * ct,  //
         st, ct * ca, -ct * sa, row.a_m * st,   //
         0.0, sa, ca, row.d_m,                  //
+        0.0, 0.0, 0.0, 1.0;
+  } else {
+    // Standard DH times Ry(beta): the matrix of digest 2.2 (seed 004 eq. 2).
+    const double cb = std::cos(row.beta_rad), sb = std::sin(row.beta_rad);
+    M << ct * cb - st * sa * sb, -st * ca, ct * sb + st * sa * cb, row.a_m * ct,  //
+        st * cb + ct * sa * sb, ct * ca, st * sb - ct * sa * cb, row.a_m * st,    //
+        -ca * sb, sa, ca * cb, row.d_m,                                           //
         0.0, 0.0, 0.0, 1.0;
   }
   return T;
@@ -62,10 +78,11 @@ Arm withErrors(const Arm& nominal, const Eigen::VectorXd& y) {
   checkParamVector(nominal, y, "withErrors");
   Arm out = nominal;
   for (int j = 0; j < nominal.numJoints(); ++j) {
-    out.joints[j].theta_rad += y[paramIndex(j, kTheta)];
-    out.joints[j].alpha_rad += y[paramIndex(j, kAlpha)];
-    out.joints[j].a_m += y[paramIndex(j, kA)];
-    out.joints[j].d_m += y[paramIndex(j, kD)];
+    out.joints[j].theta_rad += y[paramIndex(nominal, j, kTheta)];
+    out.joints[j].alpha_rad += y[paramIndex(nominal, j, kAlpha)];
+    out.joints[j].a_m += y[paramIndex(nominal, j, kA)];
+    out.joints[j].d_m += y[paramIndex(nominal, j, kD)];
+    if (nominal.convention == DhConvention::kHayati) out.joints[j].beta_rad += y[paramIndex(nominal, j, kBeta)];
   }
   return out;
 }

@@ -32,7 +32,7 @@ bool sameValue(double a, double b) { return std::abs(a - b) <= 1e-11 * std::max(
 bool DatasetManifest::operator==(const DatasetManifest& o) const {
   bool errors_equal = true_errors.has_value() == o.true_errors.has_value();
   if (errors_equal && true_errors) {
-    errors_equal = true_errors->size() == o.true_errors->size();
+    errors_equal = true_errors->size() == o.true_errors->size() && true_errors_per_joint == o.true_errors_per_joint;
     for (Eigen::Index i = 0; errors_equal && i < true_errors->size(); ++i) {
       errors_equal = sameValue((*true_errors)[i], (*o.true_errors)[i]);
     }
@@ -62,10 +62,13 @@ std::string formatManifest(const DatasetManifest& m) {
     if (!m.error_set_file.empty()) s << "  file: " << m.error_set_file << "   # the error-set file: these + its effects\n";
     s << "  joints:\n";
     const Eigen::VectorXd& y = *m.true_errors;
-    for (Eigen::Index j = 0; j < y.size() / Arm::kParamsPerJoint; ++j) {
-      const int b = static_cast<int>(j) * Arm::kParamsPerJoint;
+    const int per_joint = m.true_errors_per_joint;
+    for (Eigen::Index j = 0; j < y.size() / per_joint; ++j) {
+      const int b = static_cast<int>(j) * per_joint;
       s << "    - {theta_deg: " << num(y[b + kTheta] * kRadToDeg) << ", alpha_deg: " << num(y[b + kAlpha] * kRadToDeg)
-        << ", a_mm: " << num(y[b + kA] * 1e3) << ", d_mm: " << num(y[b + kD] * 1e3) << "}\n";
+        << ", a_mm: " << num(y[b + kA] * 1e3) << ", d_mm: " << num(y[b + kD] * 1e3);
+      if (per_joint > kBeta) s << ", beta_deg: " << num(y[b + kBeta] * kRadToDeg);
+      s << "}\n";
     }
   }
   return s.str();
@@ -98,15 +101,24 @@ DatasetManifest parseManifest(const std::string& text, const std::string& source
     m.error_set = te.optional("name").asString("custom");
     m.error_set_file = te.optional("file").asString("");
     const ConfigNode joints = te["joints"];
-    Eigen::VectorXd y(static_cast<Eigen::Index>(joints.size() * Arm::kParamsPerJoint));
+    // Rows with beta_deg (a Hayati arm's) carry 5 errors; then every row must have it.
+    const bool beta = joints.size() > 0 && joints[0].has("beta_deg");
+    m.true_errors_per_joint = beta ? 5 : 4;
+    const int per_joint = m.true_errors_per_joint;
+    Eigen::VectorXd y(static_cast<Eigen::Index>(joints.size()) * per_joint);
     for (std::size_t j = 0; j < joints.size(); ++j) {
       const ConfigNode row = joints[j];
-      row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm"});
-      const int b = static_cast<int>(j) * Arm::kParamsPerJoint;
+      if (beta) {
+        row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm", "beta_deg"});
+      } else {
+        row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm"});
+      }
+      const int b = static_cast<int>(j) * per_joint;
       y[b + kTheta] = row["theta_deg"].asDouble() * kDegToRad;
       y[b + kAlpha] = row["alpha_deg"].asDouble() * kDegToRad;
       y[b + kA] = row["a_mm"].asDouble() * 1e-3;
       y[b + kD] = row["d_mm"].asDouble() * 1e-3;
+      if (beta) y[b + kBeta] = row["beta_deg"].asDouble() * kDegToRad;
     }
     m.true_errors = y;
   }
@@ -193,10 +205,15 @@ Dataset loadDataset(const std::string& folder) {
   d.scene = loadScene(d.path(d.manifest.scene_file));
   const std::string samples_path = d.path(d.manifest.samples_file);
   d.samples = parseSamplesCsv(readTextSource(samples_path), samples_path, d.arm.numJoints());
+  if (d.manifest.true_errors && d.manifest.true_errors_per_joint != d.arm.paramsPerJoint()) {
+    throw InputError(manifest_path + ": true_errors.joints: beta_deg " +
+                     (d.arm.paramsPerJoint() > kBeta ? "missing" : "given") + ", but " + d.manifest.robot_file +
+                     " is " + conventionName(d.arm.convention) + " DH");
+  }
   if (d.manifest.true_errors && d.manifest.true_errors->size() != d.arm.numParams()) {
     throw InputError(manifest_path + ": true_errors.joints: expected " + std::to_string(d.arm.numJoints()) +
                      " joints (as " + d.manifest.robot_file + "), got " +
-                     std::to_string(d.manifest.true_errors->size() / Arm::kParamsPerJoint));
+                     std::to_string(d.manifest.true_errors->size() / d.manifest.true_errors_per_joint));
   }
   return d;
 }

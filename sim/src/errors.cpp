@@ -21,12 +21,13 @@ Eigen::VectorXd paperTable3Errors() {
   static const double kTable3[7][4] = {{0.3, 0.2, 0.5, -0.9},   {-0.2, 0.3, 0.8, 0.8}, {0.2, -0.25, -0.6, -1.0},
                                        {0.3, 0.3, -0.9, 0.8},   {0.2, -0.3, 1.0, 0.8}, {0.2, -0.2, -0.8, 0.75},
                                        {-0.3, 0.25, 0.9, 0.6}};
-  Eigen::VectorXd y(28);
+  constexpr int kPerJoint = 4;  // theta, alpha, a, d (paramIndex's layout of a 4-parameter arm)
+  Eigen::VectorXd y(7 * kPerJoint);
   for (int j = 0; j < 7; ++j) {
-    y[paramIndex(j, kTheta)] = kTable3[j][0] * kDegToRad;
-    y[paramIndex(j, kAlpha)] = kTable3[j][1] * kDegToRad;
-    y[paramIndex(j, kA)] = kTable3[j][2] * 1e-3;
-    y[paramIndex(j, kD)] = kTable3[j][3] * 1e-3;
+    y[kPerJoint * j + kTheta] = kTable3[j][0] * kDegToRad;
+    y[kPerJoint * j + kAlpha] = kTable3[j][1] * kDegToRad;
+    y[kPerJoint * j + kA] = kTable3[j][2] * 1e-3;
+    y[kPerJoint * j + kD] = kTable3[j][3] * 1e-3;
   }
   return y;
 }
@@ -35,7 +36,7 @@ Eigen::VectorXd randomErrors(const Arm& arm, double angle_sigma_rad, double leng
   std::mt19937_64 rng = makeRng(seed, 0x6572726f72ULL);
   std::normal_distribution<double> n01(0.0, 1.0);
   Eigen::VectorXd y(arm.numParams());
-  for (int i = 0; i < arm.numParams(); ++i) y[i] = n01(rng) * (isAngleParam(i) ? angle_sigma_rad : length_sigma_m);
+  for (int i = 0; i < arm.numParams(); ++i) y[i] = n01(rng) * (isAngleParam(arm, i) ? angle_sigma_rad : length_sigma_m);
   return y;
 }
 
@@ -44,6 +45,11 @@ Eigen::VectorXd makeErrorSet(const Arm& arm, const ErrorSetSpec& spec, const std
     if (arm.numJoints() != 7) {
       throw InputError(what + ": error set 'table3' is seed 000's for a 7-joint arm; " + arm.source + " has " +
                        std::to_string(arm.numJoints()) + " joints");
+    }
+    if (arm.paramsPerJoint() != 4) {
+      throw InputError(what + ": error set 'table3' is seed 000's 4 errors per joint; " + arm.source + " is " +
+                       conventionName(arm.convention) + " DH with " + std::to_string(arm.paramsPerJoint()) +
+                       " (use random, zero or an error-set file)");
     }
     return paperTable3Errors();
   }
@@ -59,15 +65,20 @@ Eigen::VectorXd addJointNoise(const Eigen::VectorXd& q, double sigma_rad, std::m
   return out;
 }
 
-std::string formatErrorSet(const Eigen::VectorXd& y) {
+std::string formatErrorSet(const Arm& arm, const Eigen::VectorXd& y) {
+  checkParamVector(arm, y, "formatErrorSet");
   std::string out;
-  char line[160];
-  for (Eigen::Index j = 0; j < y.size() / Arm::kParamsPerJoint; ++j) {
-    const int b = static_cast<int>(j) * Arm::kParamsPerJoint;
-    std::snprintf(line, sizeof line, "  joint %d: theta %+8.4f deg  alpha %+8.4f deg  a %+8.4f mm  d %+8.4f mm\n",
-                  static_cast<int>(j) + 1, y[b + kTheta] * kRadToDeg, y[b + kAlpha] * kRadToDeg, y[b + kA] * 1e3,
-                  y[b + kD] * 1e3);
+  char line[200];
+  for (int j = 0; j < arm.numJoints(); ++j) {
+    std::snprintf(line, sizeof line, "  joint %d: theta %+8.4f deg  alpha %+8.4f deg  a %+8.4f mm  d %+8.4f mm", j + 1,
+                  y[paramIndex(arm, j, kTheta)] * kRadToDeg, y[paramIndex(arm, j, kAlpha)] * kRadToDeg,
+                  y[paramIndex(arm, j, kA)] * 1e3, y[paramIndex(arm, j, kD)] * 1e3);
     out += line;
+    if (arm.convention == DhConvention::kHayati) {
+      std::snprintf(line, sizeof line, "  beta %+8.4f deg", y[paramIndex(arm, j, kBeta)] * kRadToDeg);
+      out += line;
+    }
+    out += "\n";
   }
   return out;
 }

@@ -17,7 +17,7 @@ Eigen::VectorXd gravityTorques(const Arm& arm, const MassModel& masses, const Ei
 
   // The joint axis (z, and a point on it) of joint j, and the frame carrying link j's body.
   //   modified DH (Craig): joint j rotates about z of frame j = frames[j + 1]; link j's frame is frame j.
-  //   standard DH: joint j rotates about z of frame j-1 = frames[j]; link j's frame is frame j = frames[j + 1].
+  //   standard and Hayati DH: joint j rotates about z of frame j-1 = frames[j]; link j's frame is frame j = frames[j + 1].
   // Either way link j's body frame is frames[j + 1]; only the axis differs.
   const int axis_offset = arm.convention == DhConvention::kModified ? 1 : 0;
 

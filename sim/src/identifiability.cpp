@@ -82,7 +82,7 @@ std::string Redundancy::describe() const {
 IdentifiabilityReport analyzeIdentifiability(const Arm& arm, const std::vector<Eigen::VectorXd>& configs,
                                              double rank_tolerance, ErrorFrame frame) {
   std::vector<std::string> names;
-  for (int i = 0; i < arm.numParams(); ++i) names.push_back(paramName(i));
+  for (int i = 0; i < arm.numParams(); ++i) names.push_back(paramName(arm, i));
   return analyzeJacobian(stackedJacobian(arm, configs, frame), names, static_cast<int>(configs.size()), rank_tolerance);
 }
 

@@ -1,5 +1,6 @@
 #include "orbcal/sim/jacobian.hpp"
 
+#include <cmath>
 #include <stdexcept>
 
 #include "orbcal/sim/se3.hpp"
@@ -31,22 +32,35 @@ void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame
   const Eigen::Vector3d p_f = base_T_flange.translation();
   const Eigen::Matrix3d Rt = base_T_flange.linear().transpose();
   const bool modified = arm.convention == DhConvention::kModified;
+  const bool hayati = arm.convention == DhConvention::kHayati;
+  const int per_joint = arm.paramsPerJoint();
 
   for (int j = 0; j < arm.numJoints(); ++j) {
     const Eigen::Isometry3d& prev = frames[j];      // base_T_{j-1}
     const Eigen::Isometry3d& cur = frames[j + 1];   // base_T_{j}
     const Eigen::Isometry3d& z_frame = modified ? cur : prev;  // frame whose z carries theta and d
     const Eigen::Isometry3d& x_frame = modified ? prev : cur;  // frame whose x carries alpha and a
-    Vector6d xi[Arm::kParamsPerJoint];
+    Vector6d xi[5];
     xi[kTheta] = rotationTwist(z_frame.linear().col(2), z_frame.translation());
     xi[kD] = translationTwist(z_frame.linear().col(2));
-    xi[kAlpha] = rotationTwist(x_frame.linear().col(0), x_frame.translation());
-    xi[kA] = translationTwist(x_frame.linear().col(0));
-    for (int k = 0; k < Arm::kParamsPerJoint; ++k) {
+    if (!hayati) {
+      xi[kAlpha] = rotationTwist(x_frame.linear().col(0), x_frame.translation());
+      xi[kA] = translationTwist(x_frame.linear().col(0));
+    } else {
+      // Frame j = (frame after Rx(alpha)) Ry(beta): alpha and a act along the x axis before Ry(beta),
+      // x = Ry(-beta) x_j = cos(beta) x_j + sin(beta) z_j. Perturbing beta turns everything downstream
+      // about y_j (Ry leaves y unchanged) through the origin of frame j.
+      const double beta = arm.joints[j].beta_rad;
+      const Eigen::Vector3d x = std::cos(beta) * cur.linear().col(0) + std::sin(beta) * cur.linear().col(2);
+      xi[kAlpha] = rotationTwist(x, cur.translation());
+      xi[kA] = translationTwist(x);
+      xi[kBeta] = rotationTwist(cur.linear().col(1), cur.translation());
+    }
+    for (int k = 0; k < per_joint; ++k) {
       // Motion of the flange origin and rotation, both in the base frame.
       const Eigen::Vector3d w = xi[k].tail<3>();
       const Eigen::Vector3d dp = xi[k].head<3>() + w.cross(p_f);
-      auto col = J_e_y.col(paramIndex(j, static_cast<ParamKind>(k)));
+      auto col = J_e_y.col(paramIndex(arm, j, static_cast<ParamKind>(k)));
       if (frame == ErrorFrame::kTool) {
         col.head<3>() = Rt * dp;
         col.tail<3>() = Rt * w;
@@ -68,7 +82,7 @@ Matrix6Xd manipulatorJacobian(const Arm& arm, const Eigen::VectorXd& q) {
   // A joint's motion is the motion of its theta parameter.
   const Matrix6Xd J = identificationJacobian(arm, q, ErrorFrame::kBase);
   Matrix6Xd J_twist_q(6, arm.numJoints());
-  for (int j = 0; j < arm.numJoints(); ++j) J_twist_q.col(j) = J.col(paramIndex(j, kTheta));
+  for (int j = 0; j < arm.numJoints(); ++j) J_twist_q.col(j) = J.col(paramIndex(arm, j, kTheta));
   return J_twist_q;
 }
 

@@ -95,7 +95,8 @@ ParamBlock geometryBlock(const Arm& arm) {
   ParamBlock b;
   b.effect = "geometry";
   for (int i = 0; i < arm.numParams(); ++i) {
-    b.params.push_back(isAngleParam(i) ? angleParam(paramName(i), kTypicalAngle) : lengthParam(paramName(i), kTypicalLength));
+    b.params.push_back(isAngleParam(arm, i) ? angleParam(paramName(arm, i), kTypicalAngle)
+                                            : lengthParam(paramName(arm, i), kTypicalLength));
   }
   return b;
 }
@@ -506,7 +507,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   const Matrix6d Ad_marker_flange = adjoint(MY.inverse());
   const Matrix6Xd J_geo = Ad_marker_flange * identificationJacobian(arm, q, ErrorFrame::kTool);
   Matrix6Xd J_q(6, n);
-  for (int j = 0; j < n; ++j) J_q.col(j) = J_geo.col(paramIndex(j, kTheta));
+  for (int j = 0; j < n; ++j) J_q.col(j) = J_geo.col(paramIndex(arm, j, kTheta));
   if (J_e_q) *J_e_q = J_q;
   if (!J_e_p) return world_T_marker;
 
@@ -526,7 +527,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   if (m.geometry) {
     const int g = m.layout.block(m.layout.find("geometry")).offset;
     for (int i = 0; i < m.arm.numParams(); ++i) {
-      J.col(g + i) += isAngleParam(i) ? J_geo.col(i) : Matrix6Xd(expansion * J_geo.col(i));
+      J.col(g + i) += isAngleParam(m.arm, i) ? J_geo.col(i) : Matrix6Xd(expansion * J_geo.col(i));
     }
   }
   if (thermal) {
@@ -534,7 +535,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
     // unscaled lengths are the effective ones divided by the expansion.
     auto col = J.col(m.layout.block(m.layout.find("thermal")).offset);
     for (int j = 0; j < n; ++j) {
-      col += (dT / expansion) * (arm.joints[j].a_m * J_geo.col(paramIndex(j, kA)) + arm.joints[j].d_m * J_geo.col(paramIndex(j, kD)));
+      col += (dT / expansion) * (arm.joints[j].a_m * J_geo.col(paramIndex(arm, j, kA)) + arm.joints[j].d_m * J_geo.col(paramIndex(arm, j, kD)));
     }
   }
   return world_T_marker;

@@ -10,24 +10,31 @@ namespace orbcal::sim {
 
 namespace {
 
-DhRow readRow(const ConfigNode& n, const char* theta_key) {
+/// A DH row; `beta_deg` (optional, default 0) only in the Hayati convention.
+DhRow readRow(const ConfigNode& n, const char* theta_key, DhConvention convention) {
   DhRow r;
   r.a_m = n["a_m"].asDouble();
   r.alpha_rad = n["alpha_deg"].asDouble() * kDegToRad;
   r.d_m = n["d_m"].asDouble();
   r.theta_rad = n[theta_key].asDouble() * kDegToRad;
+  if (n.has("beta_deg")) {
+    if (convention != DhConvention::kHayati) {
+      n["beta_deg"].fail(std::string("is accepted only with convention hayati, not ") + conventionName(convention));
+    }
+    r.beta_rad = n["beta_deg"].asDouble() * kDegToRad;
+  }
   return r;
 }
 
-/// A fixed transform: {dh: {a_m, alpha_deg, d_m, theta_deg}} in the arm's convention, or
+/// A fixed transform: {dh: {a_m, alpha_deg, d_m, theta_deg[, beta_deg]}} in the arm's convention, or
 /// {xyz_m: [...], rpy_deg: [...]}; absent means identity.
 Eigen::Isometry3d readFixed(const ConfigNode& n, DhConvention convention) {
   if (!n.defined()) return Eigen::Isometry3d::Identity();
   if (n.has("dh")) {
     n.requireOnlyKeys({"dh"});
     const ConfigNode dh = n["dh"];
-    dh.requireOnlyKeys({"a_m", "alpha_deg", "d_m", "theta_deg"});
-    return linkTransform(convention, readRow(dh, "theta_deg"), 0.0);
+    dh.requireOnlyKeys({"a_m", "alpha_deg", "d_m", "theta_deg", "beta_deg"});
+    return linkTransform(convention, readRow(dh, "theta_deg", convention), 0.0);
   }
   return n.asTransform();
 }
@@ -84,8 +91,10 @@ Arm loadArm(const std::string& path) {
     arm.convention = DhConvention::kModified;
   } else if (c == "standard") {
     arm.convention = DhConvention::kStandard;
+  } else if (c == "hayati") {
+    arm.convention = DhConvention::kHayati;
   } else {
-    conv.fail("expected 'modified' (Craig) or 'standard', got '" + c + "'");
+    conv.fail("expected 'modified' (Craig), 'standard' or 'hayati', got '" + c + "'");
   }
   arm.base_T_first = readFixed(root.optional("base"), arm.convention);
   arm.last_T_flange = readFixed(root.optional("tool"), arm.convention);
@@ -96,8 +105,8 @@ Arm loadArm(const std::string& path) {
   arm.upper_rad.resize(static_cast<Eigen::Index>(n));
   for (std::size_t i = 0; i < n; ++i) {
     const ConfigNode j = joints[i];
-    j.requireOnlyKeys({"a_m", "alpha_deg", "d_m", "theta_offset_deg", "min_deg", "max_deg"});
-    arm.joints.push_back(readRow(j, "theta_offset_deg"));
+    j.requireOnlyKeys({"a_m", "alpha_deg", "d_m", "theta_offset_deg", "beta_deg", "min_deg", "max_deg"});
+    arm.joints.push_back(readRow(j, "theta_offset_deg", arm.convention));
     const double lo = j["min_deg"].asDouble(), hi = j["max_deg"].asDouble();
     if (!(lo < hi)) j["max_deg"].fail("must be greater than min_deg");
     arm.lower_rad[static_cast<Eigen::Index>(i)] = lo * kDegToRad;
@@ -149,14 +158,15 @@ std::string formatArm(const Arm& arm, const std::string& header) {
   std::istringstream lines(header);
   for (std::string line; std::getline(lines, line);) s << "# " << line << "\n";
   s << "name: " << arm.name << "\n";
-  s << "convention: " << (arm.convention == DhConvention::kModified ? "modified" : "standard") << "\n";
+  s << "convention: " << conventionName(arm.convention) << "\n";
   s << "base: " << transformYaml(arm.base_T_first) << "\n";
   s << "joints:\n";
   for (int j = 0; j < arm.numJoints(); ++j) {
     const DhRow& r = arm.joints[j];
     s << "  - {a_m: " << exactNumber(r.a_m) << ", alpha_deg: " << exactNumber(r.alpha_rad * kRadToDeg)
-      << ", d_m: " << exactNumber(r.d_m) << ", theta_offset_deg: " << exactNumber(r.theta_rad * kRadToDeg)
-      << ", min_deg: " << exactNumber(arm.lower_rad[j] * kRadToDeg) << ", max_deg: " << exactNumber(arm.upper_rad[j] * kRadToDeg)
+      << ", d_m: " << exactNumber(r.d_m) << ", theta_offset_deg: " << exactNumber(r.theta_rad * kRadToDeg);
+    if (arm.convention == DhConvention::kHayati) s << ", beta_deg: " << exactNumber(r.beta_rad * kRadToDeg);
+    s << ", min_deg: " << exactNumber(arm.lower_rad[j] * kRadToDeg) << ", max_deg: " << exactNumber(arm.upper_rad[j] * kRadToDeg)
       << "}\n";
   }
   s << "tool: " << transformYaml(arm.last_T_flange) << "\n";

@@ -50,7 +50,7 @@ double positive(const ConfigNode& n, double fallback) {
 
 Eigen::VectorXd readGeometry(const Arm& arm, const ConfigNode& g) {
   const std::string expected = "expected table3, zero, random, {random: {angle_sigma_deg, length_sigma_mm, seed}} or one "
-                               "{theta_deg, alpha_deg, a_mm, d_mm} per joint";
+                               "{theta_deg, alpha_deg, a_mm, d_mm} (and beta_deg for a hayati arm) per joint";
   ErrorSetSpec spec;
   if (g.isScalar()) {
     spec.name = g.asString();
@@ -82,11 +82,16 @@ Eigen::VectorXd readGeometry(const Arm& arm, const ConfigNode& g) {
     Eigen::VectorXd y(arm.numParams());
     for (int j = 0; j < arm.numJoints(); ++j) {
       const ConfigNode row = g[static_cast<std::size_t>(j)];
-      row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm"});
-      y[paramIndex(j, kTheta)] = row["theta_deg"].asDouble() * kDegToRad;
-      y[paramIndex(j, kAlpha)] = row["alpha_deg"].asDouble() * kDegToRad;
-      y[paramIndex(j, kA)] = row["a_mm"].asDouble() * 1e-3;
-      y[paramIndex(j, kD)] = row["d_mm"].asDouble() * 1e-3;
+      if (arm.convention == DhConvention::kHayati) {
+        row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm", "beta_deg"});
+        y[paramIndex(arm, j, kBeta)] = row["beta_deg"].asDouble() * kDegToRad;
+      } else {
+        row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm"});
+      }
+      y[paramIndex(arm, j, kTheta)] = row["theta_deg"].asDouble() * kDegToRad;
+      y[paramIndex(arm, j, kAlpha)] = row["alpha_deg"].asDouble() * kDegToRad;
+      y[paramIndex(arm, j, kA)] = row["a_mm"].asDouble() * 1e-3;
+      y[paramIndex(arm, j, kD)] = row["d_mm"].asDouble() * 1e-3;
     }
     return y;
   }
@@ -256,7 +261,7 @@ std::optional<TrueArm> datasetTrueArm(const Dataset& d) {
   const Eigen::VectorXd y = t.geometryErrors();
   for (Eigen::Index i = 0; i < y.size(); ++i) {
     if (std::abs(y[i] - (*m.true_errors)[i]) > 1e-11 * std::max(std::abs(y[i]), std::abs((*m.true_errors)[i]))) {
-      throw InputError(path + ": geometry: " + paramName(static_cast<int>(i)) + " differs from " + d.folder +
+      throw InputError(path + ": geometry: " + paramName(d.arm, static_cast<int>(i)) + " differs from " + d.folder +
                        "/manifest.yaml's true_errors (the dataset was rendered from another file)");
     }
   }

@@ -22,8 +22,10 @@ Eigen::Isometry3d elementary(DhConvention c, const DhRow& r, double q) {
     return Eigen::Isometry3d(AngleAxisd(r.alpha_rad, Vector3d::UnitX()) * Translation3d(r.a_m, 0, 0) *
                              AngleAxisd(th, Vector3d::UnitZ()) * Translation3d(0, 0, r.d_m));
   }
-  return Eigen::Isometry3d(AngleAxisd(th, Vector3d::UnitZ()) * Translation3d(0, 0, r.d_m) * Translation3d(r.a_m, 0, 0) *
-                           AngleAxisd(r.alpha_rad, Vector3d::UnitX()));
+  const Eigen::Isometry3d standard(AngleAxisd(th, Vector3d::UnitZ()) * Translation3d(0, 0, r.d_m) *
+                                   Translation3d(r.a_m, 0, 0) * AngleAxisd(r.alpha_rad, Vector3d::UnitX()));
+  if (c == DhConvention::kStandard) return standard;
+  return standard * AngleAxisd(r.beta_rad, Vector3d::UnitY());  // Hayati: standard DH, then Ry(beta)
 }
 }  // namespace
 
@@ -61,8 +63,10 @@ TEST_CASE("iiwa7 standard-DH forward kinematics at zero is a straight column", "
 TEST_CASE("forward kinematics equals the composition of elementary motions", "[sim][fk]") {
   std::mt19937_64 rng(42);
   std::uniform_real_distribution<double> angle(-3.0, 3.0);
-  for (const char* file : {"scenes/ssrms.yaml", "scenes/iiwa7.yaml"}) {
-    const Arm arm = loadArm(orbcal::test::sourcePath(file));
+  for (const char* file : {"scenes/ssrms.yaml", "scenes/iiwa7.yaml", "scenes/ssrms_hayati.yaml"}) {
+    Arm arm = loadArm(orbcal::test::sourcePath(file));
+    // Hayati: non-zero betas, so that Ry(beta) is exercised.
+    for (int j = 0; j < arm.numJoints() && arm.convention == DhConvention::kHayati; ++j) arm.joints[j].beta_rad = 0.1 * (j - 3);
     for (int n = 0; n < 20; ++n) {
       Eigen::VectorXd q(arm.numJoints());
       for (int j = 0; j < arm.numJoints(); ++j) q[j] = angle(rng);
@@ -78,19 +82,19 @@ TEST_CASE("forward kinematics equals the composition of elementary motions", "[s
 TEST_CASE("parameter errors move the DH rows they name", "[sim][fk]") {
   const Arm arm = loadArm(orbcal::test::sourcePath("scenes/ssrms.yaml"));
   Eigen::VectorXd y = Eigen::VectorXd::Zero(28);
-  y[paramIndex(3, kA)] = 0.002;         // a of row 4 (the upper boom, l3)
-  y[paramIndex(6, kTheta)] = 0.001;     // theta offset of joint 7
+  y[paramIndex(arm, 3, kA)] = 0.002;         // a of row 4 (the upper boom, l3)
+  y[paramIndex(arm, 6, kTheta)] = 0.001;     // theta offset of joint 7
   const Arm err = withErrors(arm, y);
   CHECK(err.joints[3].a_m == Approx(7.112).epsilon(1e-15));
   CHECK(err.joints[6].theta_rad == Approx(arm.joints[6].theta_rad + 0.001).margin(1e-15));
-  CHECK(paramName(paramIndex(3, kA)) == "a4");
-  CHECK(paramName(paramIndex(0, kTheta)) == "theta1");
-  CHECK(paramName(27) == "d7");
+  CHECK(paramName(arm, paramIndex(arm, 3, kA)) == "a4");
+  CHECK(paramName(arm, paramIndex(arm, 0, kTheta)) == "theta1");
+  CHECK(paramName(arm, 27) == "d7");
   // A theta offset and the joint angle are the same motion.
   Eigen::VectorXd q = Eigen::VectorXd::Constant(7, 0.3);
   Eigen::VectorXd q2 = q;
   q2[6] += 0.001;
-  CHECK((forwardKinematics(err, q).matrix() - forwardKinematics(withErrors(arm, y - 0.001 * Eigen::VectorXd::Unit(28, paramIndex(6, kTheta))), q2).matrix()).norm() < kExactTol);
+  CHECK((forwardKinematics(err, q).matrix() - forwardKinematics(withErrors(arm, y - 0.001 * Eigen::VectorXd::Unit(28, paramIndex(arm, 6, kTheta))), q2).matrix()).norm() < kExactTol);
 }
 
 TEST_CASE("poseMinus and posePlus are inverse, and logSO3 is exact near pi", "[sim][se3]") {
@@ -117,4 +121,54 @@ TEST_CASE("joint and parameter vectors are checked", "[sim][fk]") {
   q[2] = std::nan("");
   CHECK_THROWS_WITH(forwardKinematics(arm, q), Catch::Contains("joint angles[2] is not a finite number"));
   CHECK_THROWS_WITH(withErrors(arm, Eigen::VectorXd::Zero(27)), Catch::Contains("expected 28 parameter errors"));
+}
+
+TEST_CASE("Hayati DH: beta = 0 is standard DH, beta != 0 the matrix of digest 2.2", "[sim][fk]") {
+  const Arm hayati = loadArm(orbcal::test::sourcePath("scenes/ssrms_hayati.yaml"));
+  REQUIRE(hayati.convention == DhConvention::kHayati);
+  REQUIRE(hayati.paramsPerJoint() == 5);
+  REQUIRE(hayati.numParams() == 35);
+  Arm standard = hayati;
+  standard.convention = DhConvention::kStandard;
+  REQUIRE(standard.numParams() == 28);
+  std::mt19937_64 rng(43);
+  std::uniform_real_distribution<double> angle(-3.0, 3.0);
+  for (int n = 0; n < 20; ++n) {
+    const Eigen::VectorXd q = Eigen::VectorXd::NullaryExpr(7, [&] { return angle(rng); });
+    CHECK((forwardKinematics(hayati, q).matrix() - forwardKinematics(standard, q).matrix()).norm() < kExactTol);
+  }
+  // Digest 2.2 (seed 004 eq. 2), written out here independently of linkTransform.
+  DhRow r;
+  r.a_m = 0.7;
+  r.alpha_rad = 0.4;
+  r.d_m = -0.3;
+  r.theta_rad = 0.2;
+  r.beta_rad = -0.25;
+  const double q = 1.1;
+  const double ct = std::cos(r.theta_rad + q), st = std::sin(r.theta_rad + q);
+  const double ca = std::cos(r.alpha_rad), sa = std::sin(r.alpha_rad), cb = std::cos(r.beta_rad), sb = std::sin(r.beta_rad);
+  Eigen::Matrix4d M;
+  M << ct * cb - st * sa * sb, -st * ca, ct * sb + st * sa * cb, r.a_m * ct,  //
+      st * cb + ct * sa * sb, ct * ca, st * sb - ct * sa * cb, r.a_m * st,    //
+      -ca * sb, sa, ca * cb, r.d_m,                                           //
+      0, 0, 0, 1;
+  CHECK((linkTransform(DhConvention::kHayati, r, q).matrix() - M).norm() < 1e-15);
+  CHECK((elementary(DhConvention::kHayati, r, q).matrix() - M).norm() < 1e-15);
+}
+
+TEST_CASE("Hayati DH: 5 parameters per joint, beta last", "[sim][fk]") {
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/ssrms_hayati.yaml"));
+  CHECK(paramIndex(arm, 1, kBeta) == 9);
+  CHECK(paramName(arm, paramIndex(arm, 1, kBeta)) == "beta2");
+  CHECK(paramName(arm, paramIndex(arm, 2, kA)) == "a3");
+  CHECK(paramName(arm, 34) == "beta7");
+  CHECK(isAngleParam(arm, paramIndex(arm, 4, kBeta)));
+  CHECK_FALSE(isAngleParam(arm, paramIndex(arm, 4, kD)));
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(35);
+  y[paramIndex(arm, 2, kBeta)] = 0.001;
+  y[paramIndex(arm, 3, kA)] = 0.002;
+  const Arm err = withErrors(arm, y);
+  CHECK(err.joints[2].beta_rad == 0.001);
+  CHECK(err.joints[3].a_m == Approx(4.002).epsilon(1e-15));
+  CHECK_THROWS_WITH(withErrors(arm, Eigen::VectorXd::Zero(28)), "withErrors: expected 35 parameter errors, got 28");
 }

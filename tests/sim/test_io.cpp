@@ -57,7 +57,10 @@ TEST_CASE("malformed robot files name the file and the key", "[sim][io][badinput
   CHECK(inputError([&] { loadArm(f); }) == f + ": joints[3].d_m: expected a finite number, got '.nan'");
 
   write(f, ssrmsWith("convention: modified", "convention: craig"));
-  CHECK(inputError([&] { loadArm(f); }) == f + ": convention: expected 'modified' (Craig) or 'standard', got 'craig'");
+  CHECK(inputError([&] { loadArm(f); }) == f + ": convention: expected 'modified' (Craig), 'standard' or 'hayati', got 'craig'");
+
+  write(f, ssrmsWith("d_m: 0.475,", "d_m: 0.475, beta_deg: 0.1,"));
+  CHECK(inputError([&] { loadArm(f); }) == f + ": joints[3].beta_deg: is accepted only with convention hayati, not modified");
 
   write(f, ssrmsWith("d_m: 0.475,", "dd_m: 0.475,"));
   CHECK_THAT(inputError([&] { loadArm(f); }), Catch::StartsWith(f + ": joints[3].dd_m: unknown key"));
@@ -68,6 +71,27 @@ TEST_CASE("malformed robot files name the file and the key", "[sim][io][badinput
 
   write(f, "name: empty\nconvention: modified\njoints: []\n");
   CHECK(inputError([&] { loadArm(f); }) == f + ": joints: expected at least one joint");
+}
+
+TEST_CASE("a Hayati robot file round-trips through formatArm, beta included", "[sim][io]") {
+  const std::string dir = orbcal::test::tempDir("robot-hayati");
+  Arm arm = loadArm(orbcal::test::sourcePath("scenes/ssrms_hayati.yaml"));
+  REQUIRE(arm.convention == DhConvention::kHayati);
+  for (int j = 0; j < arm.numJoints(); ++j) arm.joints[j].beta_rad = 0.01 * (j + 1) / 3.0;
+  const std::string text = formatArm(arm, "round trip");
+  CHECK(text.find("convention: hayati\n") != std::string::npos);
+  CHECK(text.find("beta_deg: ") != std::string::npos);
+  write(dir + "/arm.yaml", text);
+  const Arm back = loadArm(dir + "/arm.yaml");
+  REQUIRE(back.convention == DhConvention::kHayati);
+  REQUIRE(back.numJoints() == arm.numJoints());
+  for (int j = 0; j < arm.numJoints(); ++j) {
+    CHECK(back.joints[j].beta_rad == Approx(arm.joints[j].beta_rad).epsilon(1e-15));
+    CHECK(back.joints[j].a_m == arm.joints[j].a_m);
+    CHECK(back.joints[j].alpha_rad == Approx(arm.joints[j].alpha_rad).epsilon(1e-15));
+  }
+  // A standard or modified arm's file has no beta_deg (unchanged format).
+  CHECK(formatArm(loadArm(orbcal::test::sourcePath("scenes/ssrms.yaml"))).find("beta") == std::string::npos);
 }
 
 TEST_CASE("malformed scene files name the file and the key", "[sim][io][badinput]") {

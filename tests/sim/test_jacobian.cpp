@@ -24,7 +24,7 @@ void checkAgainstNumeric(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame fr
   for (int c = 0; c < arm.numParams(); ++c) {
     Eigen::Index r = 0;
     const double err = (J.col(c) - J_num.col(c)).cwiseAbs().maxCoeff(&r);
-    CAPTURE(q.transpose(), paramName(c), r, J(r, c), J_num(r, c));
+    CAPTURE(q.transpose(), paramName(arm, c), r, J(r, c), J_num(r, c));
     REQUIRE(err < kJacobianTol);
   }
 }
@@ -74,7 +74,7 @@ TEST_CASE("identification Jacobian holds away from the nominal parameters", "[si
   // kJacobianTol, so a formula that ignored y would fail.
   constexpr double kAngleSpread = 0.5 * kDegToRad;  // rad
   constexpr double kLengthSpread = 0.005;           // m
-  for (int i = 0; i < 28; ++i) y[i] = n01(rng) * (isAngleParam(i) ? kAngleSpread : kLengthSpread);
+  for (int i = 0; i < 28; ++i) y[i] = n01(rng) * (isAngleParam(arm, i) ? kAngleSpread : kLengthSpread);
   for (const auto& q : testConfigurations(7, 13)) checkAgainstNumeric(withErrors(arm, y), q, ErrorFrame::kTool);
 }
 
@@ -105,4 +105,26 @@ TEST_CASE("tool- and base-frame Jacobians are related by the flange rotation", "
   const Matrix6Xd Jb = identificationJacobian(arm, q, ErrorFrame::kBase);
   CHECK((Jb.topRows<3>() - R * Jt.topRows<3>()).norm() < 1e-12);
   CHECK((Jb.bottomRows<3>() - R * Jt.bottomRows<3>()).norm() < 1e-12);
+}
+
+TEST_CASE("identification Jacobian matches central differences (Hayati DH, beta columns included)", "[sim][jacobian]") {
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/ssrms_hayati.yaml"));
+  REQUIRE(arm.numParams() == 35);
+  for (const auto& q : testConfigurations(7, 15)) {
+    checkAgainstNumeric(arm, q, ErrorFrame::kTool);
+    checkAgainstNumeric(arm, q, ErrorFrame::kBase);
+  }
+  // Away from the nominal parameters, beta != 0 included: there alpha and a act along the x axis
+  // before Ry(beta), not along x_i. Spreads as in the SSRMS case above (0.5 deg, 5 mm) plus 2 deg on
+  // every beta, so a formula that used x_i would err by ~sin(2 deg) * 4 m = 0.14, 1e6 x kJacobianTol.
+  Eigen::VectorXd y(35);
+  std::mt19937_64 rng(4);
+  std::normal_distribution<double> n01;
+  for (int i = 0; i < 35; ++i) y[i] = n01(rng) * (isAngleParam(arm, i) ? 0.5 * kDegToRad : 0.005);
+  Arm off = withErrors(arm, y);
+  for (int j = 0; j < 7; ++j) off.joints[j].beta_rad += (j % 2 ? 2.0 : -2.0) * kDegToRad;
+  for (const auto& q : testConfigurations(7, 16)) {
+    checkAgainstNumeric(off, q, ErrorFrame::kTool);
+    checkAgainstNumeric(off, q, ErrorFrame::kBase);
+  }
 }

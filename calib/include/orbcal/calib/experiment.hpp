@@ -71,11 +71,11 @@ const MethodOutcome* bestOfKind(const Comparison& c, MethodSpec::Kind kind);
 std::string formatValidationErrorsCsv(const Comparison& c);
 /// One row per (method, parameter): estimate, 1-sigma and truth in deg or mm, held. Without a truth
 /// (y_true null: real data) the truth cells are empty.
-std::string formatEstimatesCsv(const Comparison& c, const Eigen::VectorXd* y_true);
+std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd* y_true);
 /// Markdown: per method its settings, iterations, rank, wall time, the RMS of its length estimates
 /// (a and d, against the RMS of the true ones: a prior too tight shows as lengths that never move), and
 /// average position error against the floor.
-std::string formatMethodsTable(const Comparison& c, const Eigen::VectorXd& y_true);
+std::string formatMethodsTable(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd& y_true);
 /// The Table 4 layout (validation.hpp) of a comparison.
 std::string formatComparisonTable4(const Comparison& c);
 

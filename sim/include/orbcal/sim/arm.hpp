@@ -1,11 +1,15 @@
 #pragma once
-// A serial arm of revolute joints described by a DH table (Craig's modified or standard DH), with
-// fixed base and tool transforms, and the additive parameter errors that calibration identifies.
+// A serial arm of revolute joints described by a DH table (Craig's modified, standard, or Hayati's
+// parallel-axis DH), with fixed base and tool transforms, and the additive parameter errors that
+// calibration identifies.
 //
 // Modified DH (Craig; seed 000 eq. 1): row i holds (a_{i-1}, alpha_{i-1}, d_i, theta_i) and
 //   {i-1}_T_{i} = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i + q_i) Tz(d_i).
 // Standard DH: row i holds (a_i, alpha_i, d_i, theta_i) and
 //   {i-1}_T_{i} = Rz(theta_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i).
+// Hayati (seeds 001/002 and 004; digest 2.2): standard DH post-multiplied by Ry(beta_i), row i holds
+// (a_i, alpha_i, d_i, theta_i, beta_i) and
+//   {i-1}_T_{i} = Rz(theta_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i) Ry(beta_i),   nominal beta_i = 0.
 // base_T_flange = base_T_first * prod_i {i-1}_T_{i} * last_T_flange (seed 000: row 0, rows 1..7, row E).
 #include <Eigen/Geometry>
 #include <string>
@@ -13,14 +17,19 @@
 
 namespace orbcal::sim {
 
-enum class DhConvention { kModified, kStandard };
+enum class DhConvention { kModified, kStandard, kHayati };
 
-/// One DH row. Lengths in m, angles in rad; for a joint row theta_rad is the home offset.
+/// "modified", "standard" or "hayati": the robot file's `convention:` value.
+const char* conventionName(DhConvention convention);
+
+/// One DH row. Lengths in m, angles in rad; for a joint row theta_rad is the home offset. beta_rad
+/// is used by the Hayati convention only (and is 0 in the others).
 struct DhRow {
   double a_m = 0.0;
   double alpha_rad = 0.0;
   double d_m = 0.0;
   double theta_rad = 0.0;
+  double beta_rad = 0.0;
 };
 
 /// One link's mass properties: the body that moves with joint j (frame j of the DH chain).
@@ -50,18 +59,21 @@ struct Arm {
   MassModel masses;           ///< optional; empty when the robot file has no `masses:` section
 
   int numJoints() const { return static_cast<int>(joints.size()); }
-  int numParams() const { return kParamsPerJoint * numJoints(); }
-  static constexpr int kParamsPerJoint = 4;
+  /// Identified parameters per joint: 5 for the Hayati convention (with beta), 4 for the others.
+  int paramsPerJoint() const { return convention == DhConvention::kHayati ? 5 : 4; }
+  int numParams() const { return paramsPerJoint() * numJoints(); }
 };
 
 /// Parameter-error layout, joint by joint, in seed 000's y_i order: y_i = [dtheta_i, dalpha_i, da_i, dd_i]
-/// (for modified DH, alpha and a are those of row i, i.e. alpha_{i-1} and a_{i-1}). SI units.
-enum ParamKind { kTheta = 0, kAlpha = 1, kA = 2, kD = 3 };
-inline int paramIndex(int joint, ParamKind kind) { return Arm::kParamsPerJoint * joint + kind; }
-/// "theta1", "alpha1", "a1", "d1", ... (joints numbered from 1, as in the DH table).
-std::string paramName(int index);
-/// Unit of parameter `index` as printed at the edges: "deg" for angles, "mm" for lengths.
-bool isAngleParam(int index);
+/// (for modified DH, alpha and a are those of row i, i.e. alpha_{i-1} and a_{i-1}), followed by
+/// dbeta_i for the Hayati convention: arm.paramsPerJoint() entries per joint. SI units.
+enum ParamKind { kTheta = 0, kAlpha = 1, kA = 2, kD = 3, kBeta = 4 };
+inline int paramIndex(const Arm& arm, int joint, ParamKind kind) { return arm.paramsPerJoint() * joint + kind; }
+inline ParamKind paramKind(const Arm& arm, int index) { return static_cast<ParamKind>(index % arm.paramsPerJoint()); }
+/// "theta1", "alpha1", "a1", "d1", ("beta1",) ... (joints numbered from 1, as in the DH table).
+std::string paramName(const Arm& arm, int index);
+/// Unit of parameter `index` as printed at the edges: true for angles (deg), false for lengths (mm).
+bool isAngleParam(const Arm& arm, int index);
 
 /// Throws std::invalid_argument("<context>: expected N joint angles, got M") or on a NaN/inf angle.
 void checkJointVector(const Arm& arm, const Eigen::VectorXd& q, const char* context);
@@ -71,7 +83,7 @@ void checkParamVector(const Arm& arm, const Eigen::VectorXd& y, const char* cont
 /// Rigid transform of one DH row at joint angle q (rad).
 Eigen::Isometry3d linkTransform(DhConvention convention, const DhRow& row, double q);
 
-/// The arm with parameter errors y added to its DH rows (theta, alpha, a, d of each row).
+/// The arm with parameter errors y added to its DH rows (theta, alpha, a, d, and beta for Hayati).
 Arm withErrors(const Arm& nominal, const Eigen::VectorXd& y);
 
 /// base_T_flange at joint angles q (rad).

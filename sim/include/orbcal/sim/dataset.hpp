@@ -36,6 +36,8 @@ struct DatasetManifest {
   std::string samples_file = "samples.csv";
   int num_samples = 0;
   std::optional<Eigen::VectorXd> true_errors;  ///< SI, y order (arm.hpp); simulation only
+  /// Entries of true_errors per joint: the arm's paramsPerJoint(), 5 (rows with beta_deg) for Hayati.
+  int true_errors_per_joint = 4;
   std::string error_set;                       ///< e.g. "table3"; "file" for an error-set file
   /// The error-set file copied into the dataset (sim::kDatasetErrorSetFile), whose effects the plant had
   /// on top of true_errors; empty for a named set (and in manifests older than the key).

@@ -14,14 +14,16 @@ namespace orbcal::sim {
 /// (e.g. stream k for configuration attempt k), identical on every run and thread count.
 std::mt19937_64 makeRng(std::uint64_t seed, std::uint64_t stream = 0);
 
-/// Seed 000 Table 3, in SI units (theta, alpha in rad; a, d in m), y order. Needs a 7-joint arm.
+/// Seed 000 Table 3, in SI units (theta, alpha in rad; a, d in m), y order. Needs a 7-joint arm of 4
+/// parameters per joint (modified or standard DH).
 Eigen::VectorXd paperTable3Errors();
 
-/// Errors drawn from N(0, angle_sigma_rad) for theta and alpha and N(0, length_sigma_m) for a and d.
+/// Errors drawn from N(0, angle_sigma_rad) for theta, alpha (and beta) and N(0, length_sigma_m) for a and d.
 Eigen::VectorXd randomErrors(const Arm& arm, double angle_sigma_rad, double length_sigma_m, std::uint64_t seed);
 
 /// An error set by name: "table3" (seed 000 Table 3), "zero", or "random" with the given spread and seed.
-/// Throws InputError naming `what` (e.g. "--errors") for an unknown name or a wrong joint count.
+/// Throws InputError naming `what` (e.g. "--errors") for an unknown name, or for table3 on an arm that
+/// is not 7 joints of 4 parameters.
 struct ErrorSetSpec {
   std::string name = "table3";
   double angle_sigma_rad = 0.3 * 3.14159265358979323846 / 180.0;
@@ -33,7 +35,8 @@ Eigen::VectorXd makeErrorSet(const Arm& arm, const ErrorSetSpec& spec, const std
 /// Joint angles of the plant: q + N(0, sigma_rad) per joint (seed 000's "control noise").
 Eigen::VectorXd addJointNoise(const Eigen::VectorXd& q, double sigma_rad, std::mt19937_64& rng);
 
-/// One line per joint: "joint i: theta +0.300 deg  alpha ... a +0.500 mm  d ..." (degrees and mm at the edge).
-std::string formatErrorSet(const Eigen::VectorXd& y);
+/// One line per joint: "joint i: theta +0.300 deg  alpha ... a +0.500 mm  d ..." (degrees and mm at the
+/// edge), then "  beta ... deg" for a Hayati arm. y has arm.numParams() entries.
+std::string formatErrorSet(const Arm& arm, const Eigen::VectorXd& y);
 
 }  // namespace orbcal::sim

@@ -81,7 +81,8 @@ class ParamLayout {
   int size_ = 0;
 };
 
-/// The geometric block of an arm: 4 DH errors per joint in arm.hpp's order (theta, alpha, a, d).
+/// The geometric block of an arm: arm.paramsPerJoint() DH errors per joint in arm.hpp's order (theta,
+/// alpha, a, d, and beta for the Hayati convention).
 ParamBlock geometryBlock(const Arm& arm);
 
 // ---- The effect catalog -------------------------------------------------------------------------

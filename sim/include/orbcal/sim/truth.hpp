@@ -7,6 +7,7 @@
 //   format: orbcal-errors-1
 //   geometry: table3            # table3 | zero | random | {random: {angle_sigma_deg: 0.3, length_sigma_mm: 1, seed: 1}}
 //                               # | one row per joint: [{theta_deg: .., alpha_deg: .., a_mm: .., d_mm: ..}, ...]
+//                               #   (with beta_deg: .. too, and only, for a hayati arm)
 //   effects:                    # optional; SI values, parameter names as sim::effectBlocks gives them
 //     - {spec: "cyclic:2", parameters: {cyclic2_sin1: 2.6e-4, cyclic2_cos1: 0, cyclic2_sin2: 0, cyclic2_cos2: 8.7e-5}}
 //     - {spec: "compliance:2", parameters: {c2: 1.0e-4}}
@@ -73,7 +74,7 @@ struct TrueArm {
   bool hasEffects() const { return !model.effects.empty() || has_camera_distortion; }
   /// The camera the plant's images are taken with: `scene_camera` with the distortion effect added.
   Camera camera(const Camera& scene_camera) const;
-  /// The 4n DH errors (y order; what manifests store as true_errors).
+  /// The DH errors, arm.numParams() of them (y order; what manifests store as true_errors).
   Eigen::VectorXd geometryErrors() const;
   /// The covariates of the k-th sample at joints q (q_previous: the sample before, or null for the first).
   JointSample sample(int k, const Eigen::VectorXd& q, const Eigen::VectorXd* q_previous) const;
