@@ -8,6 +8,24 @@
 
 using namespace orbcal::sim;
 
+TEST_CASE("a Hayati arm's manifest carries beta_deg per joint and round-trips", "[sim][dataset]") {
+  DatasetManifest m;
+  m.num_samples = 1;
+  m.true_errors_per_joint = 5;  // theta, alpha, a, d, beta (arm.hpp)
+  m.true_errors = Eigen::VectorXd::LinSpaced(10, 1e-4, 1e-3);
+  m.error_set = "random";
+  const std::string text = formatManifest(m);
+  CHECK(text.find("d_mm: 0.4, beta_deg: ") != std::string::npos);
+  const DatasetManifest back = parseManifest(text, "manifest.yaml");
+  CHECK(back.true_errors_per_joint == 5);
+  CHECK(back == m);
+  // beta_deg on one row only: the other rows are named.
+  std::string partial = text;
+  const auto at = partial.rfind(", beta_deg: ");
+  partial.erase(at, partial.find('}', at) - at);
+  CHECK_THROWS_WITH(parseManifest(partial, "m.yaml"), "m.yaml: true_errors.joints[1].beta_deg: missing");
+}
+
 TEST_CASE("manifest round-trips with the true errors", "[sim][dataset]") {
   DatasetManifest m;
   m.program_version = "9.9.9";
