@@ -17,7 +17,7 @@ const char* paramClassName(ParamClass c) {
 }
 
 ParameterClasses classifyParameters(const Eigen::MatrixXd& J, const std::vector<std::string>& names,
-                                    double rank_tolerance, double zero_tolerance) {
+                                    const Eigen::VectorXd& typical, double rank_tolerance, double zero_tolerance) {
   const int n = static_cast<int>(J.cols());
   if (static_cast<int>(names.size()) != n) throw std::invalid_argument("classifyParameters: names and columns differ");
   ParameterClasses out;
@@ -26,7 +26,7 @@ ParameterClasses classifyParameters(const Eigen::MatrixXd& J, const std::vector<
   out.group.assign(static_cast<std::size_t>(n), -1);
   // Zero the ineffective columns exactly, so that the column scaling of the SVD leaves them zero.
   Eigen::MatrixXd A = J;
-  std::vector<int> zero = ineffectiveColumns(J, {}, zero_tolerance);
+  std::vector<int> zero = ineffectiveColumns(J, typical, zero_tolerance);
   for (int c : zero) A.col(c).setZero();
   const sim::IdentifiabilityReport report = sim::analyzeJacobian(A, names, 0, rank_tolerance);
   out.rank = report.rank;
@@ -61,8 +61,7 @@ ParameterClasses classifyParameters(const Eigen::MatrixXd& J, const std::vector<
 ParameterClasses classifyParameters(const MeasurementModel& model, const Eigen::VectorXd& y, double rank_tolerance) {
   std::vector<std::string> names;
   for (int i = 0; i < model.numParams(); ++i) names.push_back(model.paramName(i));
-  const Eigen::MatrixXd J = whitenedJacobian(model, y) * model.layout().typical().asDiagonal();
-  return classifyParameters(J, names, rank_tolerance);
+  return classifyParameters(whitenedJacobian(model, y), names, model.layout().typical(), rank_tolerance);
 }
 
 std::string ParameterClasses::describe() const {

@@ -35,7 +35,7 @@ sim::JointSample randomSample(const sim::Arm& arm, std::mt19937_64& rng) {
   return s;
 }
 
-/// Random parameters: `scale` x the typical magnitudes, geometry (and plane) only unless all = true.
+/// Random parameters: `scale` x the typical magnitudes.
 Eigen::VectorXd randomParams(const sim::ParamLayout& layout, std::mt19937_64& rng, double scale = 1.0) {
   std::normal_distribution<double> n01(0.0, 1.0);
   const Eigen::VectorXd t = layout.typical();
@@ -110,16 +110,6 @@ std::vector<calib::RangeObservation> ranges(const sim::KinematicModel& km, const
   }
   return out;
 }
-
-int indexOf(const calib::MeasurementModel& m, const std::string& name) {
-  for (int i = 0; i < m.numParams(); ++i) {
-    if (m.paramName(i) == name) return i;
-  }
-  FAIL("no parameter " << name);
-  return -1;
-}
-
-bool contains(const std::vector<int>& v, int x) { return std::find(v.begin(), v.end(), x) != v.end(); }
 
 }  // namespace
 
@@ -249,5 +239,129 @@ TEST_CASE("every estimator runs on every new model and reduces the cost to noise
       p.tail(1)[0] = 0.005;  // seed 004: c = 4.6 perturbed by 0.005
       everyEstimatorReducesCost(calib::PlaneRangeModel(km, offsetBeam(), plane, ranges(km, offsetBeam(), plane, p, 120, rng, 0.2e-3, 10)));
     }
+  }
+}
+
+namespace {
+
+calib::ParameterClasses classesOf(const calib::MeasurementModel& m) {
+  const calib::ParameterClasses c = calib::classifyParameters(m, Eigen::VectorXd::Zero(m.numParams()));
+  INFO(c.describe());
+  // Every parameter in one class; the minimal set is as large as the rank, and held + minimal = all.
+  CHECK(c.ineffective.size() + c.relative.size() + c.independent.size() == static_cast<std::size_t>(m.numParams()));
+  CHECK(static_cast<int>(c.minimal.size()) == c.rank);
+  CHECK(c.held.size() + c.minimal.size() == static_cast<std::size_t>(m.numParams()));
+  return c;
+}
+
+std::vector<std::string> namesOf(const calib::ParameterClasses& c, const std::vector<int>& idx) {
+  std::vector<std::string> out;
+  for (int i : idx) out.push_back(c.names[static_cast<std::size_t>(i)]);
+  return out;
+}
+
+bool isClass(const calib::ParameterClasses& c, const std::string& name, calib::ParamClass k) {
+  for (std::size_t i = 0; i < c.names.size(); ++i) {
+    if (c.names[i] == name) return c.classes[i] == k;
+  }
+  FAIL("no parameter " << name);
+  return false;
+}
+
+/// The axis of joint 1 in the arm's base frame: z of frame 1 (modified DH) or of frame 0 (standard).
+Eigen::Vector3d firstAxis(const sim::Arm& arm) {
+  if (arm.convention == sim::DhConvention::kStandard) return arm.base_T_first.linear().col(2);
+  return (arm.base_T_first * sim::linkTransform(arm.convention, arm.joints[0], 0.0)).linear().col(2);
+}
+
+}  // namespace
+
+TEST_CASE("identifiability classes: distance, rotation, and both", "[calib][classes]") {
+  using calib::ParamClass;
+  for (const char* file : kArms) {
+    CAPTURE(file);
+    const sim::Arm arm = sim::loadArm(test::sourcePath(file));
+    const bool modified = arm.convention == sim::DhConvention::kModified;
+    std::mt19937_64 rng(404);
+    // The measuring system's frame unknown (a shared base frame); the marker is the flange.
+    const sim::KinematicModel km = sim::makeKinematicModel(arm, 1, sim::FrameSharing::kShared, sim::FrameSharing::kKnown,
+                                                           {sim::fromXyzRpy({1.2, -0.4, 0.3}, Eigen::Vector3d(10, -30, 60) * sim::kDegToRad)},
+                                                           {Eigen::Isometry3d::Identity()}, {});
+    const auto pairs = calib::relativePairs(poses(km, Eigen::VectorXd::Zero(km.layout.size()), 60, rng), calib::Pairing::kReference);
+    const calib::ParameterClasses D = classesOf(calib::RelativePoseModel(km, pairs, calib::RelativeRows::kDistance));
+    const calib::ParameterClasses R = classesOf(calib::RelativePoseModel(km, pairs, calib::RelativeRows::kRotation));
+    const calib::ParameterClasses DR = classesOf(calib::RelativePoseModel(km, pairs, calib::RelativeRows::kBoth));
+    INFO("distance:\n" << D.describe() << "rotation:\n" << R.describe() << "both:\n" << DR.describe());
+    // Distance: blind to every rigid motion of the whole chain: the base frame, and joint 1's theta and
+    // d (Rz(theta1 + q1) Tz(d1) precede or commute with q1 in both conventions; in modified DH also
+    // alpha1 and a1, Rx(alpha_0) Tx(a_0) before q1). Blind to theta7 (the flange origin lies on the last
+    // axis) and, in standard DH, to alpha7 (a rotation about x at the flange origin).
+    std::vector<std::string> expected{"base_x", "base_y", "base_z", "base_rx", "base_ry", "base_rz", "theta1"};
+    if (modified) expected.insert(expected.end(), {"alpha1", "a1", "d1", "theta7"});
+    else expected.insert(expected.end(), {"d1", "theta7", "alpha7"});
+    CHECK(namesOf(D, D.ineffective) == expected);
+    // Rotation angle: blind to every length (a and d translate, never rotate) and to what the distance
+    // is blind to by rigid motion or conjugation (the base frame, theta1, the suffix after q7).
+    for (int j = 0; j < arm.numJoints(); ++j) {
+      CHECK(isClass(R, "a" + std::to_string(j + 1), ParamClass::kIneffective));
+      CHECK(isClass(R, "d" + std::to_string(j + 1), ParamClass::kIneffective));
+    }
+    for (const char* name : {"base_x", "base_rx", "base_rz", "theta1", "theta7"}) CHECK(isClass(R, name, ParamClass::kIneffective));
+    // Together: more than either alone, and nothing ineffective that the distance sees; everything
+    // independent under one of them stays independent.
+    CHECK(DR.rank > std::max(D.rank, R.rank));
+    CHECK(DR.ineffective == D.ineffective);
+    for (const auto* one : {&D, &R}) {
+      for (int p : one->independent) CHECK(DR.classes[static_cast<std::size_t>(p)] == ParamClass::kIndependent);
+    }
+    // What the distance alone loses at the wrist and the rotation rows restore (digest 2.6: a6, alpha6).
+    const std::vector<std::string> restored =
+        modified ? std::vector<std::string>{"theta6", "d6", "alpha7", "a7"} : std::vector<std::string>{"theta6", "alpha6", "a6", "d6"};
+    for (const std::string& name : restored) {
+      CHECK(isClass(D, name, ParamClass::kRelative));
+      CHECK(isClass(DR, name, ParamClass::kIndependent));
+    }
+    // The SSRMS's parallel joints 3, 4, 5: d3 + d4 + d5 (distance), theta3 + theta4 + theta5 (rotation).
+    if (modified) {
+      REQUIRE(!D.groups.empty());
+      CHECK(D.groups[0].names == std::vector<std::string>{"d3", "d4", "d5"});
+      CHECK(D.groups[0].describe() == "d3, d4, d5: 2 directions lost; observable only as d3 + d4 + d5");
+      REQUIRE(R.groups.size() == 1u);
+      CHECK(R.groups[0].names == std::vector<std::string>{"theta3", "theta4", "theta5"});
+    }
+    // LSE and LM hold the ineffective ones and one per lost direction: the minimal set is estimated.
+    const calib::Estimate lm = calib::runLm(calib::RelativePoseModel(km, pairs, calib::RelativeRows::kDistance), {});
+    CHECK(lm.held == D.held);
+  }
+}
+
+TEST_CASE("identifiability classes: range to a plane", "[calib][classes]") {
+  using calib::ParamClass;
+  for (const char* file : kArms) {
+    CAPTURE(file);
+    const sim::Arm arm = sim::loadArm(test::sourcePath(file));
+    const sim::KinematicModel km = sim::flangeModel(arm);
+    std::mt19937_64 rng(505);
+    // A plane perpendicular to joint 1's axis (horizontal for the iiwa7: z + f = 0), offset f identified.
+    const calib::Plane across{firstAxis(arm), 0.2, {3}};
+    const calib::PlaneRangeModel probe(km, offsetBeam(), across, {});
+    const calib::ParameterClasses H = classesOf(
+        calib::PlaneRangeModel(km, offsetBeam(), across, ranges(km, offsetBeam(), across, Eigen::VectorXd::Zero(probe.numParams()), 100, rng)));
+    INFO(H.describe());
+    // theta1 rotates every hit point about the plane's normal: the range does not change.
+    CHECK(isClass(H, "theta1", ParamClass::kIneffective));
+    // d1 moves everything along the normal, as the offset f does: only d1 + f is observable.
+    REQUIRE(H.groups.size() >= 1u);
+    const auto g = std::find_if(H.groups.begin(), H.groups.end(),
+                                [](const sim::Redundancy& r) { return r.names == std::vector<std::string>{"d1", "plane_f"}; });
+    REQUIRE(g != H.groups.end());
+    CHECK(g->describe() == "d1, plane_f: 1 direction lost; observable only as d1 + plane_f");
+    // Seed 004's plane y + c z + f0 = 0 (c identified) is not perpendicular to joint 1: theta1 is seen.
+    const calib::Plane tilted = calib::Plane::seed004();
+    const calib::PlaneRangeModel probe2(km, offsetBeam(), tilted, {});
+    const calib::ParameterClasses T = classesOf(
+        calib::PlaneRangeModel(km, offsetBeam(), tilted, ranges(km, offsetBeam(), tilted, Eigen::VectorXd::Zero(probe2.numParams()), 100, rng)));
+    INFO(T.describe());
+    CHECK_FALSE(isClass(T, "theta1", ParamClass::kIneffective));
   }
 }

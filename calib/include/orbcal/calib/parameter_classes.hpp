@@ -33,14 +33,16 @@ struct ParameterClasses {
   std::string describe() const;            ///< one line per class and per group
 };
 
-/// J: stacked Jacobian whose columns compare (whitened rows, columns times the typical magnitudes, as
-/// classifyParameters(model, ...) builds it). A column is ineffective when its norm is at most
-/// zero_tolerance times the largest; the rest are analysed by sim::analyzeJacobian at rank_tolerance.
+/// J: stacked Jacobian (rows whitened where their units differ), columns the parameters `names` in
+/// their own units. A column is ineffective when |J_c| typical_c <= zero_tolerance max |J_c'| typical_c'
+/// (ineffectiveColumns; typical empty: 1), i.e. zero up to round-off; the others are analysed by
+/// sim::analyzeJacobian at rank_tolerance (columns scaled to unit norm), so groups and their observable
+/// combinations are in the parameters' own units, as sim::formatIdentifiability prints them.
 ParameterClasses classifyParameters(const Eigen::MatrixXd& J, const std::vector<std::string>& names,
-                                    double rank_tolerance = 1e-9, double zero_tolerance = kIneffectiveTolerance);
+                                    const Eigen::VectorXd& typical = {}, double rank_tolerance = 1e-9,
+                                    double zero_tolerance = kIneffectiveTolerance);
 
-/// The classes of a model's parameters at y: its whitened Jacobian with columns times the layout's
-/// typical magnitudes (the measurement change, in sigmas, of a typical error).
+/// The classes of a model's parameters at y: its whitened Jacobian with the layout's typical magnitudes.
 ParameterClasses classifyParameters(const MeasurementModel& model, const Eigen::VectorXd& y,
                                     double rank_tolerance = 1e-9);
 
