@@ -188,14 +188,21 @@ Estimate runLse(const MeasurementModel& m, const LseOptions& o) {
   return e;
 }
 
-std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::VectorXd& y, double cut,
-                                     const std::vector<int>& held) {
-  Eigen::MatrixXd A_all;
-  Eigen::VectorXd b;
-  stackedSystem(m, y, true, A_all, b);
+std::vector<int> ineffectiveColumns(const Eigen::MatrixXd& A, const Eigen::VectorXd& typical, double zero_tolerance) {
+  Eigen::VectorXd effect(A.cols());
+  for (Eigen::Index c = 0; c < A.cols(); ++c) effect[c] = A.col(c).norm() * (typical.size() ? typical[c] : 1.0);
+  const double largest = effect.size() ? effect.maxCoeff() : 0.0;
+  std::vector<int> out;
+  for (Eigen::Index c = 0; c < A.cols(); ++c) {
+    if (effect[c] <= zero_tolerance * largest) out.push_back(static_cast<int>(c));
+  }
+  return out;
+}
+
+std::vector<int> unidentifiableToFix(const Eigen::MatrixXd& A_all, double cut, const std::vector<int>& held) {
   const std::vector<int> fixed_already = sortedUnique(held);
   std::vector<int> free;  // columns of A -> parameters
-  for (int p = 0; p < m.numParams(); ++p) {
+  for (int p = 0; p < static_cast<int>(A_all.cols()); ++p) {
     if (!std::binary_search(fixed_already.begin(), fixed_already.end(), p)) free.push_back(p);
   }
   Eigen::MatrixXd A(A_all.rows(), static_cast<Eigen::Index>(free.size()));
@@ -225,6 +232,19 @@ std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::Vec
   }
   std::sort(fixed.begin(), fixed.end());
   return fixed;
+}
+
+std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::VectorXd& y, double cut,
+                                     const std::vector<int>& held) {
+  Eigen::MatrixXd A;
+  Eigen::VectorXd b;
+  stackedSystem(m, y, true, A, b);
+  // Ineffective parameters first: a column that is zero up to round-off (a rigid motion of the whole
+  // chain seen by a frame-invariant measurement) would be scaled to unit norm by the SVD and look
+  // independent.
+  std::vector<int> fixed = held;
+  for (int p : ineffectiveColumns(A, m.layout().typical(), kIneffectiveTolerance)) fixed.push_back(p);
+  return unidentifiableToFix(A, cut, fixed);
 }
 
 namespace {

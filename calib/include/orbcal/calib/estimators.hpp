@@ -81,9 +81,21 @@ void whitenedSystem(const MeasurementModel& model, const Eigen::VectorXd& y, Eig
 double weightedCost(const MeasurementModel& model, const Eigen::VectorXd& y);
 
 /// Parameters to hold so that the rest are identifiable, from the SVD of the whitened Jacobian at y
-/// with the `held` parameters left out: within each unidentifiable group, the last `lost` members.
-/// The result includes `held`, sorted.
+/// with the `held` parameters left out: the ineffective ones (ineffectiveColumns with the layout's
+/// typical magnitudes and kIneffectiveTolerance), then within each unidentifiable group, the last
+/// `lost` members. The result includes `held`, sorted.
 std::vector<int> unidentifiableToFix(const MeasurementModel& model, const Eigen::VectorXd& y, double svd_cut,
                                      const std::vector<int>& held = {});
+/// The same on a stacked (whitened) Jacobian A, without the ineffective-column step.
+std::vector<int> unidentifiableToFix(const Eigen::MatrixXd& A, double svd_cut, const std::vector<int>& held = {});
+
+/// Columns of A that are zero up to round-off: |A_c| typical_c <= zero_tolerance max_c' |A_c'| typical_c'
+/// (typical empty: 1). With A whitened and `typical` the layout's, |A_c| typical_c is the measurement
+/// change, in sigmas, of a typical error of parameter c, so the columns compare.
+std::vector<int> ineffectiveColumns(const Eigen::MatrixXd& A, const Eigen::VectorXd& typical, double zero_tolerance);
+/// A column this far below the largest is round-off of an exactly zero one (1e-16 relative, e.g. a rigid
+/// motion of the whole chain under a frame-invariant measurement), not a weak parameter: a weak one
+/// whose typical error moves the measurement by 1e-10 of the strongest's is beyond any data anyway.
+constexpr double kIneffectiveTolerance = 1e-10;
 
 }  // namespace orbcal::calib

@@ -1,0 +1,198 @@
+#include "orbcal/calib/relative_models.hpp"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::calib {
+
+namespace {
+
+Eigen::VectorXd startOf(const sim::ParamLayout& layout, Eigen::VectorXd p0, const char* what) {
+  if (p0.size() == 0) p0 = Eigen::VectorXd::Zero(layout.size());
+  if (p0.size() != layout.size()) throw std::invalid_argument(std::string(what) + ": p0 has the wrong size");
+  return p0;
+}
+
+/// Distance and angle of a pair of poses (the measured or the predicted ones).
+Eigen::Vector2d distanceAndAngle(const Eigen::Isometry3d& world_T_a, const Eigen::Isometry3d& world_T_b) {
+  return {(world_T_b.translation() - world_T_a.translation()).norm(),
+          sim::rotationAngle(world_T_a.linear().transpose() * world_T_b.linear())};
+}
+
+}  // namespace
+
+// ---- RelativePoseModel --------------------------------------------------------------------------
+
+std::vector<RelativeObservation> relativePairs(const std::vector<MarkerObservation>& poses, Pairing pairing,
+                                               int reference, const MarkerNoise& noise, const RelativeGuard& guard) {
+  const int n = static_cast<int>(poses.size());
+  if (pairing == Pairing::kReference && (reference < 0 || reference >= n)) {
+    throw std::invalid_argument("relativePairs: reference " + std::to_string(reference) + " of " + std::to_string(n) +
+                                " poses");
+  }
+  std::vector<std::pair<int, int>> index;
+  for (int j = 0; j < n; ++j) {
+    if (pairing == Pairing::kReference && j != reference) index.emplace_back(reference, j);
+    if (pairing == Pairing::kConsecutive && j + 1 < n) index.emplace_back(j, j + 1);
+  }
+  std::vector<RelativeObservation> out;
+  for (const auto& [ia, ib] : index) {
+    const MarkerObservation& a = poses[static_cast<std::size_t>(ia)];
+    const MarkerObservation& b = poses[static_cast<std::size_t>(ib)];
+    const Eigen::Vector2d z = distanceAndAngle(a.world_T_marker, b.world_T_marker);
+    RelativeObservation o;
+    o.a = a.sample;
+    o.b = b.sample;
+    o.distance_m = z[0];
+    o.angle_rad = z[1];
+    o.has_distance = z[0] >= guard.min_distance_m;
+    o.has_rotation = a.has_rotation && b.has_rotation && z[1] >= guard.min_angle_rad &&
+                     z[1] <= sim::kPi - guard.min_angle_rad;
+    o.sigma_distance_m = std::sqrt(2.0) * noise.sigma_position_m;
+    o.sigma_angle_rad = std::sqrt(2.0) * noise.sigma_rotation_rad;
+    if (o.has_distance || o.has_rotation) out.push_back(o);
+  }
+  return out;
+}
+
+RelativePoseModel::RelativePoseModel(sim::KinematicModel model, std::vector<RelativeObservation> observations,
+                                     RelativeRows rows, Eigen::VectorXd p0)
+    : model_(std::move(model)) {
+  p0_ = startOf(model_.layout, std::move(p0), "RelativePoseModel");
+  for (RelativeObservation& o : observations) {
+    sim::checkJointVector(model_.arm, o.a.q_rad, "RelativePoseModel");
+    sim::checkJointVector(model_.arm, o.b.q_rad, "RelativePoseModel");
+    o.has_distance = o.has_distance && rows != RelativeRows::kRotation;
+    o.has_rotation = o.has_rotation && rows != RelativeRows::kDistance;
+    if (o.has_distance || o.has_rotation) observations_.push_back(std::move(o));
+  }
+}
+
+int RelativePoseModel::rows(int k) const {
+  const RelativeObservation& o = observations_[static_cast<std::size_t>(k)];
+  return static_cast<int>(o.has_distance) + static_cast<int>(o.has_rotation);
+}
+
+Eigen::Vector2d predictRelative(const sim::KinematicModel& model, const Eigen::VectorXd& p, const sim::JointSample& a,
+                                const sim::JointSample& b) {
+  return distanceAndAngle(sim::predictMarkerPose(model, p, a), sim::predictMarkerPose(model, p, b));
+}
+
+Linearization RelativePoseModel::linearize(int k, const Eigen::VectorXd& y) const {
+  const RelativeObservation& o = observations_.at(static_cast<std::size_t>(k));
+  const Eigen::VectorXd p = p0_ + y;
+  Eigen::MatrixXd J_a, J_b;
+  const Eigen::Isometry3d world_T_a = sim::predictMarkerPose(model_, p, o.a, &J_a);
+  const Eigen::Isometry3d world_T_b = sim::predictMarkerPose(model_, p, o.b, &J_b);
+  const Eigen::Vector2d h = distanceAndAngle(world_T_a, world_T_b);
+  const int m = rows(k);
+  Linearization lin;
+  lin.innovation.resize(m);
+  lin.H.resize(m, model_.layout.size());
+  lin.R = Eigen::MatrixXd::Zero(m, m);
+  int row = 0;
+  if (o.has_distance) {
+    // Both marker translations rotated into the world frame, projected on the direction a -> b.
+    const Eigen::Vector3d u = (world_T_b.translation() - world_T_a.translation()) / h[0];
+    lin.H.row(row) = u.transpose() * (world_T_b.linear() * J_b.topRows(3) - world_T_a.linear() * J_a.topRows(3));
+    lin.innovation[row] = o.distance_m - h[0];
+    lin.R(row, row) = o.sigma_distance_m * o.sigma_distance_m;
+    ++row;
+  }
+  if (o.has_rotation) {
+    const Eigen::Matrix3d R_ab = world_T_a.linear().transpose() * world_T_b.linear();
+    const Eigen::Vector3d w = sim::logSO3(R_ab);
+    const Eigen::Vector3d k_axis = w / w.norm();  // the guard keeps phi away from 0 (and pi)
+    lin.H.row(row) = k_axis.transpose() * (J_b.bottomRows(3) - R_ab.transpose() * J_a.bottomRows(3));
+    lin.innovation[row] = o.angle_rad - h[1];
+    lin.R(row, row) = o.sigma_angle_rad * o.sigma_angle_rad;
+  }
+  return lin;
+}
+
+// ---- PlaneRangeModel ----------------------------------------------------------------------------
+
+RangeObservation averagedRange(const sim::JointSample& sample, const std::vector<double>& readings, double sigma_m) {
+  if (readings.empty()) throw std::invalid_argument("averagedRange: no readings");
+  RangeObservation o;
+  o.sample = sample;
+  o.repeats = static_cast<int>(readings.size());
+  o.sigma_m = sigma_m;
+  for (double r : readings) o.range_m += r;
+  o.range_m /= static_cast<double>(readings.size());
+  return o;
+}
+
+PlaneRangeModel::PlaneRangeModel(sim::KinematicModel model, LaserBeam beam, Plane plane,
+                                 std::vector<RangeObservation> observations, Eigen::VectorXd p0)
+    : model_(std::move(model)), beam_(beam), plane_(std::move(plane)), observations_(std::move(observations)) {
+  if (std::abs(beam_.direction.norm() - 1.0) > 1e-9) throw std::invalid_argument("PlaneRangeModel: beam direction is not unit");
+  if (plane_.identified.size() >= 4) throw std::invalid_argument("PlaneRangeModel: at most 3 plane coefficients can be identified");
+  layout_ = model_.layout;
+  plane_offset_ = layout_.size();
+  if (!plane_.identified.empty()) {
+    static const char* kNames[] = {"plane_nx", "plane_ny", "plane_nz", "plane_f"};
+    sim::ParamBlock block;
+    block.effect = "plane";
+    for (int c : plane_.identified) {
+      if (c < 0 || c > 3) throw std::invalid_argument("PlaneRangeModel: plane coefficient index out of 0..3");
+      block.params.push_back(c < 3 ? sim::ParamInfo{kNames[c], "1", "1", 1.0, plane_.typical_n, sim::Quantity::kOther}
+                                   : sim::ParamInfo{kNames[c], "m", "mm", 1e3, plane_.typical_f_m, sim::Quantity::kLength});
+    }
+    layout_.add(block);
+  }
+  p0_ = startOf(layout_, std::move(p0), "PlaneRangeModel");
+  for (const RangeObservation& o : observations_) {
+    sim::checkJointVector(model_.arm, o.sample.q_rad, "PlaneRangeModel");
+    if (o.repeats < 1) throw std::invalid_argument("PlaneRangeModel: an observation with no readings");
+  }
+}
+
+Eigen::Vector4d PlaneRangeModel::planeAt(const Eigen::VectorXd& p) const {
+  Eigen::Vector4d w(plane_.n.x(), plane_.n.y(), plane_.n.z(), plane_.f);
+  for (std::size_t i = 0; i < plane_.identified.size(); ++i) w[plane_.identified[i]] += p[plane_offset_ + static_cast<Eigen::Index>(i)];
+  return w;
+}
+
+double PlaneRangeModel::rangeAndRow(const Eigen::VectorXd& p, const sim::JointSample& s, Eigen::RowVectorXd* H) const {
+  Eigen::MatrixXd J_e_p;
+  const Eigen::Isometry3d world_T_marker =
+      sim::predictMarkerPose(model_, p.head(plane_offset_), s, H ? &J_e_p : nullptr);
+  const Eigen::Vector4d w = planeAt(p);
+  const Eigen::Vector3d n = w.head<3>();
+  const Eigen::Vector3d p_s = world_T_marker * beam_.origin;
+  const Eigen::Vector3d b = world_T_marker.linear() * beam_.direction;
+  const double nb = n.dot(b);
+  const double h = -(n.dot(p_s) + w[3]) / nb;
+  if (H) {
+    H->resize(layout_.size());
+    Eigen::Matrix<double, 3, 6> lever;
+    lever << Eigen::Matrix3d::Identity(), -sim::skew(beam_.origin + h * beam_.direction);
+    H->head(plane_offset_) = -(n.transpose() * world_T_marker.linear() * lever * J_e_p) / nb;
+    const Eigen::Vector3d p_j = p_s + h * b;
+    for (std::size_t i = 0; i < plane_.identified.size(); ++i) {
+      const int c = plane_.identified[i];
+      (*H)[plane_offset_ + static_cast<Eigen::Index>(i)] = -(c < 3 ? p_j[c] : 1.0) / nb;
+    }
+  }
+  return h;
+}
+
+double PlaneRangeModel::predictRange(const Eigen::VectorXd& p, const sim::JointSample& s) const {
+  return rangeAndRow(p, s, nullptr);
+}
+
+Linearization PlaneRangeModel::linearize(int k, const Eigen::VectorXd& y) const {
+  const RangeObservation& o = observations_.at(static_cast<std::size_t>(k));
+  Eigen::RowVectorXd row;
+  const double h = rangeAndRow(p0_ + y, o.sample, &row);
+  Linearization lin;
+  lin.innovation = Eigen::VectorXd::Constant(1, o.range_m - h);
+  lin.H = row;
+  lin.R = Eigen::MatrixXd::Constant(1, 1, o.sigma_m * o.sigma_m / static_cast<double>(o.repeats));
+  return lin;
+}
+
+}  // namespace orbcal::calib
