@@ -47,12 +47,6 @@ std::string effectJson(const sim::Effect& e) {
   return j + "]";
 }
 
-std::string statsJson(const calib::ResidualStats& s) {
-  return "{\"position_mean_mm\": " + sim::exactNumber(s.position_mean_m * 1e3) + ", \"position_rms_mm\": " +
-         sim::exactNumber(s.position_rms_m * 1e3) + ", \"position_max_mm\": " + sim::exactNumber(s.position_max_m * 1e3) +
-         ", \"rotation_rms_deg\": " + sim::exactNumber(s.rotation_rms_rad * sim::kRadToDeg) + "}";
-}
-
 /// The selected effects' parameters with their 1-sigma, from the final fit.
 struct EffectParams {
   sim::Effect effect;
@@ -122,7 +116,7 @@ std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& dist
     if (d.confounded[c].with_geometry) j << (d.confounded[c].effects.empty() ? "" : ", ") << "{\"effect\": \"geometry\", \"joints\": []}";
     j << "]";
   }
-  j << "],\n \"heldout\": {\"base\": " << statsJson(d.heldout.base) << ", \"selected\": " << statsJson(d.heldout.selected) << "},\n"
+  j << "],\n \"heldout\": {\"base\": " << residualJson(d.heldout.base) << ", \"selected\": " << residualJson(d.heldout.selected) << "},\n"
     << " \"seconds\": " << sim::formatNumber("%.3f", d.seconds) << "}\n";
   return j.str();
 }

@@ -418,17 +418,14 @@ Eigen::VectorXd jointCorrectionsImpl(const KinematicModel& m, const Eigen::Vecto
   return dq;
 }
 
-const Thermal* findThermal(const KinematicModel& m) {
-  for (const Effect& e : m.effects) {
-    if (const auto* t = std::get_if<Thermal>(&e)) return t;
+/// The model's effect of type T (the catalog's global effects occur at most once) and the offset of
+/// its parameters; {nullptr, -1} when absent.
+template <class T>
+std::pair<const T*, int> findEffect(const KinematicModel& m) {
+  for (std::size_t i = 0; i < m.effects.size(); ++i) {
+    if (const auto* e = std::get_if<T>(&m.effects[i])) return {e, m.layout.block(m.effect_blocks[i].front()).offset};
   }
-  return nullptr;
-}
-const Drift* findDrift(const KinematicModel& m) {
-  for (const Effect& e : m.effects) {
-    if (const auto* d = std::get_if<Drift>(&e)) return d;
-  }
-  return nullptr;
+  return {nullptr, -1};
 }
 
 void checkSizes(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s) {
@@ -455,8 +452,8 @@ Arm effectiveArm(const KinematicModel& m, const Eigen::VectorXd& p, const JointS
     const ParamBlock& g = m.layout.block(m.layout.find("geometry"));
     arm = withErrors(m.arm, p.segment(g.offset, g.size()));
   }
-  if (const Thermal* t = findThermal(m)) {
-    const double scale = 1.0 + p[m.layout.block(m.layout.find("thermal")).offset] * deltaTemperature(*t, s);
+  if (const auto [t, t_off] = findEffect<Thermal>(m); t) {
+    const double scale = 1.0 + p[t_off] * deltaTemperature(*t, s);
     for (DhRow& r : arm.joints) {
       r.a_m *= scale;
       r.d_m *= scale;
@@ -482,8 +479,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   const int b_blk = frameBlockIndex(m, "base", m.base, s.session);
   const int m_blk = frameBlockIndex(m, "marker", m.marker, s.session);
   const int y_blk = s.session > 0 ? m.layout.find("mount", s.session) : -1;
-  const Drift* drift = findDrift(m);
-  const int d_off = drift ? m.layout.block(m.layout.find("drift")).offset : -1;
+  const auto [drift, d_off] = findEffect<Drift>(m);
   const auto seg = [&](int blk) { return p.segment(m.layout.block(blk).offset, 6); };
 
   const Eigen::Isometry3d W = b_blk >= 0 ? m.baseStart(s.session) * frameDelta(seg(b_blk)) : m.baseStart(s.session);
@@ -521,9 +517,9 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   if (drift) J.middleCols(d_off, 6) += adjoint((F * MY).inverse()) * frameDeltaJacobian(d_tw) * dt;
 
   // Geometry: lengths enter as (nominal + error) (1 + alpha dT).
-  const Thermal* thermal = findThermal(m);
+  const auto [thermal, t_off] = findEffect<Thermal>(m);
   const double dT = thermal ? deltaTemperature(*thermal, s) : 0.0;
-  const double expansion = thermal ? 1.0 + p[m.layout.block(m.layout.find("thermal")).offset] * dT : 1.0;
+  const double expansion = thermal ? 1.0 + p[t_off] * dT : 1.0;
   if (m.geometry) {
     const int g = m.layout.block(m.layout.find("geometry")).offset;
     for (int i = 0; i < m.arm.numParams(); ++i) {
@@ -533,7 +529,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   if (thermal) {
     // d/d alpha of the scaled lengths: dT (a + da) and dT (d + dd) along their own columns; the
     // unscaled lengths are the effective ones divided by the expansion.
-    auto col = J.col(m.layout.block(m.layout.find("thermal")).offset);
+    auto col = J.col(t_off);
     for (int j = 0; j < n; ++j) {
       col += (dT / expansion) * (arm.joints[j].a_m * J_geo.col(paramIndex(arm, j, kA)) + arm.joints[j].d_m * J_geo.col(paramIndex(arm, j, kD)));
     }

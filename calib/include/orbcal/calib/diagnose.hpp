@@ -37,7 +37,6 @@ struct DiagnoseOptions {
   double confounding_gain_margin = 0.1;
   std::optional<double> sigma_position_m, sigma_rotation_rad;  ///< else estimated from the base fit
   double joint_noise_sigma_rad = 0.0;  ///< joint readings vs true angles, carried into every R
-  int threads = 0;                  ///< 0: hardware threads
 };
 
 /// One row of the evidence table: held-out residuals against one variable.
