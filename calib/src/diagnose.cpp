@@ -534,6 +534,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
       if (cv.sse - cv_current.sse < o.penalty_per_param * params) {
         selected = without;
         cv_current = std::move(cv);
+        current_fit = selected.empty() ? out.base_fit : d.fitAll(selected);
         removed = true;
         break;
       }
@@ -542,7 +543,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
 
   out.selected = selected;
   out.clean = selected.empty();
-  out.fit = selected.empty() ? out.base_fit : d.fitAll(selected);
+  out.fit = current_fit;  // the fit of `selected` on all the data (kept current by both passes)
   out.cv_selected = cv_current.sse;
   out.residual_selected = cv_current.residual;
   out.heldout.base = residualStats(out.residual_base);
