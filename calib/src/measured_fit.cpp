@@ -51,11 +51,8 @@ Eigen::Isometry3d meanTransform(const std::vector<Eigen::Isometry3d>& Ts) {
     S += T.linear();
     t += T.translation();
   }
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(S, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1.0 : 1.0;
   Eigen::Isometry3d out = Eigen::Isometry3d::Identity();
-  out.linear() = svd.matrixU() * D * svd.matrixV().transpose();
+  out.linear() = sim::projectToSO3(S);
   out.translation() = t / static_cast<double>(Ts.size());
   return out;
 }

@@ -42,14 +42,6 @@ std::string fmt(const char* format, double a, double b) {
   return buf;
 }
 
-/// The rotation nearest to M in the Frobenius norm (SVD; reflections excluded).
-Eigen::Matrix3d projectToSO3(const Eigen::Matrix3d& M) {
-  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
-  return svd.matrixU() * D * svd.matrixV().transpose();
-}
-
 /// Ascending eigenvalues of the scatter (1/n) sum v v^T of the columns of V (3 x n).
 Eigen::Vector3d scatterEigenvalues(const Eigen::Matrix3Xd& V) {
   const Eigen::Matrix3d S = V * V.transpose() / static_cast<double>(V.cols());
@@ -185,8 +177,8 @@ void robotWorldHandEyeRotations(const std::vector<Eigen::Isometry3d>& world_T_ma
   Eigen::Matrix3d R_mf;
   cv::cv2eigen(R_base2world, R_wb);
   cv::cv2eigen(R_gripper2cam, R_mf);
-  R_wb = projectToSO3(R_wb);
-  R_fm = projectToSO3(R_mf.transpose());
+  R_wb = sim::projectToSO3(R_wb);
+  R_fm = sim::projectToSO3(R_mf.transpose());
 }
 
 }  // namespace
@@ -222,7 +214,7 @@ RegistrationGuess initialRegistration(const std::vector<Eigen::Isometry3d>& worl
         p_bm.col(k) = base_T_flange_k.linear() * m + base_T_flange_k.translation();
       }
       const Eigen::Matrix4d world_T_base_h = Eigen::umeyama(p_bm, p_wm, false);
-      R_wb = projectToSO3(world_T_base_h.topLeftCorner<3, 3>());
+      R_wb = sim::projectToSO3(world_T_base_h.topLeftCorner<3, 3>());
       const Eigen::Vector3d m_prev = m;
       solveTranslations(world_T_marker, base_T_flange, R_wb, m, p_wb);
       if ((m - m_prev).norm() < kAlternationTolM) break;
@@ -256,7 +248,7 @@ Eigen::Isometry3d initialMarker(const std::vector<Eigen::Isometry3d>& world_T_ma
     m += flange_T_marker_k.translation();
   }
   Eigen::Isometry3d flange_T_marker = Eigen::Isometry3d::Identity();
-  if (use_rotation) flange_T_marker.linear() = projectToSO3(R_sum);
+  if (use_rotation) flange_T_marker.linear() = sim::projectToSO3(R_sum);
   flange_T_marker.translation() = m / static_cast<double>(world_T_marker.size());
   return flange_T_marker;
 }

@@ -1,5 +1,7 @@
 #include "orbcal/sim/se3.hpp"
 
+#include <Eigen/SVD>
+
 #include <algorithm>
 #include <cmath>
 
@@ -77,5 +79,12 @@ Eigen::Isometry3d fromXyzRpy(const Eigen::Vector3d& xyz_m, const Eigen::Vector3d
 }
 
 double rotationAngle(const Eigen::Matrix3d& R) { return logSO3(R).norm(); }
+
+Eigen::Matrix3d projectToSO3(const Eigen::Matrix3d& M) {
+  const Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0 ? -1.0 : 1.0;
+  return svd.matrixU() * D * svd.matrixV().transpose();
+}
 
 }  // namespace orbcal::sim

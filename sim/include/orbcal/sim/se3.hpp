@@ -34,6 +34,9 @@ Matrix6d adjoint(const Eigen::Isometry3d& a_T_b);
 /// Rigid transform from a translation (m) and roll-pitch-yaw angles (rad), R = Rz(yaw) Ry(pitch) Rx(roll).
 Eigen::Isometry3d fromXyzRpy(const Eigen::Vector3d& xyz_m, const Eigen::Vector3d& rpy_rad);
 
+/// The rotation nearest to M in the Frobenius norm (SVD; reflections excluded).
+Eigen::Matrix3d projectToSO3(const Eigen::Matrix3d& M);
+
 /// Rotation angle (rad, in [0, pi]) of R.
 double rotationAngle(const Eigen::Matrix3d& R);
 
