@@ -12,6 +12,7 @@
 #include "orbcal/calib/measured_fit.hpp"
 #include "orbcal/calib/observability.hpp"
 #include "orbcal/calib/parameter_classes.hpp"
+#include "orbcal/calib/relative_models.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/vision/measurement.hpp"
 #include <optional>
@@ -65,6 +66,9 @@ struct CalibrateResult {
   std::string model = "pose";            ///< the measurement kind used
   calib::ParameterClasses classes;       ///< of the identification set under that model
   calib::ObservabilityIndices observability;  ///< of the identification set, held parameters left out
+  /// Relative models: the held-out images paired with the first identification image, nominal vs
+  /// calibrated (what a frame-free model can be judged on without base_T_board).
+  std::optional<calib::RelativeErrors> relative_before, relative_after;
   int images = 0, usable = 0, identification = 0, held_out = 0;
   calib::ErrorSummary before, after;     ///< hold-out errors against the measured poses
   bool has_truth = false;

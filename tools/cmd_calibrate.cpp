@@ -121,6 +121,17 @@ void addCalibrateCommand(CLI::App& app) {
                   r.before.position_avg_m * 1e3, r.after.position_avg_m * 1e3,
                   100.0 * calib::improvement(r.before.position_avg_m, r.after.position_avg_m));
     }
+    if (r.relative_before) {
+      std::printf("held-out pairs with the first identification image:");
+      if (r.relative_before->distance_pairs > 0) {
+        std::printf(" distance RMS %.4f -> %.4f mm", r.relative_before->distance_rms_m * 1e3, r.relative_after->distance_rms_m * 1e3);
+      }
+      if (r.relative_before->angle_pairs > 0) {
+        std::printf(" angle RMS %.5f -> %.5f deg", r.relative_before->angle_rms_rad * sim::kRadToDeg,
+                    r.relative_after->angle_rms_rad * sim::kRadToDeg);
+      }
+      std::printf("\n");
+    }
     if (r.has_truth) {
       std::printf("held-out average position error against the true poses: %.3f mm -> %.3f mm\n",
                   r.truth_before.position_avg_m * 1e3, r.truth_after.position_avg_m * 1e3);

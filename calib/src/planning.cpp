@@ -46,6 +46,9 @@ MeasurementKind parseMeasurementKind(const std::string& text, const std::string&
 std::string measurementKindName(MeasurementKind kind) { return entry(kind).name; }
 std::string measurementKindDescription(MeasurementKind kind) { return entry(kind).description; }
 bool isPoseKind(MeasurementKind kind) { return kind != MeasurementKind::kRange; }
+bool isRelativeKind(MeasurementKind kind) {
+  return kind == MeasurementKind::kDistance || kind == MeasurementKind::kRotation || kind == MeasurementKind::kDistanceRotation;
+}
 
 RelativeRows relativeRows(MeasurementKind kind) {
   switch (kind) {

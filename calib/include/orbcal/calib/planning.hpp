@@ -34,6 +34,8 @@ std::string measurementKindName(MeasurementKind kind);
 std::string measurementKindDescription(MeasurementKind kind);
 /// The kinds whose measurement is a pose or a part of one (every kind but kRange).
 bool isPoseKind(MeasurementKind kind);
+/// The kinds measured between pairs of configurations (distance, rotation, dr).
+bool isRelativeKind(MeasurementKind kind);
 
 /// How the measurements of a kind are taken and how noisy they are.
 struct MeasurementSetup {
