@@ -17,17 +17,6 @@ using calib::MeasurementKind;
 
 namespace {
 
-std::vector<Eigen::VectorXd> randomConfigs(const sim::Arm& arm, int n, std::uint64_t seed) {
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  std::vector<Eigen::VectorXd> out;
-  for (int i = 0; i < n; ++i) {
-    Eigen::VectorXd q(arm.numJoints());
-    for (int j = 0; j < arm.numJoints(); ++j) q[j] = arm.lower_rad[j] + u(rng) * (arm.upper_rad[j] - arm.lower_rad[j]);
-    out.push_back(q);
-  }
-  return out;
-}
 
 bool ineffective(const calib::ParameterClasses& c, const std::string& name) {
   for (int p : c.ineffective) {
@@ -54,7 +43,7 @@ TEST_CASE("measurement kinds: names round-trip; an unknown one names the option 
 TEST_CASE("planning models: every kind predicts its own observations exactly at the start", "[calib][planning]") {
   const sim::Arm arm = sim::loadArm(test::sourcePath("scenes/iiwa7.yaml"));
   const sim::KinematicModel km = sim::flangeModel(arm);
-  const auto samples = calib::samplesOf(randomConfigs(arm, 20, 3));
+  const auto samples = calib::samplesOf(test::randomConfigs(arm, 20, 3));
   for (MeasurementKind k : {MeasurementKind::kPose, MeasurementKind::kPosition, MeasurementKind::kDistance,
                             MeasurementKind::kRotation, MeasurementKind::kDistanceRotation, MeasurementKind::kRange}) {
     CAPTURE(calib::measurementKindName(k));
@@ -76,7 +65,7 @@ TEST_CASE("position only: rotations about the measured point are invisible, the 
   // that axis and alpha7 about its own x axis, both through the flange origin, so neither moves the point.
   const sim::Arm arm = sim::loadArm(test::sourcePath("scenes/iiwa7.yaml"));
   const sim::KinematicModel km = sim::flangeModel(arm);
-  const auto samples = calib::samplesOf(randomConfigs(arm, 40, 5));
+  const auto samples = calib::samplesOf(test::randomConfigs(arm, 40, 5));
   calib::MeasurementSetup setup;
   setup.kind = MeasurementKind::kPosition;
   const auto position = calib::planningModel(setup, km, samples);
@@ -97,7 +86,7 @@ TEST_CASE("observability: the marker model of a pose kind and seed 000's pose mo
   // PoseMeasurementModel over the identification Jacobian) must give the same whitened Jacobian's
   // singular values, so the same O1-O5.
   const sim::Arm arm = sim::loadArm(test::sourcePath("scenes/ssrms.yaml"));
-  const auto configs = randomConfigs(arm, 30, 11);
+  const auto configs = test::randomConfigs(arm, 30, 11);
   calib::MeasurementSetup setup;
   setup.noise.sigma_position_m = 0.3e-3;
   setup.noise.sigma_rotation_rad = 0.5 * sim::kDegToRad;
@@ -123,7 +112,7 @@ TEST_CASE("simulated poses: exact without noise, the asked sigmas with it", "[ca
   const sim::Arm arm = sim::loadArm(test::sourcePath("scenes/iiwa7.yaml"));
   const sim::KinematicModel km = sim::flangeModel(arm);
   const Eigen::VectorXd p = Eigen::VectorXd::Zero(km.layout.size());
-  const auto samples = calib::samplesOf(randomConfigs(arm, 2000, 17));
+  const auto samples = calib::samplesOf(test::randomConfigs(arm, 2000, 17));
   std::mt19937_64 rng(23);
   calib::MarkerNoise none;
   none.sigma_position_m = none.sigma_rotation_rad = 0.0;

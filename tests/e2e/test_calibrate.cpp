@@ -99,6 +99,19 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
   CHECK_THROWS_WITH(tools::runCalibrate(o), Catch::StartsWith(job.out + ": only "));
 }
 
+namespace {
+/// The dataset's scene with its board placement off by 5 mm and 0.3 deg (a board re-mounted, a
+/// tape-measure error; or, in orbit, launch loads and thermal deformation).
+void misplaceBoard(const std::string& dataset) {
+  const std::string scene = dataset + "/scene.yaml";
+  std::string text = slurp(scene);
+  const std::string from = "base_T_board: {xyz_m: [6.0, 4.0, 6.0], rpy_deg: [0.0, 90.0, 0.0]}";
+  REQUIRE(text.find(from) != std::string::npos);
+  text.replace(text.find(from), from.size(), "base_T_board: {xyz_m: [6.005, 4.0, 6.0], rpy_deg: [0.3, 90.0, 0.0]}");
+  sim::writeFileAtomic(scene, text);
+}
+}  // namespace
+
 TEST_CASE("calibrate --estimate-frames: a wrong base_T_board in the scene no longer spoils the calibration",
           "[e2e][calibrate]") {
   render::DatasetJob job;
@@ -115,12 +128,7 @@ TEST_CASE("calibrate --estimate-frames: a wrong base_T_board in the scene no lon
   REQUIRE(right.frames);
 
   // The scene's board placement off by 5 mm and 0.3 deg (a board re-mounted, a tape-measure error).
-  const std::string scene = job.out + "/scene.yaml";
-  std::string text = slurp(scene);
-  const std::string from = "base_T_board: {xyz_m: [6.0, 4.0, 6.0], rpy_deg: [0.0, 90.0, 0.0]}";
-  REQUIRE(text.find(from) != std::string::npos);
-  text.replace(text.find(from), from.size(), "base_T_board: {xyz_m: [6.005, 4.0, 6.0], rpy_deg: [0.3, 90.0, 0.0]}");
-  sim::writeFileAtomic(scene, text);
+  misplaceBoard(job.out);
   o.out = job.out + "/../wrong";
   const tools::CalibrateResult wrong = tools::runCalibrate(o);
   REQUIRE(wrong.frames);
@@ -169,12 +177,7 @@ TEST_CASE("calibrate --model dr: frame-free pairs of camera poses; a wrong base_
   const tools::CalibrateResult pose_right = tools::runCalibrate(pose);
   CHECK_FALSE(pose_right.relative_before);
 
-  const std::string scene = job.out + "/scene.yaml";
-  std::string text = slurp(scene);
-  const std::string from = "base_T_board: {xyz_m: [6.0, 4.0, 6.0], rpy_deg: [0.0, 90.0, 0.0]}";
-  REQUIRE(text.find(from) != std::string::npos);
-  text.replace(text.find(from), from.size(), "base_T_board: {xyz_m: [6.005, 4.0, 6.0], rpy_deg: [0.3, 90.0, 0.0]}");
-  sim::writeFileAtomic(scene, text);
+  misplaceBoard(job.out);
   o.out = job.out + "/../wrong";
   const tools::CalibrateResult wrong = tools::runCalibrate(o);
   // The same estimate (to round-off) and the same errors against the true poses.
