@@ -50,11 +50,12 @@ void addExperimentCommand(CLI::App& app) {
                   "table4: Table 3 errors, 50 + 200 configurations, rendered images, every estimator;\n"
                   "table5: four synthetic noise levels + images, repeated;\n"
                   "fig8: identification set size 10..200 (--ident) in steps of 10, repeated;\n"
-                  "floor: the validation error of the true parameters (control noise alone)")
+                  "floor: the validation error of the true parameters (control noise alone);\n"
+                  "jia2019: Jia et al. 2019, distance / D&R / absolute models on the hemisphere, board-to-base change sweep")
       ->required()
-      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor"}));
+      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "jia2019"}));
   addExperimentOptions(*cmd, opt->e);
-  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor)")
+  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, jia2019)")
       ->capture_default_str()
       ->check(CLI::Range(1, 10000));
   cmd->add_option("--source", opt->e.source, "fig8 measurements: images or synthetic (0.3 mm / 0.5 deg)")
@@ -70,6 +71,9 @@ void addExperimentCommand(CLI::App& app) {
     } else if (opt->preset == "fig8") {
       if (cmd->count("--ident") == 0) e.identification = 200;  // the paper's range: 10 to 200
       runFig8(e);
+    } else if (opt->preset == "jia2019") {
+      if (cmd->count("--robot") == 0) e.robot = "builtin:ssrms_hayati.yaml";  // Jia et al. 2019's Hayati model
+      runJia2019(e);
     } else {
       runFloor(e);
     }

@@ -66,6 +66,7 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder = "
 void runTable5(const ExperimentOptions& o);
 void runFig8(const ExperimentOptions& o);
 void runFloor(const ExperimentOptions& o);
+void runJia2019(const ExperimentOptions& o);  ///< Jia et al. 2019 (experiment_jia2019.cpp)
 
 /// The headline of a Table 4 run, a few lines for the terminal.
 std::string table4Headline(const Table4Result& r);
