@@ -51,7 +51,8 @@ void addExperimentCommand(CLI::App& app) {
                   "table5: four synthetic noise levels + images, repeated;\n"
                   "fig8: identification set size 10..200 (--ident) in steps of 10, repeated;\n"
                   "floor: the validation error of the true parameters (control noise alone);\n"
-                  "jia2019: Jia et al. 2019, distance / D&R / absolute models on the hemisphere, board-to-base change sweep")
+                  "jia2019: Jia et al. 2019, distance / D&R / absolute models on the hemisphere, board-to-base change sweep\n"
+                  "  (pose level; robot default builtin:ssrms_hayati.yaml; --scene, --errors, --ident, --valid unused)")
       ->required()
       ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "jia2019"}));
   addExperimentOptions(*cmd, opt->e);
