@@ -28,7 +28,7 @@ TEST_CASE("jia2019 preset: relative models blind to the board's move, the stale 
   for (std::size_t r = 0; r < t.rows(); ++r) {
     e[{t.cell(r, model), static_cast<int>(t.number(r, rep))}][t.number(r, change)] = {t.number(r, workspace), t.number(r, local)};
   }
-  REQUIRE(e.size() == 8u);  // 4 models x 2 repetitions
+  REQUIRE(e.size() == 10u);  // 5 models (the paper's 4 and the control) x 2 repetitions
   for (const auto& [key, by_change] : e) {
     CAPTURE(key.first, key.second);
     REQUIRE(by_change.size() == 5u);  // 0, 1, 2, 5, 10 mm
