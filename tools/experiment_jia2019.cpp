@@ -179,7 +179,7 @@ void runJia2019(const ExperimentOptions& o) {
   // [change][model]: per repetition.
   std::vector<std::vector<Stat>> pos_mean(kFrameChangeMm.size(), std::vector<Stat>(n_models)),
       pos_max = pos_mean, rot_mean = pos_mean, rot_max = pos_mean, local_pos = pos_mean, local_rot = pos_mean;
-  Stat nominal_pos, nominal_pos_max, nominal_rot, floor_pos, nominal_local_pos, nominal_local_rot;
+  Stat nominal_pos, nominal_pos_max, nominal_rot, nominal_rot_max, floor_pos, nominal_local_pos, nominal_local_rot;
   std::vector<Stat> ranks(n_models), held(n_models), seconds(n_models), converged(n_models);
   std::vector<calib::ParameterClasses> classes(n_models);
   std::ostringstream runs, pooled, sweep;
@@ -234,6 +234,7 @@ void runJia2019(const ExperimentOptions& o) {
     nominal_pos.v.push_back(before.position_mean);
     nominal_pos_max.v.push_back(before.position_max);
     nominal_rot.v.push_back(before.rotation_mean);
+    nominal_rot_max.v.push_back(before.rotation_max);
     const Validation before_local = validate(nominal, valid_local);
     nominal_local_pos.v.push_back(before_local.position_mean);
     nominal_local_rot.v.push_back(before_local.rotation_mean);
@@ -377,7 +378,8 @@ void runJia2019(const ExperimentOptions& o) {
         "| local position mean (mm) | local orientation mean (deg) |\n"
      << "|---|---|---|---|---|---|---|---|---|---|\n"
      << "| nominal (not calibrated) | | | | " << meanStd(nominal_pos, 1e3) << " | " << meanStd(nominal_pos_max, 1e3) << " | "
-     << meanStd(nominal_rot, sim::kRadToDeg, "%.4f") << " | | " << meanStd(nominal_local_pos, 1e3) << " | "
+     << meanStd(nominal_rot, sim::kRadToDeg, "%.4f") << " | " << meanStd(nominal_rot_max, sim::kRadToDeg, "%.4f") << " | "
+     << meanStd(nominal_local_pos, 1e3) << " | "
      << meanStd(nominal_local_rot, sim::kRadToDeg, "%.4f") << " |\n";
   for (std::size_t mi = 0; mi < n_models; ++mi) {
     md << "| " << models()[mi].name << " | " << fmt("%.0f", ranks[mi].mean()) << " | " << fmt("%.0f", held[mi].mean())
@@ -386,7 +388,8 @@ void runJia2019(const ExperimentOptions& o) {
        << meanStd(rot_mean[0][mi], sim::kRadToDeg, "%.4f") << " | " << meanStd(rot_max[0][mi], sim::kRadToDeg, "%.4f") << " | "
        << meanStd(local_pos[0][mi], 1e3) << " | " << meanStd(local_rot[0][mi], sim::kRadToDeg, "%.4f") << " |\n";
   }
-  md << "\n`converged`: repetitions in which Gauss-Newton met its step tolerance within 50 iterations (the others "
+  md << "\n`rank`: of the Jacobian the estimator used, joint 1 held (the classification below includes joint 1); "
+        "`held`: parameters held at zero. `converged`: repetitions in which Gauss-Newton met its step tolerance within 50 iterations (the others "
         "stopped there, oscillating along weakly determined directions).\n\nThe 0.01 deg control noise alone would add a floor of " << fmt("%.3f", floor_pos.mean() * 1e3)
      << " mm mean position error on these configurations (the true parameters driven by noisy joints).\n\n";
 
