@@ -34,7 +34,7 @@ std::string fmt(const char* f, double v) { return formatNumber(f, v); }
 // The preset's settings (stated in the report).
 constexpr double kCameraSigmaPositionM = 0.2e-3;                  ///< per axis: the middle of 0.1-0.3 mm
 constexpr double kCameraSigmaRotationRad = 0.05 * sim::kDegToRad;  ///< per axis: the middle of 0.01-0.1 deg
-constexpr int kValidation = 500;                                   ///< the paper's validation set
+constexpr std::size_t kValidation = 500;                                  ///< the paper's validation set
 const std::vector<double> kFrameChangeMm{0, 1, 2, 5, 10};
 constexpr double kFrameRotationDegPerMm = 0.02;                    ///< 10 mm with 0.2 deg
 /// The reference configuration (deg) of a 7-joint arm: the end effector about 7 m out, away from
@@ -210,23 +210,22 @@ void runJia2019(const ExperimentOptions& o) {
     // would not see the board from most of them; distances and angles do not need it), same noise.
     auto rng_spread = sim::makeRng(seed, 0x6a696173ULL);
     std::uniform_real_distribution<double> u01(0.0, 1.0);
-    const auto uniformIn = [&](const Eigen::VectorXd& lo, const Eigen::VectorXd& hi, std::mt19937_64& rng) {
-      std::vector<Eigen::VectorXd> qs(static_cast<std::size_t>(kValidation), Eigen::VectorXd(7));
+    const auto uniformIn = [&](std::size_t count, const Eigen::VectorXd& lo, const Eigen::VectorXd& hi, std::mt19937_64& rng) {
+      std::vector<Eigen::VectorXd> qs(count, Eigen::VectorXd(7));
       for (auto& q : qs) {
         for (int j = 0; j < 7; ++j) q[j] = lo[j] + u01(rng) * (hi[j] - lo[j]);
       }
       return qs;
     };
-    std::vector<Eigen::VectorXd> q_spread = uniformIn(nominal.lower_rad, nominal.upper_rad, rng_spread);
-    q_spread.resize(q_ident.size());
+    const std::vector<Eigen::VectorXd> q_spread = uniformIn(q_ident.size(), nominal.lower_rad, nominal.upper_rad, rng_spread);
     const calib::PlantSamples spread = calib::simulatePlant(true_arm, q_spread, o.joint_noise_sigma_rad, rng_spread);
     // Validation: 500 configurations uniform within the joint limits, the true plant at the commanded
     // joints (no control noise: the table shows the model's own error); the floor the 0.01 deg control
     // noise would add is computed on the same configurations.
     auto rng_valid = sim::makeRng(o.seed + kValidationSeedOffset + static_cast<std::uint64_t>(r), 0x6a696176ULL);
-    const std::vector<Eigen::VectorXd> q_valid = uniformIn(nominal.lower_rad, nominal.upper_rad, rng_valid);
+    const std::vector<Eigen::VectorXd> q_valid = uniformIn(kValidation, nominal.lower_rad, nominal.upper_rad, rng_valid);
     const calib::PlantSamples valid = calib::simulatePlant(true_arm, q_valid, 0.0, rng_valid);
-    const std::vector<Eigen::VectorXd> q_local = uniformIn(box_lo, box_hi, rng_valid);
+    const std::vector<Eigen::VectorXd> q_local = uniformIn(kValidation, box_lo, box_hi, rng_valid);
     const calib::PlantSamples valid_local = calib::simulatePlant(true_arm, q_local, 0.0, rng_valid);
     const calib::PlantSamples valid_noisy = calib::simulatePlant(true_arm, q_valid, o.joint_noise_sigma_rad, rng_valid);
     floor_pos.v.push_back(calib::summarize(calib::poseErrors(true_arm, valid_noisy)).position_avg_m);
