@@ -52,11 +52,13 @@ void addExperimentCommand(CLI::App& app) {
                   "fig8: identification set size 10..200 (--ident) in steps of 10, repeated;\n"
                   "floor: the validation error of the true parameters (control noise alone);\n"
                   "selection: configurations chosen by O3 / O1 against random ones at 15, 25, 50 measurements for the pose, "
-                  "position and dr models, and in the main job's rendered setting (x floor), repeated")
+                  "position and dr models, and in the main job's rendered setting (x floor), repeated;\n"
+                  "jia2019: Jia et al. 2019, distance / D&R / absolute models on the hemisphere, board-to-base change sweep\n"
+                  "  (pose level; robot default builtin:ssrms_hayati.yaml; --scene, --errors, --ident, --valid unused)")
       ->required()
-      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "selection"}));
+      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "selection", "jia2019"}));
   addExperimentOptions(*cmd, opt->e);
-  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, selection)")
+  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, selection, jia2019)")
       ->capture_default_str()
       ->check(CLI::Range(1, 10000));
   cmd->add_option("--source", opt->e.source, "fig8 measurements: images or synthetic (0.3 mm / 0.5 deg)")
@@ -74,6 +76,12 @@ void addExperimentCommand(CLI::App& app) {
       runFig8(e);
     } else if (opt->preset == "selection") {
       runSelection(e);
+    } else if (opt->preset == "jia2019") {
+      for (const char* unused : {"--scene", "--errors", "--ident", "--valid"}) {
+        if (cmd->count(unused) > 0) throw sim::InputError(std::string(unused) + ": not used by --preset jia2019 (its protocol fixes it)");
+      }
+      if (cmd->count("--robot") == 0) e.robot = "builtin:ssrms_hayati.yaml";  // Jia et al. 2019's Hayati model
+      runJia2019(e);
     } else {
       runFloor(e);
     }

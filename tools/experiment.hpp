@@ -69,6 +69,7 @@ void runFloor(const ExperimentOptions& o);
 /// Selected (O3, O1) against random configurations at equal counts, every measurement kind, and the main
 /// job's rendered setting (experiment_selection.cpp).
 void runSelection(const ExperimentOptions& o);
+void runJia2019(const ExperimentOptions& o);  ///< Jia et al. 2019 (experiment_jia2019.cpp)
 
 /// The headline of a Table 4 run, a few lines for the terminal.
 std::string table4Headline(const Table4Result& r);
