@@ -50,9 +50,10 @@ void addExperimentCommand(CLI::App& app) {
                   "table4: Table 3 errors, 50 + 200 configurations, rendered images, every estimator;\n"
                   "table5: four synthetic noise levels + images, repeated;\n"
                   "fig8: identification set size 10..200 (--ident) in steps of 10, repeated;\n"
-                  "floor: the validation error of the true parameters (control noise alone)")
+                  "floor: the validation error of the true parameters (control noise alone);\n"
+                  "liu2012: Liu et al. 2012, laser ranger to a plane, 50/100 of 101 by O3 (--robot default scenes/puma_hayati.yaml)")
       ->required()
-      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor"}));
+      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "liu2012"}));
   addExperimentOptions(*cmd, opt->e);
   cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor)")
       ->capture_default_str()
@@ -70,6 +71,10 @@ void addExperimentCommand(CLI::App& app) {
     } else if (opt->preset == "fig8") {
       if (cmd->count("--ident") == 0) e.identification = 200;  // the paper's range: 10 to 200
       runFig8(e);
+    } else if (opt->preset == "liu2012") {
+      if (cmd->count("--robot") == 0) e.robot = "builtin:puma_hayati.yaml";
+      if (cmd->count("--valid") == 0) e.validation = 20;  // the paper's 20 validation configurations
+      runLiu2012(e);
     } else {
       runFloor(e);
     }
