@@ -50,12 +50,13 @@ void addExperimentCommand(CLI::App& app) {
                   "table4: Table 3 errors, 50 + 200 configurations, rendered images, every estimator;\n"
                   "table5: four synthetic noise levels + images, repeated;\n"
                   "fig8: identification set size 10..200 (--ident) in steps of 10, repeated;\n"
-                  "floor: the validation error of the true parameters (control noise alone);\n"
-                  "liu2012: Liu et al. 2012, laser ranger to a plane, 50/100 of 101 by O3 (--robot default scenes/puma_hayati.yaml)")
+                  "liu2012: Liu et al. 2012, laser ranger to a plane: 50 and 100 of 101 configurations by O3, 20 validation\n"
+                  "(--valid), repeated; its own errors; --robot default builtin:puma_hayati.yaml;\n"
+                  "floor: the validation error of the true parameters (control noise alone)")
       ->required()
       ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "liu2012"}));
   addExperimentOptions(*cmd, opt->e);
-  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor)")
+  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, liu2012)")
       ->capture_default_str()
       ->check(CLI::Range(1, 10000));
   cmd->add_option("--source", opt->e.source, "fig8 measurements: images or synthetic (0.3 mm / 0.5 deg)")
