@@ -1,4 +1,5 @@
 // The liu2012 preset: Liu et al. 2012's laser-ranger identification (digest section 3), Table 5 layout.
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <iostream>
@@ -106,8 +107,10 @@ void runLiu2012(const ExperimentOptions& o) {
     seconds.add(x.seconds);
     if (r == 0) {
       for (int i : x.held) held_names += (held_names.empty() ? "" : ", ") + x.names[static_cast<std::size_t>(i)];
+      const bool c_held = std::find(x.held.begin(), x.held.end(), static_cast<int>(x.names.size()) - 1) != x.held.end();
       identifiability = "rank " + std::to_string(x.rank) + " of " + std::to_string(x.names.size()) + " (" +
-                        std::to_string(x.rank - 1) + " robot parameters + c); held at their nominal values: " + held_names;
+                        std::to_string(x.rank - (c_held ? 0 : 1)) + " robot parameters" + (c_held ? "; c not identifiable" : " + c") +
+                        "); held at their nominal values: " + held_names;
     }
     addAxes(table, 0, x.nominal_validation);
     poolErrors(pooled, kModels[0], x.nominal_errors);
