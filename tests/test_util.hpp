@@ -8,7 +8,9 @@
 #include <random>
 #include <string>
 
+#include "orbcal/sim/arm.hpp"
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/errors.hpp"
 
 namespace orbcal::test {
 
@@ -49,6 +51,19 @@ std::string inputError(Fn fn) {
   }
   FAIL("expected an InputError");
   return "";
+}
+
+/// n configurations drawn uniformly within the joint limits (seeded).
+inline std::vector<Eigen::VectorXd> randomConfigs(const sim::Arm& arm, int n, std::uint64_t seed) {
+  auto rng = sim::makeRng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Eigen::VectorXd> qs;
+  for (int k = 0; k < n; ++k) {
+    Eigen::VectorXd q(arm.numJoints());
+    for (int j = 0; j < arm.numJoints(); ++j) q[j] = arm.lower_rad[j] + u(rng) * (arm.upper_rad[j] - arm.lower_rad[j]);
+    qs.push_back(q);
+  }
+  return qs;
 }
 
 }  // namespace orbcal::test

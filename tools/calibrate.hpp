@@ -10,6 +10,9 @@
 #include "orbcal/calib/corner_model.hpp"
 #include "orbcal/calib/experiment.hpp"
 #include "orbcal/calib/measured_fit.hpp"
+#include "orbcal/calib/observability.hpp"
+#include "orbcal/calib/parameter_classes.hpp"
+#include "orbcal/calib/relative_models.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/vision/measurement.hpp"
 #include <optional>
@@ -30,6 +33,11 @@ struct CalibrateOptions {
   /// With estimate_frames: effects fitted on the corner model (calib/corner_model.hpp), as --effects
   /// takes them: chain effects of the catalog and `distortion` (the camera's).
   std::vector<std::string> effects;
+  /// What of each camera pose the calibration uses (calib/planning.hpp): pose (the absolute pose in the
+  /// base frame through the scene's base_T_board, Wang et al. 2023), position, or frame-free quantities
+  /// between pairs of images (distance, rotation, dr: Jia et al. 2019), which need no base_T_board.
+  std::string model = "pose";
+  std::string pairs = "reference";  ///< relative models: each image against the first, or consecutive
 };
 
 /// With CalibrateOptions::effects: geometry + both frames + the chain effects + the distortion block,
@@ -55,6 +63,12 @@ struct FrameEstimate {
 
 struct CalibrateResult {
   calib::Estimate estimate;
+  std::string model = "pose";            ///< the measurement kind used
+  calib::ParameterClasses classes;       ///< of the identification set under that model
+  calib::ObservabilityIndices observability;  ///< of the identification set, held parameters left out
+  /// Relative models: the held-out images paired with the first identification image, nominal vs
+  /// calibrated (what a frame-free model can be judged on without base_T_board).
+  std::optional<calib::RelativeErrors> relative_before, relative_after;
   int images = 0, usable = 0, identification = 0, held_out = 0;
   calib::ErrorSummary before, after;     ///< hold-out errors against the measured poses
   bool has_truth = false;

@@ -77,10 +77,23 @@ void addCalibrateCommand(CLI::App& app) {
   cmd->add_flag("--accept-worse", o->measured.accept_worse, "measured data: write the model even if it predicts worse");
   cmd->add_option("-o,--out", o->out, "output folder (default: calibration/ beside the dataset or description)");
   cmd->add_flag("--quiet", o->images.quiet, "no progress output");
+  cmd->add_option("--model", o->images.model,
+                  "images: what of each camera pose is used: pose (absolute, through the scene's base_T_board; Wang et al. "
+                  "2023), position, or between pairs of images, frame-free (no base_T_board needed; Jia et al. 2019): "
+                  "distance, rotation, dr (both)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"pose", "position", "distance", "rotation", "dr"}));
+  cmd->add_option("--pairs", o->images.pairs, "images, relative models: each image against the first, or consecutive")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"reference", "consecutive"}));
   cmd->add_flag("--estimate-frames", o->images.estimate_frames,
                 "images: also estimate base_T_board and flange_T_camera with the DH errors (report + frames.yaml)");
   cmd->callback([o] {
     if (std::filesystem::is_regular_file(o->images.dataset)) {
+      if (o->images.model != "pose" || o->images.pairs != "reference") {
+        throw sim::InputError("--model/--pairs: for image datasets; a measurement description says what it measures "
+                              "(pose, or position only) in its pose: section");
+      }
       MeasuredCalibrateOptions m = o->measured;
       m.description = o->images.dataset;
       m.method = parseFitMethod(o->method.empty() ? "LM" : o->method, "--method");
@@ -101,12 +114,23 @@ void addCalibrateCommand(CLI::App& app) {
     c.seed = o->seed;
     c.out = o->out;
     const CalibrateResult r = runCalibrate(c);
-    std::printf("%d images, %d usable: %d for identification, %d held out\n", r.images, r.usable, r.identification,
-                r.held_out);
+    std::printf("%d images, %d usable: %d for identification, %d held out; model %s (rank %d of %d)\n", r.images, r.usable,
+                r.identification, r.held_out, r.model.c_str(), r.classes.rank, static_cast<int>(r.classes.names.size()));
     if (r.held_out > 0) {
       std::printf("held-out average position error against the measured poses: %.3f mm -> %.3f mm (%.1f%%)\n",
                   r.before.position_avg_m * 1e3, r.after.position_avg_m * 1e3,
                   100.0 * calib::improvement(r.before.position_avg_m, r.after.position_avg_m));
+    }
+    if (r.relative_before) {
+      std::printf("held-out pairs with the first identification image:");
+      if (r.relative_before->distance_pairs > 0) {
+        std::printf(" distance RMS %.4f -> %.4f mm", r.relative_before->distance_rms_m * 1e3, r.relative_after->distance_rms_m * 1e3);
+      }
+      if (r.relative_before->angle_pairs > 0) {
+        std::printf(" angle RMS %.5f -> %.5f deg", r.relative_before->angle_rms_rad * sim::kRadToDeg,
+                    r.relative_after->angle_rms_rad * sim::kRadToDeg);
+      }
+      std::printf("\n");
     }
     if (r.has_truth) {
       std::printf("held-out average position error against the true poses: %.3f mm -> %.3f mm\n",

@@ -52,11 +52,13 @@ void addExperimentCommand(CLI::App& app) {
                   "fig8: identification set size 10..200 (--ident) in steps of 10, repeated;\n"
                   "liu2012: Liu et al. 2012, laser ranger to a plane: 50 and 100 of 101 configurations by O3, 20 validation\n"
                   "(--valid), repeated; its own errors; --robot default builtin:puma_hayati.yaml;\n"
-                  "floor: the validation error of the true parameters (control noise alone)")
+                  "floor: the validation error of the true parameters (control noise alone);\n"
+                  "selection: configurations chosen by O3 / O1 against random ones at 15, 25, 50 measurements for the pose, "
+                  "position and dr models, and in the main job's rendered setting (x floor), repeated")
       ->required()
-      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "liu2012"}));
+      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "selection", "liu2012"}));
   addExperimentOptions(*cmd, opt->e);
-  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, liu2012)")
+  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, selection, liu2012)")
       ->capture_default_str()
       ->check(CLI::Range(1, 10000));
   cmd->add_option("--source", opt->e.source, "fig8 measurements: images or synthetic (0.3 mm / 0.5 deg)")
@@ -72,6 +74,8 @@ void addExperimentCommand(CLI::App& app) {
     } else if (opt->preset == "fig8") {
       if (cmd->count("--ident") == 0) e.identification = 200;  // the paper's range: 10 to 200
       runFig8(e);
+    } else if (opt->preset == "selection") {
+      runSelection(e);
     } else if (opt->preset == "liu2012") {
       if (cmd->count("--robot") == 0) e.robot = "builtin:puma_hayati.yaml";
       if (cmd->count("--valid") == 0) e.validation = 20;  // the paper's 20 validation configurations

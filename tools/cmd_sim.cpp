@@ -1,4 +1,5 @@
 // Subcommands on the arm model alone: fk, configs, identifiability.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
@@ -7,6 +8,8 @@
 #include "cli.hpp"
 #include "orbcal/calib/estimators.hpp"
 #include "orbcal/calib/observability.hpp"
+#include "orbcal/calib/parameter_classes.hpp"
+#include "orbcal/calib/planning.hpp"
 #include "orbcal/sim/arm.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/configurations.hpp"
@@ -160,25 +163,101 @@ void addIdentifiabilityCommand(CLI::App& app) {
     ArmSceneOptions as;
     std::string configs;
     sim::GeneratorSettings gen;
+    std::string model = "pose", pairs = "reference", base = "known";
+    double sigma_position_mm = 0.3, sigma_orientation_deg = 0.5, sigma_range_mm = 0.2;
+    int repeats = 10;
+    std::vector<double> plane{0.0, 1.0, 4.6, -0.69}, beam_origin_mm{0.0, 0.0, 0.0}, beam_direction{0.0, 0.0, 1.0};
+    std::vector<std::string> plane_identified{"nz"};
   };
   auto opt = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand(
-      "identifiability", "Rank, condition number and unidentifiable parameter combinations of a configuration set");
+      "identifiability",
+      "Identifiability of a configuration set for a measurement kind: every parameter independent, relative (tied to "
+      "others: the observable combination) or ineffective; the minimal identifiable set; observability indices O1-O5");
+  cmd->footer(
+      "Measurement kinds (--model): pose (Wang et al. 2023), position, distance, rotation, dr (distance and rotation "
+      "between pairs, Jia et al. 2019), range (laser range to a plane, Liu et al. 2012). Rows are whitened by the "
+      "noise sigmas below; O1-O5 are of the minimal identifiable set with columns in units of each parameter's typical "
+      "magnitude (see `orbcal configs --help`).");
   addArmSceneOptions(*cmd, opt->as);
+  cmd->add_option("--model", opt->model, "measurement kind: pose, position, distance, rotation, dr or range")
+      ->capture_default_str();
   cmd->add_option("--configs", opt->configs, "configurations CSV (from `orbcal configs`); default: generate them");
   cmd->add_option("-n,--count", opt->gen.count, "configurations to generate when --configs is not given")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000000));
   cmd->add_option("--seed", opt->gen.seed, "random seed of the generated configurations")->capture_default_str();
+  cmd->add_option("--pairs", opt->pairs, "distance/rotation/dr: pairs against the first configuration, or consecutive")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"reference", "consecutive"}));
+  cmd->add_option("--base", opt->base, "the measuring system's frame: known, or unknown (estimated with the arm)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"known", "unknown"}));
+  cmd->add_option("--sigma-position-mm", opt->sigma_position_mm, "pose noise per axis, position [mm]")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--sigma-orientation-deg", opt->sigma_orientation_deg, "pose noise per axis, orientation [deg]")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--plane", opt->plane, "range: plane nx ny nz f (base frame, f in m): nx x + ny y + nz z + f = 0")
+      ->capture_default_str()->expected(4);
+  cmd->add_option("--plane-identified", opt->plane_identified, "range: plane coefficients identified (nx, ny, nz, f)")
+      ->capture_default_str()->check(CLI::IsMember({"nx", "ny", "nz", "f"}));
+  cmd->add_option("--beam-origin-mm", opt->beam_origin_mm, "range: beam origin in the flange frame [mm]")
+      ->capture_default_str()->expected(3);
+  cmd->add_option("--beam-direction", opt->beam_direction, "range: beam direction in the flange frame")
+      ->capture_default_str()->expected(3);
+  cmd->add_option("--sigma-range-mm", opt->sigma_range_mm, "range: noise of one reading [mm]")
+      ->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--repeats", opt->repeats, "range: readings averaged per configuration")
+      ->capture_default_str()->check(CLI::Range(1, 1000000));
   cmd->callback([opt] {
+    calib::MeasurementSetup setup;
+    setup.kind = calib::parseMeasurementKind(opt->model, "--model");
+    setup.pairing = opt->pairs == "reference" ? calib::Pairing::kReference : calib::Pairing::kConsecutive;
+    setup.noise.sigma_position_m = opt->sigma_position_mm * 1e-3;
+    setup.noise.sigma_rotation_rad = opt->sigma_orientation_deg * sim::kDegToRad;
+    setup.range_sigma_m = opt->sigma_range_mm * 1e-3;
+    setup.range_repeats = opt->repeats;
+    setup.beam.origin = Eigen::Vector3d(opt->beam_origin_mm[0], opt->beam_origin_mm[1], opt->beam_origin_mm[2]) * 1e-3;
+    setup.beam.direction = Eigen::Vector3d(opt->beam_direction[0], opt->beam_direction[1], opt->beam_direction[2]);
+    if (!(setup.beam.direction.norm() > 0.0) || !setup.beam.origin.allFinite()) {
+      throw sim::InputError("--beam-direction: must be a finite nonzero vector");
+    }
+    setup.beam.direction.normalize();
+    setup.plane = calib::Plane{Eigen::Vector3d(opt->plane[0], opt->plane[1], opt->plane[2]), opt->plane[3], {}};
+    if (!(setup.plane.n.norm() > 0.0) || !std::isfinite(setup.plane.f)) throw sim::InputError("--plane: the normal must be finite and nonzero");
+    const std::vector<std::string> coefficient{"nx", "ny", "nz", "f"};
+    for (const std::string& c : opt->plane_identified) {
+      const int i = static_cast<int>(std::find(coefficient.begin(), coefficient.end(), c) - coefficient.begin());
+      if (std::find(setup.plane.identified.begin(), setup.plane.identified.end(), i) != setup.plane.identified.end()) {
+        throw sim::InputError("--plane-identified: '" + c + "' given twice");
+      }
+      setup.plane.identified.push_back(i);
+    }
     const sim::Arm arm = sim::loadArm(opt->as.robot);
     std::vector<Eigen::VectorXd> configs;
     if (!opt->configs.empty()) {
       configs = sim::parseConfigurationsCsv(sim::readTextSource(opt->configs), opt->configs, arm.numJoints());
+    } else if (setup.kind == calib::MeasurementKind::kRange) {
+      throw sim::InputError("--configs: the range model needs configurations whose beam hits the plane");
     } else {
       configs = sim::generateConfigurations(arm, sim::loadScene(opt->as.scene), opt->gen);
     }
-    std::cout << sim::formatIdentifiability(sim::analyzeIdentifiability(arm, configs));
+    const sim::KinematicModel km =
+        opt->base == "known" ? sim::flangeModel(arm)
+                             : sim::makeKinematicModel(arm, 1, sim::FrameSharing::kShared, sim::FrameSharing::kKnown,
+                                                       {Eigen::Isometry3d::Identity()}, {Eigen::Isometry3d::Identity()}, {});
+    const auto model = calib::planningModel(setup, km, calib::samplesOf(configs));
+    if (model->numSamples() == 0) throw sim::InputError("--configs: no configuration gives a measurement of this kind");
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model->numParams());
+    const calib::ParameterClasses classes = calib::classifyParameters(*model, zero);
+    int rows = 0;
+    for (int k = 0; k < model->numSamples(); ++k) rows += model->rows(k);
+    std::printf("Measurement: %s\nArm: %s (%s), %d configurations -> %d samples, %d rows; %d parameters%s\n\n",
+                calib::measurementKindDescription(setup.kind).c_str(), arm.name.c_str(), arm.source.c_str(),
+                static_cast<int>(configs.size()), model->numSamples(), rows, model->numParams(),
+                opt->base == "known" ? "" : " (the measuring system's frame unknown: base_*)");
+    std::printf("%s\nObservability of the minimal set: %s\n", classes.table().c_str(),
+                calib::formatIndices(calib::observability(*model, zero, classes.held)).c_str());
   });
 }
 

@@ -66,6 +66,9 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder = "
 void runTable5(const ExperimentOptions& o);
 void runFig8(const ExperimentOptions& o);
 void runFloor(const ExperimentOptions& o);
+/// Selected (O3, O1) against random configurations at equal counts, every measurement kind, and the main
+/// job's rendered setting (experiment_selection.cpp).
+void runSelection(const ExperimentOptions& o);
 void runLiu2012(const ExperimentOptions& o);  ///< Liu et al. 2012: laser ranger to a plane, Table 5 (experiment_liu2012.cpp)
 
 /// The headline of a Table 4 run, a few lines for the terminal.

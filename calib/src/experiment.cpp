@@ -57,7 +57,10 @@ MethodSpec findMethod(const std::vector<MethodSpec>& methods, const std::string&
 }
 
 Estimate runMethod(const MethodSpec& method, const sim::Arm& nominal, const std::vector<PoseObservation>& obs) {
-  const PoseMeasurementModel model(nominal, obs, method.noise);
+  return runMethod(method, PoseMeasurementModel(nominal, obs, method.noise));
+}
+
+Estimate runMethod(const MethodSpec& method, const MeasurementModel& model) {
   Estimate e;
   switch (method.kind) {
     case MethodSpec::Kind::kEkf: e = runEkf(model, method.ekf); break;

@@ -1,5 +1,7 @@
 #include "orbcal/calib/measured_fit.hpp"
 
+#include "orbcal/calib/observability.hpp"
+
 #include <Eigen/SVD>
 #include <cmath>
 #include <algorithm>
@@ -228,7 +230,10 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     fit.chi2 = 2.0 * fit.estimate.cost;
     const int free = m.numParams() - static_cast<int>(fit.estimate.held.size());
     fit.dof = std::max(1, rows - free);
-    if (round + 1 == rounds) break;
+    if (round + 1 == rounds) {
+      fit.observability = observability(m, Eigen::VectorXd::Zero(m.numParams()), fit.estimate.held);
+      break;
+    }
     // Variance components: position and rotation sigmas from their residuals, corrected for the
     // parameters fitted (rows / dof).
     double pos2 = 0.0, rot2 = 0.0;

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <random>
 #include <stdexcept>
@@ -34,6 +35,13 @@ double ObservabilityIndices::value(ObservabilityIndex index) const {
     case ObservabilityIndex::kO5: return o5;
   }
   return 0.0;
+}
+
+std::string formatIndices(const ObservabilityIndices& r) {
+  char line[256];
+  std::snprintf(line, sizeof line, "O1 %.4g, O2 %.4g, O3 %.4g, O4 %.4g, O5 %.4g; rank %d of %d, %d samples", r.o1, r.o2, r.o3,
+                r.o4, r.o5, r.rank, r.num_params, r.num_samples);
+  return line;
 }
 
 ObservabilityIndices indicesFromSingularValues(const Eigen::VectorXd& sigma_in, int num_samples) {

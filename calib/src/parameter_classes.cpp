@@ -79,4 +79,17 @@ std::string ParameterClasses::describe() const {
   return out;
 }
 
+std::string ParameterClasses::table() const {
+  std::string out = "| parameter | class | observable only as |\n|---|---|---|\n";
+  for (std::size_t p = 0; p < names.size(); ++p) {
+    out += "| " + names[p] + " | " + paramClassName(classes[p]) + " | ";
+    if (group[p] >= 0) out += groups[static_cast<std::size_t>(group[p])].describe();
+    out += " |\n";
+  }
+  out += "\nRank " + std::to_string(rank) + " of " + std::to_string(names.size()) + ". Minimal identifiable set (" +
+         std::to_string(minimal.size()) + "):";
+  for (int p : minimal) out += " " + names[static_cast<std::size_t>(p)];
+  return out + "\n";
+}
+
 }  // namespace orbcal::calib

@@ -1,5 +1,6 @@
 #include "orbcal/calib/relative_models.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -74,6 +75,29 @@ RelativePoseModel::RelativePoseModel(sim::KinematicModel model, std::vector<Rela
 int RelativePoseModel::rows(int k) const {
   const RelativeObservation& o = observations_[static_cast<std::size_t>(k)];
   return static_cast<int>(o.has_distance) + static_cast<int>(o.has_rotation);
+}
+
+RelativeErrors relativeErrors(const RelativePoseModel& model, const Eigen::VectorXd& y) {
+  RelativeErrors e;
+  const Eigen::VectorXd p = model.p0() + y;
+  for (const RelativeObservation& o : model.observations()) {
+    const Eigen::Vector2d z = predictRelative(model.model(), p, o.a, o.b);
+    if (o.has_distance) {
+      const double d = std::abs(o.distance_m - z[0]);
+      e.distance_rms_m += d * d;
+      e.distance_max_m = std::max(e.distance_max_m, d);
+      ++e.distance_pairs;
+    }
+    if (o.has_rotation) {
+      const double d = std::abs(o.angle_rad - z[1]);
+      e.angle_rms_rad += d * d;
+      e.angle_max_rad = std::max(e.angle_max_rad, d);
+      ++e.angle_pairs;
+    }
+  }
+  e.distance_rms_m = e.distance_pairs ? std::sqrt(e.distance_rms_m / e.distance_pairs) : 0.0;
+  e.angle_rms_rad = e.angle_pairs ? std::sqrt(e.angle_rms_rad / e.angle_pairs) : 0.0;
+  return e;
 }
 
 Eigen::Vector2d predictRelative(const sim::KinematicModel& model, const Eigen::VectorXd& p, const sim::JointSample& a,

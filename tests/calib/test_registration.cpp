@@ -28,18 +28,6 @@ const Eigen::Isometry3d kFlangeTMarker = sim::fromXyzRpy(Eigen::Vector3d(0.06, -
 
 sim::Arm iiwa() { return sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")); }
 
-/// n configurations drawn uniformly within the joint limits.
-std::vector<Eigen::VectorXd> randomConfigs(const sim::Arm& arm, int n, std::uint64_t seed) {
-  auto rng = sim::makeRng(seed);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  std::vector<Eigen::VectorXd> qs;
-  for (int k = 0; k < n; ++k) {
-    Eigen::VectorXd q(arm.numJoints());
-    for (int j = 0; j < arm.numJoints(); ++j) q[j] = arm.lower_rad[j] + u(rng) * (arm.upper_rad[j] - arm.lower_rad[j]);
-    qs.push_back(q);
-  }
-  return qs;
-}
 
 struct Samples {
   std::vector<Eigen::Isometry3d> world_T_marker;  ///< measured: the true arm, the true frames, tracker noise
@@ -92,7 +80,7 @@ TEST_CASE("registration: exact full poses recover both frames to 1e-9", "[calib]
   for (const std::string& robot : {test::sourcePath("scenes/iiwa7.yaml"), std::string(sim::kDefaultRobot)}) {
     const sim::Arm arm = sim::loadArm(robot);
     for (const Eigen::Isometry3d& world_T_base : {kWorldTBase, half_turn}) {
-      const Samples s = simulate(arm, arm, randomConfigs(arm, 30, 7), world_T_base, kFlangeTMarker, 0.0, 0.0, 1);
+      const Samples s = simulate(arm, arm, test::randomConfigs(arm, 30, 7), world_T_base, kFlangeTMarker, 0.0, 0.0, 1);
       const calib::RegistrationGuess g = calib::initialRegistration(s.world_T_marker, s.base_T_flange, true);
       CAPTURE(robot, world_T_base.matrix());
       CHECK(translationError(g.world_T_base, world_T_base) < 1e-9);
@@ -125,7 +113,7 @@ constexpr int kSamples = 30;
 /// Samples of the true arm (random DH errors from `seed`) with tracker noise, and the nominal flange poses.
 Samples noisySamples(const sim::Arm& nominal, std::uint64_t seed) {
   const sim::Arm truth = sim::withErrors(nominal, sim::randomErrors(nominal, 0.1 * sim::kDegToRad, 1e-3, seed));
-  Samples s = simulate(nominal, truth, randomConfigs(nominal, kSamples, seed), kWorldTBase, kFlangeTMarker, kNoiseM,
+  Samples s = simulate(nominal, truth, test::randomConfigs(nominal, kSamples, seed), kWorldTBase, kFlangeTMarker, kNoiseM,
                        kNoiseRad, seed);
   // The premise of the bounds above: the model is off by about a centimetre and a degree, not more.
   REQUIRE(s.model_position_max_m < 15e-3);
@@ -167,7 +155,7 @@ TEST_CASE("registration: positions only", "[calib][registration]") {
   SECTION("exact data: base and marker offset recovered to 1e-9") {
     for (const std::string& robot : {test::sourcePath("scenes/iiwa7.yaml"), std::string(sim::kDefaultRobot)}) {
       const sim::Arm arm = sim::loadArm(robot);
-      const Samples s = simulate(arm, arm, randomConfigs(arm, kSamples, 7), kWorldTBase, kFlangeTMarker, 0.0, 0.0, 1);
+      const Samples s = simulate(arm, arm, test::randomConfigs(arm, kSamples, 7), kWorldTBase, kFlangeTMarker, 0.0, 0.0, 1);
       const calib::RegistrationGuess g = calib::initialRegistration(s.world_T_marker, s.base_T_flange, false);
       CAPTURE(robot);
       CHECK(translationError(g.world_T_base, kWorldTBase) < 1e-9);
@@ -199,7 +187,7 @@ TEST_CASE("registration: positions only", "[calib][registration]") {
 TEST_CASE("registration: initialMarker with the base known", "[calib][registration]") {
   const sim::Arm nominal = iiwa();
   SECTION("exact data: the marker to 1e-9") {
-    const Samples s = simulate(nominal, nominal, randomConfigs(nominal, kSamples, 7), kWorldTBase, kFlangeTMarker, 0.0,
+    const Samples s = simulate(nominal, nominal, test::randomConfigs(nominal, kSamples, 7), kWorldTBase, kFlangeTMarker, 0.0,
                                0.0, 1);
     const Eigen::Isometry3d full = calib::initialMarker(s.world_T_marker, s.base_T_flange, kWorldTBase, true);
     CHECK(translationError(full, kFlangeTMarker) < 1e-9);
@@ -225,7 +213,7 @@ TEST_CASE("registration: initialMarker with the base known", "[calib][registrati
 
 TEST_CASE("registration: degenerate input throws std::invalid_argument", "[calib][registration]") {
   const sim::Arm arm = iiwa();
-  const Samples s = simulate(arm, arm, randomConfigs(arm, kSamples, 7), kWorldTBase, kFlangeTMarker, 0.0, 0.0, 1);
+  const Samples s = simulate(arm, arm, test::randomConfigs(arm, kSamples, 7), kWorldTBase, kFlangeTMarker, 0.0, 0.0, 1);
   const auto first = [&](std::size_t n) {
     return std::make_pair(std::vector<Eigen::Isometry3d>(s.world_T_marker.begin(), s.world_T_marker.begin() + n),
                           std::vector<Eigen::Isometry3d>(s.base_T_flange.begin(), s.base_T_flange.begin() + n));

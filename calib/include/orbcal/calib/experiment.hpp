@@ -32,6 +32,9 @@ std::vector<MethodSpec> comparisonMethods(double joint_noise_sigma_rad);
 MethodSpec findMethod(const std::vector<MethodSpec>& methods, const std::string& name);
 
 Estimate runMethod(const MethodSpec& method, const sim::Arm& nominal, const std::vector<PoseObservation>& observations);
+/// The method's estimator (its EKF, LSE or LM options) on any measurement model; method.noise is the
+/// model's business there.
+Estimate runMethod(const MethodSpec& method, const MeasurementModel& model);
 
 struct MethodOutcome {
   MethodSpec method;

@@ -10,6 +10,7 @@
 
 #include "orbcal/calib/estimators.hpp"
 #include "orbcal/calib/marker_model.hpp"
+#include "orbcal/calib/observability.hpp"
 #include "orbcal/sim/identifiability.hpp"
 #include "orbcal/sim/measured.hpp"
 #include "orbcal/sim/model.hpp"
@@ -58,6 +59,9 @@ struct Fit {
   MarkerNoise noise;          ///< as used in the final fit
   bool noise_estimated = false;
   sim::IdentifiabilityReport identifiability;  ///< of the whitened Jacobian at the start
+  /// O1-O5 of the fitted samples (whitened rows, typical-magnitude columns, the held parameters left
+  /// out; calib/observability.hpp), at the start, with the final noise.
+  ObservabilityIndices observability;
   ResidualStats residuals;    ///< at the fit
   /// Free parameters this data determines no better than their typical magnitude (1-sigma above
   /// sim::ParamInfo::typical): numerically identifiable, physically not (e.g. the compliance of a

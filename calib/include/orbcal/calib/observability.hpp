@@ -45,6 +45,9 @@ struct ObservabilityIndices {
   double value(ObservabilityIndex index) const;
 };
 
+/// One line: "O1 .., O2 .., O3 .., O4 .., O5 ..; rank r of m, n_s samples".
+std::string formatIndices(const ObservabilityIndices& indices);
+
 /// The indices from the singular values (any order, negative ones read as 0) of a scaled Jacobian.
 /// `rank` is left to the caller.
 ObservabilityIndices indicesFromSingularValues(const Eigen::VectorXd& sigma, int num_samples);

@@ -31,6 +31,9 @@ struct ParameterClasses {
   std::vector<int> minimal;                ///< the minimal identifiable set: every parameter not held
   int rank = 0;                            ///< of the stacked Jacobian
   std::string describe() const;            ///< one line per class and per group
+  /// Markdown: a table of every parameter (its class; for a relative one, its group's observable
+  /// combinations), then the minimal identifiable set.
+  std::string table() const;
 };
 
 /// J: stacked Jacobian (rows whitened where their units differ), columns the parameters `names` in

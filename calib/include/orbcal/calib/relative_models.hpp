@@ -82,12 +82,22 @@ class RelativePoseModel : public MeasurementModel {
 
   const sim::KinematicModel& model() const { return model_; }
   const std::vector<RelativeObservation>& observations() const { return observations_; }
+  const Eigen::VectorXd& p0() const { return p0_; }
 
  private:
   sim::KinematicModel model_;
   std::vector<RelativeObservation> observations_;
   Eigen::VectorXd p0_;
 };
+
+/// The errors of a relative model's pairs at y (measured minus predicted), over the pairs that keep
+/// each row: how well a model predicts frame-free quantities, e.g. on held-out pairs.
+struct RelativeErrors {
+  int distance_pairs = 0, angle_pairs = 0;
+  double distance_rms_m = 0.0, distance_max_m = 0.0;
+  double angle_rms_rad = 0.0, angle_max_rad = 0.0;
+};
+RelativeErrors relativeErrors(const RelativePoseModel& model, const Eigen::VectorXd& y);
 
 /// [L(p); phi(p)] of a pair at parameters p (both, whatever the observation keeps).
 Eigen::Vector2d predictRelative(const sim::KinematicModel& model, const Eigen::VectorXd& p,
