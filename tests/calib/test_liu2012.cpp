@@ -200,6 +200,8 @@ TEST_CASE("liu2012: the preset's machinery at reduced size identifies the arm an
   // Case 2 (60 of 61) validates far better than the nominal model.
   CHECK(r.cases[1].validation.position_rms_m.norm() < 0.25 * nominal);
   CHECK(r.cases[1].validation.orientation_rms_rad.norm() < 0.5 * r.nominal_validation.orientation_rms_rad.norm());
+  // The selection beats chance: O3 of the chosen 35 above the mean of random subsets of 35.
+  CHECK(r.cases[0].indices.o3 > r.cases[0].random_o3);
   // sigma_min never falls when rows are added: the best 60 of 61 contain some superset of the 35.
   CHECK(r.cases[1].indices.o3 >= r.cases[0].indices.o3);
 }
