@@ -186,9 +186,9 @@ namespace {
 
 /// The model of a measurement kind other than the absolute pose from an image dataset's camera poses
 /// (world = the board, marker = the camera, both frames the scene's and known: the relative kinds do not
-/// see base_T_board at all). The noise per axis is the RMS over the identification images of the vision
-/// covariance plus the joint noise mapped through the arm, J_q sigma^2 J_q^T: the relative models take
-/// one sigma per row kind (calib::relativePairs), and at 0.01 deg on a long arm the joint noise dominates.
+/// see base_T_board at all). Position rows carry each image's vision covariance; the relative models take
+/// one pose sigma per axis (calib::relativePairs), the RMS over the images of the vision covariance's
+/// diagonal. The joint noise is carried into R by every kind (at 0.01 deg on a long arm it dominates).
 std::unique_ptr<calib::MeasurementModel> imageKindModel(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
                                                         const std::vector<std::size_t>& ident, calib::MeasurementKind kind,
                                                         const std::string& pairs, double joint_sigma_rad) {
@@ -200,13 +200,9 @@ std::unique_ptr<calib::MeasurementModel> imageKindModel(const sim::Dataset& d, c
   setup.pairing = pairs == "reference" ? calib::Pairing::kReference : calib::Pairing::kConsecutive;
   setup.noise.joint_noise_sigma_rad = joint_sigma_rad;
   double pos2 = 0.0, rot2 = 0.0;
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(km.layout.size());
   for (const calib::MarkerObservation& o : data.observations) {
-    Eigen::MatrixXd J_e_q;
-    sim::predictMarkerPose(km, zero, o.sample, nullptr, &J_e_q);
-    const Eigen::MatrixXd C = o.covariance + joint_sigma_rad * joint_sigma_rad * J_e_q * J_e_q.transpose();
-    pos2 += C.topLeftCorner(3, 3).trace() / 3.0;
-    rot2 += C.bottomRightCorner(3, 3).trace() / 3.0;
+    pos2 += o.covariance.topLeftCorner(3, 3).trace() / 3.0;
+    rot2 += o.covariance.bottomRightCorner(3, 3).trace() / 3.0;
   }
   const double n = std::max<double>(1.0, static_cast<double>(data.observations.size()));
   setup.noise.sigma_position_m = std::sqrt(pos2 / n);

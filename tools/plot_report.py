@@ -2,7 +2,8 @@
 """Figures of orbcal's experiment reports, drawn with matplotlib from the CSV files orbcal writes.
 
   plot_report.py boxplot  validation_errors.csv out.png [model ...]   # seed 000 Figs. 7 and 9 style
-  plot_report.py curve    fig8.csv out.png                            # seed 000 Fig. 8 style
+  plot_report.py curve    fig8.csv out.png [--x COL LABEL] [--y COL LABEL]   # seed 000 Fig. 8 style
+                                                   # (default x: n, identification configurations; y: avg_position_mm)
   plot_report.py residuals residuals.csv COLUMN LABEL out.png          # orbcal diagnose: held-out errors vs a variable
 """
 import csv
@@ -43,11 +44,12 @@ def boxplot(csv_path, png_path, models):
     fig.savefig(png_path, dpi=110)
 
 
-def curve(csv_path, png_path):
+def curve(csv_path, png_path, xcol="n", xlabel="identification configurations", ycol="avg_position_mm",
+          ylabel="mean validation position error (mm)"):
     rows = read_rows(csv_path)
     series = OrderedDict()
     for r in rows:
-        series.setdefault(r["method"], {}).setdefault(int(r["n"]), []).append(float(r["avg_position_mm"]))
+        series.setdefault(r["method"], {}).setdefault(float(r[xcol]), []).append(float(r[ycol]))
     fig, ax = plt.subplots(figsize=(8, 5))
     for method, by_n in series.items():
         ns = sorted(by_n)
@@ -59,8 +61,8 @@ def curve(csv_path, png_path):
     floor = [float(r["floor_mm"]) for r in rows if r.get("floor_mm")]
     if floor:
         ax.axhline(sum(floor) / len(floor), color="k", ls="--", lw=1, label="floor (control noise)")
-    ax.set_xlabel("identification configurations")
-    ax.set_ylabel("mean validation position error (mm)")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
     ax.set_yscale("log")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
@@ -91,7 +93,19 @@ def main(argv):
     if argv[1] == "boxplot":
         boxplot(argv[2], argv[3], argv[4:])
     else:
-        curve(argv[2], argv[3])
+        axes, positional, rest = {}, [], argv[2:]
+        while rest:  # --x/--y COL LABEL anywhere among CSV and PNG
+            if rest[0] in ("--x", "--y") and len(rest) >= 3:
+                axes[rest[0]] = (rest[1], rest[2])
+                rest = rest[3:]
+            else:
+                positional.append(rest[0])
+                rest = rest[1:]
+        if len(positional) != 2:
+            sys.exit(__doc__)
+        x = axes.get("--x", ("n", "identification configurations"))
+        y = axes.get("--y", ("avg_position_mm", "mean validation position error (mm)"))
+        curve(positional[0], positional[1], x[0], x[1], y[0], y[1])
 
 
 if __name__ == "__main__":

@@ -77,8 +77,13 @@ std::unique_ptr<MeasurementModel> modelFromPoses(const MeasurementSetup& setup, 
     case MeasurementKind::kDistance:
     case MeasurementKind::kRotation:
     case MeasurementKind::kDistanceRotation:
-      return std::make_unique<RelativePoseModel>(
-          km, relativePairs(poses, setup.pairing, setup.reference, setup.noise, setup.guard), relativeRows(setup.kind));
+    {
+      std::vector<RelativeObservation> pairs = relativePairs(poses, setup.pairing, setup.reference, setup.noise, setup.guard);
+      if (setup.noise.joint_noise_sigma_rad > 0.0) {
+        addRelativeJointNoise(km, Eigen::VectorXd::Zero(km.layout.size()), setup.noise.joint_noise_sigma_rad, pairs);
+      }
+      return std::make_unique<RelativePoseModel>(km, std::move(pairs), relativeRows(setup.kind));
+    }
     case MeasurementKind::kRange: break;
   }
   throw std::invalid_argument("modelFromPoses: a range is not a pose (use PlaneRangeModel)");

@@ -105,6 +105,30 @@ Eigen::Vector2d predictRelative(const sim::KinematicModel& model, const Eigen::V
   return distanceAndAngle(sim::predictMarkerPose(model, p, a), sim::predictMarkerPose(model, p, b));
 }
 
+namespace {
+
+/// d L and d phi of a pair (rows over whatever J_a, J_b differentiate), from the Jacobians of the right
+/// perturbations [rho; omega] of world_T_a and world_T_b in their own frames (see the header).
+struct PairRows {
+  Eigen::RowVectorXd distance, rotation;  ///< rotation empty when not asked for
+};
+PairRows pairRows(const Eigen::Isometry3d& world_T_a, const Eigen::MatrixXd& J_a, const Eigen::Isometry3d& world_T_b,
+                  const Eigen::MatrixXd& J_b, bool with_rotation) {
+  PairRows r;
+  // Both marker translations rotated into the world frame, projected on the direction a -> b.
+  const Eigen::Vector3d u = (world_T_b.translation() - world_T_a.translation()).normalized();
+  r.distance = u.transpose() * (world_T_b.linear() * J_b.topRows(3) - world_T_a.linear() * J_a.topRows(3));
+  if (with_rotation) {
+    const Eigen::Matrix3d R_ab = world_T_a.linear().transpose() * world_T_b.linear();
+    const Eigen::Vector3d w = sim::logSO3(R_ab);
+    const Eigen::Vector3d k_axis = w / w.norm();  // the guard keeps phi away from 0 (and pi)
+    r.rotation = k_axis.transpose() * (J_b.bottomRows(3) - R_ab.transpose() * J_a.bottomRows(3));
+  }
+  return r;
+}
+
+}  // namespace
+
 Linearization RelativePoseModel::linearize(int k, const Eigen::VectorXd& y) const {
   const RelativeObservation& o = observations_.at(static_cast<std::size_t>(k));
   const Eigen::VectorXd p = p0_ + y;
@@ -112,6 +136,7 @@ Linearization RelativePoseModel::linearize(int k, const Eigen::VectorXd& y) cons
   const Eigen::Isometry3d world_T_a = sim::predictMarkerPose(model_, p, o.a, &J_a);
   const Eigen::Isometry3d world_T_b = sim::predictMarkerPose(model_, p, o.b, &J_b);
   const Eigen::Vector2d h = distanceAndAngle(world_T_a, world_T_b);
+  const PairRows rows_ab = pairRows(world_T_a, J_a, world_T_b, J_b, o.has_rotation);
   const int m = rows(k);
   Linearization lin;
   lin.innovation.resize(m);
@@ -119,22 +144,35 @@ Linearization RelativePoseModel::linearize(int k, const Eigen::VectorXd& y) cons
   lin.R = Eigen::MatrixXd::Zero(m, m);
   int row = 0;
   if (o.has_distance) {
-    // Both marker translations rotated into the world frame, projected on the direction a -> b.
-    const Eigen::Vector3d u = (world_T_b.translation() - world_T_a.translation()) / h[0];
-    lin.H.row(row) = u.transpose() * (world_T_b.linear() * J_b.topRows(3) - world_T_a.linear() * J_a.topRows(3));
+    lin.H.row(row) = rows_ab.distance;
     lin.innovation[row] = o.distance_m - h[0];
     lin.R(row, row) = o.sigma_distance_m * o.sigma_distance_m;
     ++row;
   }
   if (o.has_rotation) {
-    const Eigen::Matrix3d R_ab = world_T_a.linear().transpose() * world_T_b.linear();
-    const Eigen::Vector3d w = sim::logSO3(R_ab);
-    const Eigen::Vector3d k_axis = w / w.norm();  // the guard keeps phi away from 0 (and pi)
-    lin.H.row(row) = k_axis.transpose() * (J_b.bottomRows(3) - R_ab.transpose() * J_a.bottomRows(3));
+    lin.H.row(row) = rows_ab.rotation;
     lin.innovation[row] = o.angle_rad - h[1];
     lin.R(row, row) = o.sigma_angle_rad * o.sigma_angle_rad;
   }
   return lin;
+}
+
+void addRelativeJointNoise(const sim::KinematicModel& model, const Eigen::VectorXd& p, double joint_sigma_rad,
+                           std::vector<RelativeObservation>& pairs) {
+  const Eigen::Index n = model.arm.numJoints();
+  for (RelativeObservation& o : pairs) {
+    Eigen::MatrixXd Jq_a, Jq_b;
+    const Eigen::Isometry3d world_T_a = sim::predictMarkerPose(model, p, o.a, nullptr, &Jq_a);
+    const Eigen::Isometry3d world_T_b = sim::predictMarkerPose(model, p, o.b, nullptr, &Jq_b);
+    // The two configurations' joint noises are independent: columns [joints of a, joints of b].
+    Eigen::MatrixXd J_a = Eigen::MatrixXd::Zero(6, 2 * n), J_b = Eigen::MatrixXd::Zero(6, 2 * n);
+    J_a.leftCols(n) = Jq_a;
+    J_b.rightCols(n) = Jq_b;
+    const PairRows r = pairRows(world_T_a, J_a, world_T_b, J_b, o.has_rotation);
+    const double s2 = joint_sigma_rad * joint_sigma_rad;
+    o.sigma_distance_m = std::sqrt(o.sigma_distance_m * o.sigma_distance_m + s2 * r.distance.squaredNorm());
+    if (o.has_rotation) o.sigma_angle_rad = std::sqrt(o.sigma_angle_rad * o.sigma_angle_rad + s2 * r.rotation.squaredNorm());
+  }
 }
 
 // ---- PlaneRangeModel ----------------------------------------------------------------------------

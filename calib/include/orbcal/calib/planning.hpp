@@ -41,7 +41,7 @@ bool isRelativeKind(MeasurementKind kind);
 struct MeasurementSetup {
   MeasurementKind kind = MeasurementKind::kPose;
   /// Pose noise per axis (pose, position; the relative kinds: sqrt(2) x, see relativePairs), and the
-  /// joint noise carried into R (absolute kinds only: the relative models do not carry it).
+  /// joint noise carried into R (the relative kinds: into each pair's sigmas, addRelativeJointNoise).
   MarkerNoise noise;
   Pairing pairing = Pairing::kReference;  ///< relative kinds
   int reference = 0;                      ///< relative kinds with kReference: the reference pose's index

@@ -98,6 +98,13 @@ struct RelativeErrors {
   double angle_rms_rad = 0.0, angle_max_rad = 0.0;
 };
 RelativeErrors relativeErrors(const RelativePoseModel& model, const Eigen::VectorXd& y);
+/// Adds the joint noise of both configurations (independent, joint_sigma_rad per joint) to each pair's
+/// sigmas, mapped through the rows above with the joint Jacobians J_e_q of sim::predictMarkerPose at p:
+/// sigma_L^2 += sigma_q^2 (|dL/dq_a|^2 + |dL/dq_b|^2), the same for phi where the pair has a rotation row.
+/// (relativePairs' sigmas hold the pose noise only; an encoder's 0.01 deg on a 10 m arm moves the flange
+/// by ~2 mm, far more than a camera's 0.1-0.3 mm, and weighs distance against rotation rows.)
+void addRelativeJointNoise(const sim::KinematicModel& model, const Eigen::VectorXd& p, double joint_sigma_rad,
+                           std::vector<RelativeObservation>& pairs);
 
 /// [L(p); phi(p)] of a pair at parameters p (both, whatever the observation keeps).
 Eigen::Vector2d predictRelative(const sim::KinematicModel& model, const Eigen::VectorXd& p,
