@@ -54,11 +54,13 @@ void addExperimentCommand(CLI::App& app) {
                   "selection: configurations chosen by O3 / O1 against random ones at 15, 25, 50 measurements for the pose, "
                   "position and dr models, and in the main job's rendered setting (x floor), repeated;\n"
                   "jia2019: Jia et al. 2019, distance / D&R / absolute models on the hemisphere, board-to-base change sweep\n"
-                  "  (pose level; robot default builtin:ssrms_hayati.yaml; --scene, --errors, --ident, --valid unused)")
+                  "  (pose level; robot default builtin:ssrms_hayati.yaml; --scene, --errors, --ident, --valid unused);\n"
+                  "liu2012: Liu et al. 2012, laser ranger to a plane: 50 and 100 of 101 configurations by O3, 20 validation\n"
+                  "  (--valid), repeated; robot default builtin:puma_hayati.yaml; --scene, --errors, --ident, --joint-noise-deg unused)")
       ->required()
-      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "selection", "jia2019"}));
+      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "selection", "jia2019", "liu2012"}));
   addExperimentOptions(*cmd, opt->e);
-  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, selection, jia2019)")
+  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, selection, jia2019, liu2012)")
       ->capture_default_str()
       ->check(CLI::Range(1, 10000));
   cmd->add_option("--source", opt->e.source, "fig8 measurements: images or synthetic (0.3 mm / 0.5 deg)")
@@ -82,6 +84,13 @@ void addExperimentCommand(CLI::App& app) {
       }
       if (cmd->count("--robot") == 0) e.robot = "builtin:ssrms_hayati.yaml";  // Jia et al. 2019's Hayati model
       runJia2019(e);
+    } else if (opt->preset == "liu2012") {
+      for (const char* unused : {"--scene", "--errors", "--ident", "--joint-noise-deg"}) {
+        if (cmd->count(unused) > 0) throw sim::InputError(std::string(unused) + ": not used by --preset liu2012 (its protocol fixes it)");
+      }
+      if (cmd->count("--robot") == 0) e.robot = "builtin:puma_hayati.yaml";
+      if (cmd->count("--valid") == 0) e.validation = 20;  // the paper's 20 validation configurations
+      runLiu2012(e);
     } else {
       runFloor(e);
     }

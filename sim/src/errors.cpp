@@ -1,5 +1,6 @@
 #include "orbcal/sim/errors.hpp"
 
+#include <cmath>
 #include <cstdio>
 
 #include "orbcal/sim/config.hpp"
@@ -37,6 +38,15 @@ Eigen::VectorXd randomErrors(const Arm& arm, double angle_sigma_rad, double leng
   std::normal_distribution<double> n01(0.0, 1.0);
   Eigen::VectorXd y(arm.numParams());
   for (int i = 0; i < arm.numParams(); ++i) y[i] = n01(rng) * (isAngleParam(arm, i) ? angle_sigma_rad : length_sigma_m);
+  return y;
+}
+
+Eigen::VectorXd thermalErrors(const Arm& arm, double angle_sigma_rad, double length_per_metre, std::uint64_t seed) {
+  Eigen::VectorXd y = randomErrors(arm, angle_sigma_rad, 0.0, seed);
+  for (int j = 0; j < arm.numJoints(); ++j) {
+    y[paramIndex(arm, j, kA)] = length_per_metre * std::abs(arm.joints[j].a_m);
+    y[paramIndex(arm, j, kD)] = length_per_metre * std::abs(arm.joints[j].d_m);
+  }
   return y;
 }
 
