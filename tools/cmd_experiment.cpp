@@ -38,6 +38,15 @@ void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o) {
 
 namespace {
 
+/// A preset whose protocol fixes some options refuses them when given, rather than ignoring them.
+void refuseUnused(const CLI::App& cmd, const std::string& preset, std::initializer_list<const char*> options) {
+  for (const char* option : options) {
+    if (cmd.count(option) > 0) {
+      throw sim::InputError(std::string(option) + ": not used by --preset " + preset + " (its protocol fixes it)");
+    }
+  }
+}
+
 void addExperimentCommand(CLI::App& app) {
   struct Opts {
     ExperimentOptions e;
@@ -79,15 +88,11 @@ void addExperimentCommand(CLI::App& app) {
     } else if (opt->preset == "selection") {
       runSelection(e);
     } else if (opt->preset == "jia2019") {
-      for (const char* unused : {"--scene", "--errors", "--ident", "--valid"}) {
-        if (cmd->count(unused) > 0) throw sim::InputError(std::string(unused) + ": not used by --preset jia2019 (its protocol fixes it)");
-      }
+      refuseUnused(*cmd, "jia2019", {"--scene", "--errors", "--ident", "--valid"});
       if (cmd->count("--robot") == 0) e.robot = "builtin:ssrms_hayati.yaml";  // Jia et al. 2019's Hayati model
       runJia2019(e);
     } else if (opt->preset == "liu2012") {
-      for (const char* unused : {"--scene", "--errors", "--ident", "--joint-noise-deg"}) {
-        if (cmd->count(unused) > 0) throw sim::InputError(std::string(unused) + ": not used by --preset liu2012 (its protocol fixes it)");
-      }
+      refuseUnused(*cmd, "liu2012", {"--scene", "--errors", "--ident", "--joint-noise-deg"});
       if (cmd->count("--robot") == 0) e.robot = "builtin:puma_hayati.yaml";
       if (cmd->count("--valid") == 0) e.validation = 20;  // the paper's 20 validation configurations
       runLiu2012(e);
