@@ -55,6 +55,18 @@ class BoardRenderer {
   /// renderClean, then the scene's degradations (degrade.hpp) drawn from sim::makeRng(seed, stream).
   cv::Mat render(const Eigen::Isometry3d& camera_T_board, std::uint64_t seed, std::uint64_t stream);
 
+  /// render() in two halves, so that a pipeline can draw the next frame while another thread finishes
+  /// this one: draw() does the OpenGL work (one thread at a time: the context's); finish() applies the
+  /// lens distortion and the degradations, is const and may run on any thread, concurrently with
+  /// draw() and other finish() calls. finish(draw(T), seed, stream) is exactly render(T, seed, stream).
+  struct Drawn {
+    cv::Mat pinhole;  ///< the image OpenGL drew (the undistorted pinhole camera's size; averaged down)
+    cv::Rect rect;    ///< its pixels that were drawn; the rest is background
+    bool cropped = false;
+  };
+  Drawn draw(const Eigen::Isometry3d& camera_T_board);
+  cv::Mat finish(const Drawn& drawn, std::uint64_t seed, std::uint64_t stream) const;
+
   /// Samples per pixel of the multisampled framebuffer in use (0: none).
   int msaaSamples() const;
   /// What was asked for but could not be given (e.g. "msaa_samples: 8 requested, GL_MAX_SAMPLES is 4; using 4").
