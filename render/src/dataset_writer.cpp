@@ -29,14 +29,19 @@ namespace orbcal::render {
 
 namespace {
 
-constexpr int kQueueDepth = 2;  // images waiting for the writer: bounds memory, keeps both cores busy
+constexpr int kQueueDepth = 2;     // images waiting for the writers: bounds memory, keeps both cores busy
+// Writer threads. Finishing (bicubic undistortion, ~2-5 ms here) plus PNG encoding (~2-4 ms) can take
+// longer than drawing a frame; two writers keep the drawing thread from waiting for one.
+constexpr int kWriterThreads = 2;
 
 /// Makes the images (the renderer's finish(): distortion, degradations), encodes and writes the PNGs on
-/// its own thread while the caller draws the next frames. push() blocks while the queue is full and
+/// kWriterThreads threads of its own while the caller draws the next frames. push() blocks while the queue is full and
 /// rethrows the writer's first error; finish() drains the queue and rethrows. The destructor drains and joins.
 class AsyncPngWriter {
  public:
-  explicit AsyncPngWriter(int compression) : compression_(compression), thread_([this] { run(); }) {}
+  explicit AsyncPngWriter(int compression) : compression_(compression) {
+    for (int i = 0; i < kWriterThreads; ++i) threads_.emplace_back([this] { run(); });
+  }
   ~AsyncPngWriter() {
     try {
       finish();
@@ -57,9 +62,11 @@ class AsyncPngWriter {
     {
       std::lock_guard<std::mutex> lock(mutex_);
       done_ = true;
-      work_.notify_one();
+      work_.notify_all();
     }
-    if (thread_.joinable()) thread_.join();
+    for (std::thread& t : threads_) {
+      if (t.joinable()) t.join();
+    }
     if (error_) std::rethrow_exception(error_);
   }
 
@@ -86,7 +93,7 @@ class AsyncPngWriter {
         sim::writeFileAtomic(job.first, std::string(png.begin(), png.end()), false);  // synced once, before samples.csv
       } catch (...) {
         std::lock_guard<std::mutex> lock(mutex_);
-        error_ = std::current_exception();
+        if (!error_) error_ = std::current_exception();  // the first error is the one reported
       }
       space_.notify_one();
     }
@@ -98,7 +105,7 @@ class AsyncPngWriter {
   std::deque<std::pair<std::string, std::function<cv::Mat()>>> queue_;
   bool done_ = false;
   std::exception_ptr error_;
-  std::thread thread_;
+  std::vector<std::thread> threads_;
 };
 
 std::string imageName(int index) {

@@ -20,7 +20,9 @@ namespace orbcal::render {
 
 /// Normalised undistorted coordinates x with sim::distortNormalized(k, x) = xd (OpenCV's model, k = k1 k2 p1 p2 k3).
 /// False when Newton's method does not converge or lands where the model folds over (det J <= 0).
-bool undistortNormalized(const std::array<double, 5>& k, const Eigen::Vector2d& xd, Eigen::Vector2d* x);
+/// Newton's method starts from `start` when given (e.g. a neighbouring pixel's ray), else from xd.
+bool undistortNormalized(const std::array<double, 5>& k, const Eigen::Vector2d& xd, Eigen::Vector2d* x,
+                         const Eigen::Vector2d* start = nullptr);
 
 struct DistortionMap {
   sim::Camera pinhole;  ///< the camera OpenGL renders: no distortion
