@@ -65,6 +65,18 @@ std::vector<Eigen::Isometry3d> views(const sim::Board& board) {
   return v;
 }
 
+/// 160 x 128 px with strong barrel distortion: small enough for brute force over every pixel.
+sim::Camera smallDistortedCamera() {
+  sim::Camera c;
+  c.width_px = 160;
+  c.height_px = 128;
+  c.fx_px = c.fy_px = 150.0;
+  c.cx_px = 83.2;
+  c.cy_px = 61.7;
+  c.distortion = {-0.25, 0.09, 0.001, -0.0007, -0.01};
+  return c;
+}
+
 }  // namespace
 
 TEST_CASE("cropping to the board gives the whole frame's image: default settings, off-centre principal point",
@@ -99,21 +111,12 @@ TEST_CASE("cropping gives the whole frame's image with a mesh that casts a shado
           "[render][crop][mesh]") {
   // The plate (0.2 x 0.1 m) is placed beyond the board's edge and toward the camera: its pixels lie
   // partly outside the board's own box, so a crop to the board alone would cut it.
-  const std::string dir = test::tempDir("render-crop-mesh");
-  std::filesystem::create_directories(dir + "/meshes");
-  std::filesystem::copy_file(test::sourcePath("scenes/meshes/occluder_plate.obj"), dir + "/meshes/occluder_plate.obj",
-                             std::filesystem::copy_options::overwrite_existing);
-  std::string text = sim::readTextSource(sim::kDefaultScene);
-  const std::string marker = "meshes: []";
-  REQUIRE(text.find(marker) != std::string::npos);
-  text.replace(text.find(marker), marker.size(),
-               "meshes:\n"
-               "  - file: meshes/occluder_plate.obj\n"
-               "    frame: board\n"
-               "    pose: {xyz_m: [-0.15, 0.2, -0.3], rpy_deg: [0, 30, 0]}\n"
-               "    casts_shadow: true\n");
-  const std::string path = dir + "/scene.yaml";
-  std::ofstream(path) << text;
+  const std::string path = test::writeSceneWithPlate(test::tempDir("render-crop-mesh"),
+                                                      "meshes:\n"
+                                                      "  - file: meshes/occluder_plate.obj\n"
+                                                      "    frame: board\n"
+                                                      "    pose: {xyz_m: [-0.15, 0.2, -0.3], rpy_deg: [0, 30, 0]}\n"
+                                                      "    casts_shadow: true\n");
   const sim::Scene scene = sim::loadScene(path);
   const render::RenderSettings settings = render::loadRenderSettings(path);
   REQUIRE(settings.meshes.size() == 1);
@@ -154,13 +157,7 @@ TEST_CASE("outputStripsReading: every output pixel outside the strips reads no p
           "[render][crop][distortion]") {
   // Brute force over a small camera: the bicubic lookup at (x, y) reads pixels floor(x) - 1 .. floor(x) + 2
   // (likewise in y); outside the returned rectangle none of them may lie in the drawn rectangle.
-  sim::Camera c;
-  c.width_px = 160;
-  c.height_px = 128;
-  c.fx_px = c.fy_px = 150.0;
-  c.cx_px = 83.2;
-  c.cy_px = 61.7;
-  c.distortion = {-0.25, 0.09, 0.001, -0.0007, -0.01};
+  const sim::Camera c = smallDistortedCamera();
   const render::DistortionMap map = render::makeDistortionMap(c);
   const cv::Rect drawn(map.pinhole.width_px / 3, map.pinhole.height_px / 4, 30, 20);
   const std::vector<cv::Rect> strips = render::outputStripsReading(map, drawn);
@@ -189,13 +186,7 @@ TEST_CASE("outputStripsReading: every output pixel outside the strips reads no p
 
 TEST_CASE("the precomputed fixed-point distortion maps give cv::remap's pixels from the float maps", "[render][distortion]") {
   // cv::remap converts float maps to fixed point (1/32 px) on every call; doing it once must not change a pixel.
-  sim::Camera c;
-  c.width_px = 160;
-  c.height_px = 128;
-  c.fx_px = c.fy_px = 150.0;
-  c.cx_px = 83.2;
-  c.cy_px = 61.7;
-  c.distortion = {-0.25, 0.09, 0.001, -0.0007, -0.01};
+  const sim::Camera c = smallDistortedCamera();
   const render::DistortionMap map = render::makeDistortionMap(c);
   cv::Mat pinhole(map.pinhole.height_px, map.pinhole.width_px, CV_8UC1);
   cv::RNG rng(7);
