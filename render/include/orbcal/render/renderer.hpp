@@ -1,6 +1,9 @@
 #pragma once
 // The calibration board (and any extra meshes) as the eye-in-hand camera sees it, rendered off-screen
-// with OSMesa into a multisampled framebuffer and read back into a cv::Mat.
+// with OSMesa into an 8-bit grey framebuffer (multisampled when render.msaa_samples > 1) and read back
+// into a cv::Mat. With render.crop_to_scene (default) only the bounding box of the drawables' projected
+// bounding boxes is drawn, read back and undistorted; the rest is the background grey level GL stores,
+// so the image is the whole frame's pixel for pixel (tests/render/test_crop.cpp).
 //
 // Projection: exactly OpenCV's pinhole model, pixel centres at integer coordinates, y down, any
 // principal point (sim::project). GL pixel i spans [i, i+1] with its centre at i + 0.5 and GL's rows
