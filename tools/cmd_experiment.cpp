@@ -14,7 +14,7 @@ void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o) {
   cmd.add_option("-o,--out", o.out, "output folder (reports under <out>/<preset>, datasets under <out>/datasets)")
       ->capture_default_str();
   cmd.add_option("--errors", o.errors.name,
-                 "injected error set: table3 (seed 000), zero, random, or an error-set file (YAML: DH errors + effects)")
+                 "injected error set: table3 (Wang et al. 2023, Table 3), zero, random, or an error-set file (YAML: DH errors + effects)")
       ->capture_default_str();
   cmd.add_option("--error-seed", o.errors.seed, "seed of --errors random")->capture_default_str();
   cmd.add_option_function<double>(
@@ -32,7 +32,7 @@ void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o) {
   cmd.add_flag("--quiet", o.quiet, "no progress output");
   auto* jn = cmd.add_option_function<double>(
       "--joint-noise-deg", [&o](double d) { o.joint_noise_sigma_rad = d * sim::kDegToRad; },
-      "joint control noise, 1 sigma [deg] (default 0.01, seed 000)");
+      "joint control noise, 1 sigma [deg] (default 0.01, Wang et al. 2023)");
   jn->check(CLI::Range(0.0, 10.0));
 }
 
@@ -54,7 +54,7 @@ void addExperimentCommand(CLI::App& app) {
   };
   auto opt = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand("experiment",
-                                     "Calibration experiments: seed 000's Table 4, Table 5, Fig. 8, and the control-noise floor");
+                                     "Calibration experiments: Wang et al. 2023's Table 4, Table 5, Fig. 8 (and the other papers' protocols), and the control-noise floor");
   cmd->add_option("--preset", opt->preset,
                   "table4: Table 3 errors, 50 + 200 configurations, rendered images, every estimator;\n"
                   "table5: four synthetic noise levels + images, repeated;\n"

@@ -131,6 +131,10 @@ MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& pref
   std::snprintf(buf, sizeof buf, "%s-n%d-s%llu-%08llx", prefix.c_str(), count, static_cast<unsigned long long>(seed),
                 static_cast<unsigned long long>(fingerprint(inputs) & 0xffffffffULL));
   const std::string name = buf;
+  // What the progress bars say: "identification images", "validation images", "pool images".
+  const std::string what = prefix.size() > 6 && prefix.compare(prefix.size() - 6, 6, "-ident") == 0   ? "identification images"
+                           : prefix.size() > 6 && prefix.compare(prefix.size() - 6, 6, "-valid") == 0 ? "validation images"
+                                                                                                       : "images (" + prefix + ")";
   render::DatasetJob job;
   job.robot = o.robot;
   job.scene = o.scene;
@@ -141,14 +145,14 @@ MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& pref
   job.out = o.out + "/datasets/" + name;
   auto t0 = Clock::now();
   {
-    Progress bar(o.quiet ? "" : "render " + name, o.quiet ? 0 : count);
+    Progress bar(o.quiet ? "" : "render " + what, o.quiet ? 0 : count);
     render::renderDataset(job, [&](int done, int) { bar.update(done); });
   }
   m.render_seconds = since(t0);
   m.dataset = sim::loadDataset(job.out);
   t0 = Clock::now();
   {
-    Progress bar(o.quiet ? "" : "measure " + name, o.quiet ? 0 : count);
+    Progress bar(o.quiet ? "" : "measure " + what, o.quiet ? 0 : count);
     m.measurements = vision::measureDataset(m.dataset, {}, [&](int done, int) { bar.update(done); });
   }
   m.measure_seconds = since(t0);
@@ -209,7 +213,7 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
   std::vector<Eigen::VectorXd> ident_configs = r.identification.plant.q_commanded;
   std::ostringstream md;
   md << "# Table 4 from rendered images\n\n"
-     << "Seed 000's Table 4 experiment run through the whole image pipeline: the arm with injected errors "
+     << "Wang et al. 2023's Table 4 experiment run through the whole image pipeline: the arm with injected errors "
      << "moves the camera, the board is rendered (OSMesa), corners detected, the board pose solved (PnP) and "
      << "turned into the measured flange pose with its covariance, then every estimator identifies the "
      << nominal.numParams() << " errors. Validation: " << o.validation

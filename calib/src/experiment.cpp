@@ -33,7 +33,7 @@ std::vector<MethodSpec> comparisonMethods(double joint_sigma) {
   std::vector<MethodSpec> m;
   m.push_back({"LSE (paper)", "Gauss-Newton, truncated SVD, unweighted (m and rad added as they are)", Kind::kLse, {}, unweighted, {}, paper_R});
   m.push_back({"LSE (weighted)", "Gauss-Newton, truncated SVD, weighted by R = measurement + joint noise", Kind::kLse, {}, weighted, {}, full_R});
-  m.push_back({"EKF (paper)", "seed 000 as written: P0 0.01 deg / 0.01 mm, Q = 0, J at nominal, R 0.3 mm / 0.5 deg", Kind::kEkf, paper, {}, {}, paper_R});
+  m.push_back({"EKF (paper)", "Wang et al. 2023 as written: P0 0.01 deg / 0.01 mm, Q = 0, J at nominal, R 0.3 mm / 0.5 deg", Kind::kEkf, paper, {}, {}, paper_R});
   m.push_back({"EKF (wide P0 + paper R)", "P0 1 deg / 5 mm, Q = 0, J at nominal, R 0.3 mm / 0.5 deg", Kind::kEkf, wide_linear, {}, {}, paper_R});
   m.push_back({"EKF (measurement R)", "P0 1 deg / 5 mm, re-linearized, R = measurement covariance only", Kind::kEkf, extended, {}, {}, measured_R});
   m.push_back({"EKF", "P0 1 deg / 5 mm, re-linearized, R = measurement + joint noise through J_q (orbcal's default)", Kind::kEkf, extended, {}, {}, full_R});

@@ -53,11 +53,11 @@ Eigen::VectorXd thermalErrors(const Arm& arm, double angle_sigma_rad, double len
 Eigen::VectorXd makeErrorSet(const Arm& arm, const ErrorSetSpec& spec, const std::string& what) {
   if (spec.name == "table3") {
     if (arm.numJoints() != 7) {
-      throw InputError(what + ": error set 'table3' is seed 000's for a 7-joint arm; " + arm.source + " has " +
+      throw InputError(what + ": error set 'table3' is Wang et al. 2023's, for a 7-joint arm; " + arm.source + " has " +
                        std::to_string(arm.numJoints()) + " joints");
     }
     if (arm.paramsPerJoint() != 4) {
-      throw InputError(what + ": error set 'table3' is seed 000's 4 errors per joint; " + arm.source + " is " +
+      throw InputError(what + ": error set 'table3' is Wang et al. 2023's 4 errors per joint; " + arm.source + " is " +
                        conventionName(arm.convention) + " DH with " + std::to_string(arm.paramsPerJoint()) +
                        " (use random, zero or an error-set file)");
     }
