@@ -424,6 +424,36 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
     sim::writeFileAtomic(out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true));
   }
 
+  // Per-image errors against the measured poses, nominal and calibrated, with the inconsistent images marked.
+  {
+    std::ostringstream rows;
+    rows << "image,set,before_mm,after_mm,outlier\n";
+    std::vector<bool> outlier(d.samples.size(), false);
+    if (calib::isPoseKind(kind) && !calib::isRelativeKind(kind)) {
+      for (int k : r.consistency.outliers) outlier[ident[static_cast<std::size_t>(k)]] = true;
+    }
+    std::vector<std::pair<std::size_t, const char*>> all;
+    for (std::size_t k : ident) all.emplace_back(k, "identification");
+    for (std::size_t k : hold) all.emplace_back(k, "held-out");
+    std::sort(all.begin(), all.end());
+    for (const auto& [k, set] : all) {
+      const Eigen::Vector3d p = meas[k].base_T_flange.translation();
+      rows << d.samples[k].image << "," << set << ","
+           << formatNumber("%.6f", (p - sim::forwardKinematics(d.arm, d.samples[k].q_rad).translation()).norm() * 1e3) << ","
+           << formatNumber("%.6f", (p - sim::forwardKinematics(calibrated, d.samples[k].q_rad).translation()).norm() * 1e3) << ","
+           << (outlier[k] ? 1 : 0) << "\n";
+    }
+    sim::writeFileAtomic(out + "/samples.csv", rows.str());
+  }
+  ExperimentOptions figures;
+  figures.plots = o.plots;
+  std::string figure_lines = drawFigure(figures, out, "samples '" + out + "/samples.csv'", "samples.png",
+                                        "per-image errors before and after");
+  if (r.written) {
+    figure_lines += drawFigure(figures, out, "parameters '" + out + "/estimates.csv'", "parameters.png",
+                               "identified parameters with their 1-sigma");
+  }
+
   std::ostringstream md;
   const bool hayati = d.arm.convention == sim::DhConvention::kHayati;
   md << "# Calibration of " << d.arm.name << (kind == calib::MeasurementKind::kPose ? "" : " (" + r.model + " model)") << "\n\n"
@@ -509,8 +539,9 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
                                                "(paste into the scene)\nbase_T_board: " + sim::transformYaml(r.frames->base_T_board) +
                                                "\nflange_T_camera: " + sim::transformYaml(r.frames->flange_T_camera) + "\n");
   }
-  md << (r.written ? "Files: `robot_calibrated.yaml` (load it with `--robot`), `estimates.csv`; measurements in `"
-                   : "No calibrated files were written (see the top). Measurements in `")
+  md << "## Figures\n\n" << figure_lines << "\n";
+  md << (r.written ? "Files: `robot_calibrated.yaml` (load it with `--robot`), `estimates.csv`, `samples.csv` (per-image errors); measurements in `"
+                   : "No calibrated files were written (see the top). `samples.csv` (per-image errors); measurements in `")
      << o.dataset << "/measurements.csv`.\n";
   r.report_path = out + "/report.md";
   sim::writeFileAtomic(r.report_path, md.str());

@@ -42,6 +42,7 @@ struct CalibrateOptions {
   /// Write the calibrated files even when the fit is inconsistent with its noise or the held-out error
   /// grows (the report and the exit status say so all the same).
   bool accept_worse = false;
+  bool plots = true;  ///< draw the report's figures (python3 + matplotlib)
 };
 
 /// With CalibrateOptions::effects: geometry + both frames + the chain effects + the distortion block,

@@ -78,6 +78,7 @@ void addCalibrateCommand(CLI::App& app) {
                 "write the calibrated files even if the fit is inconsistent with its noise or predicts the held-out samples worse (the report and the terminal say so first)");
   cmd->add_option("-o,--out", o->out, "output folder (default: calibration/ beside the dataset or description)");
   cmd->add_flag("--quiet", o->images.quiet, "no progress output");
+  cmd->add_flag("--no-plots{false}", o->images.plots, "images: do not draw the report's figures");
   cmd->add_option("--model", o->images.model,
                   "images: what of each camera pose is used: pose (absolute, through the scene's base_T_board; Wang et al. "
                   "2023), position, or between pairs of images, frame-free (no base_T_board needed; Jia et al. 2019): "

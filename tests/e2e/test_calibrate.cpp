@@ -206,6 +206,13 @@ TEST_CASE("calibrate: an inconsistent fit is refused, named, and writes no robot
   CHECK(right.consistency.consistent());  // the vision covariance plus the joint noise is honest
   CHECK(right.refusals.empty());
   CHECK(right.written);
+  // Per-image errors (a header and one row per usable image) and the report's figures (python3 with
+  // matplotlib is installed by tools/install-deps.sh).
+  const std::string rows = slurp(o.out + "/samples.csv");
+  CHECK(rows.rfind("image,set,before_mm,after_mm,outlier\n", 0) == 0);
+  CHECK(static_cast<int>(std::count(rows.begin(), rows.end(), '\n')) == 1 + right.usable);
+  CHECK(std::filesystem::exists(o.out + "/samples.png"));
+  CHECK(std::filesystem::exists(o.out + "/parameters.png"));
 
   misplaceBoard(job.out);
   o.out = job.out + "/../wrong";
