@@ -75,7 +75,9 @@ void addCalibrateCommand(CLI::App& app) {
       ->check(CLI::Range(0.0, 0.9));
   cmd->add_option("--seed", o->seed, "seed of the hold-out draw")->capture_default_str();
   cmd->add_flag("--accept-worse", o->measured.accept_worse, "measured data: write the model even if it predicts worse");
-  cmd->add_option("-o,--out", o->out, "output folder (default: calibration/ beside the dataset or description)");
+  cmd->add_option("-o,--out", o->out, "output folder (default: calibration/ beside the dataset or description, with an image dataset's "
+                 "measurements.csv in the dataset folder); with -o, everything (measurements.csv too) goes to OUT and "
+                 "the dataset folder is only read");
   cmd->add_flag("--quiet", o->images.quiet, "no progress output");
   cmd->add_option("--model", o->images.model,
                   "images: what of each camera pose is used: pose (absolute, through the scene's base_T_board; Wang et al. "
