@@ -14,7 +14,7 @@ namespace {
 // is double-buffered so that the handler always sees a complete one.
 constexpr std::size_t kText = 512;
 char g_program[64] = "orbcal";
-char g_note[kText] = "outputs are written whole at the end, so nothing was written: rerun the same command to start over";
+char g_note[kText] = "every file is written whole or not at all: rerun the same command to start over";
 char g_stage[2][128] = {"", ""};
 std::atomic<int> g_stage_slot{0};
 std::atomic<int> g_done{-1}, g_total{0};

@@ -10,8 +10,8 @@ namespace orbcal::tools {
 /// Installs the handler for SIGINT and SIGTERM (once, in main). `program` starts the line ("orbcal").
 void installInterruptHandler(const char* program);
 /// What the line says after the position, set by a command before its long work, e.g. "the finished
-/// images are kept in DIR: rerun the same command to resume". Default: outputs are written whole at the
-/// end, so nothing was written; rerunning starts over.
+/// images are kept in DIR: rerun the same command to resume". Default: every file is written whole or
+/// not at all; rerunning starts over.
 void setInterruptNote(const std::string& note);
 /// The position the line reports: a stage name and done / total (called by Progress).
 void noteInterruptProgress(const std::string& stage, int done, int total);

@@ -31,7 +31,7 @@ std::string withoutBom(const std::string& text) {
 void requireUniqueNames(const std::vector<std::string>& header, const std::string& source) {
   for (std::size_t i = 0; i < header.size(); ++i) {
     for (std::size_t k = 0; k < i; ++k) {
-      if (header[k] == header[i]) throw InputError(source + ": header: duplicate column " + quoted(header[i]));
+      if (header[k] == header[i]) throw InputError(source + ": header: duplicate column " + quoteInput(header[i]));
     }
   }
 }
@@ -80,7 +80,7 @@ double CsvTable::number(std::size_t row, int col) const {
   char* end = nullptr;
   const double v = std::strtod(s.c_str(), &end);
   if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v)) {
-    throw InputError(where(row) + ": " + header_[col] + ": expected a finite number, got " + quoted(s));
+    throw InputError(where(row) + ": " + header_[col] + ": expected a finite number, got " + quoteInput(s));
   }
   return v;
 }

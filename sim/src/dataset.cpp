@@ -81,7 +81,7 @@ DatasetManifest parseManifest(const std::string& text, const std::string& source
                         "seeds", "true_errors"});
   DatasetManifest m;
   m.format = root["format"].asString();
-  if (m.format != kDatasetFormat) root["format"].fail("expected '" + std::string(kDatasetFormat) + "', got '" + m.format + "'");
+  if (m.format != kDatasetFormat) root["format"].fail("expected '" + std::string(kDatasetFormat) + "', got " + quoteInput(m.format));
   m.program_version = root.optional("program_version").asString("");
   m.robot_file = root["robot"].asString();
   m.scene_file = root["scene"].asString();
@@ -188,7 +188,7 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
     DatasetSample s;
     const double index = t.number(r, c_index);
     if (!(index >= 0 && index <= 1e9 && index == std::floor(index))) {
-      throw InputError(t.where(r) + ": index: expected a whole number from 0, got " + quoted(t.cell(r, c_index)));
+      throw InputError(t.where(r) + ": index: expected a whole number from 0, got " + quoteInput(t.cell(r, c_index)));
     }
     s.index = static_cast<int>(index);
     const int line = t.line(r);
@@ -199,7 +199,7 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
     s.image = t.cell(r, c_image);
     if (s.image.empty()) throw InputError(t.where(r) + ": image: empty");
     if (const auto [it, fresh] = image_line.emplace(s.image, line); !fresh) {
-      throw InputError(t.where(r) + ": image: " + quoted(s.image) + " given twice (first on line " +
+      throw InputError(t.where(r) + ": image: " + quoteInput(s.image) + " given twice (first on line " +
                        std::to_string(it->second) + ")");
     }
     const auto q = t.numbers(r, c_q);

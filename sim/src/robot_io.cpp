@@ -95,7 +95,7 @@ Arm loadArm(const std::string& path) {
   } else if (c == "hayati") {
     arm.convention = DhConvention::kHayati;
   } else {
-    conv.fail("expected 'modified' (Craig), 'standard' or 'hayati', got '" + c + "'");
+    conv.fail("expected 'modified' (Craig), 'standard' or 'hayati', got " + quoteInput(c));
   }
   arm.base_T_first = readFixed(root.optional("base"), arm.convention);
   arm.last_T_flange = readFixed(root.optional("tool"), arm.convention);

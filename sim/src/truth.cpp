@@ -54,7 +54,7 @@ Eigen::VectorXd readGeometry(const Arm& arm, const ConfigNode& g) {
   ErrorSetSpec spec;
   if (g.isScalar()) {
     spec.name = g.asString();
-    if (!isNamedErrorSet(spec.name)) g.fail(expected + ", got '" + spec.name + "'");
+    if (!isNamedErrorSet(spec.name)) g.fail(expected + ", got " + quoteInput(spec.name));
     return makeErrorSet(arm, spec, g.source() + ": " + g.path());
   }
   if (g.isMap()) {

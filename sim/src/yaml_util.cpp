@@ -157,7 +157,7 @@ void ConfigNode::fail(const std::string& what) const {
 
 namespace {
 std::string scalarText(const YAML::Node& n) {
-  if (n.IsScalar()) return quoted(n.Scalar());
+  if (n.IsScalar()) return quoteInput(n.Scalar());
   if (n.IsSequence()) return "a sequence";
   if (n.IsMap()) return "a map";
   return "nothing";

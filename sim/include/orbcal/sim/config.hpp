@@ -20,7 +20,7 @@ inline constexpr double kMaxLengthM = 1e4;
 /// Every message that quotes input goes through it (InputError applies it to its whole message).
 std::string printable(const std::string& text, std::size_t max_chars = std::string::npos);
 /// printable(text, 40): how a value from an input is quoted in a one-line message.
-inline std::string quoted(const std::string& text) { return "'" + printable(text, 40) + "'"; }
+inline std::string quoteInput(const std::string& text) { return "'" + printable(text, 40) + "'"; }
 
 /// Bad input from a file or the command line: the message names the file and the key. The message
 /// is passed through printable(), so it is one line without raw control bytes.
