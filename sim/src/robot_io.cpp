@@ -85,7 +85,7 @@ Arm loadArm(const std::string& path) {
   root.requireOnlyKeys({"name", "convention", "base", "joints", "tool", "masses", "source_notes"});
   Arm arm;
   arm.source = path;
-  arm.name = root["name"].asString();
+  arm.name = printable(root["name"].asString());  // a label printed as is: no raw control bytes
   const ConfigNode conv = root["convention"];
   const std::string c = conv.asString();
   if (c == "modified") {

@@ -17,7 +17,7 @@ Scene loadScene(const std::string& path) {
   root.requireOnlyKeys(sceneTopLevelKeys());
   Scene s;
   s.source = path;
-  s.name = root["name"].asString();
+  s.name = printable(root["name"].asString());  // a label printed as is: no raw control bytes
 
   const ConfigNode cam = root["camera"];
   cam.requireOnlyKeys({"width_px", "height_px", "fx_px", "fy_px", "cx_px", "cy_px", "distortion"});

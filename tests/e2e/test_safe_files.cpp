@@ -264,6 +264,14 @@ TEST_CASE("safe files: a junk key is escaped in the unknown-key message", "[e2e]
   CHECK(terminalSafe(msg));
 }
 
+TEST_CASE("safe files: a robot or scene name holding escape sequences is kept escaped for printing", "[e2e][safe][badinput]") {
+  const std::string dir = test::tempDir("safe-junk-name");
+  const std::string robot = editedCopy(dir, "scenes/ssrms.yaml", "name: SSRMS", "name: \"\\e[2JSSRMS\"\n#");
+  const std::string scene = editedCopy(dir, "scenes/quick_scene.yaml", "name: SSRMS", "name: \"\\e[2JSSRMS\"\n#");
+  CHECK_THAT(sim::loadArm(robot).name, StartsWith("\\x1B[2JSSRMS"));
+  CHECK_THAT(sim::loadScene(scene).name, StartsWith("\\x1B[2JSSRMS"));
+}
+
 // ---- item 5: CSV with a byte order mark and CRLF ----
 
 TEST_CASE("safe files: every CSV reader takes a UTF-8 byte order mark and CRLF line ends", "[e2e][safe]") {
