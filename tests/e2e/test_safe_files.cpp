@@ -411,6 +411,21 @@ TEST_CASE("safe files: a render that fails before its first image leaves no fold
   CHECK(fs::exists(dir));
 }
 
+TEST_CASE("safe files: a render whose mesh fails to load after the folder is made leaves no folder behind",
+          "[e2e][safe][badinput]") {
+  const std::string dir = test::tempDir("safe-no-folder-mesh");
+  // The mesh file is read and copied into the dataset before the renderer parses it (and finds no triangles).
+  write(dir + "/junk.obj", "this is not a mesh\n");
+  const std::string scene = editedCopy(dir, "scenes/quick_scene.yaml", "meshes: []",
+                                       "meshes:\n  - {file: junk.obj, frame: board, pose: {xyz_m: [0, 0, 0], rpy_deg: [0, 0, 0]}}\n#");
+  render::DatasetJob job;
+  job.scene = scene;
+  job.count = 3;
+  job.out = dir + "/new/dataset";
+  CHECK(inputError([&] { render::renderDataset(job); }) == scene + ": meshes[0].file: cannot load mesh '" + dir + "/junk.obj': no triangles");
+  CHECK_FALSE(fs::exists(dir + "/new"));
+}
+
 // ---- item 5: Ctrl-C and SIGTERM ----
 
 namespace {
