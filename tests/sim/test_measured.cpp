@@ -79,7 +79,7 @@ std::string descriptionError(const std::string& name, const std::string& from, c
 
 /// The folder writeFiles(name, ...) writes into (without emptying it, unlike tempDir).
 std::string folderOf(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("orbcal-test-measured-" + name)).string();
+  return orbcal::test::tempPath("measured-" + name);
 }
 
 std::string csvPath(const std::string& name) { return folderOf(name) + "/data.csv"; }
