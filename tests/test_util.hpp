@@ -1,7 +1,9 @@
 #pragma once
 // Helpers shared by the test suites.
 #include <catch2/catch.hpp>
+#include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -19,9 +21,17 @@ inline std::string sharedDataPath(const std::string& relative) {
   return std::string(ORBCAL_SHARED_DATA_DIR) + "/" + relative;
 }
 
+/// Where tempDir(name) puts its folder: the system's temporary folder, a name unique to this source tree
+/// (several checkouts on one machine may run their suites at the same time without sharing folders).
+inline std::string tempPath(const std::string& name) {
+  char tree[24];
+  std::snprintf(tree, sizeof tree, "%08zx", std::hash<std::string>{}(ORBCAL_SOURCE_DIR) & 0xffffffffu);
+  return (std::filesystem::temp_directory_path() / ("orbcal-test-" + std::string(tree) + "-" + name)).string();
+}
+
 /// A fresh, empty temporary folder for one test (removed and re-created).
 inline std::string tempDir(const std::string& name) {
-  const auto p = std::filesystem::temp_directory_path() / ("orbcal-test-" + name);
+  const std::filesystem::path p = tempPath(name);
   std::filesystem::remove_all(p);
   std::filesystem::create_directories(p);
   return p.string();

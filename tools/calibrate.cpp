@@ -278,6 +278,13 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
     if (!sim::isCameraEffect(e, "--effects")) sim::parseEffect(e, 64, "--effects");
   }
   const sim::Dataset d = sim::loadDataset(o.dataset);
+  // With -o nothing is written into the dataset folder (it may be read-only, or hold a measurements.csv
+  // of `orbcal measure` with other settings): measurements.csv goes to OUT too. The folder written is
+  // locked meanwhile, so that two runs never mix their files.
+  const std::string written_folder = o.out.empty() ? o.dataset : out;
+  const std::string measurements_path = written_folder + "/measurements.csv";
+  sim::makeDirectories(written_folder);
+  const sim::FolderLock lock(written_folder, "orbcal calibrate");
   for (const std::string& e : o.effects) {
     if (!sim::isCameraEffect(e, "--effects")) sim::parseEffect(e, d.arm.numJoints(), "--effects");
   }
@@ -298,7 +305,7 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
     Progress bar(o.quiet ? "" : "measure", o.quiet ? 0 : static_cast<int>(d.samples.size()));
     meas = vision::measureDataset(d, {}, [&](int done, int) { bar.update(done); });
   }
-  sim::writeFileAtomic(o.dataset + "/measurements.csv", vision::formatMeasurementsCsv(meas));
+  sim::writeFileAtomic(measurements_path, vision::formatMeasurementsCsv(meas));
   r.images = static_cast<int>(meas.size());
 
   // Usable samples, then a seeded hold-out draw.
@@ -542,7 +549,7 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   md << "## Figures\n\n" << figure_lines << "\n";
   md << (r.written ? "Files: `robot_calibrated.yaml` (load it with `--robot`), `estimates.csv`, `samples.csv` (per-image errors); measurements in `"
                    : "No calibrated files were written (see the top). `samples.csv` (per-image errors); measurements in `")
-     << o.dataset << "/measurements.csv`.\n";
+     << measurements_path << "`.\n";
   r.report_path = out + "/report.md";
   sim::writeFileAtomic(r.report_path, md.str());
   return r;

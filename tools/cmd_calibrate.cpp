@@ -76,7 +76,9 @@ void addCalibrateCommand(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "seed of the hold-out draw")->capture_default_str();
   cmd->add_flag("--accept-worse", o->measured.accept_worse,
                 "write the calibrated files even if the fit is inconsistent with its noise or predicts the held-out samples worse (the report and the terminal say so first)");
-  cmd->add_option("-o,--out", o->out, "output folder (default: calibration/ beside the dataset or description)");
+  cmd->add_option("-o,--out", o->out, "output folder (default: calibration/ beside the dataset or description, with an image dataset's "
+                 "measurements.csv in the dataset folder); with -o, everything (measurements.csv too) goes to OUT and "
+                 "the dataset folder is only read");
   cmd->add_flag("--quiet", o->images.quiet, "no progress output");
   cmd->add_flag("--no-plots{false}", o->images.plots, "images: do not draw the report's figures");
   cmd->add_option("--model", o->images.model,

@@ -2,6 +2,7 @@
 #include <iostream>
 
 #include "cli.hpp"
+#include "interrupt.hpp"
 #include "experiment.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -77,6 +78,8 @@ void addExperimentCommand(CLI::App& app) {
       ->check(CLI::IsMember({"images", "synthetic"}));
   cmd->callback([opt, cmd] {
     ExperimentOptions e = opt->e;
+    setInterruptNote("the datasets and images rendered so far are kept under " + e.out +
+                     "/datasets: rerun the same command to resume from them");
     if (opt->preset == "table4") {
       const Table4Result r = runTable4(e);
       std::cout << table4Headline(r);

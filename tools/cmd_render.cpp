@@ -57,6 +57,7 @@ void addRenderCommand(CLI::App& app) {
     job.joint_noise_sigma_rad = opt->joint_noise_deg * sim::kDegToRad;
     job.errors.angle_sigma_rad = opt->error_angle_sigma_deg * sim::kDegToRad;
     job.errors.length_sigma_m = opt->error_length_sigma_mm * 1e-3;
+    setInterruptNote("the finished images are kept in " + job.out + ": rerun the same command to resume");
     Progress bar("render", job.count);
     const render::DatasetRunReport r = render::renderDataset(job, [&](int done, int) { bar.update(done); });
     bar.finish();

@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include "cli.hpp"
+#include "interrupt.hpp"
 #include "experiment.hpp"
 #include "orbcal/sim/io.hpp"
 
@@ -19,6 +20,8 @@ void addRunCommand(CLI::App& app) {
       "measure the board poses, identify the errors (EKF, LSE, LM) and report the validation errors");
   addExperimentOptions(*cmd, *opt);
   cmd->callback([opt] {
+    setInterruptNote("the datasets and images rendered so far are kept under " + opt->out +
+                     "/datasets: rerun the same command to resume from them");
     const sim::Arm arm = sim::loadArm(opt->robot);
     const sim::Scene scene = sim::loadScene(opt->scene);
     std::printf("Arm: %s (%s), %d revolute joints, %s DH, %d parameter errors\n", arm.name.c_str(), arm.source.c_str(),

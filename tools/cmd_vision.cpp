@@ -1,6 +1,7 @@
 // Subcommands on images: measure (dataset images -> measured flange poses) and intrinsics (Zhang).
 #include <cstdio>
 #include <iostream>
+#include <optional>
 
 #include "cli.hpp"
 #include "orbcal/sim/config.hpp"
@@ -42,6 +43,8 @@ void addMeasureCommand(CLI::App& app) {
   cmd->callback([opt] {
     opt->settings.detector.detector = vision::parseDetector(opt->detector);
     const sim::Dataset ds = sim::loadDataset(opt->dataset);
+    std::optional<sim::FolderLock> lock;  // measurements.csv goes into the dataset folder: no other writer meanwhile
+    if (opt->out.empty()) lock.emplace(opt->dataset, "orbcal measure");
     Progress bar("measure", static_cast<int>(ds.samples.size()));
     const auto rows = vision::measureDataset(ds, opt->settings, [&](int d, int) { bar.update(d); });
     bar.finish();

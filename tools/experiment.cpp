@@ -149,14 +149,17 @@ MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& pref
     render::renderDataset(job, [&](int done, int) { bar.update(done); });
   }
   m.render_seconds = since(t0);
-  m.dataset = sim::loadDataset(job.out);
-  t0 = Clock::now();
   {
-    Progress bar(o.quiet ? "" : "measure " + what, o.quiet ? 0 : count);
-    m.measurements = vision::measureDataset(m.dataset, {}, [&](int done, int) { bar.update(done); });
+    const sim::FolderLock lock(job.out, "orbcal experiment: measure");  // measurements.csv goes into the dataset
+    m.dataset = sim::loadDataset(job.out);
+    t0 = Clock::now();
+    {
+      Progress bar(o.quiet ? "" : "measure " + what, o.quiet ? 0 : count);
+      m.measurements = vision::measureDataset(m.dataset, {}, [&](int done, int) { bar.update(done); });
+    }
+    m.measure_seconds = since(t0);
+    sim::writeFileAtomic(job.out + "/measurements.csv", vision::formatMeasurementsCsv(m.measurements));
   }
-  m.measure_seconds = since(t0);
-  sim::writeFileAtomic(job.out + "/measurements.csv", vision::formatMeasurementsCsv(m.measurements));
   m.summary = vision::summarize(m.measurements);
   const sim::TrueArm truth = trueArm(m.dataset);
   for (std::size_t k = 0; k < m.dataset.samples.size(); ++k) {

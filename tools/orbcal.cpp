@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "cli.hpp"
+#include "interrupt.hpp"
 #include "orbcal/sim/config.hpp"
 
 #include <algorithm>
@@ -38,6 +39,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("orbcal ") + ORBCAL_VERSION);
   orbcal::tools::addRegisteredCommands(app);
+  orbcal::tools::installInterruptHandler("orbcal");  // Ctrl-C / SIGTERM: one line on where things stand
   try {
     app.parse(argc, argv);
   } catch (const CLI::RuntimeError& e) {
@@ -47,7 +49,7 @@ int main(int argc, char** argv) {
     return code == 0 ? 0 : 2;
   } catch (const std::exception& e) {
     // Bad input, unreachable poses, I/O failures: one line naming the file and the field.
-    std::cerr << "orbcal: " << e.what() << "\n";
+    std::cerr << "orbcal: " << orbcal::sim::printable(e.what()) << "\n";
     return 1;
   }
   return 0;

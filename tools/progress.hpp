@@ -6,18 +6,24 @@
 #include <cstdio>
 #include <string>
 
+#include "interrupt.hpp"
+
 namespace orbcal::tools {
 
 class Progress {
  public:
   Progress(std::string label, int total)
-      : label_(std::move(label)), total_(total), tty_(::isatty(2) != 0), start_(std::chrono::steady_clock::now()) {}
+      : label_(std::move(label)), total_(total), tty_(::isatty(2) != 0), start_(std::chrono::steady_clock::now()) {
+    if (total_ > 0) noteInterruptProgress(label_, 0, total_);  // what Ctrl-C reports (interrupt.hpp)
+  }
   ~Progress() { finish(); }
   Progress(const Progress&) = delete;
   Progress& operator=(const Progress&) = delete;
 
   void update(int done) {
-    if (!tty_ || total_ <= 0) return;
+    if (total_ <= 0) return;
+    noteInterruptProgress(label_, done, total_);
+    if (!tty_) return;
     const auto now = std::chrono::steady_clock::now();
     if (done < total_ && now - last_ < std::chrono::milliseconds(100)) return;
     last_ = now;
@@ -28,9 +34,11 @@ class Progress {
                  std::string(width - filled, '.').c_str(), done, total_, elapsed, eta);
     std::fflush(stderr);
     shown_ = true;
+    noteProgressShown(true);
   }
   void finish() {
     if (shown_) std::fprintf(stderr, "\n");
+    if (shown_) noteProgressShown(false);
     shown_ = false;
   }
 

@@ -321,6 +321,22 @@ int removeTemporaryImages(const std::string& images_dir) {
   return removed;
 }
 
+/// When destroyed by an exception before `dataset` holds a finished image (.png), removes `created`, the
+/// outermost folder the run created for it (when not empty): a render that fails before its first
+/// image leaves no folder behind.
+struct RemoveNewFolderOnFailure {
+  std::string dataset, created;
+  const int exceptions = std::uncaught_exceptions();
+  ~RemoveNewFolderOnFailure() {
+    if (created.empty() || std::uncaught_exceptions() <= exceptions) return;
+    std::error_code ec;
+    for (std::filesystem::directory_iterator it(dataset + "/images", ec), end; !ec && it != end; it.increment(ec)) {
+      if (it->path().extension() == ".png") return;
+    }
+    std::filesystem::remove_all(created, ec);
+  }
+};
+
 }  // namespace
 
 DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& progress) {
@@ -351,10 +367,21 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   m.noise_seed = job.noise_seed;
   m.render_seed = job.render_seed;
 
+  // The folder is locked while this run writes it (a second writer is refused); a folder this run
+  // creates is removed again when the run fails before its first image is written.
+  std::error_code ec;
+  std::filesystem::path created;  // the outermost folder this run creates (empty: none)
+  for (std::filesystem::path p = job.out; !p.empty() && !std::filesystem::exists(p, ec); p = p.parent_path()) {
+    created = p;
+    if (p == p.parent_path()) break;
+  }
+  sim::makeDirectories(job.out);
+  const sim::FolderLock lock(job.out, "orbcal render");
+  const RemoveNewFolderOnFailure cleanup{job.out, created.string()};  // runs before the lock is released
+
   // Resume or refuse.
   const std::string manifest_path = job.out + "/manifest.yaml";
   DatasetRunReport report;
-  std::error_code ec;
   if (std::filesystem::exists(manifest_path, ec)) {
     std::vector<std::string> differ;  // what is not the same, for the message
     try {

@@ -63,7 +63,7 @@ MeshSpec parseMesh(const sim::ConfigNode& n, const std::string& base_dir) {
   } else if (frame == "base") {
     m.frame = MeshFrame::kBase;
   } else {
-    n["frame"].fail("expected 'board' or 'base', got '" + frame + "'");
+    n["frame"].fail("expected 'board' or 'base', got " + sim::quoteInput(frame));
   }
   if (n.has("pose")) m.frame_T_mesh = n["pose"].asTransform();
   m.scale = n.optional("scale").asDouble(m.scale);

@@ -22,25 +22,6 @@ std::vector<std::string> splitLine(const std::string& line) {
   return out;
 }
 
-/// `text` as it may appear in a one-line message: bytes outside printable ASCII as \xNN, at most
-/// 40 characters of the original followed by "..." (a binary cell is never echoed raw).
-std::string printable(const std::string& text) {
-  constexpr std::size_t kMaxChars = 40;
-  std::string out;
-  for (std::size_t i = 0; i < text.size() && i < kMaxChars; ++i) {
-    const auto c = static_cast<unsigned char>(text[i]);
-    if (c >= 0x20 && c < 0x7f) {
-      out += static_cast<char>(c);
-    } else {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\x%02X", c);
-      out += buf;
-    }
-  }
-  if (text.size() > kMaxChars) out += "...";
-  return out;
-}
-
 /// Removes a leading UTF-8 byte order mark (EF BB BF), as spreadsheet programs write it.
 std::string withoutBom(const std::string& text) {
   static const std::string kBom = "\xEF\xBB\xBF";
@@ -50,7 +31,7 @@ std::string withoutBom(const std::string& text) {
 void requireUniqueNames(const std::vector<std::string>& header, const std::string& source) {
   for (std::size_t i = 0; i < header.size(); ++i) {
     for (std::size_t k = 0; k < i; ++k) {
-      if (header[k] == header[i]) throw InputError(source + ": header: duplicate column '" + printable(header[i]) + "'");
+      if (header[k] == header[i]) throw InputError(source + ": header: duplicate column " + quoteInput(header[i]));
     }
   }
 }
@@ -99,7 +80,7 @@ double CsvTable::number(std::size_t row, int col) const {
   char* end = nullptr;
   const double v = std::strtod(s.c_str(), &end);
   if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(v)) {
-    throw InputError(where(row) + ": " + header_[col] + ": expected a finite number, got '" + printable(s) + "'");
+    throw InputError(where(row) + ": " + header_[col] + ": expected a finite number, got " + quoteInput(s));
   }
   return v;
 }

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <sstream>
 
 #include "orbcal/sim/arm.hpp"
@@ -48,7 +49,7 @@ std::string formatManifest(const DatasetManifest& m) {
   std::ostringstream s;
   s << "# orbcal calibration dataset (layout: README, 'Dataset layout')\n";
   s << "format: " << m.format << "\n";
-  s << "program_version: " << m.program_version << "\n";
+  if (!m.program_version.empty()) s << "program_version: " << m.program_version << "\n";  // an empty value is an error
   s << "robot: " << m.robot_file << "\n";
   s << "scene: " << m.scene_file << "\n";
   s << "samples: " << m.samples_file << "\n";
@@ -80,7 +81,7 @@ DatasetManifest parseManifest(const std::string& text, const std::string& source
                         "seeds", "true_errors"});
   DatasetManifest m;
   m.format = root["format"].asString();
-  if (m.format != kDatasetFormat) root["format"].fail("expected '" + std::string(kDatasetFormat) + "', got '" + m.format + "'");
+  if (m.format != kDatasetFormat) root["format"].fail("expected '" + std::string(kDatasetFormat) + "', got " + quoteInput(m.format));
   m.program_version = root.optional("program_version").asString("");
   m.robot_file = root["robot"].asString();
   m.scene_file = root["scene"].asString();
@@ -165,7 +166,7 @@ std::string formatSamplesCsv(const std::vector<DatasetSample>& samples, int n) {
   return out.str();
 }
 
-std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::string& source, int n) {
+std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::string& source, int n, const Arm* limits) {
   const CsvTable t = CsvTable::parse(text, source);
   const int c_index = t.requireColumn("index"), c_image = t.requireColumn("image");
   std::vector<int> c_q, c_qt, c_pose;
@@ -181,14 +182,36 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
     for (const char* c : kPoseColumns) c_pose.push_back(t.requireColumn(c));
   }
   std::vector<DatasetSample> samples;
+  std::map<int, int> index_line;           // sample index -> line of its first row
+  std::map<std::string, int> image_line;   // image -> line of its first row
   for (std::size_t r = 0; r < t.rows(); ++r) {
     DatasetSample s;
-    s.index = static_cast<int>(t.number(r, c_index));
+    const double index = t.number(r, c_index);
+    if (!(index >= 0 && index <= 1e9 && index == std::floor(index))) {
+      throw InputError(t.where(r) + ": index: expected a whole number from 0, got " + quoteInput(t.cell(r, c_index)));
+    }
+    s.index = static_cast<int>(index);
+    const int line = t.line(r);
+    if (const auto [it, fresh] = index_line.emplace(s.index, line); !fresh) {
+      throw InputError(t.where(r) + ": index: sample " + std::to_string(s.index) + " given twice (first on line " +
+                       std::to_string(it->second) + ")");
+    }
     s.image = t.cell(r, c_image);
     if (s.image.empty()) throw InputError(t.where(r) + ": image: empty");
+    if (const auto [it, fresh] = image_line.emplace(s.image, line); !fresh) {
+      throw InputError(t.where(r) + ": image: " + quoteInput(s.image) + " given twice (first on line " +
+                       std::to_string(it->second) + ")");
+    }
     const auto q = t.numbers(r, c_q);
     if (!q) throw InputError(t.where(r) + ": q1_rad: joint readings are empty");
     s.q_rad = *q;
+    for (int j = 0; limits && j < n; ++j) {
+      const double lo = limits->lower_rad[j], hi = limits->upper_rad[j], v = (*q)[j];
+      if (v >= lo && v <= hi) continue;
+      const auto deg = [](double rad) { return formatNumber("%.6g", rad * kRadToDeg); };
+      throw InputError(t.where(r) + ": q" + std::to_string(j + 1) + "_rad: " + formatNumber("%.9g", v) + " rad (" + deg(v) +
+                       " deg) is outside the joint limits [" + deg(lo) + ", " + deg(hi) + "] deg of " + limits->source);
+    }
     s.q_true_rad = t.numbers(r, c_qt);
     if (const auto pose = t.numbers(r, c_pose)) s.camera_T_board_true = poseFromVector(*pose);
     samples.push_back(std::move(s));
@@ -204,7 +227,11 @@ Dataset loadDataset(const std::string& folder) {
   d.arm = loadArm(d.path(d.manifest.robot_file));
   d.scene = loadScene(d.path(d.manifest.scene_file));
   const std::string samples_path = d.path(d.manifest.samples_file);
-  d.samples = parseSamplesCsv(readTextSource(samples_path), samples_path, d.arm.numJoints());
+  d.samples = parseSamplesCsv(readTextSource(samples_path), samples_path, d.arm.numJoints(), &d.arm);
+  if (static_cast<int>(d.samples.size()) != d.manifest.num_samples) {
+    throw InputError(manifest_path + ": num_samples: " + std::to_string(d.manifest.num_samples) + ", but " +
+                     d.manifest.samples_file + " has " + std::to_string(d.samples.size()) + " rows");
+  }
   if (d.manifest.true_errors && d.manifest.true_errors_per_joint != d.arm.paramsPerJoint()) {
     throw InputError(manifest_path + ": true_errors.joints: beta_deg " +
                      (d.arm.paramsPerJoint() > kBeta ? "missing" : "given") + ", but " + d.manifest.robot_file +

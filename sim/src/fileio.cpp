@@ -1,6 +1,8 @@
 #include "orbcal/sim/fileio.hpp"
 
 #include <fcntl.h>
+#include <sys/file.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -46,6 +48,48 @@ void makeDirectories(const std::string& path) {
   std::error_code ec;
   std::filesystem::create_directories(path, ec);
   if (ec) throw InputError(path + ": cannot create folder: " + ec.message());
+}
+
+FolderLock::FolderLock(const std::string& folder, const std::string& command) : path_(folder + "/" + kFolderLockName) {
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    const int fd = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd < 0) throw InputError(folder + ": cannot create the lock file " + path_ + ": " + std::strerror(errno));
+    if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+      const int e = errno;
+      std::string holder;
+      if (e == EWOULDBLOCK) {
+        char buf[256];
+        const ssize_t n = ::pread(fd, buf, sizeof buf - 1, 0);
+        holder = n > 0 ? std::string(buf, static_cast<std::size_t>(n)) : std::string();
+        while (!holder.empty() && (holder.back() == '\n' || holder.back() == ' ')) holder.pop_back();
+      }
+      ::close(fd);
+      if (e != EWOULDBLOCK) throw InputError(path_ + ": cannot lock: " + std::strerror(e));
+      throw InputError(folder + ": another command is writing this folder (lock " + path_ + " held" +
+                       (holder.empty() ? std::string() : " by " + printable(holder, 80)) +
+                       "); wait for it to finish, or use another folder");
+    }
+    // The holder before us may have removed the file between our open and our flock: then we locked a
+    // file nobody else sees; take the one at the path instead.
+    struct stat at_fd {}, at_path {};
+    if (::fstat(fd, &at_fd) == 0 && ::stat(path_.c_str(), &at_path) == 0 && at_fd.st_ino == at_path.st_ino &&
+        at_fd.st_dev == at_path.st_dev) {
+      const std::string who = "process " + std::to_string(::getpid()) + " (" + command + ")\n";
+      if (::ftruncate(fd, 0) == 0) {
+        [[maybe_unused]] const ssize_t w = ::pwrite(fd, who.data(), who.size(), 0);
+      }
+      fd_ = fd;
+      return;
+    }
+    ::close(fd);
+  }
+  throw InputError(path_ + ": cannot lock: the lock file keeps changing");
+}
+
+FolderLock::~FolderLock() {
+  if (fd_ < 0) return;
+  ::unlink(path_.c_str());  // while still held: a waiter that opened it re-checks the path (above)
+  ::close(fd_);
 }
 
 }  // namespace orbcal::sim

@@ -86,7 +86,7 @@ Unit readUnit(const ConfigNode& node, const std::vector<Unit>& known) {
     if (name == u.name) return u;
     list += (list.empty() ? "" : ", ") + std::string(u.name);
   }
-  node.fail("expected one of: " + list + ", got '" + name + "'");
+  node.fail("expected one of: " + list + ", got " + quoteInput(name));
 }
 
 /// A sequence of exactly `count` column names; `what` says why that many.
@@ -494,7 +494,7 @@ FrameSharing readFrameSharing(const ConfigNode& node) {
   if (s == "shared") return FrameSharing::kShared;
   if (s == "per_session") return FrameSharing::kPerSession;
   if (s == "known") return FrameSharing::kKnown;
-  node.fail("expected shared, per_session or known, got '" + s + "'");
+  node.fail("expected shared, per_session or known, got " + quoteInput(s));
 }
 
 void fillApproachDirections(std::vector<MeasuredPose>& poses, double threshold_rad) {

@@ -10,18 +10,21 @@ namespace orbcal::sim {
 
 namespace {
 
+const char* kLengthRange = "-10000 m to 10000 m";  // kMaxLengthM
+const char* kAngleRange = "-360 deg to 360 deg";
+
 /// A DH row; `beta_deg` (optional, default 0) only in the Hayati convention.
 DhRow readRow(const ConfigNode& n, const char* theta_key, DhConvention convention) {
   DhRow r;
-  r.a_m = n["a_m"].asDouble();
-  r.alpha_rad = n["alpha_deg"].asDouble() * kDegToRad;
-  r.d_m = n["d_m"].asDouble();
-  r.theta_rad = n[theta_key].asDouble() * kDegToRad;
+  r.a_m = n["a_m"].asDoubleWithin(-kMaxLengthM, kMaxLengthM, kLengthRange);
+  r.alpha_rad = n["alpha_deg"].asDoubleWithin(-360.0, 360.0, kAngleRange) * kDegToRad;
+  r.d_m = n["d_m"].asDoubleWithin(-kMaxLengthM, kMaxLengthM, kLengthRange);
+  r.theta_rad = n[theta_key].asDoubleWithin(-360.0, 360.0, kAngleRange) * kDegToRad;
   if (n.has("beta_deg")) {
     if (convention != DhConvention::kHayati) {
       n["beta_deg"].fail(std::string("is accepted only with convention hayati, not ") + conventionName(convention));
     }
-    r.beta_rad = n["beta_deg"].asDouble() * kDegToRad;
+    r.beta_rad = n["beta_deg"].asDoubleWithin(-360.0, 360.0, kAngleRange) * kDegToRad;
   }
   return r;
 }
@@ -41,9 +44,7 @@ Eigen::Isometry3d readFixed(const ConfigNode& n, DhConvention convention) {
 
 /// A non-negative finite mass (kg).
 double readMass(const ConfigNode& n) {
-  const double m = n.asDouble();
-  if (m < 0.0) n.fail("must not be negative");
-  return m;
+  return n.asDoubleWithin(0.0, 1e6, "0 kg to 1e6 kg");
 }
 
 /// The optional `masses:` section (sim/gravity.hpp): gravity, one link per joint, an optional payload.
@@ -84,7 +85,7 @@ Arm loadArm(const std::string& path) {
   root.requireOnlyKeys({"name", "convention", "base", "joints", "tool", "masses", "source_notes"});
   Arm arm;
   arm.source = path;
-  arm.name = root["name"].asString();
+  arm.name = printable(root["name"].asString());  // a label printed as is: no raw control bytes
   const ConfigNode conv = root["convention"];
   const std::string c = conv.asString();
   if (c == "modified") {
@@ -94,7 +95,7 @@ Arm loadArm(const std::string& path) {
   } else if (c == "hayati") {
     arm.convention = DhConvention::kHayati;
   } else {
-    conv.fail("expected 'modified' (Craig), 'standard' or 'hayati', got '" + c + "'");
+    conv.fail("expected 'modified' (Craig), 'standard' or 'hayati', got " + quoteInput(c));
   }
   arm.base_T_first = readFixed(root.optional("base"), arm.convention);
   arm.last_T_flange = readFixed(root.optional("tool"), arm.convention);
@@ -107,7 +108,9 @@ Arm loadArm(const std::string& path) {
     const ConfigNode j = joints[i];
     j.requireOnlyKeys({"a_m", "alpha_deg", "d_m", "theta_offset_deg", "beta_deg", "min_deg", "max_deg"});
     arm.joints.push_back(readRow(j, "theta_offset_deg", arm.convention));
-    const double lo = j["min_deg"].asDouble(), hi = j["max_deg"].asDouble();
+    const char* kLimitRange = "-3600 deg to 3600 deg (ten turns)";
+    const double lo = j["min_deg"].asDoubleWithin(-3600.0, 3600.0, kLimitRange);
+    const double hi = j["max_deg"].asDoubleWithin(-3600.0, 3600.0, kLimitRange);
     if (!(lo < hi)) j["max_deg"].fail("must be greater than min_deg");
     arm.lower_rad[static_cast<Eigen::Index>(i)] = lo * kDegToRad;
     arm.upper_rad[static_cast<Eigen::Index>(i)] = hi * kDegToRad;

@@ -1,4 +1,7 @@
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <map>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -31,12 +34,90 @@ std::string builtinFileNames() {
   return names;
 }
 
+std::string printable(const std::string& text, std::size_t max_chars) {
+  std::string out;
+  const std::size_t n = std::min(text.size(), max_chars);
+  const auto byte = [&](std::size_t i) { return static_cast<unsigned char>(text[i]); };
+  const auto escape = [&](unsigned char c) {
+    char buf[8];
+    std::snprintf(buf, sizeof buf, "\\x%02X", c);
+    out += buf;
+  };
+  for (std::size_t i = 0; i < n;) {
+    const unsigned char c = byte(i);
+    if (c >= 0x20 && c < 0x7f) {
+      out += static_cast<char>(c);
+      ++i;
+      continue;
+    }
+    // A valid UTF-8 sequence (no overlong forms, no surrogates, no C1 controls) is kept whole.
+    std::size_t len = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+    bool valid = len > 0 && i + len <= n;
+    for (std::size_t k = 1; valid && k < len; ++k) valid = (byte(i + k) & 0xC0) == 0x80;
+    if (valid) {
+      const unsigned char c1 = byte(i + 1);
+      valid = !(c == 0xC2 && c1 < 0xA0) && !(c == 0xE0 && c1 < 0xA0) && !(c == 0xED && c1 >= 0xA0) &&
+              !(c == 0xF0 && c1 < 0x90) && !(c == 0xF4 && c1 >= 0x90);
+    }
+    if (valid) {
+      out.append(text, i, len);
+      i += len;
+    } else {
+      escape(c);
+      ++i;
+    }
+  }
+  if (text.size() > max_chars) out += "...";
+  return out;
+}
+
+namespace {
+std::string keyPath(const std::string& parent, const std::string& key) { return parent.empty() ? key : parent + "." + key; }
+
+/// Every map of `node` and below: a key given twice, or an empty value, is an InputError naming the
+/// file, the line and the key. yaml-cpp keeps both entries of a duplicated key and operator[] returns
+/// the first, so without this check `convention: standard` followed by `convention: modified` would
+/// silently read as standard.
+void checkKeysAndValues(const YAML::Node& node, const std::string& source, const std::string& path) {
+  const auto where = [&](const YAML::Mark& mark, const std::string& p) {
+    return source + ": " + (mark.is_null() ? std::string() : "line " + std::to_string(mark.line + 1) + ": ") +
+           (p.empty() ? std::string("(top level)") : p);
+  };
+  if (node.IsMap()) {
+    std::map<std::string, int> seen;  // key -> line of its first occurrence
+    for (const auto& kv : node) {
+      const std::string key = kv.first.IsScalar() ? kv.first.Scalar() : std::string("(a non-text key)");
+      const std::string p = keyPath(path, printable(key, 40));
+      const auto [it, fresh] = seen.emplace(key, kv.first.Mark().line + 1);
+      if (!fresh) {
+        throw InputError(where(kv.first.Mark(), p) + ": key given twice (first on line " + std::to_string(it->second) +
+                         "); remove one");
+      }
+      if (kv.second.IsNull()) {
+        throw InputError(where(kv.first.Mark(), p) +
+                         ": empty value");
+      }
+      checkKeysAndValues(kv.second, source, p);
+    }
+  } else if (node.IsSequence()) {
+    for (std::size_t i = 0; i < node.size(); ++i) {
+      const std::string p = path + "[" + std::to_string(i) + "]";
+      if (node[i].IsNull()) throw InputError(where(node[i].Mark(), p) + ": empty value");
+      checkKeysAndValues(node[i], source, p);
+    }
+  }
+}
+}  // namespace
+
 ConfigNode ConfigNode::parse(const std::string& text, const std::string& source) {
+  YAML::Node root;
   try {
-    return ConfigNode(YAML::Load(text), source, "");
+    root = YAML::Load(text);
   } catch (const YAML::Exception& e) {
     throw InputError(source + ": line " + std::to_string(e.mark.line + 1) + ": YAML syntax error: " + e.msg);
   }
+  checkKeysAndValues(root, source, "");
+  return ConfigNode(root, source, "");
 }
 
 ConfigNode ConfigNode::load(const std::string& path) { return parse(readTextSource(path), path); }
@@ -76,7 +157,7 @@ void ConfigNode::fail(const std::string& what) const {
 
 namespace {
 std::string scalarText(const YAML::Node& n) {
-  if (n.IsScalar()) return "'" + n.Scalar() + "'";
+  if (n.IsScalar()) return quoteInput(n.Scalar());
   if (n.IsSequence()) return "a sequence";
   if (n.IsMap()) return "a map";
   return "nothing";
@@ -88,6 +169,12 @@ double ConfigNode::asDouble() const {
   double v = 0.0;
   if (!node_.IsScalar() || !YAML::convert<double>::decode(node_, v)) fail("expected a number, got " + scalarText(node_));
   if (!std::isfinite(v)) fail("expected a finite number, got " + scalarText(node_));
+  return v;
+}
+
+double ConfigNode::asDoubleWithin(double lo, double hi, const std::string& range) const {
+  const double v = asDouble();
+  if (!(v >= lo && v <= hi)) fail(scalarText(node_) + " is outside " + range);
   return v;
 }
 
@@ -124,6 +211,10 @@ Eigen::Isometry3d ConfigNode::asTransform() const {
   requireOnlyKeys({"xyz_m", "rpy_deg"});
   const Eigen::Vector3d xyz = (*this)["xyz_m"].asVector(3);
   const Eigen::Vector3d rpy = (*this)["rpy_deg"].asVector(3) * kDegToRad;
+  for (int i = 0; i < 3; ++i) {
+    (*this)["xyz_m"][static_cast<std::size_t>(i)].asDoubleWithin(-kMaxLengthM, kMaxLengthM, "-10000 m to 10000 m");  // kMaxLengthM
+    (*this)["rpy_deg"][static_cast<std::size_t>(i)].asDoubleWithin(-360.0, 360.0, "-360 deg to 360 deg");
+  }
   return fromXyzRpy(xyz, rpy);
 }
 
@@ -139,7 +230,7 @@ void ConfigNode::requireOnlyKeys(const std::vector<std::string>& allowed) const 
     if (!ok.count(key)) {
       std::string list;
       for (const auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      throw InputError(source_ + ": " + childPath(key) + ": unknown key (expected one of: " + list + ")");
+      throw InputError(source_ + ": " + childPath(printable(key, 40)) + ": unknown key (expected one of: " + list + ")");
     }
   }
 }

@@ -79,7 +79,7 @@ std::string descriptionError(const std::string& name, const std::string& from, c
 
 /// The folder writeFiles(name, ...) writes into (without emptying it, unlike tempDir).
 std::string folderOf(const std::string& name) {
-  return (std::filesystem::temp_directory_path() / ("orbcal-test-measured-" + name)).string();
+  return orbcal::test::tempPath("measured-" + name);
 }
 
 std::string csvPath(const std::string& name) { return folderOf(name) + "/data.csv"; }
@@ -257,8 +257,8 @@ TEST_CASE("measured data: a bad description names the file and the key", "[sim][
             folderOf("desc") + "/robot.yaml), got 1");
   CHECK_THAT(error("{torque:", "{torq:"), Catch::StartsWith(desc + ": covariates.torq: unknown key"));
   CHECK_THAT(error("registration:", "registraton:"), Catch::StartsWith(desc + ": registraton: unknown key"));
-  CHECK(error("unit: deg}", "unit: }") == desc + ": joints.unit: empty value");
-  CHECK(error("covariates: {torque: {columns: [t1, t2], unit: Nm}}", "covariates:") == desc + ": covariates: empty value");
+  CHECK(error("unit: deg}", "unit: }") == desc + ": line 4: joints.unit: empty value");
+  CHECK(error("covariates: {torque: {columns: [t1, t2], unit: Nm}}", "covariates:") == desc + ": line 6: covariates: empty value");
   CHECK(error("length_unit: mm", "length_unit: cm") == desc + ": pose.length_unit: expected one of: m, mm, got 'cm'");
   CHECK(error("unit: deg", "unit: grad") == desc + ": joints.unit: expected one of: rad, deg, got 'grad'");
   CHECK(error("unit: Nm", "unit: Nmm") == desc + ": covariates.torque.unit: expected one of: N*m, Nm, got 'Nmm'");

@@ -11,9 +11,21 @@
 
 namespace orbcal::sim {
 
-/// Bad input from a file or the command line: the message names the file and the key.
+/// The largest length a robot, scene or error file may give (m): 10 km; an arm in space is tens of metres.
+inline constexpr double kMaxLengthM = 1e4;
+
+/// `text` as it may appear on a terminal: control bytes, C1 controls and bytes that are not valid
+/// UTF-8 become \xNN (so binary junk from an input is never echoed raw, and a message stays one
+/// line); valid UTF-8 text is kept. Longer than `max_chars` bytes: cut there and "..." appended.
+/// Every message that quotes input goes through it (InputError applies it to its whole message).
+std::string printable(const std::string& text, std::size_t max_chars = std::string::npos);
+/// printable(text, 40): how a value from an input is quoted in a one-line message.
+inline std::string quoteInput(const std::string& text) { return "'" + printable(text, 40) + "'"; }
+
+/// Bad input from a file or the command line: the message names the file and the key. The message
+/// is passed through printable(), so it is one line without raw control bytes.
 struct InputError : std::runtime_error {
-  using std::runtime_error::runtime_error;
+  explicit InputError(const std::string& what) : std::runtime_error(printable(what)) {}
 };
 
 /// Text of a file, or of a built-in file when `path` is "builtin:NAME" (see builtinFileNames()).
@@ -24,7 +36,9 @@ std::string builtinFileNames();
 
 class ConfigNode {
  public:
-  /// Parses `text`; `source` names the file in messages. Throws InputError on a YAML syntax error.
+  /// Parses `text`; `source` names the file in messages. Throws InputError on a YAML syntax error, a
+  /// key given twice in one map (yaml-cpp would keep the first silently) and an empty value (`key:`,
+  /// `~`, `null`, an empty sequence item): never read as a default.
   static ConfigNode parse(const std::string& text, const std::string& source);
   /// readTextSource + parse.
   static ConfigNode load(const std::string& path);
@@ -34,6 +48,7 @@ class ConfigNode {
   ConfigNode operator[](const std::string& key) const;
   /// Child by key, or an undefined node (has() false) when absent.
   ConfigNode optional(const std::string& key) const;
+  /// Present (parse() rejects empty values, so a present node is never null).
   bool defined() const { return node_.IsDefined() && !node_.IsNull(); }
   bool isScalar() const { return node_.IsDefined() && node_.IsScalar(); }
   bool isSequence() const { return node_.IsDefined() && node_.IsSequence(); }
@@ -43,6 +58,9 @@ class ConfigNode {
   std::size_t size() const;  ///< sequence length; throws unless a sequence
 
   double asDouble() const;  ///< finite number, else InputError
+  /// A finite number within [lo, hi], the physical range of the key (`range` says what it is, e.g.
+  /// "0.001 m to 100 m"); else InputError "<file>: <key>: <value> is outside <range>".
+  double asDoubleWithin(double lo, double hi, const std::string& range) const;
   int asInt() const;
   bool asBool() const;
   std::string asString() const;

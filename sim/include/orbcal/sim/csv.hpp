@@ -25,6 +25,7 @@ class CsvTable {
   /// The cells of `cols` as numbers, or nullopt when all of them are empty.
   std::optional<Eigen::VectorXd> numbers(std::size_t row, const std::vector<int>& cols) const;
   std::string where(std::size_t row) const;  ///< "<file>: line L"
+  int line(std::size_t row) const { return line_numbers_[row]; }  ///< L, 1-based, the header being line 1
   const std::string& source() const { return source_; }
 
  private:

@@ -69,9 +69,14 @@ struct Dataset {
 std::string formatManifest(const DatasetManifest& m);
 DatasetManifest parseManifest(const std::string& text, const std::string& source);
 std::string formatSamplesCsv(const std::vector<DatasetSample>& samples, int num_joints);
-std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::string& source, int num_joints);
+/// Throws InputError naming the file, line and column for an index that is not a whole number from 0, an
+/// index or an image given twice, empty joint readings, and (with `limits`) a reading outside the arm's
+/// joint limits.
+std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::string& source, int num_joints,
+                                           const Arm* limits = nullptr);
 
-/// Reads manifest, robot, scene and samples (not the images). Throws InputError naming the file, line and column.
+/// Reads manifest, robot, scene and samples (not the images). Throws InputError naming the file, line and
+/// column; the joint readings are checked against the robot's limits and num_samples against the rows.
 Dataset loadDataset(const std::string& folder);
 /// Writes manifest.yaml and samples.csv atomically (robot.yaml and scene.yaml are the caller's).
 void writeDatasetTables(const Dataset& dataset, int num_joints);
