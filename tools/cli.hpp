@@ -4,12 +4,16 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "orbcal/sim/io.hpp"
+
 namespace orbcal::tools {
 
 /// Options every subcommand that needs the arm and the scene takes.
 struct ArmSceneOptions {
   std::string robot = "builtin:ssrms.yaml";
+  std::string base_link, tip_link;  ///< a URDF robot's chain
   std::string scene = "builtin:default_scene.yaml";
+  sim::RobotSource robotSource() const { return {robot, base_link, tip_link}; }
 };
 void addArmSceneOptions(CLI::App& cmd, ArmSceneOptions& opt);
 

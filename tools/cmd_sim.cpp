@@ -55,7 +55,7 @@ void addFkCommand(CLI::App& app) {
   cmd->add_option("--robot", opt->as.robot, "robot description (YAML; or builtin:ssrms.yaml)")->capture_default_str();
   cmd->add_option("joints_deg", opt->joints, "joint angles [deg], one per joint")->required()->allow_extra_args();
   cmd->callback([opt] {
-    const sim::Arm arm = sim::loadArm(opt->as.robot);
+    const sim::Arm arm = sim::loadArm(opt->as.robotSource());
     const Eigen::VectorXd q = parseJointsDeg(opt->joints, arm);
     const Eigen::Isometry3d T = sim::forwardKinematics(arm, q);
     const Eigen::Vector3d p = T.translation() * 1e3;
@@ -103,7 +103,7 @@ void addConfigsCommand(CLI::App& app) {
   cmd->add_option("--joint-noise-deg", opt->joint_noise_deg, "--select: joint control noise carried into R")
       ->capture_default_str()->check(CLI::NonNegativeNumber);
   cmd->callback([opt] {
-    const sim::Arm arm = sim::loadArm(opt->as.robot);
+    const sim::Arm arm = sim::loadArm(opt->as.robotSource());
     const sim::Scene scene = sim::loadScene(opt->as.scene);
     std::optional<calib::ObservabilityIndex> index;
     if (!opt->select.empty()) index = calib::parseObservabilityIndex(opt->select);
@@ -233,7 +233,7 @@ void addIdentifiabilityCommand(CLI::App& app) {
       }
       setup.plane.identified.push_back(i);
     }
-    const sim::Arm arm = sim::loadArm(opt->as.robot);
+    const sim::Arm arm = sim::loadArm(opt->as.robotSource());
     std::vector<Eigen::VectorXd> configs;
     if (!opt->configs.empty()) {
       configs = sim::parseConfigurationsCsv(sim::readTextSource(opt->configs), opt->configs, arm.numJoints());

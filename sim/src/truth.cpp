@@ -80,19 +80,7 @@ Eigen::VectorXd readGeometry(const Arm& arm, const ConfigNode& g) {
              std::to_string(g.size()));
     }
     Eigen::VectorXd y(arm.numParams());
-    for (int j = 0; j < arm.numJoints(); ++j) {
-      const ConfigNode row = g[static_cast<std::size_t>(j)];
-      if (arm.convention == DhConvention::kHayati) {
-        row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm", "beta_deg"});
-        y[paramIndex(arm, j, kBeta)] = row["beta_deg"].asDouble() * kDegToRad;
-      } else {
-        row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm"});
-      }
-      y[paramIndex(arm, j, kTheta)] = row["theta_deg"].asDouble() * kDegToRad;
-      y[paramIndex(arm, j, kAlpha)] = row["alpha_deg"].asDouble() * kDegToRad;
-      y[paramIndex(arm, j, kA)] = row["a_mm"].asDouble() * 1e-3;
-      y[paramIndex(arm, j, kD)] = row["d_mm"].asDouble() * 1e-3;
-    }
+    for (int j = 0; j < arm.numJoints(); ++j) readErrorRow(g[static_cast<std::size_t>(j)], arm, j, y);
     return y;
   }
   g.fail(expected);
