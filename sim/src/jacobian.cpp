@@ -57,21 +57,21 @@ void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame
       xi[kOpitch] = rotationTwist(R_yaw.col(1), o);
       xi[kOroll] = rotationTwist(R_origin.col(0), o);
     } else {
-    xi[kTheta] = rotationTwist(z_frame.linear().col(2), z_frame.translation());
-    xi[kD] = translationTwist(z_frame.linear().col(2));
-    if (!hayati) {
-      xi[kAlpha] = rotationTwist(x_frame.linear().col(0), x_frame.translation());
-      xi[kA] = translationTwist(x_frame.linear().col(0));
-    } else {
-      // Frame j = (frame after Rx(alpha)) Ry(beta): alpha and a act along the x axis before Ry(beta),
-      // x = Ry(-beta) x_j = cos(beta) x_j + sin(beta) z_j. Perturbing beta turns everything downstream
-      // about y_j (Ry leaves y unchanged) through the origin of frame j.
-      const double beta = arm.joints[j].beta_rad;
-      const Eigen::Vector3d x = std::cos(beta) * cur.linear().col(0) + std::sin(beta) * cur.linear().col(2);
-      xi[kAlpha] = rotationTwist(x, cur.translation());
-      xi[kA] = translationTwist(x);
-      xi[kBeta] = rotationTwist(cur.linear().col(1), cur.translation());
-    }
+      xi[kTheta] = rotationTwist(z_frame.linear().col(2), z_frame.translation());
+      xi[kD] = translationTwist(z_frame.linear().col(2));
+      if (!hayati) {
+        xi[kAlpha] = rotationTwist(x_frame.linear().col(0), x_frame.translation());
+        xi[kA] = translationTwist(x_frame.linear().col(0));
+      } else {
+        // Frame j = (frame after Rx(alpha)) Ry(beta): alpha and a act along the x axis before Ry(beta),
+        // x = Ry(-beta) x_j = cos(beta) x_j + sin(beta) z_j. Perturbing beta turns everything downstream
+        // about y_j (Ry leaves y unchanged) through the origin of frame j.
+        const double beta = arm.joints[j].beta_rad;
+        const Eigen::Vector3d x = std::cos(beta) * cur.linear().col(0) + std::sin(beta) * cur.linear().col(2);
+        xi[kAlpha] = rotationTwist(x, cur.translation());
+        xi[kA] = translationTwist(x);
+        xi[kBeta] = rotationTwist(cur.linear().col(1), cur.translation());
+      }
     }
     for (int k = 0; k < per_joint; ++k) {
       // Motion of the flange origin and rotation, both in the base frame.
