@@ -16,6 +16,8 @@ struct ArmSceneOptions {
   sim::RobotSource robotSource() const { return {robot, base_link, tip_link}; }
 };
 void addArmSceneOptions(CLI::App& cmd, ArmSceneOptions& opt);
+/// --robot, --base-link and --tip-link alone (what addArmSceneOptions adds before --scene).
+void addRobotOptions(CLI::App& cmd, ArmSceneOptions& opt);
 
 /// Subcommands register themselves from their own cmd_*.cpp (no shared list to edit):
 ///   ORBCAL_COMMAND(30, addRenderCommand);

@@ -52,7 +52,7 @@ void addFkCommand(CLI::App& app) {
   };
   auto opt = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand("fk", "Forward kinematics: the flange pose (base frame) at the given joint angles");
-  cmd->add_option("--robot", opt->as.robot, "robot description (YAML; or builtin:ssrms.yaml)")->capture_default_str();
+  addRobotOptions(*cmd, opt->as);
   cmd->add_option("joints_deg", opt->joints, "joint angles [deg], one per joint")->required()->allow_extra_args();
   cmd->callback([opt] {
     const sim::Arm arm = sim::loadArm(opt->as.robotSource());
