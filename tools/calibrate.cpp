@@ -229,12 +229,17 @@ ParameterColumns parameterColumns(const sim::Arm& arm) {
   return c;
 }
 
+namespace {
+/// "theta1, x1, ..." for the parameters `which` (or "none").
+std::string parameterList(const calib::ParameterClasses& classes, const std::vector<int>& which) {
+  std::string s;
+  for (int i : which) s += (s.empty() ? "" : ", ") + classes.names[static_cast<std::size_t>(i)];
+  return s.empty() ? std::string("none") : s;
+}
+}  // namespace
+
 std::string formatKeptAndHeld(const calib::ParameterClasses& classes) {
-  const auto list = [&](const std::vector<int>& which) {
-    std::string s;
-    for (int i : which) s += (s.empty() ? "" : ", ") + classes.names[static_cast<std::size_t>(i)];
-    return s.empty() ? std::string("none") : s;
-  };
+  const auto list = [&](const std::vector<int>& which) { return parameterList(classes, which); };
   return "identifiable set: " + std::to_string(classes.minimal.size()) + " of " + std::to_string(classes.names.size()) +
          " parameters kept (" + list(classes.minimal) + "); " + std::to_string(classes.held.size()) + " held as unidentifiable (" +
          list(classes.held) + ")";
@@ -393,7 +398,8 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
      << "## Identifiability of the identification set\n\n"
      << "Measurement: " << calib::measurementKindDescription(kind)
      << (kind == calib::MeasurementKind::kPose ? "" : (o.pairs == "reference" ? "; every image against the first" : "; consecutive images"))
-     << ". " << model->numSamples() << " samples.\n\n" << r.classes.table() << "\n" << formatKeptAndHeld(r.classes)
+     << ". " << model->numSamples() << " samples.\n\n" << r.classes.table() << "\nHeld as unidentifiable (" << r.classes.held.size()
+     << "): " << parameterList(r.classes, r.classes.held)
      << (method.kind == calib::MethodSpec::Kind::kEkf ? " (the EKF estimates every parameter under its prior; LSE and LM hold these)" : "")
      << ".\n"
      << "\nObservability indices (Borm & Menq 1991 O1 to Sun & Hollerbach 2008 O5; whitened rows, columns in typical "
