@@ -1,5 +1,7 @@
 #include "orbcal/sim/urdf.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <console_bridge/console.h>
 #include <mutex>
@@ -74,7 +76,7 @@ const char* jointTypeName(int type) {
 }
 
 /// The only link without child joints below `base` (an error naming them when there are several).
-std::string onlyLeaf(const urdf::ModelInterface& model, const urdf::LinkConstSharedPtr& base, const std::string& source) {
+std::string onlyLeaf(const urdf::LinkConstSharedPtr& base, const std::string& source) {
   std::vector<std::string> leaves;
   std::vector<urdf::LinkConstSharedPtr> stack{base};
   while (!stack.empty()) {
@@ -89,7 +91,6 @@ std::string onlyLeaf(const urdf::ModelInterface& model, const urdf::LinkConstSha
     throw InputError(source + ": the URDF has " + std::to_string(leaves.size()) + " leaf links below '" + base->name + "' (" + list +
                      "): give the tip link (--tip-link)");
   }
-  (void)model;
   return leaves.front();
 }
 
@@ -99,7 +100,7 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
   const urdf::ModelInterfaceSharedPtr model = parseUrdf(xml, source);
   const urdf::LinkConstSharedPtr base = base_link.empty() ? model->getRoot() : model->getLink(base_link);
   if (!base) throw InputError(source + ": no link '" + base_link + "' (the base link) in the URDF");
-  const std::string tip_name = tip_link.empty() ? onlyLeaf(*model, base, source) : tip_link;
+  const std::string tip_name = tip_link.empty() ? onlyLeaf(base, source) : tip_link;
   urdf::LinkConstSharedPtr link = model->getLink(tip_name);
   if (!link) throw InputError(source + ": no link '" + tip_name + "' (the tip link) in the URDF");
 
@@ -147,8 +148,8 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
     arm.urdf.fixed_before.push_back(pending);
     pending = Eigen::Isometry3d::Identity();
     if (joint->type == urdf::Joint::CONTINUOUS) {
-      lower.push_back(-M_PI);
-      upper.push_back(M_PI);
+      lower.push_back(-kPi);
+      upper.push_back(kPi);
     } else {
       if (!joint->limits) throw InputError(what + ": a revolute joint needs <limit lower=.. upper=..>");
       if (!(joint->limits->lower < joint->limits->upper)) {
