@@ -5,9 +5,11 @@
 #include <filesystem>
 #include <random>
 
+#include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/jacobian.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "orbcal/sim/truth.hpp"
 #include "orbcal/sim/urdf.hpp"
 #include "test_util.hpp"
 
@@ -82,7 +84,7 @@ Eigen::Isometry3d twistedFk(const Eigen::Vector3d& q) {
 }
 
 std::string tempFile(const std::string& name, const std::string& text) {
-  const std::string path = orbcal::test::tempDir("urdf") + "/" + name;
+  const std::string path = orbcal::test::tempDir("urdf-" + name) + "/" + name;  // tempDir empties its folder
   orbcal::test::write(path, text);
   return path;
 }
@@ -238,4 +240,37 @@ TEST_CASE("URDF input errors name the file and the link or joint", "[sim][urdf]"
 
   const std::string junk = tempFile("junk.urdf", "<robot name=\"x\"><link name=\"a\"/>");
   CHECK_THAT(inputError([&] { loadArm(junk); }), Contains(junk + ": not a valid URDF: "));
+}
+
+TEST_CASE("error-set files and manifests carry a URDF arm's 7 errors a joint by name", "[sim][urdf]") {
+  const Arm arm = loadArm(kIiwaUrdf);
+  std::string rows;
+  for (int j = 0; j < 7; ++j) {
+    rows += "  - {theta_deg: 0.1, x_mm: " + std::to_string(j + 1) +
+            ", y_mm: -0.5, z_mm: 0.25, roll_deg: 0.2, pitch_deg: -0.3, yaw_deg: 0.4}\n";
+  }
+  const std::string file = tempFile("errors.yaml", "format: orbcal-errors-1\ngeometry:\n" + rows);
+  ErrorSetSpec spec;
+  spec.name = file;
+  const Eigen::VectorXd y = makeTrueArm(arm, spec, "--errors").geometryErrors();
+  REQUIRE(y.size() == 49);
+  CHECK(y[paramIndex(arm, 2, kOx)] == Approx(3e-3));
+  CHECK(y[paramIndex(arm, 2, kOy)] == Approx(-0.5e-3));
+  CHECK(y[paramIndex(arm, 2, kOyaw)] == Approx(0.4 * kDegToRad));
+  CHECK(y[paramIndex(arm, 2, kTheta)] == Approx(0.1 * kDegToRad));
+  // The manifest's true_errors: written and read back by the same keys.
+  DatasetManifest m;
+  m.program_version = "test";
+  m.error_set = "custom";
+  m.true_errors = y;
+  m.true_errors_per_joint = 7;
+  const DatasetManifest back = parseManifest(formatManifest(m), "manifest.yaml");
+  CHECK(back == m);
+  CHECK_THAT(formatManifest(m), Contains("pitch_deg: -0.3, yaw_deg: 0.4}"));
+  // A DH row on a URDF arm names the key.
+  std::string dh_rows;
+  for (int j = 0; j < 7; ++j) dh_rows += "  - {theta_deg: 0, alpha_deg: 0, a_mm: 0, d_mm: 0}\n";
+  const std::string dh = tempFile("dh_errors.yaml", "format: orbcal-errors-1\ngeometry:\n" + dh_rows);
+  spec.name = dh;
+  CHECK_THAT(inputError([&] { makeTrueArm(arm, spec, "--errors"); }), Contains(dh + ": geometry[0].alpha_deg: unknown key"));
 }
