@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "experiment.hpp"
+#include "orbcal/calib/diagnose.hpp"
 #include "orbcal/calib/planning.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/errors.hpp"
@@ -213,6 +214,60 @@ std::unique_ptr<calib::MeasurementModel> imageKindModel(const sim::Dataset& d, c
 
 }  // namespace
 
+std::string joinWords(const std::vector<std::string>& words) {
+  std::string out;
+  for (const std::string& w : words) out += (out.empty() ? "" : ", ") + w;
+  return out;
+}
+
+/// What most likely makes a fit inconsistent: a few images (a misdetected board, a wrong joint reading:
+/// without them the rest is consistent), the scene's frames (the board or camera mount: a fit with both
+/// frames estimated is consistent), or the arm model itself (the robot file, the camera, or effects the
+/// DH model lacks: even that fit is not).
+std::string likelyCause(const sim::Dataset& d, const std::vector<vision::Measurement>& meas, const std::vector<std::size_t>& ident,
+                        const std::vector<std::size_t>& hold, calib::MeasurementKind kind, const CalibrateResult& r) {
+  const calib::Consistency& c = r.consistency;
+  int rows = 0;
+  for (const calib::SampleConsistency& s : c.samples) rows += s.rows;
+  const int free = rows - c.dof;
+  double rest_chi2 = c.chi2;
+  int rest_rows = rows;
+  for (int k : c.outliers) {
+    rest_chi2 -= c.samples[static_cast<std::size_t>(k)].chi2;
+    rest_rows -= c.samples[static_cast<std::size_t>(k)].rows;
+  }
+  const bool few = !c.outliers.empty() && 5 * c.outliers.size() <= c.samples.size();
+  if (few && calib::chiSquareSurvival(rest_chi2, std::max(1, rest_rows - free)) >= c.alpha) {
+    return "without " + std::to_string(c.outliers.size()) + " image(s) the rest is consistent: " + joinWords(r.outlier_images) +
+           " disagree with the others (a misdetected board, or a wrong joint reading there): check or remove them";
+  }
+  if (kind != calib::MeasurementKind::kPose) {
+    return "the robot file, the camera or the scene's flange_T_camera do not describe this arm (or it has effects the DH model "
+           "lacks: `orbcal diagnose` names them)";
+  }
+  const FrameEstimate f = r.frames ? *r.frames : estimateFrames(d, meas, ident, hold, r.joint_noise_sigma_rad, {});
+  const double p_frames = calib::chiSquareSurvival(f.fit.chi2, f.fit.dof);
+  if (p_frames >= c.alpha || f.fit.chi2 < 0.5 * c.chi2) {
+    return "with base_T_board and flange_T_camera estimated the fit is " + std::string(p_frames >= c.alpha ? "consistent" : "far better") +
+           " (chi-square " + formatNumber("%.1f", f.fit.chi2) + " for " + std::to_string(f.fit.dof) +
+           "): the scene's board or camera mount (base_T_board, flange_T_camera) is off; calibrate with --estimate-frames "
+           "(its frames.yaml corrects the scene)";
+  }
+  return "even with base_T_board and flange_T_camera estimated the fit is inconsistent (chi-square " + formatNumber("%.1f", f.fit.chi2) +
+         " for " + std::to_string(f.fit.dof) + "): the robot file or the camera intrinsics do not describe this arm, or it has "
+         "effects the DH model lacks (`orbcal diagnose` names them)";
+}
+
+/// The problems first, in the report: what failed and what was (not) written.
+std::string refusalSection(const CalibrateResult& r, bool accept_worse) {
+  if (r.refusals.empty()) return "";
+  std::string out = "**This calibration is not to be trusted as it is:**\n\n";
+  for (const std::string& line : r.refusals) out += "- " + line + "\n";
+  out += accept_worse ? "\nThe calibrated files were written all the same because --accept-worse was given.\n\n"
+                      : "\nNo calibrated robot file was written (--accept-worse writes it).\n\n";
+  return out;
+}
+
 ParameterColumns parameterColumns(const sim::Arm& arm) {
   ParameterColumns c;
   c.header = "| joint |";
@@ -232,9 +287,9 @@ ParameterColumns parameterColumns(const sim::Arm& arm) {
 namespace {
 /// "theta1, x1, ..." for the parameters `which` (or "none").
 std::string parameterList(const calib::ParameterClasses& classes, const std::vector<int>& which) {
-  std::string s;
-  for (int i : which) s += (s.empty() ? "" : ", ") + classes.names[static_cast<std::size_t>(i)];
-  return s.empty() ? std::string("none") : s;
+  std::vector<std::string> names;
+  for (int i : which) names.push_back(classes.names[static_cast<std::size_t>(i)]);
+  return names.empty() ? std::string("none") : joinWords(names);
 }
 }  // namespace
 
@@ -316,6 +371,13 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   r.model = calib::measurementKindName(kind);
   r.estimate = calib::runMethod(method, *model);
   r.estimate.method = method.name;
+  r.consistency = calib::consistencyTest(*model, r.estimate.y,
+                                         r.estimate.rank > 0 ? r.estimate.rank : model->numParams() - static_cast<int>(r.estimate.held.size()));
+  for (int k : r.consistency.outliers) {
+    const calib::SampleConsistency& sc = r.consistency.samples[static_cast<std::size_t>(k)];
+    r.outlier_images.push_back((calib::isRelativeKind(kind) ? "pair " + std::to_string(k + 1) : d.samples[ident[static_cast<std::size_t>(k)]].image) +
+                               " (chi-square " + formatNumber("%.1f", sc.chi2) + " for " + std::to_string(sc.rows) + ")");
+  }
   // A pose model's parameters are the DH errors; the others' layout starts with them too (known frames).
   r.estimate.y = Eigen::VectorXd(r.estimate.y.head(d.arm.numParams()));
   r.estimate.covariance = Eigen::MatrixXd(r.estimate.covariance.topLeftCorner(d.arm.numParams(), d.arm.numParams()));
@@ -362,6 +424,21 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
 
   if (o.estimate_frames) r.frames = estimateFrames(d, meas, ident, hold, r.joint_noise_sigma_rad, o.effects);
 
+  // A calibration never silently makes an arm worse: an inconsistent fit, or a held-out error that grew,
+  // is said first and leaves no calibrated files unless --accept-worse.
+  r.worse = n_hold > 0 && r.after.position_avg_m > r.before.position_avg_m;
+  if (!r.consistency.consistent()) r.likely_cause = likelyCause(d, meas, ident, hold, kind, r);
+  if (!r.consistency.consistent()) {
+    r.refusals.push_back("the fit is inconsistent with its noise model: " + calib::formatConsistency(r.consistency) + "; " +
+                         r.likely_cause);
+  }
+  if (r.worse) {
+    r.refusals.push_back("the calibrated arm predicts the " + std::to_string(n_hold) + " held-out images worse than the nominal one ("
+                         + formatNumber("%.3f", r.before.position_avg_m * 1e3) + " -> " +
+                         formatNumber("%.3f", r.after.position_avg_m * 1e3) + " mm average position error)");
+  }
+  r.written = r.refusals.empty() || o.accept_worse;
+
   // Outputs.
   sim::makeDirectories(out);
   std::ostringstream header;
@@ -369,28 +446,61 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
          << "method " << method.name << "; " << r.identification << " identification images of " << r.images << "; nominal: "
          << d.manifest.robot_file << " (" << d.arm.name << ")\n"
          << "Identified parameter errors are added to the nominal DH rows; base and tool are the nominal ones.";
-  r.robot_path = out + "/robot_calibrated.yaml";
-  sim::Arm named = calibrated;
-  named.name = d.arm.name + " (calibrated)";
-  if (calibrated.convention == sim::DhConvention::kUrdf && !calibrated.urdf.empty()) {
-    // A URDF robot: the URDF it came from with the chain joints' origins replaced by the calibrated
-    // ones (zero offsets folded in), beside the YAML, which names it.
-    r.urdf_path = out + "/robot_calibrated.urdf";
-    named.urdf.file = "robot_calibrated.urdf";
-    sim::writeFileAtomic(r.urdf_path, sim::replaceUrdfOrigins(sim::readTextSource(calibrated.urdf.file), calibrated,
-                                                              "Joint origins of the chain " + calibrated.urdf.base_link + " -> " +
-                                                                  calibrated.urdf.tip_link + " calibrated by orbcal " + ORBCAL_VERSION +
-                                                                  " (orbcal calibrate, method " + method.name + ") from " + o.dataset));
-  }
-  sim::writeFileAtomic(r.robot_path, sim::formatArm(named, header.str()));
   calib::Comparison single;
   single.methods.push_back({method, r.estimate, {}, {}});
   const Eigen::VectorXd* y_true = d.manifest.true_errors ? &*d.manifest.true_errors : nullptr;
-  sim::writeFileAtomic(out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true));
+  if (r.written) {
+    r.robot_path = out + "/robot_calibrated.yaml";
+    sim::Arm named = calibrated;
+    named.name = d.arm.name + " (calibrated)";
+    if (calibrated.convention == sim::DhConvention::kUrdf && !calibrated.urdf.empty()) {
+      // A URDF robot: the URDF it came from with the chain joints' origins replaced by the calibrated
+      // ones (zero offsets folded in), beside the YAML, which names it.
+      r.urdf_path = out + "/robot_calibrated.urdf";
+      named.urdf.file = "robot_calibrated.urdf";
+      sim::writeFileAtomic(r.urdf_path, sim::replaceUrdfOrigins(sim::readTextSource(calibrated.urdf.file), calibrated,
+                                                                "Joint origins of the chain " + calibrated.urdf.base_link + " -> " +
+                                                                    calibrated.urdf.tip_link + " calibrated by orbcal " + ORBCAL_VERSION +
+                                                                    " (orbcal calibrate, method " + method.name + ") from " + o.dataset));
+    }
+    sim::writeFileAtomic(r.robot_path, sim::formatArm(named, header.str()));
+    sim::writeFileAtomic(out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true));
+  }
+
+  // Per-image errors against the measured poses, nominal and calibrated, with the inconsistent images marked.
+  {
+    std::ostringstream rows;
+    rows << "image,set,before_mm,after_mm,outlier\n";
+    std::vector<bool> outlier(d.samples.size(), false);
+    if (calib::isPoseKind(kind) && !calib::isRelativeKind(kind)) {
+      for (int k : r.consistency.outliers) outlier[ident[static_cast<std::size_t>(k)]] = true;
+    }
+    std::vector<std::pair<std::size_t, const char*>> all;
+    for (std::size_t k : ident) all.emplace_back(k, "identification");
+    for (std::size_t k : hold) all.emplace_back(k, "held-out");
+    std::sort(all.begin(), all.end());
+    for (const auto& [k, set] : all) {
+      const Eigen::Vector3d p = meas[k].base_T_flange.translation();
+      rows << d.samples[k].image << "," << set << ","
+           << formatNumber("%.6f", (p - sim::forwardKinematics(d.arm, d.samples[k].q_rad).translation()).norm() * 1e3) << ","
+           << formatNumber("%.6f", (p - sim::forwardKinematics(calibrated, d.samples[k].q_rad).translation()).norm() * 1e3) << ","
+           << (outlier[k] ? 1 : 0) << "\n";
+    }
+    sim::writeFileAtomic(out + "/samples.csv", rows.str());
+  }
+  ExperimentOptions figures;
+  figures.plots = o.plots;
+  std::string figure_lines = drawFigure(figures, out, "samples '" + out + "/samples.csv'", "samples.png",
+                                        "per-image errors before and after");
+  if (r.written) {
+    figure_lines += drawFigure(figures, out, "parameters '" + out + "/estimates.csv'", "parameters.png",
+                               "identified parameters with their 1-sigma");
+  }
 
   std::ostringstream md;
   const ParameterColumns columns = parameterColumns(d.arm);
   md << "# Calibration of " << d.arm.name << (kind == calib::MeasurementKind::kPose ? "" : " (" + r.model + " model)") << "\n\n"
+     << refusalSection(r, o.accept_worse)
      << "Dataset `" << o.dataset << "`; method **" << method.name << "** (" << method.description
      << "); joint noise in R: " << formatNumber("%.4g", r.joint_noise_sigma_rad * sim::kRadToDeg) << " deg.\n\n"
      << "## Images\n\n" << vision::formatSummary(vision::summarize(meas)) << "\n\n"
@@ -426,6 +536,10 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
     }
     md << "\n";
   }
+  md << "\n## Consistency of the fit with its noise model\n\n" << calib::formatConsistency(r.consistency)
+     << " (each image's normalized squared residual against chi-square, Bonferroni over the images at "
+     << formatNumber("%.3g", r.consistency.alpha) << "; R = the vision covariance plus the joint noise)."
+     << (r.outlier_images.empty() ? std::string() : " Inconsistent: " + joinWords(r.outlier_images) + ".") << "\n";
   if (r.relative_before) {
     const auto row = [](const char* what, const calib::RelativeErrors& e) {
       return std::string("| ") + what + " | " + formatNumber("%.4f", e.distance_rms_m * 1e3) + " | " +
@@ -471,7 +585,9 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
                                                "(paste into the scene)\nbase_T_board: " + sim::transformYaml(r.frames->base_T_board) +
                                                "\nflange_T_camera: " + sim::transformYaml(r.frames->flange_T_camera) + "\n");
   }
-  md << "Files: `robot_calibrated.yaml` (load it with `--robot`), `estimates.csv`; measurements in `"
+  md << "## Figures\n\n" << figure_lines << "\n";
+  md << (r.written ? "Files: `robot_calibrated.yaml` (load it with `--robot`), `estimates.csv`, `samples.csv` (per-image errors); measurements in `"
+                   : "No calibrated files were written (see the top). `samples.csv` (per-image errors); measurements in `")
      << o.dataset << "/measurements.csv`.\n";
   r.report_path = out + "/report.md";
   sim::writeFileAtomic(r.report_path, md.str());

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <string>
 
+#include "orbcal/calib/consistency.hpp"
 #include "orbcal/calib/corner_model.hpp"
 #include "orbcal/calib/experiment.hpp"
 #include "orbcal/calib/measured_fit.hpp"
@@ -38,6 +39,10 @@ struct CalibrateOptions {
   /// between pairs of images (distance, rotation, dr: Jia et al. 2019), which need no base_T_board.
   std::string model = "pose";
   std::string pairs = "reference";  ///< relative models: each image against the first, or consecutive
+  /// Write the calibrated files even when the fit is inconsistent with its noise or the held-out error
+  /// grows (the report and the exit status say so all the same).
+  bool accept_worse = false;
+  bool plots = true;  ///< draw the report's figures (python3 + matplotlib)
 };
 
 /// With CalibrateOptions::effects: geometry + both frames + the chain effects + the distortion block,
@@ -69,6 +74,14 @@ struct CalibrateResult {
   /// Relative models: the held-out images paired with the first identification image, nominal vs
   /// calibrated (what a frame-free model can be judged on without base_T_board).
   std::optional<calib::RelativeErrors> relative_before, relative_after;
+  /// The fit against its noise model (calib/consistency.hpp), and what is wrong when it fails.
+  calib::Consistency consistency;
+  std::vector<std::string> outlier_images;  ///< the inconsistent samples' images (pose kinds) or pairs
+  std::string likely_cause;                 ///< empty when consistent
+  bool worse = false;                       ///< the held-out error against the measured poses grew
+  /// The problems, one line each, first in the report and on the terminal; empty when all went well.
+  std::vector<std::string> refusals;
+  bool written = false;                     ///< robot_calibrated.yaml and estimates.csv were written
   int images = 0, usable = 0, identification = 0, held_out = 0;
   calib::ErrorSummary before, after;     ///< hold-out errors against the measured poses
   bool has_truth = false;

@@ -74,9 +74,11 @@ void addCalibrateCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 0.9));
   cmd->add_option("--seed", o->seed, "seed of the hold-out draw")->capture_default_str();
-  cmd->add_flag("--accept-worse", o->measured.accept_worse, "measured data: write the model even if it predicts worse");
+  cmd->add_flag("--accept-worse", o->measured.accept_worse,
+                "write the calibrated files even if the fit is inconsistent with its noise or predicts the held-out samples worse (the report and the terminal say so first)");
   cmd->add_option("-o,--out", o->out, "output folder (default: calibration/ beside the dataset or description)");
   cmd->add_flag("--quiet", o->images.quiet, "no progress output");
+  cmd->add_flag("--no-plots{false}", o->images.plots, "images: do not draw the report's figures");
   cmd->add_option("--model", o->images.model,
                   "images: what of each camera pose is used: pose (absolute, through the scene's base_T_board; Wang et al. "
                   "2023), position, or between pairs of images, frame-free (no base_T_board needed; Jia et al. 2019): "
@@ -113,7 +115,13 @@ void addCalibrateCommand(CLI::App& app) {
     c.holdout = o->holdout;
     c.seed = o->seed;
     c.out = o->out;
+    c.accept_worse = o->measured.accept_worse;
     const CalibrateResult r = runCalibrate(c);
+    for (const std::string& line : r.refusals) std::fprintf(stderr, "orbcal: calibrate: %s\n", line.c_str());
+    if (!r.refusals.empty() && !r.written) {
+      std::fprintf(stderr, "orbcal: calibrate: no calibrated robot file written (--accept-worse writes it); report: %s\n",
+                   r.report_path.c_str());
+    }
     std::printf("%d images, %d usable: %d for identification, %d held out; model %s (rank %d of %d)\n", r.images, r.usable,
                 r.identification, r.held_out, r.model.c_str(), r.classes.rank, static_cast<int>(r.classes.names.size()));
     std::printf("%s\n", formatKeptAndHeld(r.classes).c_str());
@@ -156,9 +164,11 @@ void addCalibrateCommand(CLI::App& app) {
         std::printf("\n");
       }
     }
-    std::printf("calibrated robot: %s\n", r.robot_path.c_str());
-    if (!r.urdf_path.empty()) std::printf("calibrated URDF: %s\n", r.urdf_path.c_str());
+    std::printf("consistency: %s\n", calib::formatConsistency(r.consistency).c_str());
+    if (r.written) std::printf("calibrated robot: %s\n", r.robot_path.c_str());
+    if (r.written && !r.urdf_path.empty()) std::printf("calibrated URDF: %s\n", r.urdf_path.c_str());
     std::printf("report: %s\n", r.report_path.c_str());
+    if (!r.refusals.empty() && !c.accept_worse) throw CLI::RuntimeError(1);
   });
 }
 

@@ -14,7 +14,7 @@ void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o) {
   cmd.add_option("-o,--out", o.out, "output folder (reports under <out>/<preset>, datasets under <out>/datasets)")
       ->capture_default_str();
   cmd.add_option("--errors", o.errors.name,
-                 "injected error set: table3 (seed 000), zero, random, or an error-set file (YAML: DH errors + effects)")
+                 "injected error set: table3 (Wang et al. 2023, Table 3), zero, random, or an error-set file (YAML: DH errors + effects)")
       ->capture_default_str();
   cmd.add_option("--error-seed", o.errors.seed, "seed of --errors random")->capture_default_str();
   cmd.add_option_function<double>(
@@ -32,11 +32,20 @@ void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o) {
   cmd.add_flag("--quiet", o.quiet, "no progress output");
   auto* jn = cmd.add_option_function<double>(
       "--joint-noise-deg", [&o](double d) { o.joint_noise_sigma_rad = d * sim::kDegToRad; },
-      "joint control noise, 1 sigma [deg] (default 0.01, seed 000)");
+      "joint control noise, 1 sigma [deg] (default 0.01, Wang et al. 2023)");
   jn->check(CLI::Range(0.0, 10.0));
 }
 
 namespace {
+
+/// A preset whose protocol fixes some options refuses them when given, rather than ignoring them.
+void refuseUnused(const CLI::App& cmd, const std::string& preset, std::initializer_list<const char*> options) {
+  for (const char* option : options) {
+    if (cmd.count(option) > 0) {
+      throw sim::InputError(std::string(option) + ": not used by --preset " + preset + " (its protocol fixes it)");
+    }
+  }
+}
 
 void addExperimentCommand(CLI::App& app) {
   struct Opts {
@@ -45,7 +54,7 @@ void addExperimentCommand(CLI::App& app) {
   };
   auto opt = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand("experiment",
-                                     "Calibration experiments: seed 000's Table 4, Table 5, Fig. 8, and the control-noise floor");
+                                     "Calibration experiments: Wang et al. 2023's Table 4, Table 5, Fig. 8 (and the other papers' protocols), and the control-noise floor");
   cmd->add_option("--preset", opt->preset,
                   "table4: Table 3 errors, 50 + 200 configurations, rendered images, every estimator;\n"
                   "table5: four synthetic noise levels + images, repeated;\n"
@@ -54,11 +63,13 @@ void addExperimentCommand(CLI::App& app) {
                   "selection: configurations chosen by O3 / O1 against random ones at 15, 25, 50 measurements for the pose, "
                   "position and dr models, and in the main job's rendered setting (x floor), repeated;\n"
                   "jia2019: Jia et al. 2019, distance / D&R / absolute models on the hemisphere, board-to-base change sweep\n"
-                  "  (pose level; robot default builtin:ssrms_hayati.yaml; --scene, --errors, --ident, --valid unused)")
+                  "  (pose level; robot default builtin:ssrms_hayati.yaml; --scene, --errors, --ident, --valid unused);\n"
+                  "liu2012: Liu et al. 2012, laser ranger to a plane: 50 and 100 of 101 configurations by O3, 20 validation\n"
+                  "  (--valid), repeated; robot default builtin:puma_hayati.yaml; --scene, --errors, --ident, --joint-noise-deg unused)")
       ->required()
-      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "selection", "jia2019"}));
+      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "selection", "jia2019", "liu2012"}));
   addExperimentOptions(*cmd, opt->e);
-  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, selection, jia2019)")
+  cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, selection, jia2019, liu2012)")
       ->capture_default_str()
       ->check(CLI::Range(1, 10000));
   cmd->add_option("--source", opt->e.source, "fig8 measurements: images or synthetic (0.3 mm / 0.5 deg)")
@@ -77,11 +88,14 @@ void addExperimentCommand(CLI::App& app) {
     } else if (opt->preset == "selection") {
       runSelection(e);
     } else if (opt->preset == "jia2019") {
-      for (const char* unused : {"--scene", "--errors", "--ident", "--valid"}) {
-        if (cmd->count(unused) > 0) throw sim::InputError(std::string(unused) + ": not used by --preset jia2019 (its protocol fixes it)");
-      }
+      refuseUnused(*cmd, "jia2019", {"--scene", "--errors", "--ident", "--valid"});
       if (cmd->count("--robot") == 0) e.robot = "builtin:ssrms_hayati.yaml";  // Jia et al. 2019's Hayati model
       runJia2019(e);
+    } else if (opt->preset == "liu2012") {
+      refuseUnused(*cmd, "liu2012", {"--scene", "--errors", "--ident", "--joint-noise-deg"});
+      if (cmd->count("--robot") == 0) e.robot = "builtin:puma_hayati.yaml";
+      if (cmd->count("--valid") == 0) e.validation = 20;  // the paper's 20 validation configurations
+      runLiu2012(e);
     } else {
       runFloor(e);
     }

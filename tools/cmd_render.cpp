@@ -45,9 +45,10 @@ void addRenderCommand(CLI::App& app) {
   cmd->add_option("-o,--out", opt->job.out, "dataset folder (created; an unfinished one with the same inputs is resumed)")
       ->required();
   cmd->add_flag("--force", opt->job.force, "replace a dataset made from different inputs in --out");
-  cmd->add_option("--png-compression", opt->job.png_compression, "PNG compression level 0..9 (lossless at any level)")
+  cmd->add_option("--png-compression", opt->job.png_compression,
+                  "PNG compression level 0..9, or -1: OpenCV's fast path (zlib level 1, SUB filter); lossless at any level")
       ->capture_default_str()
-      ->check(CLI::Range(0, 9));
+      ->check(CLI::Range(-1, 9));
   cmd->callback([opt] {
     render::DatasetJob job = opt->job;
     job.robot = opt->as.robot;

@@ -14,6 +14,7 @@
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/configurations.hpp"
 #include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/identifiability.hpp"
 #include "orbcal/sim/io.hpp"
@@ -182,7 +183,9 @@ void addIdentifiabilityCommand(CLI::App& app) {
   addArmSceneOptions(*cmd, opt->as);
   cmd->add_option("--model", opt->model, "measurement kind: pose, position, distance, rotation, dr or range")
       ->capture_default_str();
-  cmd->add_option("--configs", opt->configs, "configurations CSV (from `orbcal configs`); default: generate them");
+  cmd->add_option("--configs", opt->configs,
+                  "configurations CSV (from `orbcal configs`); default: generate them (pose kinds: the camera sees the "
+                  "board; range: the beam meets the plane)");
   cmd->add_option("-n,--count", opt->gen.count, "configurations to generate when --configs is not given")
       ->capture_default_str()
       ->check(CLI::Range(1, 1000000));
@@ -234,19 +237,20 @@ void addIdentifiabilityCommand(CLI::App& app) {
       setup.plane.identified.push_back(i);
     }
     const sim::Arm arm = sim::loadArm(opt->as.robotSource());
-    std::vector<Eigen::VectorXd> configs;
-    if (!opt->configs.empty()) {
-      configs = sim::parseConfigurationsCsv(sim::readTextSource(opt->configs), opt->configs, arm.numJoints());
-    } else if (setup.kind == calib::MeasurementKind::kRange) {
-      throw sim::InputError("--configs: the range model needs configurations whose beam hits the plane");
-    } else {
-      configs = sim::generateConfigurations(arm, sim::loadScene(opt->as.scene), opt->gen);
-    }
     const sim::KinematicModel km =
         opt->base == "known" ? sim::flangeModel(arm)
                              : sim::makeKinematicModel(arm, 1, sim::FrameSharing::kShared, sim::FrameSharing::kKnown,
                                                        {Eigen::Isometry3d::Identity()}, {Eigen::Isometry3d::Identity()}, {});
-    const auto model = calib::planningModel(setup, km, calib::samplesOf(configs));
+    std::vector<sim::JointSample> samples;
+    if (!opt->configs.empty()) {
+      samples = calib::samplesOf(sim::parseConfigurationsCsv(sim::readTextSource(opt->configs), opt->configs, arm.numJoints()));
+    } else if (setup.kind == calib::MeasurementKind::kRange) {  // random, non-singular, the beam meeting the plane
+      auto rng = sim::makeRng(opt->gen.seed, 0x72616e6765ULL);
+      samples = calib::rangeConfigurations(calib::PlaneRangeModel(km, setup.beam, setup.plane, {}), {}, opt->gen.count, rng);
+    } else {  // the eye-in-hand camera sees the board
+      samples = calib::samplesOf(sim::generateConfigurations(arm, sim::loadScene(opt->as.scene), opt->gen));
+    }
+    const auto model = calib::planningModel(setup, km, samples);
     if (model->numSamples() == 0) throw sim::InputError("--configs: no configuration gives a measurement of this kind");
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model->numParams());
     const calib::ParameterClasses classes = calib::classifyParameters(*model, zero);
@@ -254,7 +258,7 @@ void addIdentifiabilityCommand(CLI::App& app) {
     for (int k = 0; k < model->numSamples(); ++k) rows += model->rows(k);
     std::printf("Measurement: %s\nArm: %s (%s), %d configurations -> %d samples, %d rows; %d parameters%s\n\n",
                 calib::measurementKindDescription(setup.kind).c_str(), arm.name.c_str(), arm.source.c_str(),
-                static_cast<int>(configs.size()), model->numSamples(), rows, model->numParams(),
+                static_cast<int>(samples.size()), model->numSamples(), rows, model->numParams(),
                 opt->base == "known" ? "" : " (the measuring system's frame unknown: base_*)");
     std::printf("%s\nObservability of the minimal set: %s\n", classes.table().c_str(),
                 calib::formatIndices(calib::observability(*model, zero, classes.held)).c_str());

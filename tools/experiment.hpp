@@ -70,6 +70,7 @@ void runFloor(const ExperimentOptions& o);
 /// job's rendered setting (experiment_selection.cpp).
 void runSelection(const ExperimentOptions& o);
 void runJia2019(const ExperimentOptions& o);  ///< Jia et al. 2019 (experiment_jia2019.cpp)
+void runLiu2012(const ExperimentOptions& o);  ///< Liu et al. 2012: laser ranger to a plane, Table 5 (experiment_liu2012.cpp)
 
 /// The headline of a Table 4 run, a few lines for the terminal.
 std::string table4Headline(const Table4Result& r);

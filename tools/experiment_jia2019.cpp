@@ -346,7 +346,7 @@ void runJia2019(const ExperimentOptions& o) {
     for (int i : hemi.unreachable) md << " " << i;
   }
   md << "; " << hemi.q.size() << " pairs (reference, j)\n"
-     << "- injected errors, drawn per repetition (seed + r): seed 000 Table 3's magnitudes with random signs, "
+     << "- injected errors, drawn per repetition (seed + r): Wang et al. 2023 Table 3's magnitudes with random signs, "
         "|theta|, |alpha|, |beta| uniform in [0.2, 0.3] deg, |a|, |d| in [0.5, 1.0] mm; beta only where the "
         "nominal alpha is 0 (parallel consecutive axes, where the paper keeps it); joint 1 error-free and its "
         "parameters held in every model, as the paper excludes joint 1\n"

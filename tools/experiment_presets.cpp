@@ -105,7 +105,7 @@ void runTable5(const ExperimentOptions& o) {
   sim::writeFileAtomic(folder + "/validation_errors.csv", pooled.str());
   std::ostringstream md;
   md << "# Table 5: position error after calibration at four measurement-noise levels, and from images\n\n"
-     << "Seed 000's Table 5 (synthetic pose noise, 0.01 deg control noise, " << o.identification << " identification + "
+     << "Wang et al. 2023's Table 5 (synthetic pose noise, 0.01 deg control noise, " << o.identification << " identification + "
      << o.validation << " validation configurations) with " << o.repetitions
      << " repetitions instead of the paper's single runs, and a fifth column measured from rendered images. "
      << "Each cell: mean over repetitions of the average (and of the extreme) validation position error, mm; "
@@ -131,7 +131,7 @@ void runTable5(const ExperimentOptions& o) {
   }
   md << "| floor (true parameters) |";
   for (std::size_t i = 0; i < columns.size(); ++i) md << " " << fmt("%.3f", floor_avg * 1e3) << " | |";
-  md << "\n\nSeed 000's single-run values for reference: LSE 1.9356/5.8736, 3.1832/8.3625, 1.4362/6.0831, "
+  md << "\n\nWang et al. 2023's single-run values for reference: LSE 1.9356/5.8736, 3.1832/8.3625, 1.4362/6.0831, "
         "4.7239/13.5341; EKF 1.9463/5.9541, 1.9687/6.0528, 1.8125/6.6727, 2.4368/7.3659 (avg/ext, mm).\n\n"
      << drawFigure(o, folder, "boxplot '" + folder + "/validation_errors.csv'", "validation_boxplot.png",
                    "validation errors")

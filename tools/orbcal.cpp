@@ -39,7 +39,8 @@ void addRobotOptions(CLI::App& cmd, ArmSceneOptions& opt) {
 int main(int argc, char** argv) {
   CLI::App app{"orbcal " ORBCAL_VERSION
                ": kinematic calibration of serial arms with an eye-in-hand camera.\n"
-               "Run `orbcal run` for the main job on the built-in SSRMS arm and scene; `orbcal <command> --help` for each command."};
+               "Run `orbcal run` for the main job on the built-in SSRMS arm and scene; `orbcal <command> --help` for each command.",
+               "orbcal"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("orbcal ") + ORBCAL_VERSION);
   orbcal::tools::addRegisteredCommands(app);

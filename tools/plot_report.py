@@ -5,6 +5,8 @@
   plot_report.py curve    fig8.csv out.png [--x COL LABEL] [--y COL LABEL]   # seed 000 Fig. 8 style
                                                    # (default x: n, identification configurations; y: avg_position_mm)
   plot_report.py residuals residuals.csv COLUMN LABEL out.png          # orbcal diagnose: held-out errors vs a variable
+  plot_report.py samples samples.csv out.png          # orbcal calibrate: per-image errors before/after, outliers named
+  plot_report.py parameters estimates.csv out.png     # orbcal calibrate: each parameter with its 1-sigma (and truth)
 """
 import csv
 import sys
@@ -84,7 +86,65 @@ def residuals(csv_path, column, label, png_path):
     fig.savefig(png_path, dpi=110)
 
 
+def samples(csv_path, png_path):
+    rows = read_rows(csv_path)
+    fig, ax = plt.subplots(figsize=(10, 5))
+    for which, marker in (("identification", "o"), ("held-out", "s")):
+        sel = [(i, r) for i, r in enumerate(rows) if r["set"] == which]
+        if not sel:
+            continue
+        xs = [i for i, _ in sel]
+        ax.scatter(xs, [float(r["before_mm"]) for _, r in sel], marker=marker, s=14, alpha=0.6,
+                   label=which + ": nominal arm")
+        ax.scatter(xs, [float(r["after_mm"]) for _, r in sel], marker=marker, s=14, alpha=0.8,
+                   label=which + ": calibrated")
+    flagged = [(i, r) for i, r in enumerate(rows) if r["outlier"] == "1"]
+    if len(flagged) <= 10:  # a few named; many: the fit as a whole is off, the report says why
+        for i, r in flagged:
+            ax.annotate(r["image"], (i, float(r["after_mm"])), fontsize=7, color="red", rotation=30)
+    else:
+        ax.text(0.01, 0.02, "%d of %d images inconsistent: see the report" % (len(flagged), len(rows)),
+                transform=ax.transAxes, color="red", fontsize=9)
+    ax.set_xlabel("image (dataset order)")
+    ax.set_ylabel("position error against the measured pose (mm)")
+    ax.set_yscale("log")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title("Per-image errors before and after calibration (inconsistent images named in red)")
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+
+
+def parameters(csv_path, png_path):
+    rows = read_rows(csv_path)
+    units = list(OrderedDict.fromkeys(r["unit"] for r in rows))
+    fig, axes = plt.subplots(len(units), 1, figsize=(11, 3.2 * len(units)), squeeze=False)
+    for ax, unit in zip(axes[:, 0], units):
+        sel = [r for r in rows if r["unit"] == unit]
+        xs = range(len(sel))
+        est = [float(r["estimate"]) for r in sel]
+        sig = [float(r["sigma"]) if r["sigma"] else 0.0 for r in sel]
+        ax.errorbar(xs, est, yerr=sig, fmt="o", ms=3, capsize=2, label="estimate +- 1 sigma")
+        truth = [(i, float(r["truth"])) for i, r in enumerate(sel) if r.get("truth")]
+        if truth:
+            ax.scatter([i for i, _ in truth], [t for _, t in truth], marker="x", color="k", s=18, label="injected")
+        held = [i for i, r in enumerate(sel) if r["held"] == "1"]
+        for i in held:
+            ax.axvspan(i - 0.4, i + 0.4, color="grey", alpha=0.2)
+        ax.set_xticks(list(xs))
+        ax.set_xticklabels([r["parameter"] for r in sel], rotation=90, fontsize=7)
+        ax.set_ylabel(unit)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[0, 0].set_title("Identified parameter errors (grey: held as unidentifiable)")
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+
+
 def main(argv):
+    if len(argv) >= 4 and argv[1] in ("samples", "parameters"):
+        (samples if argv[1] == "samples" else parameters)(argv[2], argv[3])
+        return
     if len(argv) >= 6 and argv[1] == "residuals":
         residuals(argv[2], argv[3], argv[4], argv[5])
         return

@@ -1,4 +1,5 @@
 #include "orbcal/calib/experiment.hpp"
+#include "orbcal/sim/model.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -33,7 +34,7 @@ std::vector<MethodSpec> comparisonMethods(double joint_sigma) {
   std::vector<MethodSpec> m;
   m.push_back({"LSE (paper)", "Gauss-Newton, truncated SVD, unweighted (m and rad added as they are)", Kind::kLse, {}, unweighted, {}, paper_R});
   m.push_back({"LSE (weighted)", "Gauss-Newton, truncated SVD, weighted by R = measurement + joint noise", Kind::kLse, {}, weighted, {}, full_R});
-  m.push_back({"EKF (paper)", "seed 000 as written: P0 0.01 deg / 0.01 mm, Q = 0, J at nominal, R 0.3 mm / 0.5 deg", Kind::kEkf, paper, {}, {}, paper_R});
+  m.push_back({"EKF (paper)", "Wang et al. 2023 as written: P0 0.01 deg / 0.01 mm, Q = 0, J at nominal, R 0.3 mm / 0.5 deg", Kind::kEkf, paper, {}, {}, paper_R});
   m.push_back({"EKF (wide P0 + paper R)", "P0 1 deg / 5 mm, Q = 0, J at nominal, R 0.3 mm / 0.5 deg", Kind::kEkf, wide_linear, {}, {}, paper_R});
   m.push_back({"EKF (measurement R)", "P0 1 deg / 5 mm, re-linearized, R = measurement covariance only", Kind::kEkf, extended, {}, {}, measured_R});
   m.push_back({"EKF", "P0 1 deg / 5 mm, re-linearized, R = measurement + joint noise through J_q (orbcal's default)", Kind::kEkf, extended, {}, {}, full_R});
@@ -183,19 +184,22 @@ std::string formatMethodsTable(const sim::Arm& nominal, const Comparison& c, con
   char buf[640];
   std::snprintf(buf, sizeof buf,
                 "| method | settings | iterations | rank | time (ms) | converged | held | RMS a, d estimate (mm; true %.3f) | "
-                "avg position (mm) | / floor |\n|---|---|---|---|---|---|---|---|---|---|\n",
+                "avg position (mm) | / floor | suspicious estimates |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
                 lengthRmsMm(nominal, y_true));
   std::string out = buf;
   for (const MethodOutcome& m : c.methods) {
     std::string held;
     for (int p : m.estimate.held) held += (held.empty() ? "" : " ") + sim::paramName(nominal, p);
-    std::snprintf(buf, sizeof buf, "| %s | %s | %d | %d | %.2f | %s | %s | %.3f | %.4f | %.3f |\n", m.method.name.c_str(),
+    std::snprintf(buf, sizeof buf, "| %s | %s | %d | %d | %.2f | %s | %s | %.3f | %.4f | %.3f | ", m.method.name.c_str(),
                   m.method.description.c_str(), m.estimate.iterations, m.estimate.rank, m.estimate.seconds * 1e3,
                   m.estimate.converged ? "yes" : "no", held.empty() ? "-" : held.c_str(), lengthRmsMm(nominal, m.estimate.y),
                   m.summary.position_avg_m * 1e3, m.summary.position_avg_m / c.floor.position_avg_m);
     out += buf;
+    std::string flagged;
+    for (const std::string& f : suspiciousEstimates(nominal, m.estimate, &y_true)) flagged += (flagged.empty() ? "" : "; ") + f;
+    out += (flagged.empty() ? std::string("-") : "**" + flagged + "**") + " |\n";
   }
-  std::snprintf(buf, sizeof buf, "| floor | true parameters, control noise only | | | | | | %.3f | %.4f | 1.000 |\n",
+  std::snprintf(buf, sizeof buf, "| floor | true parameters, control noise only | | | | | | %.3f | %.4f | 1.000 | |\n",
                 lengthRmsMm(nominal, y_true), c.floor.position_avg_m * 1e3);
   return out + buf;
 }
@@ -205,6 +209,88 @@ std::string formatComparisonTable4(const Comparison& c) {
   for (const MethodOutcome& m : c.methods) cols.emplace_back(m.method.name, m.summary);
   cols.emplace_back("floor", c.floor);
   return formatTable4(c.initial, cols);
+}
+
+std::string formatComparisonSummary(const Comparison& c) {
+  std::string out =
+      "| model | avg position (mm) | / floor | extreme position (mm) | avg orientation X / Y / Z (deg) | improvement |\n"
+      "|---|---|---|---|---|---|\n";
+  const auto row = [&](const std::string& name, const ErrorSummary& e) {
+    char buf[320];
+    const Eigen::Vector3d o = e.orientation_avg_rad * sim::kRadToDeg;
+    std::snprintf(buf, sizeof buf, "| %s | %.4f | %.3f | %.4f | %.4f / %.4f / %.4f | %.1f%% |\n", name.c_str(),
+                  e.position_avg_m * 1e3, e.position_avg_m / c.floor.position_avg_m, e.position_max_m * 1e3, o.x(), o.y(), o.z(),
+                  100.0 * improvement(c.initial.position_avg_m, e.position_avg_m));
+    out += buf;
+  };
+  row("initial (nominal arm)", c.initial);
+  for (const MethodOutcome& m : c.methods) row(m.method.name, m.summary);
+  row("floor (true parameters)", c.floor);
+  return out;
+}
+
+std::string formatComparisonDetail(const Comparison& c) {
+  std::string out;
+  for (const MethodOutcome& m : c.methods) {
+    out += "#### " + m.method.name + "\n\n" + formatTable4(c.initial, {{m.method.name, m.summary}, {"floor", c.floor}}) + "\n";
+  }
+  return out;
+}
+
+namespace {
+/// Suspicious (see the header) at parameter i.
+bool suspicious(double estimate, double typical, const double* truth) {
+  if (truth) return std::abs(estimate - *truth) > 10.0 * std::max(std::abs(*truth), 0.1 * typical);
+  return std::abs(estimate) > 10.0 * typical;
+}
+std::string displayValue(const sim::Arm& nominal, int i, double v) {
+  return sim::formatNumber("%+.3f", v * (sim::isAngleParam(nominal, i) ? sim::kRadToDeg : 1e3));
+}
+}  // namespace
+
+std::vector<std::string> suspiciousEstimates(const sim::Arm& nominal, const Estimate& e, const Eigen::VectorXd* y_true) {
+  const sim::ParamBlock g = sim::geometryBlock(nominal);
+  std::vector<std::string> out;
+  for (int i = 0; i < nominal.numParams(); ++i) {
+    const double* truth = y_true ? &(*y_true)[i] : nullptr;
+    if (!suspicious(e.y[i], g.params[static_cast<std::size_t>(i)].typical, truth)) continue;
+    out.push_back(sim::paramName(nominal, i) + " = " + displayValue(nominal, i, e.y[i]) +
+                  (sim::isAngleParam(nominal, i) ? " deg" : " mm") + (truth ? " (injected " + displayValue(nominal, i, *truth) + ")" : ""));
+  }
+  return out;
+}
+
+std::string formatEstimatesAgainstTruth(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd& y_true,
+                                        const std::vector<std::string>& methods) {
+  const sim::ParamBlock g = sim::geometryBlock(nominal);
+  std::string out = "| parameter | injected |";
+  std::string rule = "|---|---|";
+  std::vector<const MethodOutcome*> shown;
+  for (const std::string& name : methods) {
+    for (const MethodOutcome& m : c.methods) {
+      if (m.method.name == name) shown.push_back(&m);
+    }
+  }
+  for (const MethodOutcome* m : shown) {
+    out += " " + m->method.name + " |";
+    rule += "---|";
+  }
+  out += "\n" + rule + "\n";
+  for (int i = 0; i < nominal.numParams(); ++i) {
+    const double scale = sim::isAngleParam(nominal, i) ? sim::kRadToDeg : 1e3;
+    out += "| " + sim::paramName(nominal, i) + (sim::isAngleParam(nominal, i) ? " (deg)" : " (mm)") + " | " +
+           displayValue(nominal, i, y_true[i]) + " |";
+    for (const MethodOutcome* m : shown) {
+      const Estimate& e = m->estimate;
+      const bool held = std::find(e.held.begin(), e.held.end(), i) != e.held.end();
+      std::string cell = displayValue(nominal, i, e.y[i]) +
+                         (held ? " (held)" : " +- " + sim::formatNumber("%.3f", std::sqrt(std::max(0.0, e.covariance(i, i))) * scale));
+      if (suspicious(e.y[i], g.params[static_cast<std::size_t>(i)].typical, &y_true[i])) cell = "**" + cell + "**";
+      out += " " + cell + " |";
+    }
+    out += "\n";
+  }
+  return out;
 }
 
 }  // namespace orbcal::calib

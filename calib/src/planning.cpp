@@ -94,18 +94,13 @@ std::unique_ptr<MeasurementModel> planningModel(const MeasurementSetup& setup, c
   if (setup.kind == MeasurementKind::kRange) {
     const PlaneRangeModel probe(km, setup.beam, setup.plane, {});
     const Eigen::VectorXd p = Eigen::VectorXd::Zero(probe.numParams());
-    std::vector<RangeObservation> obs;
+    std::vector<sim::JointSample> hitting;  // the beam not parallel to the plane
     for (const sim::JointSample& s : samples) {
-      const double h = probe.predictRange(p, s);
-      if (!std::isfinite(h)) continue;  // the beam parallel to the plane
-      RangeObservation o;
-      o.sample = s;
-      o.range_m = h;
-      o.repeats = setup.range_repeats;
-      o.sigma_m = setup.range_sigma_m;
-      obs.push_back(std::move(o));
+      if (std::isfinite(probe.predictRange(p, s))) hitting.push_back(s);
     }
-    return std::make_unique<PlaneRangeModel>(km, setup.beam, setup.plane, std::move(obs));
+    std::mt19937_64 unused;
+    return std::make_unique<PlaneRangeModel>(
+        km, setup.beam, setup.plane, simulateRanges(probe, p, hitting, setup.range_sigma_m, setup.range_repeats, unused, false));
   }
   const Eigen::VectorXd p = Eigen::VectorXd::Zero(km.layout.size());
   std::vector<MarkerObservation> poses;

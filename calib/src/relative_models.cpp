@@ -4,6 +4,7 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "orbcal/sim/configurations.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::calib {
@@ -255,6 +256,55 @@ Linearization PlaneRangeModel::linearize(int k, const Eigen::VectorXd& y) const 
   lin.H = row;
   lin.R = Eigen::MatrixXd::Constant(1, 1, o.sigma_m * o.sigma_m / static_cast<double>(o.repeats));
   return lin;
+}
+
+std::vector<sim::JointSample> rangeConfigurations(const PlaneRangeModel& model, const Eigen::VectorXd& p_in, int count,
+                                                  std::mt19937_64& rng, const RangeConfigurationSettings& settings) {
+  const Eigen::VectorXd p = p_in.size() == 0 ? Eigen::VectorXd::Zero(model.numParams()) : p_in;
+  if (p.size() != model.numParams()) throw std::invalid_argument("rangeConfigurations: p has the wrong size");
+  const sim::Arm& arm = model.model().arm;
+  const int kinematic = model.model().layout.size();
+  const Eigen::Vector3d unit_normal = model.planeAt(p).head<3>().normalized();
+  const int budget = settings.max_attempts > 0 ? settings.max_attempts : 2000 * std::max(1, count);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  std::vector<sim::JointSample> out;
+  for (int attempt = 0; static_cast<int>(out.size()) < count; ++attempt) {
+    if (attempt >= budget) {
+      throw std::runtime_error("rangeConfigurations: only " + std::to_string(out.size()) + " of " + std::to_string(count) +
+                               " configurations found in " + std::to_string(budget) + " attempts");
+    }
+    sim::JointSample s;
+    s.q_rad.resize(arm.numJoints());
+    for (int j = 0; j < arm.numJoints(); ++j) s.q_rad[j] = arm.lower_rad[j] + u01(rng) * (arm.upper_rad[j] - arm.lower_rad[j]);
+    if (settings.min_singular_value > 0.0 && sim::singularityMeasure(arm, s.q_rad, -1) < settings.min_singular_value) continue;
+    if (settings.beam_must_hit) {
+      const Eigen::Isometry3d T = sim::predictMarkerPose(model.model(), p.head(kinematic), s);
+      const double cosine = unit_normal.dot(T.linear() * model.beam().direction);
+      const double h = model.predictRange(p, s);
+      if (std::abs(cosine) < settings.min_cosine || h < settings.min_range_m || h > settings.max_range_m) continue;
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::vector<RangeObservation> simulateRanges(const PlaneRangeModel& model, const Eigen::VectorXd& p_true,
+                                             const std::vector<sim::JointSample>& samples, double sigma_m, int repeats,
+                                             std::mt19937_64& rng, bool noisy) {
+  if (!(sigma_m > 0.0)) throw std::invalid_argument("simulateRanges: sigma_m must be > 0");
+  if (repeats < 1) throw std::invalid_argument("simulateRanges: repeats must be >= 1");
+  std::normal_distribution<double> n01(0.0, 1.0);
+  std::vector<RangeObservation> out;
+  out.reserve(samples.size());
+  for (const sim::JointSample& s : samples) {
+    const double h = model.predictRange(p_true, s);
+    std::vector<double> readings(static_cast<std::size_t>(repeats), h);
+    if (noisy) {
+      for (double& r : readings) r += sigma_m * n01(rng);
+    }
+    out.push_back(averagedRange(s, readings, sigma_m));
+  }
+  return out;
 }
 
 }  // namespace orbcal::calib

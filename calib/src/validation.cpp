@@ -48,6 +48,7 @@ PoseErrors poseErrorsOf(const PlantSamples& plant, Predict predict) {
     const Eigen::Isometry3d T = predict(k);
     const Eigen::Isometry3d& truth = plant.base_T_flange_true[k];
     e.position_m.push_back((truth.translation() - T.translation()).norm());
+    e.position_xyz_m.push_back((truth.translation() - T.translation()).cwiseAbs());
     e.orientation_rad.push_back(sim::logSO3(truth.linear() * T.linear().transpose()).cwiseAbs());
   }
   return e;
@@ -74,6 +75,20 @@ ErrorSummary summarize(const PoseErrors& e) {
     s.orientation_avg_rad += e.orientation_rad[k] / n;
     s.orientation_max_rad = s.orientation_max_rad.cwiseMax(e.orientation_rad[k]);
   }
+  return s;
+}
+
+AxisErrorSummary summarizeAxes(const PoseErrors& e) {
+  AxisErrorSummary s;
+  const double n = static_cast<double>(e.position_xyz_m.size());
+  for (std::size_t k = 0; k < e.position_xyz_m.size(); ++k) {
+    s.position_rms_m += e.position_xyz_m[k].cwiseAbs2() / n;
+    s.orientation_rms_rad += e.orientation_rad[k].cwiseAbs2() / n;
+    s.position_max_m = s.position_max_m.cwiseMax(e.position_xyz_m[k]);
+    s.orientation_max_rad = s.orientation_max_rad.cwiseMax(e.orientation_rad[k]);
+  }
+  s.position_rms_m = s.position_rms_m.cwiseSqrt();
+  s.orientation_rms_rad = s.orientation_rms_rad.cwiseSqrt();
   return s;
 }
 

@@ -9,11 +9,13 @@ namespace orbcal::render {
 namespace {
 constexpr int kMaxNewtonIterations = 50;
 constexpr double kNewtonTol = 1e-14;  // normalised units: ~1e-11 px at f = 1400 px
+constexpr int kBicubicReachPx = 2;  // a lookup at x reads floor(x) - 1 .. floor(x) + 2; x is rounded to 1/32 px first
 constexpr int kBorderPx = 2;          // around the used area of the pinhole image: bicubic lookups read 4 x 4 pixels (-1..+2)
 }  // namespace
 
-bool undistortNormalized(const std::array<double, 5>& k, const Eigen::Vector2d& xd, Eigen::Vector2d* out) {
-  Eigen::Vector2d x = xd;
+bool undistortNormalized(const std::array<double, 5>& k, const Eigen::Vector2d& xd, Eigen::Vector2d* out,
+                         const Eigen::Vector2d* start) {
+  Eigen::Vector2d x = start ? *start : xd;
   for (int it = 0; it < kMaxNewtonIterations; ++it) {
     Eigen::Matrix2d J;
     const Eigen::Vector2d f = sim::distortNormalized(k, x, &J) - xd;
@@ -33,20 +35,32 @@ DistortionMap makeDistortionMap(const sim::Camera& camera, int max_side_px) {
   const int W = camera.width_px, H = camera.height_px;
   cv::Mat nx(H, W, CV_64FC1), ny(H, W, CV_64FC1);
   cv::Mat valid(H, W, CV_8UC1, cv::Scalar(0));
+  // Rows in parallel (each pixel on its own: the same map whatever the split); the extent per row.
+  cv::Mat extent(H, 4, CV_64FC1);  // xmin, xmax, ymin, ymax of the row's valid pixels
+  cv::parallel_for_(cv::Range(0, H), [&](const cv::Range& rows) {
+    for (int v = rows.start; v < rows.end; ++v) {
+      double* e = extent.ptr<double>(v);
+      e[0] = e[2] = 1e300, e[1] = e[3] = -1e300;
+      bool previous_valid = false;  // the pixel to the left: its ray starts Newton's method (2-3 steps instead of 5-6)
+      Eigen::Vector2d x;
+      for (int u = 0; u < W; ++u) {
+        const Eigen::Vector2d xd((u - camera.cx_px) / camera.fx_px, (v - camera.cy_px) / camera.fy_px);
+        const Eigen::Vector2d previous = x;
+        previous_valid = (previous_valid && undistortNormalized(camera.distortion, xd, &x, &previous)) ||
+                         undistortNormalized(camera.distortion, xd, &x);  // from xd when the neighbour's ray fails
+        if (!previous_valid) continue;
+        nx.at<double>(v, u) = x.x();
+        ny.at<double>(v, u) = x.y();
+        valid.at<unsigned char>(v, u) = 1;
+        e[0] = std::min(e[0], x.x()), e[1] = std::max(e[1], x.x());
+        e[2] = std::min(e[2], x.y()), e[3] = std::max(e[3], x.y());
+      }
+    }
+  });
   double xmin = 1e300, xmax = -1e300, ymin = 1e300, ymax = -1e300;
   for (int v = 0; v < H; ++v) {
-    for (int u = 0; u < W; ++u) {
-      const Eigen::Vector2d xd((u - camera.cx_px) / camera.fx_px, (v - camera.cy_px) / camera.fy_px);
-      Eigen::Vector2d x;
-      if (!undistortNormalized(camera.distortion, xd, &x)) continue;
-      nx.at<double>(v, u) = x.x();
-      ny.at<double>(v, u) = x.y();
-      valid.at<unsigned char>(v, u) = 1;
-      xmin = std::min(xmin, x.x());
-      xmax = std::max(xmax, x.x());
-      ymin = std::min(ymin, x.y());
-      ymax = std::max(ymax, x.y());
-    }
+    const double* e = extent.ptr<double>(v);
+    xmin = std::min(xmin, e[0]), xmax = std::max(xmax, e[1]), ymin = std::min(ymin, e[2]), ymax = std::max(ymax, e[3]);
   }
   DistortionMap m;
   m.pinhole = camera;
@@ -54,6 +68,7 @@ DistortionMap makeDistortionMap(const sim::Camera& camera, int max_side_px) {
   if (xmin > xmax) {  // nothing invertible: keep the camera, map everything to background
     m.map_x = cv::Mat(H, W, CV_32FC1, cv::Scalar(-1));
     m.map_y = cv::Mat(H, W, CV_32FC1, cv::Scalar(-1));
+    cv::convertMaps(m.map_x, m.map_y, m.map_fixed, m.map_fraction, CV_16SC2);
     return m;
   }
   double scale = 1.0;
@@ -75,12 +90,61 @@ DistortionMap makeDistortionMap(const sim::Camera& camera, int max_side_px) {
       m.map_y.at<float>(v, u) = ok ? static_cast<float>(m.pinhole.fy_px * ny.at<double>(v, u) + m.pinhole.cy_px) : -1.f;
     }
   }
+  cv::convertMaps(m.map_x, m.map_y, m.map_fixed, m.map_fraction, CV_16SC2);
+  m.tiles_x = (W + m.tile_px - 1) / m.tile_px;
+  m.tiles_y = (H + m.tile_px - 1) / m.tile_px;
+  m.tile_reads.assign(static_cast<std::size_t>(m.tiles_x) * m.tiles_y, cv::Rect());
+  for (int ty = 0; ty < m.tiles_y; ++ty) {
+    for (int tx = 0; tx < m.tiles_x; ++tx) {
+      float x0 = 1e30f, x1 = -1e30f, y0 = 1e30f, y1 = -1e30f;
+      for (int v = ty * m.tile_px; v < std::min(H, (ty + 1) * m.tile_px); ++v) {
+        for (int u = tx * m.tile_px; u < std::min(W, (tx + 1) * m.tile_px); ++u) {
+          const float x = m.map_x.at<float>(v, u), y = m.map_y.at<float>(v, u);
+          if (x < 0 || y < 0) continue;  // -1: no lookup (only the border value)
+          x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
+        }
+      }
+      if (x0 > x1) continue;
+      // Bicubic at x reads pixels floor(x) - 1 .. floor(x) + 2, x rounded to 1/32 px first: one more each side.
+      const int a = static_cast<int>(std::floor(x0)) - kBicubicReachPx, b = static_cast<int>(std::floor(x1)) + kBicubicReachPx + 1;
+      const int c = static_cast<int>(std::floor(y0)) - kBicubicReachPx, d = static_cast<int>(std::floor(y1)) + kBicubicReachPx + 1;
+      m.tile_reads[static_cast<std::size_t>(ty) * m.tiles_x + tx] = cv::Rect(a, c, b - a + 1, d - c + 1);
+    }
+  }
   return m;
+}
+
+std::vector<cv::Rect> outputStripsReading(const DistortionMap& map, const cv::Rect& pinhole_rect) {
+  std::vector<cv::Rect> strips;
+  if (pinhole_rect.empty()) return strips;
+  const int W = map.map_x.cols, H = map.map_x.rows;
+  for (int ty = 0; ty < map.tiles_y; ++ty) {
+    int tx0 = map.tiles_x, tx1 = -1;
+    for (int tx = 0; tx < map.tiles_x; ++tx) {
+      if ((map.tile_reads[static_cast<std::size_t>(ty) * map.tiles_x + tx] & pinhole_rect).empty()) continue;
+      tx0 = std::min(tx0, tx), tx1 = tx;
+    }
+    if (tx1 < 0) continue;
+    const int x0 = tx0 * map.tile_px, y0 = ty * map.tile_px;
+    strips.emplace_back(x0, y0, std::min(W, (tx1 + 1) * map.tile_px) - x0, std::min(H, (ty + 1) * map.tile_px) - y0);
+  }
+  return strips;
+}
+
+cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, int background, const cv::Rect& pinhole_rect) {
+  cv::Mat out(map.map_x.size(), CV_8UC1, cv::Scalar(background));
+  for (const cv::Rect& r : outputStripsReading(map, pinhole_rect)) {
+    cv::Mat dst = out(r);
+    cv::remap(pinhole_image, dst, map.map_fixed(r), map.map_fraction(r), cv::INTER_CUBIC, cv::BORDER_CONSTANT,
+              cv::Scalar::all(background));
+  }
+  return out;
 }
 
 cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, double background) {
   cv::Mat out;
-  cv::remap(pinhole_image, out, map.map_x, map.map_y, cv::INTER_CUBIC, cv::BORDER_CONSTANT, cv::Scalar::all(background));
+  cv::remap(pinhole_image, out, map.map_fixed, map.map_fraction, cv::INTER_CUBIC, cv::BORDER_CONSTANT,
+            cv::Scalar::all(background));
   return out;
 }
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 #include <stdexcept>
 
 #include "orbcal/render/degrade.hpp"
@@ -22,6 +23,8 @@ constexpr double kNearM = 0.02;
 constexpr double kFarM = 2000.0;
 constexpr int kShadowMapPx = 2048;
 constexpr int kFloatsPerVertex = 7;  // position (3), normal (3), albedo (1)
+constexpr int kCropPadPx = 2;          // around the projected boxes: float rounding of GL's vertex transform, MSAA samples
+constexpr double kCropMinDepthM = 2.0 * kNearM;  // box corners nearer than this: the whole frame is drawn
 
 const char* kVertexShader = R"glsl(
 #version 330 core
@@ -57,7 +60,6 @@ uniform float u_specular;
 uniform float u_shininess;
 uniform float u_exposure;
 uniform float u_back_albedo; // < 0: same as the front
-uniform int u_shadows;
 uniform sampler2DShadow u_shadow_map;
 uniform int u_board_filter;     // 0: the vertex colour; 1: the pattern box-filtered over the pixel (analytic)
 uniform vec4 u_squares;         // squared area of the board in squares: x0, y0, x1, y1
@@ -82,7 +84,9 @@ float filteredChecker() {
   return mix(u_white, u_black, black);
 }
 float sunVisibility() {
-  if (u_shadows == 0) return 1.0;
+#if !SHADOWS  // a compile-time switch: llvmpipe runs both sides of a branch, so a uniform one would still sample 9 times
+  return 1.0;
+#else
   if (any(lessThan(v_light, vec3(0.0))) || any(greaterThan(v_light, vec3(1.0)))) return 1.0;
   vec2 texel = 1.0 / vec2(textureSize(u_shadow_map, 0));
   float lit = 0.0;
@@ -90,6 +94,7 @@ float sunVisibility() {
     for (int dx = -1; dx <= 1; ++dx)
       lit += texture(u_shadow_map, vec3(v_light.xy + vec2(dx, dy) * texel, v_light.z - 2e-4));
   return lit / 9.0;  // 3 x 3 percentage-closer filtering
+#endif
 }
 void main() {
   vec3 n = normalize(v_normal);
@@ -171,7 +176,7 @@ struct Fbo {
   GLuint fbo = 0, colour = 0, depth = 0;
 };
 
-/// A framebuffer with RGBA8 colour and 24-bit depth renderbuffers; samples = 0 for single-sampled.
+/// A framebuffer with R8 colour and 24-bit depth renderbuffers; samples = 0 for single-sampled.
 /// Returns an fbo of 0 (everything deleted) when incomplete.
 Fbo makeFbo(int samples, int w, int h) {
   Fbo f;
@@ -179,7 +184,7 @@ Fbo makeFbo(int samples, int w, int h) {
   glBindFramebuffer(GL_FRAMEBUFFER, f.fbo);
   glGenRenderbuffers(1, &f.colour);
   glBindRenderbuffer(GL_RENDERBUFFER, f.colour);
-  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_RGBA8, w, h);
+  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_R8, w, h);  // grey: a quarter of RGBA8's memory traffic
   glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, f.colour);
   glGenRenderbuffers(1, &f.depth);
   glBindRenderbuffer(GL_RENDERBUFFER, f.depth);
@@ -243,11 +248,18 @@ struct Drawable {
   GLsizei count = 0;
   float back_albedo = -1.f;
   bool casts_shadow = false;
+  std::array<Eigen::Vector3d, 8> box;  ///< corners of the axis-aligned box (board frame) holding every vertex
 };
 
 Drawable upload(const std::vector<float>& v) {
   Drawable d;
   d.count = static_cast<GLsizei>(v.size() / kFloatsPerVertex);
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = Eigen::Vector3d::Constant(-1e300);
+  for (std::size_t i = 0; i + kFloatsPerVertex <= v.size(); i += kFloatsPerVertex) {
+    const Eigen::Vector3d p(v[i], v[i + 1], v[i + 2]);  // the float positions GL draws
+    lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  }
+  for (int k = 0; k < 8; ++k) d.box[k] = Eigen::Vector3d(k & 1 ? hi.x() : lo.x(), k & 2 ? hi.y() : lo.y(), k & 4 ? hi.z() : lo.z());
   glGenVertexArrays(1, &d.vao);
   glBindVertexArray(d.vao);
   glGenBuffers(1, &d.vbo);
@@ -300,6 +312,7 @@ struct BoardRenderer::Impl {
   sim::Camera pinhole;  // what GL draws before supersampling
   sim::Camera gl_camera;  // pinhole scaled by the supersampling factor
   int samples = 0;
+  unsigned char background_dn = 0;  // render.background as GL stores it (8 bits)
   Fbo msaa, single;
   GLuint program = 0, shadow_program = 0;
   GLuint shadow_fbo = 0, shadow_tex = 0;
@@ -366,9 +379,15 @@ struct BoardRenderer::Impl {
                            "); rendering without multisampling");
       }
     }
+    // The grey level GL stores for the background colour: the pixels never drawn get the same.
+    glBindFramebuffer(GL_FRAMEBUFFER, single.fbo);
+    const float bg = static_cast<float>(settings.options.background);
+    glClearColor(bg, bg, bg, 1.f);
+    glClear(GL_COLOR_BUFFER_BIT);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadPixels(0, 0, 1, 1, GL_RED, GL_UNSIGNED_BYTE, &background_dn);
     checkGl("framebuffer setup");
 
-    program = link(kVertexShader, kFragmentShader);
     shadow_program = link(kShadowVertexShader, kShadowFragmentShader);
     Drawable board = upload(boardVertices(scene.board, settings.options));
     board.back_albedo = static_cast<float>(settings.options.board_back);
@@ -380,6 +399,9 @@ struct BoardRenderer::Impl {
     }
     checkGl("geometry upload");
     if (!caster_points.empty() && settings.lighting.sun_intensity > 0) buildShadowMap(caster_points);
+    std::string fragment = kFragmentShader;  // the switches go right after the #version line
+    fragment.insert(fragment.find('\n', fragment.find("#version")) + 1, std::string("#define SHADOWS ") + (shadows ? "1" : "0") + "\n");
+    program = link(kVertexShader, fragment.c_str());
   }
 
   ~Impl() {
@@ -463,19 +485,57 @@ struct BoardRenderer::Impl {
     shadows = true;
   }
 
-  cv::Mat renderPinhole(const Eigen::Isometry3d& camera_T_board) {
+  /// The pixels (OpenCV convention, gl_camera's image) that anything drawn can cover, seen from
+  /// camera_T_board: the bounding box of every drawable's box corners, projected, widened by kCropPadPx
+  /// and aligned to the supersampling blocks. std::nullopt (the whole frame) when any box corner is not
+  /// beyond the near plane, where the projection of a box no longer bounds its drawing. An empty
+  /// rectangle when nothing can be seen.
+  std::optional<cv::Rect> coveredRect(const Eigen::Isometry3d& camera_T_board) const {
+    const int W = gl_camera.width_px, H = gl_camera.height_px, s = settings.options.supersample;
+    double umin = 1e300, umax = -1e300, vmin = 1e300, vmax = -1e300;
+    for (const Drawable& d : drawables) {
+      for (const Eigen::Vector3d& p : d.box) {
+        const Eigen::Vector3d pc = camera_T_board * p;
+        if (!(pc.z() > kCropMinDepthM)) return std::nullopt;
+        const Eigen::Vector2d uv = sim::project(gl_camera, pc);
+        umin = std::min(umin, uv.x()), umax = std::max(umax, uv.x());
+        vmin = std::min(vmin, uv.y()), vmax = std::max(vmax, uv.y());
+      }
+    }
+    // Pixel u (centre at u) spans [u - 0.5, u + 0.5]: it can be touched when u + 0.5 > umin and u - 0.5 < umax.
+    const auto lo = [&](double a, int size) {
+      const double x = std::floor(a - 0.5) - kCropPadPx;
+      return x <= 0 ? 0 : x >= size ? size : static_cast<int>(x) / s * s;
+    };
+    const auto hi = [&](double b, int size) {  // exclusive
+      const double x = std::ceil(b + 0.5) + kCropPadPx + 1;
+      return x <= 0 ? 0 : x >= size ? size : (static_cast<int>(x) + s - 1) / s * s;
+    };
+    const int x0 = lo(umin, W), x1 = std::max(x0, hi(umax, W)), y0 = lo(vmin, H), y1 = std::max(y0, hi(vmax, H));
+    return cv::Rect(x0, y0, x1 - x0, y1 - y0);
+  }
+
+  /// The pinhole image (pinhole camera's size): `rect` (gl_camera pixels, image rows going down) drawn,
+  /// read back and averaged down; everything else background_dn.
+  cv::Mat renderPinhole(const Eigen::Isometry3d& camera_T_board, const cv::Rect& rect) {
+    const int s = settings.options.supersample;
+    cv::Mat img(pinhole.height_px, pinhole.width_px, CV_8UC1, cv::Scalar(background_dn));
+    if (rect.empty()) return img;
     context.makeCurrent();
     const int W = gl_camera.width_px, H = gl_camera.height_px;
+    const int gl_y = H - rect.y - rect.height;  // GL rows go up
     glBindFramebuffer(GL_FRAMEBUFFER, samples > 0 ? msaa.fbo : single.fbo);
     glViewport(0, 0, W, H);
     const float bg = static_cast<float>(settings.options.background);
     glClearColor(bg, bg, bg, 1.f);
     glClearDepth(1.0);
-    glEnable(GL_DEPTH_TEST);
     glDepthFunc(GL_LESS);
     glDisable(GL_CULL_FACE);
     if (samples > 0) glEnable(GL_MULTISAMPLE);
-    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    // The board alone needs no depth buffer: its triangles never overlap (each pixel is drawn once).
+    const bool depth = drawables.size() > 1;
+    if (depth) glEnable(GL_DEPTH_TEST); else glDisable(GL_DEPTH_TEST);
+    glClear(depth ? GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT : GL_COLOR_BUFFER_BIT);
 
     const Eigen::Matrix4d F = Eigen::Vector4d(1, -1, -1, 1).asDiagonal();  // OpenCV camera -> GL eye
     const Eigen::Matrix4f clip_T_board = (glProjection(gl_camera, kNearM, kFarM) * F * camera_T_board.matrix()).cast<float>();
@@ -493,7 +553,6 @@ struct BoardRenderer::Impl {
     glUniform1f(loc("u_specular"), static_cast<float>(l.specular_strength));
     glUniform1f(loc("u_shininess"), static_cast<float>(l.shininess));
     glUniform1f(loc("u_exposure"), static_cast<float>(settings.degradations.exposure));
-    glUniform1i(loc("u_shadows"), shadows ? 1 : 0);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, shadow_tex);
     glUniform1i(loc("u_shadow_map"), 0);
@@ -513,22 +572,28 @@ struct BoardRenderer::Impl {
     if (samples > 0) {
       glBindFramebuffer(GL_READ_FRAMEBUFFER, msaa.fbo);
       glBindFramebuffer(GL_DRAW_FRAMEBUFFER, single.fbo);
-      glBlitFramebuffer(0, 0, W, H, 0, 0, W, H, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+      glBlitFramebuffer(rect.x, gl_y, rect.x + rect.width, gl_y + rect.height, rect.x, gl_y, rect.x + rect.width,
+                        gl_y + rect.height, GL_COLOR_BUFFER_BIT, GL_NEAREST);
     }
     glBindFramebuffer(GL_READ_FRAMEBUFFER, single.fbo);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    cv::Mat flipped(H, W, CV_8UC1);
-    glReadPixels(0, 0, W, H, GL_RED, GL_UNSIGNED_BYTE, flipped.data);
+    cv::Mat flipped(rect.height, rect.width, CV_8UC1);
+    glReadPixels(rect.x, gl_y, rect.width, rect.height, GL_RED, GL_UNSIGNED_BYTE, flipped.data);
     checkGl("render");
-    cv::Mat img;
-    cv::flip(flipped, img, 0);  // GL rows go up, image rows go down
-    if (settings.options.supersample > 1) {
-      cv::Mat small;
-      cv::resize(img, small, cv::Size(pinhole.width_px, pinhole.height_px), 0, 0, cv::INTER_AREA);
-      img = small;
+    if (s == 1) {
+      cv::Mat dst = img(rect);
+      cv::flip(flipped, dst, 0);  // GL rows go up, image rows go down
+    } else {
+      // rect is aligned to s x s blocks, so averaging it alone gives the same pixels as the whole frame.
+      cv::Mat up, dst = img(cv::Rect(rect.x / s, rect.y / s, rect.width / s, rect.height / s));
+      cv::flip(flipped, up, 0);
+      cv::resize(up, dst, dst.size(), 0, 0, cv::INTER_AREA);
     }
     return img;
   }
+
+  /// The whole frame's rectangle (gl_camera pixels).
+  cv::Rect fullFrame() const { return cv::Rect(0, 0, gl_camera.width_px, gl_camera.height_px); }
 };
 
 BoardRenderer::BoardRenderer(const sim::Scene& scene, const RenderSettings& settings)
@@ -536,17 +601,39 @@ BoardRenderer::BoardRenderer(const sim::Scene& scene, const RenderSettings& sett
 
 BoardRenderer::~BoardRenderer() = default;
 
+BoardRenderer::Drawn BoardRenderer::draw(const Eigen::Isometry3d& camera_T_board) {
+  Impl& m = *impl_;
+  std::optional<cv::Rect> rect;
+  if (m.settings.options.crop_to_scene) rect = m.coveredRect(camera_T_board);
+  const cv::Rect drawn = rect ? *rect : m.fullFrame();
+  const int s = m.settings.options.supersample;  // drawn is aligned to s x s blocks
+  return Drawn{m.renderPinhole(camera_T_board, drawn), cv::Rect(drawn.x / s, drawn.y / s, drawn.width / s, drawn.height / s),
+               rect.has_value()};
+}
+
+namespace {
+/// The clean image (camera size) from a drawn one: the lens distortion applied, if any.
+cv::Mat undistortedToCamera(const DistortionMap* map, const BoardRenderer::Drawn& d, unsigned char background_dn) {
+  if (!map) return d.pinhole;
+  if (!d.cropped) return applyDistortion(*map, d.pinhole, static_cast<double>(background_dn));
+  return applyDistortion(*map, d.pinhole, background_dn, d.rect);
+}
+}  // namespace
+
+cv::Mat BoardRenderer::finish(const Drawn& drawn, std::uint64_t seed, std::uint64_t stream) const {
+  const Impl& m = *impl_;
+  const cv::Mat clean = undistortedToCamera(m.distorted ? &m.distortion : nullptr, drawn, m.background_dn);
+  if (!m.settings.degradations.any()) return clean;
+  std::mt19937_64 rng = sim::makeRng(seed, stream);
+  return applyDegradations(clean, m.settings.degradations, rng);
+}
+
 cv::Mat BoardRenderer::renderClean(const Eigen::Isometry3d& camera_T_board) {
-  cv::Mat img = impl_->renderPinhole(camera_T_board);
-  if (impl_->distorted) img = applyDistortion(impl_->distortion, img, 255.0 * impl_->settings.options.background);
-  return img;
+  return undistortedToCamera(impl_->distorted ? &impl_->distortion : nullptr, draw(camera_T_board), impl_->background_dn);
 }
 
 cv::Mat BoardRenderer::render(const Eigen::Isometry3d& camera_T_board, std::uint64_t seed, std::uint64_t stream) {
-  const cv::Mat clean = renderClean(camera_T_board);
-  if (!impl_->settings.degradations.any()) return clean;
-  std::mt19937_64 rng = sim::makeRng(seed, stream);
-  return applyDegradations(clean, impl_->settings.degradations, rng);
+  return finish(draw(camera_T_board), seed, stream);
 }
 
 int BoardRenderer::msaaSamples() const { return impl_->samples; }

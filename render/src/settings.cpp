@@ -77,12 +77,13 @@ RenderOptions parseOptions(const sim::ConfigNode& n) {
   RenderOptions o;
   if (!n.defined()) return o;
   n.requireOnlyKeys({"msaa_samples", "supersample", "board_black", "board_white", "board_back", "background",
-                     "board_filter"});
+                     "board_filter", "crop_to_scene"});
   o.msaa_samples = n.optional("msaa_samples").asInt(o.msaa_samples);
   if (o.msaa_samples < 0 || o.msaa_samples > 64) n["msaa_samples"].fail("must be within 0..64");
   o.supersample = n.optional("supersample").asInt(o.supersample);
   if (o.supersample < 1 || o.supersample > 8) n["supersample"].fail("must be within 1..8");
   o.board_filter = n.optional("board_filter").asBool(o.board_filter);
+  o.crop_to_scene = n.optional("crop_to_scene").asBool(o.crop_to_scene);
   o.board_black = inRange(n.optional("board_black"), o.board_black, 0.0, 1.0, "within [0, 1]");
   o.board_white = inRange(n.optional("board_white"), o.board_white, 0.0, 1.0, "within [0, 1]");
   o.board_back = inRange(n.optional("board_back"), o.board_back, 0.0, 1.0, "within [0, 1]");

@@ -1,5 +1,6 @@
 #include "orbcal/sim/errors.hpp"
 
+#include <cmath>
 #include <cstdio>
 
 #include "orbcal/sim/config.hpp"
@@ -40,14 +41,23 @@ Eigen::VectorXd randomErrors(const Arm& arm, double angle_sigma_rad, double leng
   return y;
 }
 
+Eigen::VectorXd thermalErrors(const Arm& arm, double angle_sigma_rad, double length_per_metre, std::uint64_t seed) {
+  Eigen::VectorXd y = randomErrors(arm, angle_sigma_rad, 0.0, seed);
+  for (int j = 0; j < arm.numJoints(); ++j) {
+    y[paramIndex(arm, j, kA)] = length_per_metre * std::abs(arm.joints[j].a_m);
+    y[paramIndex(arm, j, kD)] = length_per_metre * std::abs(arm.joints[j].d_m);
+  }
+  return y;
+}
+
 Eigen::VectorXd makeErrorSet(const Arm& arm, const ErrorSetSpec& spec, const std::string& what) {
   if (spec.name == "table3") {
     if (arm.numJoints() != 7) {
-      throw InputError(what + ": error set 'table3' is seed 000's for a 7-joint arm; " + arm.source + " has " +
+      throw InputError(what + ": error set 'table3' is Wang et al. 2023's, for a 7-joint arm; " + arm.source + " has " +
                        std::to_string(arm.numJoints()) + " joints");
     }
     if (arm.paramsPerJoint() != 4) {
-      throw InputError(what + ": error set 'table3' is seed 000's 4 errors per joint; " + arm.source + " is " +
+      throw InputError(what + ": error set 'table3' is Wang et al. 2023's 4 errors per joint; " + arm.source + " is " +
                        conventionName(arm.convention) + " DH with " + std::to_string(arm.paramsPerJoint()) +
                        " (use random, zero or an error-set file)");
     }

@@ -95,20 +95,12 @@ std::vector<calib::RangeObservation> ranges(const sim::KinematicModel& km, const
                                             const calib::Plane& plane, const Eigen::VectorXd& p, int n, std::mt19937_64& rng,
                                             double sigma = 0.0, int repeats = 1) {
   const calib::PlaneRangeModel probe(km, beam, plane, {});
-  std::normal_distribution<double> n01(0.0, 1.0);
-  std::vector<calib::RangeObservation> out;
-  const Eigen::Vector4d w = probe.planeAt(p);
-  while (static_cast<int>(out.size()) < n) {
-    const sim::JointSample s = randomSample(km.arm, rng);
-    const Eigen::Isometry3d T = sim::predictMarkerPose(km, p.head(km.layout.size()), s);
-    const double cosine = w.head<3>().normalized().dot(T.linear() * beam.direction);
-    const double h = probe.predictRange(p, s);
-    if (std::abs(cosine) < 0.3 || h < 0.05 || h > 40.0) continue;
-    std::vector<double> readings;
-    for (int r = 0; r < repeats; ++r) readings.push_back(h + sigma * n01(rng));
-    out.push_back(calib::averagedRange(s, readings, sigma > 0.0 ? sigma : 1e-4));
-  }
-  return out;
+  calib::RangeConfigurationSettings settings;
+  settings.min_range_m = 0.05;
+  settings.max_range_m = 40.0;
+  settings.min_singular_value = 0.0;
+  const auto samples = calib::rangeConfigurations(probe, p, n, rng, settings);
+  return calib::simulateRanges(probe, p, samples, sigma > 0.0 ? sigma : 1e-4, repeats, rng, sigma > 0.0);
 }
 
 }  // namespace

@@ -189,3 +189,47 @@ TEST_CASE("calibrate --model dr: frame-free pairs of camera poses; a wrong base_
   const tools::CalibrateResult pose_wrong = tools::runCalibrate(pose);
   CHECK((pose_wrong.estimate.y - pose_right.estimate.y).cwiseAbs().maxCoeff() > 1e-4);
 }
+
+TEST_CASE("calibrate: an inconsistent fit is refused, named, and writes no robot file unless --accept-worse",
+          "[e2e][calibrate]") {
+  render::DatasetJob job;
+  job.scene = test::sourcePath("scenes/quick_scene.yaml");
+  job.count = 40;
+  job.out = test::tempDir("calibrate-refuse") + "/dataset";
+  render::renderDataset(job);
+  tools::CalibrateOptions o;
+  o.dataset = job.out;
+  o.quiet = true;
+  o.out = job.out + "/../right";
+  const tools::CalibrateResult right = tools::runCalibrate(o);
+  INFO(calib::formatConsistency(right.consistency));
+  CHECK(right.consistency.consistent());  // the vision covariance plus the joint noise is honest
+  CHECK(right.refusals.empty());
+  CHECK(right.written);
+  // Per-image errors (a header and one row per usable image) and the report's figures (python3 with
+  // matplotlib is installed by tools/install-deps.sh).
+  const std::string rows = slurp(o.out + "/samples.csv");
+  CHECK(rows.rfind("image,set,before_mm,after_mm,outlier\n", 0) == 0);
+  CHECK(static_cast<int>(std::count(rows.begin(), rows.end(), '\n')) == 1 + right.usable);
+  CHECK(std::filesystem::exists(o.out + "/samples.png"));
+  CHECK(std::filesystem::exists(o.out + "/parameters.png"));
+
+  misplaceBoard(job.out);
+  o.out = job.out + "/../wrong";
+  const tools::CalibrateResult wrong = tools::runCalibrate(o);
+  CHECK_FALSE(wrong.consistency.consistent());
+  REQUIRE_FALSE(wrong.refusals.empty());
+  // The frames explain it: with both estimated the fit is consistent again.
+  CHECK(wrong.likely_cause.find("board or camera mount") != std::string::npos);
+  CHECK_FALSE(wrong.written);
+  CHECK_FALSE(std::filesystem::exists(o.out + "/robot_calibrated.yaml"));
+  const std::string report = slurp(o.out + "/report.md");
+  CHECK(report.find("**This calibration is not to be trusted as it is:**") < report.find("## Images"));
+
+  o.accept_worse = true;
+  o.out = job.out + "/../accepted";
+  const tools::CalibrateResult accepted = tools::runCalibrate(o);
+  CHECK_FALSE(accepted.refusals.empty());
+  CHECK(accepted.written);
+  CHECK(std::filesystem::exists(o.out + "/robot_calibrated.yaml"));
+}

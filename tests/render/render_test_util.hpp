@@ -2,14 +2,21 @@
 // Shared by the render tests: camera poses that look at the board, and corner detection against the
 // ground truth (cv::projectPoints of the true corners).
 #include <Eigen/Geometry>
+#include <filesystem>
+#include <fstream>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "orbcal/render/renderer.hpp"
 #include "orbcal/sim/scene.hpp"
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "test_util.hpp"
 
 namespace orbcal::test {
 
@@ -37,6 +44,26 @@ inline cv::Mat renderCleanWith(const sim::Scene& scene, const render::RenderSett
                                const Eigen::Isometry3d& camera_T_board) {
   render::BoardRenderer r(scene, settings);
   return r.renderClean(camera_T_board);
+}
+
+/// The default scene's text with its `meshes: []` replaced by `meshes_yaml`.
+inline std::string defaultSceneWithMeshes(const std::string& meshes_yaml) {
+  std::string text = sim::readTextSource(sim::kDefaultScene);
+  const std::string marker = "meshes: []";
+  const auto at = text.find(marker);
+  if (at == std::string::npos) throw std::runtime_error("the default scene has no '" + marker + "' any more");
+  return text.replace(at, marker.size(), meshes_yaml);
+}
+
+/// defaultSceneWithMeshes(meshes_yaml) + extra, written to dir/scene.yaml, with the test plate copied to
+/// dir/meshes/occluder_plate.obj (so the scene refers to it by a relative path). Returns the scene's path.
+inline std::string writeSceneWithPlate(const std::string& dir, const std::string& meshes_yaml, const std::string& extra = "") {
+  std::filesystem::create_directories(dir + "/meshes");
+  std::filesystem::copy_file(sourcePath("scenes/meshes/occluder_plate.obj"), dir + "/meshes/occluder_plate.obj",
+                             std::filesystem::copy_options::overwrite_existing);
+  const std::string path = dir + "/scene.yaml";
+  std::ofstream(path) << defaultSceneWithMeshes(meshes_yaml) + extra;
+  return path;
 }
 
 inline cv::Mat toCvMat(const Eigen::Matrix3d& R) {

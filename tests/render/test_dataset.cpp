@@ -12,6 +12,7 @@
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "render_test_util.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
@@ -194,16 +195,12 @@ TEST_CASE("a dataset with meshes stands alone: meshes copied in, compared on res
   const std::string plate = readBytes(test::sourcePath("scenes/meshes/occluder_plate.obj"));
   std::ofstream(scene_dir + "/meshes/occluder_plate.obj", std::ios::binary) << plate;
   std::ofstream(other_dir + "/occluder_plate.obj", std::ios::binary) << plate << "# another copy\n";
-  std::string text = sim::readTextSource(sim::kDefaultScene);
-  const std::string marker = "meshes: []";
-  REQUIRE(text.find(marker) != std::string::npos);
-  text.replace(text.find(marker), marker.size(),
-               "meshes:\n"
-               "  - file: meshes/occluder_plate.obj\n"
-               "    pose: {xyz_m: [0.32, 0.2, -0.3], rpy_deg: [0, 0, 0]}\n"
-               "  - {file: \"" + other_dir + "/occluder_plate.obj\", pose: {xyz_m: [0.1, 0.3, -0.25], rpy_deg: [0, 0, 30]}}\n");
   const std::string scene = scene_dir + "/scene.yaml";
-  std::ofstream(scene) << text;
+  std::ofstream(scene) << test::defaultSceneWithMeshes(
+      "meshes:\n"
+      "  - file: meshes/occluder_plate.obj\n"
+      "    pose: {xyz_m: [0.32, 0.2, -0.3], rpy_deg: [0, 0, 0]}\n"
+      "  - {file: \"" + other_dir + "/occluder_plate.obj\", pose: {xyz_m: [0.1, 0.3, -0.25], rpy_deg: [0, 0, 30]}}\n");
 
   render::DatasetJob job = smallJob(scene, dir + "/ds");
   job.count = 2;

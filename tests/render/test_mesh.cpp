@@ -19,23 +19,6 @@ constexpr int kEdgePx = 3;            // pixels this close to the silhouette may
 constexpr int kPlateUniformityDn = 4;  // the plate's face: flat, one normal; only the highlight varies
 constexpr int kMinHiddenPx = 2000;
 
-/// The default scene with `meshes:` replaced, written to dir/scene.yaml, with the test meshes copied
-/// to dir/meshes/ (so the scene refers to them by a relative path).
-std::string writeScene(const std::string& dir, const std::string& meshes_yaml, const std::string& extra = "") {
-  std::string text = sim::readTextSource(sim::kDefaultScene);
-  const std::string marker = "meshes: []";
-  const auto at = text.find(marker);
-  REQUIRE(at != std::string::npos);
-  text.replace(at, marker.size(), meshes_yaml);
-  text += extra;
-  std::filesystem::create_directories(dir + "/meshes");
-  std::filesystem::copy_file(test::sourcePath("scenes/meshes/occluder_plate.obj"), dir + "/meshes/occluder_plate.obj",
-                             std::filesystem::copy_options::overwrite_existing);
-  const std::string path = dir + "/scene.yaml";
-  std::ofstream(path) << text;
-  return path;
-}
-
 std::string plateYaml(bool casts_shadow) {
   return std::string("meshes:\n"
                      "  - file: meshes/occluder_plate.obj\n"
@@ -65,7 +48,7 @@ cv::Mat plateSilhouette(const sim::Scene& scene, const Eigen::Isometry3d& camera
 
 TEST_CASE("an Assimp mesh in front of the board hides exactly the pixels it covers", "[render][mesh]") {
   const std::string dir = test::tempDir("render-mesh-occlusion");
-  const std::string scene_path = writeScene(dir, plateYaml(false));
+  const std::string scene_path = test::writeSceneWithPlate(dir, plateYaml(false));
   const sim::Scene scene = sim::loadScene(scene_path);
   const render::RenderSettings with_mesh = render::loadRenderSettings(scene_path);
   REQUIRE(with_mesh.meshes.size() == 1);
@@ -100,7 +83,7 @@ TEST_CASE("an Assimp mesh in front of the board hides exactly the pixels it cove
 
 TEST_CASE("a mesh casts a shadow from the sun onto the board", "[render][mesh][shadow]") {
   const std::string dir = test::tempDir("render-mesh-shadow");
-  const std::string lit_path = writeScene(dir, plateYaml(false));
+  const std::string lit_path = test::writeSceneWithPlate(dir, plateYaml(false));
   const sim::Scene scene = sim::loadScene(lit_path);
   const render::RenderSettings no_shadow = render::loadRenderSettings(lit_path);
   render::RenderSettings shadow = no_shadow;
@@ -120,7 +103,7 @@ TEST_CASE("a mesh casts a shadow from the sun onto the board", "[render][mesh][s
 TEST_CASE("scene rendering sections: misspelt keys and missing meshes name the file and the key", "[render][settings]") {
   const std::string dir = test::tempDir("render-settings");
   {
-    const std::string path = writeScene(dir, "meshes: []\nlighting_extra: 1\n");
+    const std::string path = test::writeSceneWithPlate(dir, "meshes: []\nlighting_extra: 1\n");
     // sim::loadScene rejects unknown top-level keys; the render sections' own keys are checked here.
     REQUIRE_THROWS_AS(sim::loadScene(path), sim::InputError);
   }
@@ -132,7 +115,7 @@ TEST_CASE("scene rendering sections: misspelt keys and missing meshes name the f
     REQUIRE_THROWS_WITH(render::loadRenderSettings(path), Contains(path) && Contains("lighting.ambiant") && Contains("unknown key"));
   }
   {
-    const std::string path = writeScene(dir, "meshes:\n  - {file: meshes/no_such_truss.obj}\n");
+    const std::string path = test::writeSceneWithPlate(dir, "meshes:\n  - {file: meshes/no_such_truss.obj}\n");
     const sim::Scene scene = sim::loadScene(path);
     const render::RenderSettings settings = render::loadRenderSettings(path);
     REQUIRE_THROWS_WITH(render::BoardRenderer(scene, settings),
@@ -174,7 +157,9 @@ TEST_CASE("a rendered image too large for OpenGL names the camera size and rende
 
 TEST_CASE("the built-in default scene's rendering sections load", "[render][settings]") {
   const render::RenderSettings s = render::loadRenderSettings(sim::kDefaultScene);
-  CHECK(s.options.msaa_samples == 4);
+  CHECK(s.options.msaa_samples == 0);  // the board filter anti-aliases the pattern (issue 11)
+  CHECK(s.options.board_filter);
+  CHECK(s.options.crop_to_scene);
   CHECK(s.meshes.empty());
   CHECK(!s.degradations.any());
   CHECK(s.lighting.to_sun_base.norm() == Approx(1.0));

@@ -81,5 +81,20 @@ std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, con
 std::string formatMethodsTable(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd& y_true);
 /// The Table 4 layout (validation.hpp) of a comparison.
 std::string formatComparisonTable4(const Comparison& c);
+/// A short summary, one row per model (initial, each method, floor): average and extreme position error,
+/// over the floor, average orientation X/Y/Z, improvement. Markdown, mm and deg.
+std::string formatComparisonSummary(const Comparison& c);
+/// Per method, its own Table 4 layout (initial against that method), for the detail below a summary.
+std::string formatComparisonDetail(const Comparison& c);
+
+/// Estimates not to be trusted: with the truth known, those off by more than 10 times the larger of the
+/// truth and a tenth of the parameter's typical magnitude (sim::geometryBlock: 1 deg, 5 mm); without it,
+/// those beyond 10 typical magnitudes (a DH error of 10 deg or 50 mm is a wrong model, not an error).
+/// One entry per parameter: "a1 = +143.032 mm (injected +0.500)".
+std::vector<std::string> suspiciousEstimates(const sim::Arm& nominal, const Estimate& e, const Eigen::VectorXd* y_true);
+/// Identified against injected, one row per parameter, a column per method named (deg and mm, +- 1 sigma);
+/// suspicious estimates in bold.
+std::string formatEstimatesAgainstTruth(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd& y_true,
+                                        const std::vector<std::string>& methods);
 
 }  // namespace orbcal::calib

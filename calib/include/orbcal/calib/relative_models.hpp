@@ -14,6 +14,7 @@
 //
 // Both follow model.hpp's convention: nu_k(y) = z_k - h_k(p0 + y), H_k = d h_k / d y, R_k = cov(nu_k);
 // y is the change from p0 (zero: the starting model). Lengths in m, angles in rad.
+#include <random>
 #include <vector>
 
 #include "orbcal/calib/marker_model.hpp"
@@ -167,6 +168,8 @@ class PlaneRangeModel : public MeasurementModel {
   /// [n; f] at full parameters p.
   Eigen::Vector4d planeAt(const Eigen::VectorXd& p) const;
   const sim::KinematicModel& model() const { return model_; }
+  const LaserBeam& beam() const { return beam_; }
+  const Plane& plane() const { return plane_; }
   const std::vector<RangeObservation>& observations() const { return observations_; }
 
  private:
@@ -179,5 +182,32 @@ class PlaneRangeModel : public MeasurementModel {
   sim::ParamLayout layout_;
   int plane_offset_ = 0;
 };
+
+/// Which configurations rangeConfigurations keeps (digest 4, "Laser robot"; Liu et al. 2012 chose 101
+/// non-singular configurations whose beam meets the plane).
+struct RangeConfigurationSettings {
+  double min_range_m = 0.2;   ///< h, along the beam from its origin to the plane
+  double max_range_m = 3.0;
+  double min_cosine = 0.3;    ///< |n^ . b|, n^ the unit normal: no grazing incidence
+  /// sim::singularityMeasure(arm, q, -1) (all joints; translational rows over the arm's length) at
+  /// least this; 0: no check.
+  double min_singular_value = 0.01;
+  bool beam_must_hit = true;  ///< false: any non-singular configuration (e.g. validation poses)
+  int max_attempts = 0;       ///< 0: 2000 per configuration asked for
+};
+
+/// `count` configurations of joints drawn uniformly within the limits (from rng, in order) that the
+/// settings accept, the beam and plane evaluated by `model` at full parameters p (empty: p = 0, the
+/// nominal model a planner knows). Throws std::runtime_error when the attempts run out.
+std::vector<sim::JointSample> rangeConfigurations(const PlaneRangeModel& model, const Eigen::VectorXd& p, int count,
+                                                  std::mt19937_64& rng, const RangeConfigurationSettings& settings = {});
+
+/// The observations a laser ranger makes at `samples` of the plant `model` at full parameters p_true
+/// (kinematic errors and plane coefficients): each the mean of `repeats` readings h(p_true) + N(0,
+/// sigma_m) (Liu et al. 2012: 0.2 mm, 10 readings). noisy = false: exact readings, still weighted as
+/// if their noise were sigma_m (sigma_m must be > 0).
+std::vector<RangeObservation> simulateRanges(const PlaneRangeModel& model, const Eigen::VectorXd& p_true,
+                                             const std::vector<sim::JointSample>& samples, double sigma_m, int repeats,
+                                             std::mt19937_64& rng, bool noisy = true);
 
 }  // namespace orbcal::calib

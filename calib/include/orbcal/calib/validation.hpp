@@ -38,6 +38,7 @@ std::vector<sim::JointSample> commandedSamples(const sim::TrueArm& truth,
 /// Pose errors of `model` (driven by the commanded joints) against the plant's true poses.
 struct PoseErrors {
   std::vector<double> position_m;               ///< |p_true - p_model|
+  std::vector<Eigen::Vector3d> position_xyz_m;  ///< |components| of p_true - p_model, base frame X/Y/Z
   std::vector<Eigen::Vector3d> orientation_rad;  ///< |components| of log(R_true R_model^T), base frame X/Y/Z
 };
 PoseErrors poseErrors(const sim::Arm& model, const PlantSamples& plant);
@@ -51,6 +52,14 @@ struct ErrorSummary {
   Eigen::Vector3d orientation_max_rad = Eigen::Vector3d::Zero();
 };
 ErrorSummary summarize(const PoseErrors& errors);
+
+/// Per base-frame axis (Liu et al. 2012 Table 5, eq. 16): the RMS sqrt(mean e_x^2) and the largest |e_x|
+/// of the position and of the orientation components, over the configurations.
+struct AxisErrorSummary {
+  Eigen::Vector3d position_rms_m = Eigen::Vector3d::Zero(), position_max_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d orientation_rms_rad = Eigen::Vector3d::Zero(), orientation_max_rad = Eigen::Vector3d::Zero();
+};
+AxisErrorSummary summarizeAxes(const PoseErrors& errors);
 
 /// (initial - calibrated) / initial, the paper's ratio.
 inline double improvement(double initial, double calibrated) { return (initial - calibrated) / initial; }

@@ -11,7 +11,9 @@
 //     kRenderStream + index)), written as images/NNNNNN.png.
 // Order on disk: robot.yaml, errors.yaml (a verbatim copy of an error-set file, when --errors names one), the
 // scene's mesh files, scene.yaml and manifest.yaml first; the images
-// (PNG-encoded and written on a worker thread while the next frame renders, each atomically);
+// (each frame drawn on the calling thread, then undistorted, degraded, PNG-encoded and written on two
+// worker threads while the next frames are drawn; each atomically, flushed to disk together by one
+// syncfs before samples.csv);
 // samples.csv last, so a dataset without samples.csv is an unfinished run.
 // The folder stands alone: robot.yaml is a verbatim copy of the robot file and every mesh the scene
 // uses is copied in. A mesh given by a relative path without ".." goes to DIR/<that path> (where the
@@ -57,7 +59,9 @@ struct DatasetJob {
   std::string out;                         ///< dataset folder (created)
   bool force = false;
   int generator_threads = 0;               ///< 0: all hardware threads
-  int png_compression = 1;                 ///< 0..9 (cv::IMWRITE_PNG_COMPRESSION): 1 is fast and lossless
+  /// -1: OpenCV's fast PNG path (zlib level 1, SUB filter); 0..9: cv::IMWRITE_PNG_COMPRESSION, which also
+  /// makes libpng search the filters per row (slower). Lossless either way.
+  int png_compression = -1;
 };
 
 struct DatasetRunReport {

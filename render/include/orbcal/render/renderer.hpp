@@ -1,6 +1,9 @@
 #pragma once
 // The calibration board (and any extra meshes) as the eye-in-hand camera sees it, rendered off-screen
-// with OSMesa into a multisampled framebuffer and read back into a cv::Mat.
+// with OSMesa into an 8-bit grey framebuffer (multisampled when render.msaa_samples > 1) and read back
+// into a cv::Mat. With render.crop_to_scene (default) only the bounding box of the drawables' projected
+// bounding boxes is drawn, read back and undistorted; the rest is the background grey level GL stores,
+// so the image is the whole frame's pixel for pixel (tests/render/test_crop.cpp).
 //
 // Projection: exactly OpenCV's pinhole model, pixel centres at integer coordinates, y down, any
 // principal point (sim::project). GL pixel i spans [i, i+1] with its centre at i + 0.5 and GL's rows
@@ -54,6 +57,18 @@ class BoardRenderer {
   cv::Mat renderClean(const Eigen::Isometry3d& camera_T_board);
   /// renderClean, then the scene's degradations (degrade.hpp) drawn from sim::makeRng(seed, stream).
   cv::Mat render(const Eigen::Isometry3d& camera_T_board, std::uint64_t seed, std::uint64_t stream);
+
+  /// render() in two halves, so that a pipeline can draw the next frame while another thread finishes
+  /// this one: draw() does the OpenGL work (one thread at a time: the context's); finish() applies the
+  /// lens distortion and the degradations, is const and may run on any thread, concurrently with
+  /// draw() and other finish() calls. finish(draw(T), seed, stream) is exactly render(T, seed, stream).
+  struct Drawn {
+    cv::Mat pinhole;  ///< the image OpenGL drew (the undistorted pinhole camera's size; averaged down)
+    cv::Rect rect;    ///< its pixels that were drawn; the rest is background
+    bool cropped = false;
+  };
+  Drawn draw(const Eigen::Isometry3d& camera_T_board);
+  cv::Mat finish(const Drawn& drawn, std::uint64_t seed, std::uint64_t stream) const;
 
   /// Samples per pixel of the multisampled framebuffer in use (0: none).
   int msaaSamples() const;

@@ -21,6 +21,12 @@ Eigen::VectorXd paperTable3Errors();
 /// Errors drawn from N(0, angle_sigma_rad) for theta, alpha (and beta) and N(0, length_sigma_m) for a and d.
 Eigen::VectorXd randomErrors(const Arm& arm, double angle_sigma_rad, double length_sigma_m, std::uint64_t seed);
 
+/// Liu et al. 2012's injected errors (section 4.4): theta, alpha and beta drawn as randomErrors does
+/// (N(0, angle_sigma_rad), the same draws for a seed), a and d positive and proportional to their
+/// nominal lengths, length_per_metre * |a_i| and |d_i| (thermal expansion of a warm arm; the paper:
+/// ~2 mm on a 2 m arm).
+Eigen::VectorXd thermalErrors(const Arm& arm, double angle_sigma_rad, double length_per_metre, std::uint64_t seed);
+
 /// An error set by name: "table3" (seed 000 Table 3), "zero", or "random" with the given spread and seed.
 /// Throws InputError naming `what` (e.g. "--errors") for an unknown name, or for table3 on an arm that
 /// is not 7 joints of 4 parameters.
