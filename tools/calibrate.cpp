@@ -14,6 +14,7 @@
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/truth.hpp"
+#include "orbcal/sim/urdf.hpp"
 #include "orbcal/vision/measurement.hpp"
 #include "progress.hpp"
 
@@ -267,6 +268,38 @@ std::string refusalSection(const CalibrateResult& r, bool accept_worse) {
   return out;
 }
 
+ParameterColumns parameterColumns(const sim::Arm& arm) {
+  ParameterColumns c;
+  c.header = "| joint |";
+  std::string rule = "|---|";
+  for (int k = 0; k < arm.paramsPerJoint(); ++k) {
+    std::string key = sim::paramKey(arm, k);
+    const std::string stem = key.substr(0, key.rfind('_'));
+    std::string& list = sim::isAngleParam(arm, k) ? c.angles : c.lengths;
+    list += (list.empty() ? "" : ", ") + stem;
+    c.header += " " + stem + " |";
+    rule += "---|";
+  }
+  c.header += "\n" + rule + "\n";
+  return c;
+}
+
+namespace {
+/// "theta1, x1, ..." for the parameters `which` (or "none").
+std::string parameterList(const calib::ParameterClasses& classes, const std::vector<int>& which) {
+  std::vector<std::string> names;
+  for (int i : which) names.push_back(classes.names[static_cast<std::size_t>(i)]);
+  return names.empty() ? std::string("none") : joinWords(names);
+}
+}  // namespace
+
+std::string formatKeptAndHeld(const calib::ParameterClasses& classes) {
+  const auto list = [&](const std::vector<int>& which) { return parameterList(classes, which); };
+  return "identifiable set: " + std::to_string(classes.minimal.size()) + " of " + std::to_string(classes.names.size()) +
+         " parameters kept (" + list(classes.minimal) + "); " + std::to_string(classes.held.size()) + " held as unidentifiable (" +
+         list(classes.held) + ")";
+}
+
 CalibrateResult runCalibrate(const CalibrateOptions& o) {
   CalibrateResult r;
   const std::string out = o.out.empty() ? o.dataset + "/calibration" : o.out;
@@ -427,6 +460,16 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
     r.robot_path = out + "/robot_calibrated.yaml";
     sim::Arm named = calibrated;
     named.name = d.arm.name + " (calibrated)";
+    if (calibrated.convention == sim::DhConvention::kUrdf && !calibrated.urdf.empty()) {
+      // A URDF robot: the URDF it came from with the chain joints' origins replaced by the calibrated
+      // ones (zero offsets folded in), beside the YAML, which names it.
+      r.urdf_path = out + "/robot_calibrated.urdf";
+      named.urdf.file = "robot_calibrated.urdf";
+      sim::writeFileAtomic(r.urdf_path, sim::replaceUrdfOrigins(sim::readTextSource(calibrated.urdf.file), calibrated,
+                                                                "Joint origins of the chain " + calibrated.urdf.base_link + " -> " +
+                                                                    calibrated.urdf.tip_link + " calibrated by orbcal " + ORBCAL_VERSION +
+                                                                    " (orbcal calibrate, method " + method.name + ") from " + o.dataset));
+    }
     sim::writeFileAtomic(r.robot_path, sim::formatArm(named, header.str()));
     sim::writeFileAtomic(out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true));
   }
@@ -462,7 +505,7 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   }
 
   std::ostringstream md;
-  const bool hayati = d.arm.convention == sim::DhConvention::kHayati;
+  const ParameterColumns columns = parameterColumns(d.arm);
   md << "# Calibration of " << d.arm.name << (kind == calib::MeasurementKind::kPose ? "" : " (" + r.model + " model)") << "\n\n"
      << refusalSection(r, o.accept_worse)
      << "Dataset `" << o.dataset << "`; method **" << method.name << "** (" << method.description
@@ -472,14 +515,17 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
      << "## Identifiability of the identification set\n\n"
      << "Measurement: " << calib::measurementKindDescription(kind)
      << (kind == calib::MeasurementKind::kPose ? "" : (o.pairs == "reference" ? "; every image against the first" : "; consecutive images"))
-     << ". " << model->numSamples() << " samples.\n\n" << r.classes.table()
+     << ". " << model->numSamples() << " samples.\n\n" << r.classes.table() << "\nHeld as unidentifiable (" << r.classes.held.size()
+     << "): " << parameterList(r.classes, r.classes.held)
+     << (method.kind == calib::MethodSpec::Kind::kEkf ? " (the EKF estimates every parameter under its prior; LSE and LM hold these)" : "")
+     << ".\n"
      << "\nObservability indices (Borm & Menq 1991 O1 to Sun & Hollerbach 2008 O5; whitened rows, columns in typical "
         "magnitudes, held parameters left out; larger is better): " << calib::formatIndices(r.observability) << ".\n\n"
      << "## Estimate\n\n"
      << r.estimate.iterations << " iterations, rank " << r.estimate.rank << ", " << formatNumber("%.2f", r.estimate.seconds * 1e3)
-     << " ms" << (r.estimate.converged ? "" : ", NOT converged") << ". Per joint, " << (hayati ? "theta, alpha and beta" : "theta and alpha")
-     << " in deg, a and d in mm, +- 1 sigma" << (y_true ? "; truth in brackets" : "") << ":\n\n"
-     << (hayati ? "| joint | theta | alpha | a | d | beta |\n|---|---|---|---|---|---|\n" : "| joint | theta | alpha | a | d |\n|---|---|---|---|---|\n");
+     << " ms" << (r.estimate.converged ? "" : ", NOT converged") << ". Per joint, " << columns.angles << " in deg, " << columns.lengths
+     << " in mm, +- 1 sigma" << (y_true ? "; truth in brackets" : "") << ":\n\n"
+     << columns.header;
   for (int j = 0; j < d.arm.numJoints(); ++j) {
     md << "| " << j + 1 << " |";
     for (int k = 0; k < d.arm.paramsPerJoint(); ++k) {

@@ -87,11 +87,21 @@ struct CalibrateResult {
   bool has_truth = false;
   calib::ErrorSummary truth_before, truth_after;  ///< hold-out errors against the true poses (simulation)
   std::string robot_path, report_path;
+  std::string urdf_path;                 ///< the calibrated URDF (a URDF robot only)
   double joint_noise_sigma_rad = 0.0;
   std::optional<FrameEstimate> frames;   ///< with estimate_frames
 };
 
 CalibrateResult runCalibrate(const CalibrateOptions& o);
+
+/// The per-joint parameter columns of the report's estimate table: its Markdown header (with the
+/// separator row) and the parameter names in deg and in mm ("theta, alpha", "a, d"; URDF: theta, x, ...).
+struct ParameterColumns {
+  std::string header, angles, lengths;
+};
+ParameterColumns parameterColumns(const sim::Arm& arm);
+/// One line: the identifiability analysis's kept (minimal identifiable set) and held parameters, by name.
+std::string formatKeptAndHeld(const calib::ParameterClasses& classes);
 
 /// An image dataset's samples `which` as measured data: world = the board, marker = the camera,
 /// world_T_marker = board_T_camera with the vision covariance moved to the camera frame; both frames

@@ -4,14 +4,20 @@
 #include <CLI/CLI.hpp>
 #include <string>
 
+#include "orbcal/sim/io.hpp"
+
 namespace orbcal::tools {
 
 /// Options every subcommand that needs the arm and the scene takes.
 struct ArmSceneOptions {
   std::string robot = "builtin:ssrms.yaml";
+  std::string base_link, tip_link;  ///< a URDF robot's chain
   std::string scene = "builtin:default_scene.yaml";
+  sim::RobotSource robotSource() const { return {robot, base_link, tip_link}; }
 };
 void addArmSceneOptions(CLI::App& cmd, ArmSceneOptions& opt);
+/// --robot, --base-link and --tip-link alone (what addArmSceneOptions adds before --scene).
+void addRobotOptions(CLI::App& cmd, ArmSceneOptions& opt);
 
 /// Subcommands register themselves from their own cmd_*.cpp (no shared list to edit):
 ///   ORBCAL_COMMAND(30, addRenderCommand);

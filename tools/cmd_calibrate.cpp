@@ -126,6 +126,7 @@ void addCalibrateCommand(CLI::App& app) {
     }
     std::printf("%d images, %d usable: %d for identification, %d held out; model %s (rank %d of %d)\n", r.images, r.usable,
                 r.identification, r.held_out, r.model.c_str(), r.classes.rank, static_cast<int>(r.classes.names.size()));
+    std::printf("%s\n", formatKeptAndHeld(r.classes).c_str());
     if (r.held_out > 0) {
       std::printf("held-out average position error against the measured poses: %.3f mm -> %.3f mm (%.1f%%)\n",
                   r.before.position_avg_m * 1e3, r.after.position_avg_m * 1e3,
@@ -167,6 +168,7 @@ void addCalibrateCommand(CLI::App& app) {
     }
     std::printf("consistency: %s\n", calib::formatConsistency(r.consistency).c_str());
     if (r.written) std::printf("calibrated robot: %s\n", r.robot_path.c_str());
+    if (r.written && !r.urdf_path.empty()) std::printf("calibrated URDF: %s\n", r.urdf_path.c_str());
     std::printf("report: %s\n", r.report_path.c_str());
     if (!r.refusals.empty() && !c.accept_worse) throw CLI::RuntimeError(1);
   });

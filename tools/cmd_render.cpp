@@ -52,6 +52,8 @@ void addRenderCommand(CLI::App& app) {
   cmd->callback([opt] {
     render::DatasetJob job = opt->job;
     job.robot = opt->as.robot;
+    job.base_link = opt->as.base_link;
+    job.tip_link = opt->as.tip_link;
     job.scene = opt->as.scene;
     job.configuration_seed = job.noise_seed = job.render_seed = opt->seed;
     job.joint_noise_sigma_rad = opt->joint_noise_deg * sim::kDegToRad;

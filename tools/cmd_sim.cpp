@@ -53,10 +53,10 @@ void addFkCommand(CLI::App& app) {
   };
   auto opt = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand("fk", "Forward kinematics: the flange pose (base frame) at the given joint angles");
-  cmd->add_option("--robot", opt->as.robot, "robot description (YAML; or builtin:ssrms.yaml)")->capture_default_str();
+  addRobotOptions(*cmd, opt->as);
   cmd->add_option("joints_deg", opt->joints, "joint angles [deg], one per joint")->required()->allow_extra_args();
   cmd->callback([opt] {
-    const sim::Arm arm = sim::loadArm(opt->as.robot);
+    const sim::Arm arm = sim::loadArm(opt->as.robotSource());
     const Eigen::VectorXd q = parseJointsDeg(opt->joints, arm);
     const Eigen::Isometry3d T = sim::forwardKinematics(arm, q);
     const Eigen::Vector3d p = T.translation() * 1e3;
@@ -104,7 +104,7 @@ void addConfigsCommand(CLI::App& app) {
   cmd->add_option("--joint-noise-deg", opt->joint_noise_deg, "--select: joint control noise carried into R")
       ->capture_default_str()->check(CLI::NonNegativeNumber);
   cmd->callback([opt] {
-    const sim::Arm arm = sim::loadArm(opt->as.robot);
+    const sim::Arm arm = sim::loadArm(opt->as.robotSource());
     const sim::Scene scene = sim::loadScene(opt->as.scene);
     std::optional<calib::ObservabilityIndex> index;
     if (!opt->select.empty()) index = calib::parseObservabilityIndex(opt->select);
@@ -236,7 +236,7 @@ void addIdentifiabilityCommand(CLI::App& app) {
       }
       setup.plane.identified.push_back(i);
     }
-    const sim::Arm arm = sim::loadArm(opt->as.robot);
+    const sim::Arm arm = sim::loadArm(opt->as.robotSource());
     const sim::KinematicModel km =
         opt->base == "known" ? sim::flangeModel(arm)
                              : sim::makeKinematicModel(arm, 1, sim::FrameSharing::kShared, sim::FrameSharing::kKnown,

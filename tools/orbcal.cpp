@@ -26,8 +26,14 @@ void addRegisteredCommands(CLI::App& app) {
   for (const auto& [order, adder] : r) adder(app);
 }
 void addArmSceneOptions(CLI::App& cmd, ArmSceneOptions& opt) {
-  cmd.add_option("--robot", opt.robot, "robot description (YAML; or builtin:ssrms.yaml)")->capture_default_str();
+  addRobotOptions(cmd, opt);
   cmd.add_option("--scene", opt.scene, "scene (YAML; or builtin:default_scene.yaml)")->capture_default_str();
+}
+void addRobotOptions(CLI::App& cmd, ArmSceneOptions& opt) {
+  cmd.add_option("--robot", opt.robot, "robot description: a robot YAML (or builtin:ssrms.yaml) or a URDF (.urdf)")
+      ->capture_default_str();
+  cmd.add_option("--base-link", opt.base_link, "URDF robot: the link the arm's chain starts from (default: the root link)");
+  cmd.add_option("--tip-link", opt.tip_link, "URDF robot: the link the chain ends at, the flange (default: the only leaf link)");
 }
 }  // namespace orbcal::tools
 

@@ -143,7 +143,8 @@ struct MeshCopy {
 /// True when `relative` (inside the dataset folder) is the dataset's own file or folder, or under it.
 bool reservedInDataset(const std::filesystem::path& relative, const sim::DatasetManifest& m) {
   const std::string first = relative.begin()->string();
-  return first == m.robot_file || first == m.scene_file || first == m.samples_file || first == "manifest.yaml" ||
+  return first == m.robot_file || first == sim::kDatasetUrdfFile || first == m.scene_file || first == m.samples_file ||
+         first == "manifest.yaml" ||
          first == "images" || (!m.error_set_file.empty() && first == m.error_set_file);
 }
 
@@ -343,9 +344,19 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   if (job.out.empty()) throw sim::InputError("--out: the dataset folder must be given");
   if (job.count < 1) throw sim::InputError("--count: must be at least 1");
   // Inputs: everything is read and checked before anything is written.
-  const std::string robot_text = sim::readTextSource(job.robot);
+  std::string robot_text = sim::readTextSource(job.robot);
   const std::string scene_text = sim::readTextSource(job.scene);
-  const sim::Arm nominal = sim::loadArm(job.robot);
+  const sim::Arm nominal = sim::loadArm(sim::RobotSource{job.robot, job.base_link, job.tip_link});
+  // A URDF robot: the dataset keeps the URDF (robot.urdf) and, as robot.yaml, the chain read from it
+  // (convention urdf, naming robot.urdf and the links), which every reader of datasets loads as it is.
+  std::string urdf_text;
+  if (nominal.convention == sim::DhConvention::kUrdf && !nominal.urdf.empty()) {
+    urdf_text = sim::readTextSource(nominal.urdf.file);
+    sim::Arm copy = nominal;
+    copy.urdf.file = sim::kDatasetUrdfFile;
+    robot_text = sim::formatArm(copy, "The chain " + nominal.urdf.base_link + " -> " + nominal.urdf.tip_link + " of " +
+                                          job.robot + " (copied as " + sim::kDatasetUrdfFile + "), read by orbcal render");
+  }
   const sim::Scene scene = sim::loadScene(job.scene);
   const RenderSettings settings = loadRenderSettings(job.scene);
   const sim::TrueArm truth = sim::makeTrueArm(nominal, job.errors, "--errors");
@@ -397,6 +408,7 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
       differ.push_back(std::string("manifest.yaml (") + e.what() + ")");
     }
     if (!fileEquals(dataset.path(m.robot_file), robot_text)) differ.push_back(m.robot_file);
+    if (!urdf_text.empty() && !fileEquals(dataset.path(sim::kDatasetUrdfFile), urdf_text)) differ.push_back(sim::kDatasetUrdfFile);
     if (!fileEquals(dataset.path(m.scene_file), scene_copy)) differ.push_back(m.scene_file);
     if (truth.fromFile() && !fileEquals(dataset.path(m.error_set_file), truth.file_text)) {
       differ.push_back(m.error_set_file);
@@ -444,6 +456,7 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   sim::makeDirectories(dataset.path("images"));
   if (!report.resumed) {
     sim::writeFileAtomic(dataset.path(m.robot_file), robot_text);
+    if (!urdf_text.empty()) sim::writeFileAtomic(dataset.path(sim::kDatasetUrdfFile), urdf_text);
     if (truth.fromFile()) sim::writeFileAtomic(dataset.path(m.error_set_file), truth.file_text);
     for (const MeshCopy& c : meshes) {
       sim::makeDirectories(std::filesystem::path(dataset.path(c.relative)).parent_path().string());

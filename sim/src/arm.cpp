@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "orbcal/sim/se3.hpp"
+
 namespace orbcal::sim {
 
 const char* conventionName(DhConvention convention) {
@@ -10,18 +12,32 @@ const char* conventionName(DhConvention convention) {
     case DhConvention::kModified: return "modified";
     case DhConvention::kStandard: return "standard";
     case DhConvention::kHayati: return "hayati";
+    case DhConvention::kUrdf: return "urdf";
   }
   return "?";
 }
 
+namespace {
+/// Name of per-joint parameter k without the joint number.
+const char* paramStem(const Arm& arm, int k) {
+  static const char* kDh[] = {"theta", "alpha", "a", "d", "beta"};
+  static const char* kUrdfNames[] = {"theta", "x", "y", "z", "roll", "pitch", "yaw"};
+  return arm.convention == DhConvention::kUrdf ? kUrdfNames[k] : kDh[k];
+}
+}  // namespace
+
 std::string paramName(const Arm& arm, int index) {
-  static const char* kNames[] = {"theta", "alpha", "a", "d", "beta"};
-  return kNames[paramKind(arm, index)] + std::to_string(index / arm.paramsPerJoint() + 1);
+  return paramStem(arm, paramKind(arm, index)) + std::to_string(index / arm.paramsPerJoint() + 1);
 }
 
 bool isAngleParam(const Arm& arm, int index) {
   const ParamKind kind = paramKind(arm, index);
+  if (arm.convention == DhConvention::kUrdf) return kind == kTheta || kind >= kOroll;
   return kind == kTheta || kind == kAlpha || kind == kBeta;
+}
+
+std::string paramKey(const Arm& arm, int k) {
+  return std::string(paramStem(arm, k)) + (isAngleParam(arm, k) ? "_deg" : "_mm");
 }
 
 namespace {
@@ -48,6 +64,11 @@ void checkParamVector(const Arm& arm, const Eigen::VectorXd& y, const char* cont
 }
 
 Eigen::Isometry3d linkTransform(DhConvention convention, const DhRow& row, double q) {
+  if (convention == DhConvention::kUrdf) {
+    Eigen::Isometry3d T = fromXyzRpy(row.xyz_m, row.rpy_rad);
+    T.rotate(Eigen::AngleAxisd(row.theta_rad + q, row.axis));
+    return T;
+  }
   const double th = row.theta_rad + q;
   const double ct = std::cos(th), st = std::sin(th);
   const double ca = std::cos(row.alpha_rad), sa = std::sin(row.alpha_rad);
@@ -78,6 +99,13 @@ Arm withErrors(const Arm& nominal, const Eigen::VectorXd& y) {
   checkParamVector(nominal, y, "withErrors");
   Arm out = nominal;
   for (int j = 0; j < nominal.numJoints(); ++j) {
+    if (nominal.convention == DhConvention::kUrdf) {
+      const int b = paramIndex(nominal, j, kTheta);
+      out.joints[j].theta_rad += y[b];
+      out.joints[j].xyz_m += y.segment<3>(b + kOx);
+      out.joints[j].rpy_rad += y.segment<3>(b + kOroll);
+      continue;
+    }
     out.joints[j].theta_rad += y[paramIndex(nominal, j, kTheta)];
     out.joints[j].alpha_rad += y[paramIndex(nominal, j, kAlpha)];
     out.joints[j].a_m += y[paramIndex(nominal, j, kA)];
@@ -112,7 +140,7 @@ bool withinLimits(const Arm& arm, const Eigen::VectorXd& q) {
 
 double characteristicLength(const Arm& arm) {
   double L = arm.base_T_first.translation().norm() + arm.last_T_flange.translation().norm();
-  for (const DhRow& r : arm.joints) L += std::abs(r.a_m) + std::abs(r.d_m);
+  for (const DhRow& r : arm.joints) L += std::abs(r.a_m) + std::abs(r.d_m) + r.xyz_m.norm();
   return L;
 }
 

@@ -9,6 +9,7 @@
 #include "orbcal/sim/arm.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -64,13 +65,8 @@ std::string formatManifest(const DatasetManifest& m) {
     s << "  joints:\n";
     const Eigen::VectorXd& y = *m.true_errors;
     const int per_joint = m.true_errors_per_joint;
-    for (Eigen::Index j = 0; j < y.size() / per_joint; ++j) {
-      const int b = static_cast<int>(j) * per_joint;
-      s << "    - {theta_deg: " << num(y[b + kTheta] * kRadToDeg) << ", alpha_deg: " << num(y[b + kAlpha] * kRadToDeg)
-        << ", a_mm: " << num(y[b + kA] * 1e3) << ", d_mm: " << num(y[b + kD] * 1e3);
-      if (per_joint > kBeta) s << ", beta_deg: " << num(y[b + kBeta] * kRadToDeg);
-      s << "}\n";
-    }
+    const Arm table = errorTableArm(per_joint);
+    for (int j = 0; j < static_cast<int>(y.size()) / per_joint; ++j) s << "    - " << errorRowYaml(table, y, j, num) << "\n";
   }
   return s.str();
 }
@@ -102,25 +98,12 @@ DatasetManifest parseManifest(const std::string& text, const std::string& source
     m.error_set = te.optional("name").asString("custom");
     m.error_set_file = te.optional("file").asString("");
     const ConfigNode joints = te["joints"];
-    // Rows with beta_deg (a Hayati arm's) carry 5 errors; then every row must have it.
-    const bool beta = joints.size() > 0 && joints[0].has("beta_deg");
-    m.true_errors_per_joint = beta ? 5 : 4;
-    const int per_joint = m.true_errors_per_joint;
-    Eigen::VectorXd y(static_cast<Eigen::Index>(joints.size()) * per_joint);
-    for (std::size_t j = 0; j < joints.size(); ++j) {
-      const ConfigNode row = joints[j];
-      if (beta) {
-        row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm", "beta_deg"});
-      } else {
-        row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm"});
-      }
-      const int b = static_cast<int>(j) * per_joint;
-      y[b + kTheta] = row["theta_deg"].asDouble() * kDegToRad;
-      y[b + kAlpha] = row["alpha_deg"].asDouble() * kDegToRad;
-      y[b + kA] = row["a_mm"].asDouble() * 1e-3;
-      y[b + kD] = row["d_mm"].asDouble() * 1e-3;
-      if (beta) y[b + kBeta] = row["beta_deg"].asDouble() * kDegToRad;
-    }
+    // Rows with beta_deg (a Hayati arm's) carry 5 errors, rows with x_mm (a URDF arm's) 7; then every
+    // row must have the same keys.
+    m.true_errors_per_joint = joints.size() > 0 ? errorTablePerJoint(joints[0]) : 4;
+    const Arm table = errorTableArm(m.true_errors_per_joint);
+    Eigen::VectorXd y(static_cast<Eigen::Index>(joints.size()) * m.true_errors_per_joint);
+    for (std::size_t j = 0; j < joints.size(); ++j) readErrorRow(joints[j], table, static_cast<int>(j), y);
     m.true_errors = y;
   }
   return m;
@@ -233,9 +216,9 @@ Dataset loadDataset(const std::string& folder) {
                      d.manifest.samples_file + " has " + std::to_string(d.samples.size()) + " rows");
   }
   if (d.manifest.true_errors && d.manifest.true_errors_per_joint != d.arm.paramsPerJoint()) {
-    throw InputError(manifest_path + ": true_errors.joints: beta_deg " +
-                     (d.arm.paramsPerJoint() > kBeta ? "missing" : "given") + ", but " + d.manifest.robot_file +
-                     " is " + conventionName(d.arm.convention) + " DH");
+    throw InputError(manifest_path + ": true_errors.joints: rows of " + std::to_string(d.manifest.true_errors_per_joint) +
+                     " errors, but " + d.manifest.robot_file + " is " + conventionName(d.arm.convention) + " with " +
+                     std::to_string(d.arm.paramsPerJoint()) + " a joint");
   }
   if (d.manifest.true_errors && d.manifest.true_errors->size() != d.arm.numParams()) {
     throw InputError(manifest_path + ": true_errors.joints: expected " + std::to_string(d.arm.numJoints()) +

@@ -75,8 +75,60 @@ Eigen::VectorXd addJointNoise(const Eigen::VectorXd& q, double sigma_rad, std::m
   return out;
 }
 
+Arm errorTableArm(int per_joint) {
+  Arm arm;
+  arm.convention = per_joint == 7 ? DhConvention::kUrdf : per_joint == 5 ? DhConvention::kHayati : DhConvention::kStandard;
+  return arm;
+}
+
+int errorTablePerJoint(const ConfigNode& row) {
+  if (row.has("x_mm")) return 7;
+  return row.has("beta_deg") ? 5 : 4;
+}
+
+namespace {
+double edgeScale(const Arm& arm, int index) { return isAngleParam(arm, index) ? kRadToDeg : 1e3; }
+}  // namespace
+
+std::string errorRowYaml(const Arm& arm, const Eigen::VectorXd& y, int joint, std::string (*number)(double)) {
+  std::string s = "{";
+  for (int k = 0; k < arm.paramsPerJoint(); ++k) {
+    const int i = arm.paramsPerJoint() * joint + k;
+    s += (k ? ", " : "") + paramKey(arm, k) + ": " + number(y[i] * edgeScale(arm, i));
+  }
+  return s + "}";
+}
+
+void readErrorRow(const ConfigNode& row, const Arm& arm, int joint, Eigen::VectorXd& y) {
+  std::vector<std::string> keys;
+  for (int k = 0; k < arm.paramsPerJoint(); ++k) keys.push_back(paramKey(arm, k));
+  row.requireOnlyKeys(keys);
+  for (int k = 0; k < arm.paramsPerJoint(); ++k) {
+    const int i = arm.paramsPerJoint() * joint + k;
+    // Physical ranges at their keys: an error of an angle within half a turn, of a length within 10 m.
+    y[i] = (isAngleParam(arm, i) ? row[keys[static_cast<std::size_t>(k)]].asDoubleWithin(-180.0, 180.0, "-180 deg to 180 deg (an angle error)")
+                                 : row[keys[static_cast<std::size_t>(k)]].asDoubleWithin(-1e4, 1e4, "-10000 mm to 10000 mm (a length error)")) /
+           edgeScale(arm, i);
+  }
+}
+
 std::string formatErrorSet(const Arm& arm, const Eigen::VectorXd& y) {
   checkParamVector(arm, y, "formatErrorSet");
+  if (arm.convention == DhConvention::kUrdf) {
+    std::string out;
+    for (int j = 0; j < arm.numJoints(); ++j) {
+      out += "  joint " + std::to_string(j + 1) + ":";
+      for (int k = 0; k < arm.paramsPerJoint(); ++k) {
+        const int i = paramIndex(arm, j, static_cast<ParamKind>(k));
+        char v[64];
+        std::snprintf(v, sizeof v, " %s %+8.4f %s ", paramName(arm, i).c_str(), y[i] * edgeScale(arm, i),
+                      isAngleParam(arm, i) ? "deg" : "mm");
+        out += v;
+      }
+      out += "\n";
+    }
+    return out;
+  }
   std::string out;
   char line[200];
   for (int j = 0; j < arm.numJoints(); ++j) {

@@ -19,7 +19,7 @@ Eigen::VectorXd gravityTorques(const Arm& arm, const MassModel& masses, const Ei
   //   modified DH (Craig): joint j rotates about z of frame j = frames[j + 1]; link j's frame is frame j.
   //   standard and Hayati DH: joint j rotates about z of frame j-1 = frames[j]; link j's frame is frame j = frames[j + 1].
   // Either way link j's body frame is frames[j + 1]; only the axis differs.
-  const int axis_offset = arm.convention == DhConvention::kModified ? 1 : 0;
+  const int axis_offset = arm.convention == DhConvention::kModified || arm.convention == DhConvention::kUrdf ? 1 : 0;
 
   // Backward sweep: the total mass and first moment (sum m_i c_i) of everything outboard of joint j.
   // The moment about o_j of the gravity on that is (S - M o_j) x g, S = sum m_i c_i, M = sum m_i.
@@ -33,7 +33,9 @@ Eigen::VectorXd gravityTorques(const Arm& arm, const MassModel& masses, const Ei
       S += link.mass_kg * (frames[static_cast<std::size_t>(j + 1)] * link.com_m);
     }
     const Eigen::Isometry3d& axis = frames[static_cast<std::size_t>(j + axis_offset)];
-    const Eigen::Vector3d z = axis.linear().col(2);
+    // The URDF convention: joint j turns frame j = frames[j + 1] about its own axis (axis_offset 1).
+    const Eigen::Vector3d z = arm.convention == DhConvention::kUrdf ? Eigen::Vector3d(axis.linear() * arm.joints[static_cast<std::size_t>(j)].axis)
+                                                                  : Eigen::Vector3d(axis.linear().col(2));
     const Eigen::Vector3d o = axis.translation();
     tau[j] = -z.dot((S - M * o).cross(g));
   }

@@ -40,21 +40,38 @@ void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame
     const Eigen::Isometry3d& cur = frames[j + 1];   // base_T_{j}
     const Eigen::Isometry3d& z_frame = modified ? cur : prev;  // frame whose z carries theta and d
     const Eigen::Isometry3d& x_frame = modified ? prev : cur;  // frame whose x carries alpha and a
-    Vector6d xi[5];
-    xi[kTheta] = rotationTwist(z_frame.linear().col(2), z_frame.translation());
-    xi[kD] = translationTwist(z_frame.linear().col(2));
-    if (!hayati) {
-      xi[kAlpha] = rotationTwist(x_frame.linear().col(0), x_frame.translation());
-      xi[kA] = translationTwist(x_frame.linear().col(0));
+    Vector6d xi[7];
+    if (arm.convention == DhConvention::kUrdf) {
+      // {j-1}_T_{j} = T(xyz) Rz(yaw) Ry(pitch) Rx(roll) Rot(axis, theta + q). Every origin parameter
+      // moves frame j about or along an axis through o, the origin's position: x, y, z along frame
+      // j-1's axes; yaw about z_{j-1}; pitch about Rz(yaw) y; roll about the x axis of the origin
+      // frame; theta about the joint axis (the same in the origin frame and in frame j).
+      const DhRow& r = arm.joints[j];
+      const Eigen::Matrix3d& Rp = prev.linear();
+      const Eigen::Vector3d o = prev * r.xyz_m;
+      const Eigen::Matrix3d R_yaw = Rp * Eigen::AngleAxisd(r.rpy_rad.z(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+      const Eigen::Matrix3d R_origin = cur.linear() * Eigen::AngleAxisd(-(r.theta_rad + q[j]), r.axis).toRotationMatrix();
+      xi[kTheta] = rotationTwist(cur.linear() * r.axis, o);
+      for (int a = 0; a < 3; ++a) xi[kOx + a] = translationTwist(Rp.col(a));
+      xi[kOyaw] = rotationTwist(Rp.col(2), o);
+      xi[kOpitch] = rotationTwist(R_yaw.col(1), o);
+      xi[kOroll] = rotationTwist(R_origin.col(0), o);
     } else {
-      // Frame j = (frame after Rx(alpha)) Ry(beta): alpha and a act along the x axis before Ry(beta),
-      // x = Ry(-beta) x_j = cos(beta) x_j + sin(beta) z_j. Perturbing beta turns everything downstream
-      // about y_j (Ry leaves y unchanged) through the origin of frame j.
-      const double beta = arm.joints[j].beta_rad;
-      const Eigen::Vector3d x = std::cos(beta) * cur.linear().col(0) + std::sin(beta) * cur.linear().col(2);
-      xi[kAlpha] = rotationTwist(x, cur.translation());
-      xi[kA] = translationTwist(x);
-      xi[kBeta] = rotationTwist(cur.linear().col(1), cur.translation());
+      xi[kTheta] = rotationTwist(z_frame.linear().col(2), z_frame.translation());
+      xi[kD] = translationTwist(z_frame.linear().col(2));
+      if (!hayati) {
+        xi[kAlpha] = rotationTwist(x_frame.linear().col(0), x_frame.translation());
+        xi[kA] = translationTwist(x_frame.linear().col(0));
+      } else {
+        // Frame j = (frame after Rx(alpha)) Ry(beta): alpha and a act along the x axis before Ry(beta),
+        // x = Ry(-beta) x_j = cos(beta) x_j + sin(beta) z_j. Perturbing beta turns everything downstream
+        // about y_j (Ry leaves y unchanged) through the origin of frame j.
+        const double beta = arm.joints[j].beta_rad;
+        const Eigen::Vector3d x = std::cos(beta) * cur.linear().col(0) + std::sin(beta) * cur.linear().col(2);
+        xi[kAlpha] = rotationTwist(x, cur.translation());
+        xi[kA] = translationTwist(x);
+        xi[kBeta] = rotationTwist(cur.linear().col(1), cur.translation());
+      }
     }
     for (int k = 0; k < per_joint; ++k) {
       // Motion of the flange origin and rotation, both in the base frame.

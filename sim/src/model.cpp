@@ -457,6 +457,7 @@ Arm effectiveArm(const KinematicModel& m, const Eigen::VectorXd& p, const JointS
     for (DhRow& r : arm.joints) {
       r.a_m *= scale;
       r.d_m *= scale;
+      r.xyz_m *= scale;  // the URDF convention's lengths (zero in the DH conventions)
     }
   }
   return arm;
@@ -531,7 +532,11 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
     // unscaled lengths are the effective ones divided by the expansion.
     auto col = J.col(t_off);
     for (int j = 0; j < n; ++j) {
-      col += (dT / expansion) * (arm.joints[j].a_m * J_geo.col(paramIndex(arm, j, kA)) + arm.joints[j].d_m * J_geo.col(paramIndex(arm, j, kD)));
+      if (arm.convention == DhConvention::kUrdf) {
+        for (int a = 0; a < 3; ++a) col += (dT / expansion) * arm.joints[j].xyz_m[a] * J_geo.col(paramIndex(arm, j, ParamKind(kOx + a)));
+      } else {
+        col += (dT / expansion) * (arm.joints[j].a_m * J_geo.col(paramIndex(arm, j, kA)) + arm.joints[j].d_m * J_geo.col(paramIndex(arm, j, kD)));
+      }
     }
   }
   return world_T_marker;

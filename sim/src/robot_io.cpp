@@ -1,3 +1,5 @@
+#include <algorithm>
+#include <filesystem>
 #include <sstream>
 #include <string>
 
@@ -5,6 +7,7 @@
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "orbcal/sim/urdf.hpp"
 
 namespace orbcal::sim {
 
@@ -34,6 +37,7 @@ DhRow readRow(const ConfigNode& n, const char* theta_key, DhConvention conventio
 Eigen::Isometry3d readFixed(const ConfigNode& n, DhConvention convention) {
   if (!n.defined()) return Eigen::Isometry3d::Identity();
   if (n.has("dh")) {
+    if (convention == DhConvention::kUrdf) n["dh"].fail("is not accepted with convention urdf (use xyz_m, rpy_deg)");
     n.requireOnlyKeys({"dh"});
     const ConfigNode dh = n["dh"];
     dh.requireOnlyKeys({"a_m", "alpha_deg", "d_m", "theta_deg", "beta_deg"});
@@ -80,9 +84,53 @@ MassModel readMasses(const ConfigNode& n, int num_joints) {
 
 }  // namespace
 
-Arm loadArm(const std::string& path) {
-  const ConfigNode root = ConfigNode::load(path);
-  root.requireOnlyKeys({"name", "convention", "base", "joints", "tool", "masses", "source_notes"});
+namespace {
+
+/// A joint of a URDF-convention robot YAML.
+void readUrdfJoint(const ConfigNode& j, Arm& arm) {
+  j.requireOnlyKeys({"name", "xyz_m", "rpy_deg", "axis", "theta_offset_deg", "fixed_before", "min_deg", "max_deg"});
+  DhRow r;
+  r.xyz_m = j["xyz_m"].asVector(3);
+  r.rpy_rad = j["rpy_deg"].asVector(3) * kDegToRad;
+  const Eigen::Vector3d axis = j["axis"].asVector(3);
+  if (!(axis.norm() > 1e-9)) j["axis"].fail("must not be zero");
+  r.axis = axis.normalized();
+  r.theta_rad = j.optional("theta_offset_deg").asDouble(0.0) * kDegToRad;
+  arm.joints.push_back(r);
+  arm.urdf.joint_names.push_back(j.optional("name").asString(""));
+  const ConfigNode before = j.optional("fixed_before");
+  arm.urdf.fixed_before.push_back(before.defined() ? before.asTransform() : Eigen::Isometry3d::Identity());
+}
+
+std::string lowerExtension(const std::string& path) {
+  std::string e = std::filesystem::path(path).extension().string();
+  std::transform(e.begin(), e.end(), e.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return e;
+}
+
+}  // namespace
+
+Arm loadArm(const std::string& path) { return loadArm(RobotSource{path, "", ""}); }
+
+Arm loadArm(const RobotSource& robot) {
+  const std::string& path = robot.path;
+  const std::string text = readTextSource(path);
+  const std::string ext = lowerExtension(path);
+  const bool xml = looksLikeXml(text);
+  if ((ext == ".urdf" || ext == ".xml") && !xml) {
+    throw InputError(path + ": the extension says URDF, but the file is not XML (" +
+                     (text.find(':') != std::string::npos ? "it looks like a robot YAML: rename it to .yaml" : "empty or text") + ")");
+  }
+  if ((ext == ".yaml" || ext == ".yml") && xml) {
+    throw InputError(path + ": the extension says YAML, but the file is XML (" +
+                     (text.find("<robot") != std::string::npos ? "a URDF: rename it to .urdf" : "not a robot YAML") + ")");
+  }
+  if (xml) return armFromUrdf(text, path, robot.base_link, robot.tip_link);
+  if (!robot.base_link.empty() || !robot.tip_link.empty()) {
+    throw InputError(path + ": --base-link and --tip-link choose a chain in a URDF; this robot file is YAML");
+  }
+  const ConfigNode root = ConfigNode::parse(text, path);
+  root.requireOnlyKeys({"name", "convention", "base", "joints", "tool", "masses", "source_notes", "urdf"});
   Arm arm;
   arm.source = path;
   arm.name = printable(root["name"].asString());  // a label printed as is: no raw control bytes
@@ -94,8 +142,21 @@ Arm loadArm(const std::string& path) {
     arm.convention = DhConvention::kStandard;
   } else if (c == "hayati") {
     arm.convention = DhConvention::kHayati;
+  } else if (c == "urdf") {
+    arm.convention = DhConvention::kUrdf;
   } else {
-    conv.fail("expected 'modified' (Craig), 'standard' or 'hayati', got " + quoteInput(c));
+    conv.fail("expected 'modified' (Craig), 'standard', 'hayati' or 'urdf', got " + quoteInput(c));
+  }
+  const ConfigNode urdf = root.optional("urdf");
+  if (urdf.defined()) {
+    if (arm.convention != DhConvention::kUrdf) urdf.fail("is accepted only with convention urdf");
+    urdf.requireOnlyKeys({"file", "base_link", "tip_link"});
+    const std::filesystem::path file = urdf["file"].asString();
+    arm.urdf.file = file.is_absolute() || path.rfind("builtin:", 0) == 0
+                        ? file.string()
+                        : (std::filesystem::path(path).parent_path() / file).string();
+    arm.urdf.base_link = urdf["base_link"].asString();
+    arm.urdf.tip_link = urdf["tip_link"].asString();
   }
   arm.base_T_first = readFixed(root.optional("base"), arm.convention);
   arm.last_T_flange = readFixed(root.optional("tool"), arm.convention);
@@ -106,8 +167,12 @@ Arm loadArm(const std::string& path) {
   arm.upper_rad.resize(static_cast<Eigen::Index>(n));
   for (std::size_t i = 0; i < n; ++i) {
     const ConfigNode j = joints[i];
-    j.requireOnlyKeys({"a_m", "alpha_deg", "d_m", "theta_offset_deg", "beta_deg", "min_deg", "max_deg"});
-    arm.joints.push_back(readRow(j, "theta_offset_deg", arm.convention));
+    if (arm.convention == DhConvention::kUrdf) {
+      readUrdfJoint(j, arm);
+    } else {
+      j.requireOnlyKeys({"a_m", "alpha_deg", "d_m", "theta_offset_deg", "beta_deg", "min_deg", "max_deg"});
+      arm.joints.push_back(readRow(j, "theta_offset_deg", arm.convention));
+    }
     const char* kLimitRange = "-3600 deg to 3600 deg (ten turns)";
     const double lo = j["min_deg"].asDoubleWithin(-3600.0, 3600.0, kLimitRange);
     const double hi = j["max_deg"].asDoubleWithin(-3600.0, 3600.0, kLimitRange);
@@ -162,10 +227,27 @@ std::string formatArm(const Arm& arm, const std::string& header) {
   for (std::string line; std::getline(lines, line);) s << "# " << line << "\n";
   s << "name: " << arm.name << "\n";
   s << "convention: " << conventionName(arm.convention) << "\n";
+  if (arm.convention == DhConvention::kUrdf && !arm.urdf.empty()) {
+    s << "urdf: {file: \"" << arm.urdf.file << "\", base_link: \"" << arm.urdf.base_link << "\", tip_link: \""
+      << arm.urdf.tip_link << "\"}\n";
+  }
   s << "base: " << transformYaml(arm.base_T_first) << "\n";
   s << "joints:\n";
   for (int j = 0; j < arm.numJoints(); ++j) {
     const DhRow& r = arm.joints[j];
+    if (arm.convention == DhConvention::kUrdf) {
+      const std::size_t u = static_cast<std::size_t>(j);
+      s << "  - {";
+      if (u < arm.urdf.joint_names.size() && !arm.urdf.joint_names[u].empty()) s << "name: \"" << arm.urdf.joint_names[u] << "\", ";
+      s << "xyz_m: " << vectorYaml(r.xyz_m) << ", rpy_deg: " << vectorYaml(r.rpy_rad * kRadToDeg) << ", axis: " << vectorYaml(r.axis)
+        << ", theta_offset_deg: " << exactNumber(r.theta_rad * kRadToDeg);
+      if (u < arm.urdf.fixed_before.size() && !arm.urdf.fixed_before[u].isApprox(Eigen::Isometry3d::Identity(), 0.0)) {
+        s << ", fixed_before: " << transformYaml(arm.urdf.fixed_before[u]);
+      }
+      s << ", min_deg: " << exactNumber(arm.lower_rad[j] * kRadToDeg) << ", max_deg: " << exactNumber(arm.upper_rad[j] * kRadToDeg)
+        << "}\n";
+      continue;
+    }
     s << "  - {a_m: " << exactNumber(r.a_m) << ", alpha_deg: " << exactNumber(r.alpha_rad * kRadToDeg)
       << ", d_m: " << exactNumber(r.d_m) << ", theta_offset_deg: " << exactNumber(r.theta_rad * kRadToDeg);
     if (arm.convention == DhConvention::kHayati) s << ", beta_deg: " << exactNumber(r.beta_rad * kRadToDeg);

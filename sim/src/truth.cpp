@@ -75,26 +75,12 @@ Eigen::VectorXd readGeometry(const Arm& arm, const ConfigNode& g) {
     return makeErrorSet(arm, spec, g.source() + ": " + g.path());
   }
   if (g.isSequence()) {
-    const char* kErrorAngleRange = "-180 deg to 180 deg (an angle error)";
-    const char* kErrorLengthRange = "-10000 mm to 10000 mm (a length error)";
     if (static_cast<int>(g.size()) != arm.numJoints()) {
       g.fail("expected one row per joint: " + std::to_string(arm.numJoints()) + " (as " + arm.source + "), got " +
              std::to_string(g.size()));
     }
     Eigen::VectorXd y(arm.numParams());
-    for (int j = 0; j < arm.numJoints(); ++j) {
-      const ConfigNode row = g[static_cast<std::size_t>(j)];
-      if (arm.convention == DhConvention::kHayati) {
-        row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm", "beta_deg"});
-        y[paramIndex(arm, j, kBeta)] = row["beta_deg"].asDoubleWithin(-180.0, 180.0, kErrorAngleRange) * kDegToRad;
-      } else {
-        row.requireOnlyKeys({"theta_deg", "alpha_deg", "a_mm", "d_mm"});
-      }
-      y[paramIndex(arm, j, kTheta)] = row["theta_deg"].asDoubleWithin(-180.0, 180.0, kErrorAngleRange) * kDegToRad;
-      y[paramIndex(arm, j, kAlpha)] = row["alpha_deg"].asDoubleWithin(-180.0, 180.0, kErrorAngleRange) * kDegToRad;
-      y[paramIndex(arm, j, kA)] = row["a_mm"].asDoubleWithin(-1e4, 1e4, kErrorLengthRange) * 1e-3;
-      y[paramIndex(arm, j, kD)] = row["d_mm"].asDoubleWithin(-1e4, 1e4, kErrorLengthRange) * 1e-3;
-    }
+    for (int j = 0; j < arm.numJoints(); ++j) readErrorRow(g[static_cast<std::size_t>(j)], arm, j, y);
     return y;
   }
   g.fail(expected);

@@ -57,7 +57,7 @@ TEST_CASE("malformed robot files name the file and the key", "[sim][io][badinput
   CHECK(inputError([&] { loadArm(f); }) == f + ": joints[3].d_m: expected a finite number, got '.nan'");
 
   write(f, ssrmsWith("convention: modified", "convention: craig"));
-  CHECK(inputError([&] { loadArm(f); }) == f + ": convention: expected 'modified' (Craig), 'standard' or 'hayati', got 'craig'");
+  CHECK(inputError([&] { loadArm(f); }) == f + ": convention: expected 'modified' (Craig), 'standard', 'hayati' or 'urdf', got 'craig'");
 
   write(f, ssrmsWith("d_m: 0.475,", "d_m: 0.475, beta_deg: 0.1,"));
   CHECK(inputError([&] { loadArm(f); }) == f + ": joints[3].beta_deg: is accepted only with convention hayati, not modified");

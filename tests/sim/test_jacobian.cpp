@@ -128,3 +128,27 @@ TEST_CASE("identification Jacobian matches central differences (Hayati DH, beta 
     checkAgainstNumeric(off, q, ErrorFrame::kBase);
   }
 }
+
+TEST_CASE("identification Jacobian matches central differences (URDF convention)", "[sim][jacobian][urdf]") {
+  // The iiwa7 URDF (z axes, rpy of multiples of 90 deg) and the same chain with every origin moved and
+  // turned and every axis tilted (all 7 columns a joint non-trivial: rpy away from 0 and 90 deg).
+  const Arm arm = loadArm(orbcal::test::sourcePath("tests/data/iiwa7.urdf"));
+  REQUIRE(arm.convention == DhConvention::kUrdf);
+  for (const auto& q : testConfigurations(7, 14)) {
+    checkAgainstNumeric(arm, q, ErrorFrame::kTool);
+    checkAgainstNumeric(arm, q, ErrorFrame::kBase);
+  }
+  Arm bent = arm;
+  std::mt19937_64 rng(15);
+  std::normal_distribution<double> n01;
+  for (DhRow& r : bent.joints) {
+    r.xyz_m += 0.05 * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
+    r.rpy_rad += 0.3 * Eigen::Vector3d(n01(rng), n01(rng), n01(rng));
+    r.axis = (r.axis + 0.3 * Eigen::Vector3d(n01(rng), n01(rng), n01(rng))).normalized();
+    r.theta_rad = 0.2 * n01(rng);
+  }
+  for (const auto& q : testConfigurations(7, 16)) {
+    checkAgainstNumeric(bent, q, ErrorFrame::kTool);
+    checkAgainstNumeric(bent, q, ErrorFrame::kBase);
+  }
+}

@@ -23,6 +23,9 @@
 // NOT verbatim: that `file:` value is rewritten to the copy's path and a comment at the top of the copy
 // lists the original paths. Otherwise scene.yaml is a verbatim copy. Only the mesh files themselves are
 // copied (not side files such as an .obj's .mtl: the renderer uses only the geometry).
+// A URDF robot (sim/urdf.hpp): robot.urdf is a verbatim copy of the URDF and robot.yaml the chain read
+// from it (sim::formatArm, convention urdf, naming robot.urdf and the links), so that a dataset's
+// readers load robot.yaml as for any robot and `orbcal calibrate` finds the URDF to write back.
 // Resume: rerunning with the same inputs (manifest, robot.yaml, errors.yaml, scene.yaml and mesh
 // bytes) into the same folder deletes the temporary files a killed run left in images/ (NAME.tmp.PID),
 // keeps every image that exists and decodes as 8-bit grey of the camera's size, and renders the rest.
@@ -44,7 +47,8 @@ inline constexpr std::uint64_t kJointNoiseStream = 0x6a6f696e74ULL;        // "j
 inline constexpr std::uint64_t kRenderStream = 0x72656e6465720000ULL;      // "render" << 16, + sample index
 
 struct DatasetJob {
-  std::string robot = sim::kDefaultRobot;  ///< file or builtin:NAME
+  std::string robot = sim::kDefaultRobot;  ///< file or builtin:NAME (a robot YAML or a URDF)
+  std::string base_link, tip_link;         ///< a URDF robot's chain (empty: root and only leaf link)
   std::string scene = sim::kDefaultScene;
   sim::ErrorSetSpec errors;                ///< injected into the true arm: table3 | zero | random | an error-set file
   int count = 50;

@@ -10,6 +10,11 @@
 // Hayati (seeds 001/002 and 004; digest 2.2): standard DH post-multiplied by Ry(beta_i), row i holds
 // (a_i, alpha_i, d_i, theta_i, beta_i) and
 //   {i-1}_T_{i} = Rz(theta_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i) Ry(beta_i),   nominal beta_i = 0.
+// URDF (a chain read from a URDF file, sim/urdf.hpp): joint i has a fixed origin (xyz, rpy) in its
+// parent link and a unit axis, and
+//   {i-1}_T_{i} = T(xyz_i) Rz(yaw_i) Ry(pitch_i) Rx(roll_i) Rot(axis_i, theta_i + q_i),
+// with the URDF's R = Rz(yaw) Ry(pitch) Rx(roll); theta_i is a zero offset (nominal 0) that calibration
+// adds. Row i holds (xyz_m, rpy_rad, axis, theta_rad); a, alpha, d and beta are unused.
 // base_T_flange = base_T_first * prod_i {i-1}_T_{i} * last_T_flange (seed 000: row 0, rows 1..7, row E).
 #include <Eigen/Geometry>
 #include <string>
@@ -17,9 +22,9 @@
 
 namespace orbcal::sim {
 
-enum class DhConvention { kModified, kStandard, kHayati };
+enum class DhConvention { kModified, kStandard, kHayati, kUrdf };
 
-/// "modified", "standard" or "hayati": the robot file's `convention:` value.
+/// "modified", "standard", "hayati" or "urdf": the robot file's `convention:` value.
 const char* conventionName(DhConvention convention);
 
 /// One DH row. Lengths in m, angles in rad; for a joint row theta_rad is the home offset. beta_rad
@@ -30,6 +35,22 @@ struct DhRow {
   double d_m = 0.0;
   double theta_rad = 0.0;
   double beta_rad = 0.0;
+  // The URDF convention only: the joint's origin in its parent link, and its unit axis.
+  Eigen::Vector3d xyz_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d rpy_rad = Eigen::Vector3d::Zero();  ///< roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+};
+
+/// Where a URDF-convention arm came from, to write the calibrated origins back (sim/urdf.hpp).
+struct UrdfSource {
+  std::string file;       ///< the URDF file (for a robot YAML: as written in it, relative to the YAML's folder)
+  std::string base_link;  ///< the chain runs from this link ...
+  std::string tip_link;   ///< ... to this one (the flange)
+  std::vector<std::string> joint_names;  ///< the chain's movable joints, one per DhRow
+  /// Per movable joint: the fixed joints just before it folded into its origin (parent side), so
+  /// that the joint's own URDF origin is fixed_before^-1 * T(xyz) R(rpy).
+  std::vector<Eigen::Isometry3d> fixed_before;
+  bool empty() const { return file.empty(); }
 };
 
 /// One link's mass properties: the body that moves with joint j (frame j of the DH chain).
@@ -57,20 +78,31 @@ struct Arm {
   Eigen::VectorXd lower_rad;  ///< joint limits, one per joint
   Eigen::VectorXd upper_rad;
   MassModel masses;           ///< optional; empty when the robot file has no `masses:` section
+  UrdfSource urdf;            ///< the URDF convention: the file and links the chain was read from
 
   int numJoints() const { return static_cast<int>(joints.size()); }
-  /// Identified parameters per joint: 5 for the Hayati convention (with beta), 4 for the others.
-  int paramsPerJoint() const { return convention == DhConvention::kHayati ? 5 : 4; }
+  /// Identified parameters per joint: 7 for the URDF convention (origin xyz and rpy, zero offset), 5
+  /// for Hayati (with beta), 4 for the others.
+  int paramsPerJoint() const {
+    return convention == DhConvention::kUrdf ? 7 : convention == DhConvention::kHayati ? 5 : 4;
+  }
   int numParams() const { return paramsPerJoint() * numJoints(); }
 };
 
 /// Parameter-error layout, joint by joint, in seed 000's y_i order: y_i = [dtheta_i, dalpha_i, da_i, dd_i]
 /// (for modified DH, alpha and a are those of row i, i.e. alpha_{i-1} and a_{i-1}), followed by
 /// dbeta_i for the Hayati convention: arm.paramsPerJoint() entries per joint. SI units.
-enum ParamKind { kTheta = 0, kAlpha = 1, kA = 2, kD = 3, kBeta = 4 };
+/// The URDF convention's 7 per joint: y_i = [dtheta_i, dx_i, dy_i, dz_i, droll_i, dpitch_i, dyaw_i]
+/// (the zero offset, then the origin's xyz and rpy): kOx.. share values with the DH kinds, so a DH
+/// kind is meaningful only for a DH arm and a kO* kind only for a URDF arm.
+enum ParamKind {
+  kTheta = 0, kAlpha = 1, kA = 2, kD = 3, kBeta = 4,
+  kOx = 1, kOy = 2, kOz = 3, kOroll = 4, kOpitch = 5, kOyaw = 6
+};
 inline int paramIndex(const Arm& arm, int joint, ParamKind kind) { return arm.paramsPerJoint() * joint + kind; }
 inline ParamKind paramKind(const Arm& arm, int index) { return static_cast<ParamKind>(index % arm.paramsPerJoint()); }
-/// "theta1", "alpha1", "a1", "d1", ("beta1",) ... (joints numbered from 1, as in the DH table).
+/// "theta1", "alpha1", "a1", "d1", ("beta1",) ... (joints numbered from 1, as in the DH table);
+/// for the URDF convention "theta1", "x1", "y1", "z1", "roll1", "pitch1", "yaw1".
 std::string paramName(const Arm& arm, int index);
 /// Unit of parameter `index` as printed at the edges: true for angles (deg), false for lengths (mm).
 bool isAngleParam(const Arm& arm, int index);
@@ -80,10 +112,15 @@ void checkJointVector(const Arm& arm, const Eigen::VectorXd& q, const char* cont
 /// Same for a parameter-error vector of arm.numParams() entries.
 void checkParamVector(const Arm& arm, const Eigen::VectorXd& y, const char* context);
 
+/// The key of per-joint parameter k in error tables (true_errors, error-set files): its name without
+/// the joint number and its edge unit, e.g. "theta_deg", "a_mm", "x_mm".
+std::string paramKey(const Arm& arm, int k);
+
 /// Rigid transform of one DH row at joint angle q (rad).
 Eigen::Isometry3d linkTransform(DhConvention convention, const DhRow& row, double q);
 
-/// The arm with parameter errors y added to its DH rows (theta, alpha, a, d, and beta for Hayati).
+/// The arm with parameter errors y added to its DH rows (theta, alpha, a, d, and beta for Hayati; theta,
+/// xyz and rpy for the URDF convention).
 Arm withErrors(const Arm& nominal, const Eigen::VectorXd& y);
 
 /// base_T_flange at joint angles q (rad).

@@ -5,6 +5,7 @@
 //   <folder>/manifest.yaml   format, program version, robot and scene file names, seeds, the true
 //                            injected errors (simulation only), joint noise
 //   <folder>/robot.yaml      the arm (copied in, so the dataset stands alone)
+//   <folder>/robot.urdf      for a URDF robot only: the URDF; robot.yaml is then the chain read from it
 //   <folder>/scene.yaml      the scene
 //   <folder>/errors.yaml     simulation only, when the plant came from an error-set file (sim/truth.hpp):
 //                            that file, copied in; the manifest names it as true_errors.file
@@ -27,6 +28,8 @@
 namespace orbcal::sim {
 
 inline constexpr const char* kDatasetFormat = "orbcal-dataset-1";
+/// A URDF robot's URDF in a dataset folder (robot.yaml names it; render/dataset_writer.hpp).
+inline constexpr const char* kDatasetUrdfFile = "robot.urdf";
 
 struct DatasetManifest {
   std::string format = kDatasetFormat;

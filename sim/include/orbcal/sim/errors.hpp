@@ -45,4 +45,18 @@ Eigen::VectorXd addJointNoise(const Eigen::VectorXd& q, double sigma_rad, std::m
 /// edge), then "  beta ... deg" for a Hayati arm. y has arm.numParams() entries.
 std::string formatErrorSet(const Arm& arm, const Eigen::VectorXd& y);
 
+class ConfigNode;
+/// Error tables (a manifest's true_errors, an error-set file's geometry rows) hold one row per joint
+/// keyed by paramKey: theta_deg, alpha_deg, a_mm, d_mm (4), + beta_deg (Hayati, 5), or theta_deg,
+/// x_mm, y_mm, z_mm, roll_deg, pitch_deg, yaw_deg (URDF, 7). The arm whose convention a table with
+/// `per_joint` entries a row is in (only its convention is set); 4 gives the standard DH.
+Arm errorTableArm(int per_joint);
+/// The entries per row of a table whose first row is `row` (from its keys: beta_deg 5, x_mm 7, else 4).
+int errorTablePerJoint(const ConfigNode& row);
+/// Joint `joint`'s row "{theta_deg: v, ...}" of y (arm.paramsPerJoint() entries a joint), values in
+/// deg and mm written with `number`.
+std::string errorRowYaml(const Arm& arm, const Eigen::VectorXd& y, int joint, std::string (*number)(double));
+/// Reads joint `joint`'s row into y (every key required, no other allowed).
+void readErrorRow(const ConfigNode& row, const Arm& arm, int joint, Eigen::VectorXd& y);
+
 }  // namespace orbcal::sim

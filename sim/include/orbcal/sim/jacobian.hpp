@@ -6,7 +6,8 @@
 // frame i-1 or i; its twist in the base frame is [o x w + v; w] for an axis w through point o, or a
 // pure translation v. Mapped to the flange it gives the column of J: J_tool = Ad(flange_T_base) xi,
 // the paper's F^E G_i. Hayati's beta_i turns frame i about its own y axis through its origin; there
-// alpha_i and a_i act along the x axis before Ry(beta_i). Checked against central differences in
+// alpha_i and a_i act along the x axis before Ry(beta_i). In the URDF convention every origin parameter
+// moves frame i about or along an axis through the origin's position (jacobian.cpp). Checked against central differences in
 // tests/sim/test_jacobian.cpp.
 #include <Eigen/Core>
 

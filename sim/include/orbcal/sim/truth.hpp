@@ -7,7 +7,8 @@
 //   format: orbcal-errors-1
 //   geometry: table3            # table3 | zero | random | {random: {angle_sigma_deg: 0.3, length_sigma_mm: 1, seed: 1}}
 //                               # | one row per joint: [{theta_deg: .., alpha_deg: .., a_mm: .., d_mm: ..}, ...]
-//                               #   (with beta_deg: .. too, and only, for a hayati arm)
+//                               #   (with beta_deg: .. too, and only, for a hayati arm; a urdf arm:
+//                               #   theta_deg, x_mm, y_mm, z_mm, roll_deg, pitch_deg, yaw_deg)
 //   effects:                    # optional; SI values, parameter names as sim::effectBlocks gives them
 //     - {spec: "cyclic:2", parameters: {cyclic2_sin1: 2.6e-4, cyclic2_cos1: 0, cyclic2_sin2: 0, cyclic2_cos2: 8.7e-5}}
 //     - {spec: "compliance:2", parameters: {c2: 1.0e-4}}
