@@ -1,3 +1,6 @@
+#include <filesystem>
+
+#include "orbcal/sim/camera_io.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -17,39 +20,55 @@ Scene loadScene(const std::string& path) {
   s.source = path;
   s.name = root["name"].asString();
 
-  const ConfigNode cam = root["camera"];
-  cam.requireOnlyKeys({"width_px", "height_px", "fx_px", "fy_px", "cx_px", "cy_px", "distortion"});
-  s.camera.width_px = cam["width_px"].asInt();
-  s.camera.height_px = cam["height_px"].asInt();
-  if (s.camera.width_px < 16 || s.camera.width_px > 16384) cam["width_px"].fail("must be within 16..16384");
-  if (s.camera.height_px < 16 || s.camera.height_px > 16384) cam["height_px"].fail("must be within 16..16384");
-  s.camera.fx_px = cam["fx_px"].asDouble();
-  s.camera.fy_px = cam["fy_px"].asDouble();
-  if (s.camera.fx_px <= 0) cam["fx_px"].fail("must be positive");
-  if (s.camera.fy_px <= 0) cam["fy_px"].fail("must be positive");
-  s.camera.cx_px = cam["cx_px"].asDouble();
-  s.camera.cy_px = cam["cy_px"].asDouble();
-  if (cam.has("distortion")) {
-    const Eigen::VectorXd k = cam["distortion"].asVector(5);
-    for (int i = 0; i < 5; ++i) s.camera.distortion[i] = k[i];
-  }
+  std::string scene_dir;
+  if (path.rfind("builtin:", 0) != 0) scene_dir = std::filesystem::path(path).parent_path().string();
+  s.camera = parseSceneCamera(root["camera"], scene_dir, &s.camera_file);
 
   const ConfigNode board = root["board"];
-  board.requireOnlyKeys({"inner_corners_x", "inner_corners_y", "square_m", "margin_m"});
+  board.requireOnlyKeys({"type", "inner_corners_x", "inner_corners_y", "square_m", "margin_m", "dictionary", "marker_m"});
+  const std::string type = board.optional("type").asString("chessboard");
+  if (type == "charuco") {
+    s.board.type = BoardType::kCharuco;
+  } else if (type != "chessboard") {
+    board["type"].fail("expected chessboard or charuco, got '" + type + "'");
+  }
   s.board.corners_x = board["inner_corners_x"].asInt();
   s.board.corners_y = board["inner_corners_y"].asInt();
   if (s.board.corners_x < 2) board["inner_corners_x"].fail("must be at least 2");
   if (s.board.corners_y < 2) board["inner_corners_y"].fail("must be at least 2");
-  if (s.board.corners_x % 2 == s.board.corners_y % 2) {
-    // An even-by-even or odd-by-odd square count looks the same after a half turn: the corner order
-    // could flip. The squares are inner corners + 1 along each side.
-    board.fail("inner_corners_x and inner_corners_y must differ in parity (an even-by-odd square count), "
-               "so that the board's orientation is unambiguous");
+  if (s.board.type == BoardType::kChessboard) {
+    for (const char* key : {"dictionary", "marker_m"}) {
+      if (board.has(key)) board[key].fail("only for a ChArUco board (type: charuco)");
+    }
+    if (s.board.corners_x % 2 == s.board.corners_y % 2) {
+      // An even-by-even or odd-by-odd square count looks the same after a half turn: the corner order
+      // could flip. The squares are inner corners + 1 along each side. (A ChArUco board's markers
+      // identify its corners: no such rule.)
+      board.fail("inner_corners_x and inner_corners_y must differ in parity (an even-by-odd square count), "
+                 "so that the board's orientation is unambiguous");
+    }
   }
   s.board.square_m = board["square_m"].asDouble();
   if (s.board.square_m <= 0) board["square_m"].fail("must be positive");
   s.board.margin_m = board.optional("margin_m").asDouble(s.board.square_m);
   if (s.board.margin_m < 0) board["margin_m"].fail("must not be negative");
+  if (s.board.type == BoardType::kCharuco) {
+    s.board.dictionary = board["dictionary"].asString();
+    ArucoDictionaryInfo info;
+    if (!arucoDictionary(s.board.dictionary, &info)) {
+      board["dictionary"].fail("unknown ArUco dictionary '" + s.board.dictionary +
+                               "' (expected DICT_NxN_M, N = 4..7, M = 50, 100, 250 or 1000)");
+    }
+    const int markers = static_cast<int>(charucoMarkers(s.board).size());
+    if (markers > info.markers) {
+      board["dictionary"].fail(s.board.dictionary + " has " + std::to_string(info.markers) + " markers, the board needs " +
+                               std::to_string(markers));
+    }
+    s.board.marker_m = board["marker_m"].asDouble();
+    if (!(s.board.marker_m > 0.0 && s.board.marker_m < s.board.square_m)) {
+      board["marker_m"].fail("must be positive and smaller than square_m");
+    }
+  }
 
   s.base_T_board = root["base_T_board"].asTransform();
   s.flange_T_camera = root["flange_T_camera"].asTransform();

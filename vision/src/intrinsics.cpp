@@ -1,10 +1,14 @@
 #include "orbcal/vision/intrinsics.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
+#include <filesystem>
 #include <opencv2/calib3d.hpp>
 #include <sstream>
 #include <stdexcept>
 
+#include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/vision/measurement.hpp"
 
@@ -95,6 +99,7 @@ IntrinsicsResult calibrateIntrinsics(const std::vector<BoardView>& views, const 
 
 IntrinsicsResult calibrateIntrinsicsFromFiles(const std::vector<std::string>& paths, const sim::Board& board,
                                               const IntrinsicsSettings& settings) {
+  if (board.type != sim::BoardType::kChessboard) throw std::invalid_argument("calibrateIntrinsicsFromFiles: chessboards only");
   DetectorSettings det = settings.detector;
   det.require_orientation = false;
   std::vector<IntrinsicsImage> images(paths.size());
@@ -161,6 +166,43 @@ std::string formatIntrinsicsYaml(const IntrinsicsResult& r, const sim::Board& bo
     s << "}\n";
   }
   return s.str();
+}
+
+std::vector<std::string> expandImageArguments(const std::vector<std::string>& arguments) {
+  static const std::vector<std::string> kExtensions{".png", ".jpg", ".jpeg", ".bmp", ".tif",
+                                                     ".tiff", ".pgm", ".ppm", ".pnm", ".webp"};
+  namespace fs = std::filesystem;
+  std::vector<std::string> out;
+  for (const std::string& a : arguments) {
+    std::error_code ec;
+    if (!fs::is_directory(a, ec)) {
+      if (!fs::exists(a, ec)) throw sim::InputError(a + ": no such image file or folder");
+      out.push_back(a);
+      continue;
+    }
+    std::vector<std::string> found;
+    for (fs::directory_iterator it(a, ec), end; !ec && it != end; it.increment(ec)) {
+      std::error_code ec_file;
+      if (!it->is_regular_file(ec_file)) continue;
+      std::string ext = it->path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+      if (std::find(kExtensions.begin(), kExtensions.end(), ext) != kExtensions.end()) found.push_back(it->path().string());
+    }
+    if (ec) throw sim::InputError(a + ": cannot list the folder: " + ec.message());
+    if (found.empty()) {
+      throw sim::InputError(a + ": no image files in this folder (looked for .png .jpg .jpeg .bmp .tif .tiff .pgm .ppm .pnm .webp)");
+    }
+    std::sort(found.begin(), found.end());
+    out.insert(out.end(), found.begin(), found.end());
+  }
+  return out;
+}
+
+CameraFileNames cameraFileNames(const std::string& out) {
+  const std::filesystem::path p(out);
+  const std::filesystem::path dir = p.parent_path();
+  const std::string stem = p.stem().string();
+  return {(dir / (stem + "_camera_info.yaml")).string(), (dir / (stem + "_opencv.yml")).string()};
 }
 
 }  // namespace orbcal::vision

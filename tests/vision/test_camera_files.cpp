@@ -1,0 +1,82 @@
+// The camera files orbcal writes against OpenCV's own reader and writer (cv::FileStorage), and the
+// image folder argument of `orbcal intrinsics`.
+#include <catch2/catch.hpp>
+#include <opencv2/core.hpp>
+
+#include "orbcal/sim/camera_io.hpp"
+#include "orbcal/vision/intrinsics.hpp"
+#include "test_util.hpp"
+
+using namespace orbcal;
+
+namespace {
+sim::Camera someCamera() {
+  sim::Camera c;
+  c.width_px = 1288;
+  c.height_px = 964;
+  c.fx_px = 1401.123456789012;
+  c.fy_px = 1399.987654321098;
+  c.cx_px = 643.30000000000007;
+  c.cy_px = 508.91234567890123;
+  c.distortion = {-0.21234567890123, 0.1234567890123456, 1.234567890123e-4, -9.87654321098e-5, -0.0123456789012345};
+  return c;
+}
+}  // namespace
+
+TEST_CASE("OpenCV's FileStorage reads orbcal's file, and orbcal reads FileStorage's", "[vision][camera_files]") {
+  const std::string dir = test::tempDir("camera-files-cv");
+  const sim::Camera c = someCamera();
+  // orbcal -> OpenCV.
+  test::write(dir + "/orbcal.yml", sim::formatOpenCvCameraYaml(c));
+  cv::FileStorage in(dir + "/orbcal.yml", cv::FileStorage::READ);
+  REQUIRE(in.isOpened());
+  cv::Mat K, D;
+  in["camera_matrix"] >> K;
+  in["distortion_coefficients"] >> D;
+  CHECK(static_cast<int>(in["image_width"]) == c.width_px);
+  CHECK(static_cast<int>(in["image_height"]) == c.height_px);
+  REQUIRE(K.rows == 3);
+  REQUIRE(K.cols == 3);
+  REQUIRE(D.total() == 5);
+  CHECK(std::abs(K.at<double>(0, 0) - c.fx_px) <= 1e-12);
+  CHECK(std::abs(K.at<double>(1, 1) - c.fy_px) <= 1e-12);
+  CHECK(std::abs(K.at<double>(0, 2) - c.cx_px) <= 1e-12);
+  CHECK(std::abs(K.at<double>(1, 2) - c.cy_px) <= 1e-12);
+  CHECK(K.at<double>(2, 2) == 1.0);
+  for (int i = 0; i < 5; ++i) CHECK(std::abs(D.at<double>(i) - c.distortion[i]) <= 1e-12);
+  // OpenCV -> orbcal, written as OpenCV's calibration sample does (1x5 coefficients, extra keys).
+  {
+    cv::FileStorage out(dir + "/opencv.yml", cv::FileStorage::WRITE);
+    out << "calibration_time" << "today" << "image_width" << c.width_px << "image_height" << c.height_px;
+    out << "camera_matrix" << K << "distortion_coefficients" << D.reshape(1, 1) << "avg_reprojection_error" << 0.2;
+  }
+  sim::CameraFileFormat f{};
+  const sim::Camera back = sim::loadCameraFile(dir + "/opencv.yml", &f);
+  CHECK(f == sim::CameraFileFormat::kOpenCvFileStorage);
+  CHECK(back.width_px == c.width_px);
+  CHECK(back.height_px == c.height_px);
+  CHECK(std::abs(back.fx_px - c.fx_px) <= 1e-12);
+  CHECK(std::abs(back.fy_px - c.fy_px) <= 1e-12);
+  CHECK(std::abs(back.cx_px - c.cx_px) <= 1e-12);
+  CHECK(std::abs(back.cy_px - c.cy_px) <= 1e-12);
+  for (int i = 0; i < 5; ++i) CHECK(std::abs(back.distortion[i] - c.distortion[i]) <= 1e-12);
+}
+
+TEST_CASE("intrinsics image arguments: a folder is its images, sorted; none is an error", "[vision][camera_files][badinput]") {
+  const std::string dir = test::tempDir("camera-files-folder");
+  std::filesystem::create_directories(dir + "/imgs/sub.png");  // a folder with an image's name: ignored
+  for (const char* name : {"b.png", "a.JPG", "c.tiff", "notes.txt", "c.png.bak"}) test::write(dir + "/imgs/" + name, "x");
+  test::write(dir + "/single.png", "x");
+  const std::vector<std::string> got = vision::expandImageArguments({dir + "/single.png", dir + "/imgs"});
+  const std::vector<std::string> want{dir + "/single.png", dir + "/imgs/a.JPG", dir + "/imgs/b.png", dir + "/imgs/c.tiff"};
+  CHECK(got == want);
+  std::filesystem::create_directories(dir + "/empty");
+  test::write(dir + "/empty/readme.md", "x");
+  CHECK_THAT(test::inputError([&] { vision::expandImageArguments({dir + "/empty"}); }),
+             Catch::StartsWith(dir + "/empty: no image files in this folder"));
+  CHECK(test::inputError([&] { vision::expandImageArguments({dir + "/missing"}); }) ==
+        dir + "/missing: no such image file or folder");
+  const vision::CameraFileNames names = vision::cameraFileNames(dir + "/out/intr.yaml");
+  CHECK(names.camera_info == dir + "/out/intr_camera_info.yaml");
+  CHECK(names.opencv == dir + "/out/intr_opencv.yml");
+}
