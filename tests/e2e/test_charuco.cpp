@@ -3,6 +3,8 @@
 // pose within 0.5 mm of the truth).
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 
 #include "orbcal/render/renderer.hpp"
 #include "orbcal/render/settings.hpp"
@@ -10,6 +12,7 @@
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/vision/charuco.hpp"
 #include "orbcal/vision/corners.hpp"
+#include "orbcal/vision/measurement.hpp"
 #include "orbcal/vision/pose.hpp"
 
 using namespace orbcal;
@@ -118,4 +121,31 @@ TEST_CASE("a ChArUco view with 30% of the board outside the image gives a pose w
   CHECK((pose.camera_T_board.translation() - T.translation()).norm() < kPoseTolM);
   // The covariance is a covariance (the 31 corners on several rows and columns constrain all 6 axes).
   CHECK(pose.covariance_camera.llt().info() == Eigen::Success);
+}
+
+TEST_CASE("measure: a ChArUco scene file's partly visible view is used, the chessboard's is lost", "[e2e][charuco]") {
+  // The scene as a user writes it: the default scene with `type: charuco` in its board section.
+  const std::string dir = std::filesystem::temp_directory_path() / "orbcal-test-charuco-measure";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  std::string text = sim::readTextSource(sim::kDefaultScene);
+  text.replace(text.find("board:\n"), 7, "board:\n  type: charuco\n  dictionary: DICT_5X5_100\n  marker_m: 0.06\n");
+  std::ofstream(dir + "/scene.yaml") << text;
+  const sim::Scene scene = sim::loadScene(dir + "/scene.yaml");
+  REQUIRE(scene.board.type == sim::BoardType::kCharuco);
+  const sim::Scene chess = sim::loadScene(sim::kDefaultScene);
+  const sim::Arm arm = sim::loadArm(sim::kDefaultRobot);
+  double shift = 0.0;
+  while (fractionOutside(scene, view(scene.board, shift)) < 0.2) shift += 0.01;
+  const Eigen::Isometry3d T = view(scene.board, shift);
+  const Eigen::VectorXd no_q;
+  const cv::Mat charuco_image = render::BoardRenderer(scene, render::loadRenderSettings(dir + "/scene.yaml")).render(T, 3, 0);
+  const vision::Measurement m = vision::measureImage(charuco_image, scene, arm, no_q);
+  REQUIRE(m.found());
+  CHECK(m.num_corners < scene.board.numCorners());
+  CHECK(m.corner_ids.size() == m.corners_px.size());
+  CHECK((m.camera_T_board.translation() - T.translation()).norm() < kPoseTolM);
+  const cv::Mat chess_image = render::BoardRenderer(chess, render::loadRenderSettings(sim::kDefaultScene)).render(T, 3, 0);
+  const vision::Measurement lost = vision::measureImage(chess_image, chess, arm, no_q);
+  CHECK(lost.status == vision::ImageStatus::kNotFound);
 }

@@ -141,3 +141,38 @@ TEST_CASE("bad camera files: one line naming the file and the key", "[sim][camer
   CHECK_THAT(error("name: a scene\nfx_px: 3\n"), Catch::StartsWith("cam.yaml: (top level): not a camera file"));
   CHECK_THAT(error("- 1\n- 2\n"), Catch::StartsWith("cam.yaml: (top level): expected a camera file"));
 }
+
+TEST_CASE("ChArUco board keys: read, and bad values named at their key", "[sim][io][charuco][badinput]") {
+  const std::string dir = orbcal::test::tempDir("scene-charuco");
+  const std::string f = dir + "/scene.yaml";
+  const std::string good = slurp(orbcal::test::sourcePath("scenes/default_scene.yaml"));
+  const auto withBoard = [&](const std::string& extra) {
+    std::string t = good;
+    const std::string from = "board:\n";
+    const auto at = t.find(from);
+    REQUIRE(at != std::string::npos);
+    write(f, t.replace(at, from.size(), from + extra));
+  };
+  withBoard("  type: charuco\n  dictionary: DICT_5X5_100\n  marker_m: 0.06\n");
+  const Scene s = loadScene(f);
+  CHECK(s.board.type == BoardType::kCharuco);
+  CHECK(s.board.dictionary == "DICT_5X5_100");
+  CHECK(s.board.marker_m == 0.06);
+  CHECK(charucoMarkers(s.board).size() == 35);  // the white half of 10 x 7 squares
+  withBoard("  type: charuco\n  dictionary: DICT_5X5_99\n  marker_m: 0.06\n");
+  CHECK_THAT(inputError([&] { loadScene(f); }), Catch::StartsWith(f + ": board.dictionary: unknown ArUco dictionary 'DICT_5X5_99'"));
+  withBoard("  type: charuco\n  dictionary: DICT_5X5_100\n  marker_m: 0.08\n");
+  CHECK(inputError([&] { loadScene(f); }) == f + ": board.marker_m: must be positive and smaller than square_m");
+  withBoard("  type: charuco\n  dictionary: DICT_5X5_100\n");
+  CHECK(inputError([&] { loadScene(f); }) == f + ": board.marker_m: missing");
+  withBoard("  type: charuko\n");
+  CHECK(inputError([&] { loadScene(f); }) == f + ": board.type: expected chessboard or charuco, got 'charuko'");
+  withBoard("  marker_m: 0.06\n");
+  CHECK(inputError([&] { loadScene(f); }) == f + ": board.marker_m: only for a ChArUco board (type: charuco)");
+  // 9 x 10 inner corners: 10 x 11 squares, 55 of them white, one marker each: more than DICT_4X4_50 has.
+  std::string big = good;
+  big.replace(big.find("inner_corners_y: 6"), 18, "inner_corners_y: 10");
+  big.replace(big.find("board:\n"), 7, "board:\n  type: charuco\n  dictionary: DICT_4X4_50\n  marker_m: 0.06\n");
+  write(f, big);
+  CHECK(inputError([&] { loadScene(f); }) == f + ": board.dictionary: DICT_4X4_50 has 50 markers, the board needs 55");
+}
