@@ -1,9 +1,11 @@
 // The camera files orbcal writes against OpenCV's own reader and writer (cv::FileStorage), and the
 // image folder argument of `orbcal intrinsics`.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <opencv2/core.hpp>
 
 #include "orbcal/sim/camera_io.hpp"
+#include "orbcal/sim/io.hpp"
 #include "orbcal/vision/intrinsics.hpp"
 #include "test_util.hpp"
 
@@ -79,4 +81,70 @@ TEST_CASE("intrinsics image arguments: a folder is its images, sorted; none is a
   const vision::CameraFileNames names = vision::cameraFileNames(dir + "/out/intr.yaml");
   CHECK(names.camera_info == dir + "/out/intr_camera_info.yaml");
   CHECK(names.opencv == dir + "/out/intr_opencv.yml");
+}
+
+TEST_CASE("OpenCV's own left_intrinsics.yml reads as a camera", "[vision][camera_files][real]") {
+  const std::string file = "/usr/share/doc/opencv-doc/examples/data/left_intrinsics.yml";
+  if (!std::filesystem::exists(file)) {
+    WARN("skipped: " << file << " absent (Debian package opencv-doc)");
+    return;
+  }
+  cv::FileStorage fs(file, cv::FileStorage::READ);
+  cv::Mat K, D;
+  fs["camera_matrix"] >> K;
+  fs["distortion_coefficients"] >> D;
+  const sim::Camera c = sim::loadCameraFile(file);
+  CHECK(c.width_px == 640);
+  CHECK(c.height_px == 480);
+  CHECK(c.fx_px == K.at<double>(0, 0));
+  CHECK(c.fy_px == K.at<double>(1, 1));
+  CHECK(c.cx_px == K.at<double>(0, 2));
+  CHECK(c.cy_px == K.at<double>(1, 2));
+  for (int i = 0; i < 5; ++i) CHECK(c.distortion[i] == D.at<double>(i));
+}
+
+TEST_CASE("intrinsics from a folder of photographs: both camera files load as a scene's camera", "[vision][camera_files][real]") {
+  const std::string data = "/usr/share/doc/opencv-doc/examples/data/";
+  if (!std::filesystem::exists(data + "left01.jpg")) {
+    WARN("skipped: " << data << " absent (Debian package opencv-doc)");
+    return;
+  }
+  const std::string dir = test::tempDir("camera-files-intrinsics");
+  std::filesystem::create_directories(dir + "/photos");
+  std::size_t copied = 0;
+  for (int i = 1; i <= 14; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "left%02d.jpg", i);
+    if (!std::filesystem::exists(data + name)) continue;  // left10.jpg is not in the package
+    std::filesystem::copy_file(data + name, dir + "/photos/" + name);
+    ++copied;
+  }
+  test::write(dir + "/photos/notes.txt", "not an image");
+  const std::vector<std::string> images = vision::expandImageArguments({dir + "/photos"});
+  CHECK(copied >= 10);
+  CHECK(images.size() == copied);  // the photographs, sorted; notes.txt ignored
+  CHECK(std::is_sorted(images.begin(), images.end()));
+  sim::Board board;
+  board.corners_x = 9, board.corners_y = 6, board.square_m = 0.025;
+  const vision::IntrinsicsResult r = vision::calibrateIntrinsicsFromFiles(images, board);
+  REQUIRE(r.ok);
+  const vision::CameraFileNames names = vision::cameraFileNames(dir + "/intrinsics.yaml");
+  test::write(names.camera_info, sim::formatCameraInfoYaml(r.camera, "left"));
+  test::write(names.opencv, sim::formatOpenCvCameraYaml(r.camera));
+  std::string scene = test::slurp(test::sourcePath("scenes/default_scene.yaml"));
+  const auto a = scene.find("\ncamera:\n"), b = scene.find("\nboard:\n");
+  REQUIRE(a != std::string::npos);
+  REQUIRE(b != std::string::npos);
+  for (const std::string& file : {names.camera_info, names.opencv}) {
+    std::string t = scene;
+    test::write(dir + "/scene.yaml", t.replace(a + 1, b - a, "camera: {file: " + std::filesystem::path(file).filename().string() + "}\n"));
+    const sim::Camera c = sim::loadScene(dir + "/scene.yaml").camera;
+    CHECK(c.width_px == 640);
+    CHECK(c.height_px == 480);
+    CHECK(std::abs(c.fx_px - r.camera.fx_px) <= 1e-12);
+    CHECK(std::abs(c.fy_px - r.camera.fy_px) <= 1e-12);
+    CHECK(std::abs(c.cx_px - r.camera.cx_px) <= 1e-12);
+    CHECK(std::abs(c.cy_px - r.camera.cy_px) <= 1e-12);
+    for (int i = 0; i < 5; ++i) CHECK(std::abs(c.distortion[i] - r.camera.distortion[i]) <= 1e-12);
+  }
 }
