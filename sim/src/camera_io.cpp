@@ -78,6 +78,17 @@ std::vector<std::pair<int, int>> vectorShapes(const std::vector<int>& lengths) {
   return s;
 }
 
+/// checkCamera on a camera read from a file: each field blamed on the file's key (K's entry, ...).
+void checkFileCamera(const Camera& c, const ConfigNode& root, const ConfigNode& K, const ConfigNode& D) {
+  checkCamera(c, [&](const std::string& field) -> ConfigNode {
+    if (field == "width_px") return root["image_width"];
+    if (field == "height_px") return root["image_height"];
+    if (field == "distortion") return D["data"];
+    const int index = field == "fx_px" ? 0 : field == "cx_px" ? 2 : field == "fy_px" ? 4 : 5;
+    return K["data"][static_cast<std::size_t>(index)];
+  });
+}
+
 Camera parseRos(const ConfigNode& root) {
   root.requireOnlyKeys({"image_width", "image_height", "camera_name", "camera_matrix", "distortion_model",
                         "distortion_coefficients", "rectification_matrix", "projection_matrix",
@@ -103,13 +114,7 @@ Camera parseRos(const ConfigNode& root) {
   readDistortion(readMatrix(D, false, vectorShapes(lengths)), D["data"], c);
   readMatrix(root["rectification_matrix"], false, {{3, 3}});
   readMatrix(root["projection_matrix"], false, {{3, 4}});
-  checkCamera(c, [&](const std::string& field) -> ConfigNode {
-    if (field == "width_px") return root["image_width"];
-    if (field == "height_px") return root["image_height"];
-    if (field == "distortion") return D["data"];
-    const int index = field == "fx_px" ? 0 : field == "cx_px" ? 2 : field == "fy_px" ? 4 : 5;
-    return K["data"][static_cast<std::size_t>(index)];
-  });
+  checkFileCamera(c, root, K, D);
   return c;
 }
 
@@ -121,13 +126,7 @@ Camera parseOpenCv(const ConfigNode& root) {
   readCameraMatrix(readMatrix(K, true, {{3, 3}}), K["data"], c);
   const ConfigNode D = root["distortion_coefficients"];
   readDistortion(readMatrix(D, true, vectorShapes({4, 5, 8, 12, 14})), D["data"], c);
-  checkCamera(c, [&](const std::string& field) -> ConfigNode {
-    if (field == "width_px") return root["image_width"];
-    if (field == "height_px") return root["image_height"];
-    if (field == "distortion") return D["data"];
-    const int index = field == "fx_px" ? 0 : field == "cx_px" ? 2 : field == "fy_px" ? 4 : 5;
-    return K["data"][static_cast<std::size_t>(index)];
-  });
+  checkFileCamera(c, root, K, D);
   return c;
 }
 

@@ -9,34 +9,13 @@
 #include "test_util.hpp"
 
 using namespace orbcal::sim;
+using orbcal::test::checkSameCamera;
 using orbcal::test::inputError;
+using orbcal::test::oddCamera;
 using orbcal::test::slurp;
 using orbcal::test::write;
 
 namespace {
-
-/// A camera with every field different and numbers that need all 17 digits.
-Camera oddCamera() {
-  Camera c;
-  c.width_px = 1288;
-  c.height_px = 964;
-  c.fx_px = 1401.123456789012;
-  c.fy_px = 1399.987654321098;
-  c.cx_px = 643.30000000000007;
-  c.cy_px = 508.91234567890123;
-  c.distortion = {-0.21234567890123, 0.1234567890123456, 1.234567890123e-4, -9.87654321098e-5, -0.0123456789012345};
-  return c;
-}
-
-void requireSame(const Camera& a, const Camera& b) {
-  CHECK(a.width_px == b.width_px);
-  CHECK(a.height_px == b.height_px);
-  CHECK(std::abs(a.fx_px - b.fx_px) <= 1e-12);
-  CHECK(std::abs(a.fy_px - b.fy_px) <= 1e-12);
-  CHECK(std::abs(a.cx_px - b.cx_px) <= 1e-12);
-  CHECK(std::abs(a.cy_px - b.cy_px) <= 1e-12);
-  for (int i = 0; i < 5; ++i) CHECK(std::abs(a.distortion[i] - b.distortion[i]) <= 1e-12);
-}
 
 /// The default scene with its camera section replaced by `camera_section` (the lines from "camera:" up
 /// to "board:").
@@ -53,9 +32,9 @@ std::string sceneWithCamera(const std::string& camera_section) {
 TEST_CASE("camera_info and OpenCV FileStorage files round-trip to 1e-12", "[sim][camera_io]") {
   const Camera c = oddCamera();
   CameraFileFormat f{};
-  requireSame(parseCameraFile(formatCameraInfoYaml(c, "cam0"), "ci.yaml", &f), c);
+  checkSameCamera(parseCameraFile(formatCameraInfoYaml(c, "cam0"), "ci.yaml", &f), c);
   CHECK(f == CameraFileFormat::kRosCameraInfo);
-  requireSame(parseCameraFile(formatOpenCvCameraYaml(c), "cv.yml", &f), c);
+  checkSameCamera(parseCameraFile(formatOpenCvCameraYaml(c), "cv.yml", &f), c);
   CHECK(f == CameraFileFormat::kOpenCvFileStorage);
 }
 
@@ -72,7 +51,7 @@ TEST_CASE("a scene's camera from a camera_info or FileStorage file is the inline
   for (const char* name : {"/a.yaml", "/b.yaml", "/c.yaml"}) {
     INFO(name);
     const Scene s = loadScene(dir + name);
-    requireSame(s.camera, inline_scene.camera);
+    checkSameCamera(s.camera, inline_scene.camera);
     CHECK(!s.camera_file.empty());
     CHECK(std::filesystem::equivalent(s.camera_file, std::string(name) == "/b.yaml" ? dir + "/cams/cv.yml" : dir + "/ci.yaml"));
     CHECK(s.board.corners_x == inline_scene.board.corners_x);
@@ -132,7 +111,7 @@ TEST_CASE("bad camera files: one line naming the file and the key", "[sim][camer
   // rational_polynomial with k4 = k5 = k6 = 0 reads.
   const std::string rational_ok = replaced(replaced(ros, "distortion_model: plumb_bob", "distortion_model: rational_polynomial"),
                                            "rows: 1\n  cols: 5", "rows: 1\n  cols: 8");
-  requireSame(parseCameraFile(replaced(rational_ok, "]\nrectification", ", 0, 0, 0]\nrectification"), "cam.yaml"), c);
+  checkSameCamera(parseCameraFile(replaced(rational_ok, "]\nrectification", ", 0, 0, 0]\nrectification"), "cam.yaml"), c);
   // Missing keys and other files.
   CHECK(error(replaced(cv, "image_width: 1288\n", "")) == "cam.yaml: image_width: missing");
   CHECK(error(replaced(ros, "camera_name: cam0\n", "camera_name: cam0\nfocal: 3\n")) ==

@@ -11,23 +11,10 @@
 
 using namespace orbcal;
 
-namespace {
-sim::Camera someCamera() {
-  sim::Camera c;
-  c.width_px = 1288;
-  c.height_px = 964;
-  c.fx_px = 1401.123456789012;
-  c.fy_px = 1399.987654321098;
-  c.cx_px = 643.30000000000007;
-  c.cy_px = 508.91234567890123;
-  c.distortion = {-0.21234567890123, 0.1234567890123456, 1.234567890123e-4, -9.87654321098e-5, -0.0123456789012345};
-  return c;
-}
-}  // namespace
 
 TEST_CASE("OpenCV's FileStorage reads orbcal's file, and orbcal reads FileStorage's", "[vision][camera_files]") {
   const std::string dir = test::tempDir("camera-files-cv");
-  const sim::Camera c = someCamera();
+  const sim::Camera c = test::oddCamera();
   // orbcal -> OpenCV.
   test::write(dir + "/orbcal.yml", sim::formatOpenCvCameraYaml(c));
   cv::FileStorage in(dir + "/orbcal.yml", cv::FileStorage::READ);
@@ -55,13 +42,7 @@ TEST_CASE("OpenCV's FileStorage reads orbcal's file, and orbcal reads FileStorag
   sim::CameraFileFormat f{};
   const sim::Camera back = sim::loadCameraFile(dir + "/opencv.yml", &f);
   CHECK(f == sim::CameraFileFormat::kOpenCvFileStorage);
-  CHECK(back.width_px == c.width_px);
-  CHECK(back.height_px == c.height_px);
-  CHECK(std::abs(back.fx_px - c.fx_px) <= 1e-12);
-  CHECK(std::abs(back.fy_px - c.fy_px) <= 1e-12);
-  CHECK(std::abs(back.cx_px - c.cx_px) <= 1e-12);
-  CHECK(std::abs(back.cy_px - c.cy_px) <= 1e-12);
-  for (int i = 0; i < 5; ++i) CHECK(std::abs(back.distortion[i] - c.distortion[i]) <= 1e-12);
+  test::checkSameCamera(back, c);
 }
 
 TEST_CASE("intrinsics image arguments: a folder is its images, sorted; none is an error", "[vision][camera_files][badinput]") {
@@ -140,11 +121,6 @@ TEST_CASE("intrinsics from a folder of photographs: both camera files load as a 
     test::write(dir + "/scene.yaml", t.replace(a + 1, b - a, "camera: {file: " + std::filesystem::path(file).filename().string() + "}\n"));
     const sim::Camera c = sim::loadScene(dir + "/scene.yaml").camera;
     CHECK(c.width_px == 640);
-    CHECK(c.height_px == 480);
-    CHECK(std::abs(c.fx_px - r.camera.fx_px) <= 1e-12);
-    CHECK(std::abs(c.fy_px - r.camera.fy_px) <= 1e-12);
-    CHECK(std::abs(c.cx_px - r.camera.cx_px) <= 1e-12);
-    CHECK(std::abs(c.cy_px - r.camera.cy_px) <= 1e-12);
-    for (int i = 0; i < 5; ++i) CHECK(std::abs(c.distortion[i] - r.camera.distortion[i]) <= 1e-12);
+    test::checkSameCamera(c, r.camera);
   }
 }
