@@ -22,7 +22,9 @@
 // (with -2, -3, ... before the extension when two different files share a name), and scene.yaml is then
 // NOT verbatim: that `file:` value is rewritten to the copy's path and a comment at the top of the copy
 // lists the original paths. Otherwise scene.yaml is a verbatim copy. Only the mesh files themselves are
-// copied (not side files such as an .obj's .mtl: the renderer uses only the geometry).
+// copied (not side files such as an .obj's .mtl: the renderer uses only the geometry). A scene whose
+// camera is a file (`camera: {file: ...}`, sim/camera_io.hpp) has it copied to DIR/camera.EXT and its
+// `file:` value rewritten the same way, compared on resume like the meshes.
 // Resume: rerunning with the same inputs (manifest, robot.yaml, errors.yaml, scene.yaml and mesh
 // bytes) into the same folder deletes the temporary files a killed run left in images/ (NAME.tmp.PID),
 // keeps every image that exists and decodes as 8-bit grey of the camera's size, and renders the rest.
