@@ -75,7 +75,7 @@ void addIntrinsicsCommand(CLI::App& app) {
                  "board images (any format OpenCV reads), all from one camera; a folder stands for every image file in it "
                  "(png jpg jpeg bmp tif tiff pgm ppm pnm webp), sorted by name")
       ->required();
-  cmd->add_option("--scene", opt->scene, "take the board from this scene (YAML; or builtin:default_scene.yaml)");
+  cmd->add_option("--scene", opt->scene, "take the board from this scene (YAML; or builtin:default_scene.yaml); a ChArUco board's corners are found by identity");
   cmd->add_option("--corners-x", opt->corners_x, "inner corners along a row (e.g. 9)")->check(CLI::Range(2, 1000));
   cmd->add_option("--corners-y", opt->corners_y, "inner corners along a column (e.g. 6)")->check(CLI::Range(2, 1000));
   cmd->add_option("--square-m", opt->square_m, "side of one square (m)")->check(CLI::PositiveNumber);
@@ -90,10 +90,6 @@ void addIntrinsicsCommand(CLI::App& app) {
   cmd->callback([opt] {
     sim::Board board;
     if (!opt->scene.empty()) board = sim::loadScene(opt->scene).board;
-    if (board.type != sim::BoardType::kChessboard) {
-      throw sim::InputError(opt->scene + ": board.type: orbcal intrinsics reads chessboards only (a ChArUco board "
-                            "is measured by orbcal measure, not yet used for intrinsics)");
-    }
     const bool any_size = opt->corners_x > 0 || opt->corners_y > 0 || opt->square_m > 0.0;
     if (opt->scene.empty() && !(opt->corners_x > 0 && opt->corners_y > 0 && opt->square_m > 0.0)) {
       throw sim::InputError("intrinsics: give --scene, or all of --corners-x, --corners-y and --square-m");

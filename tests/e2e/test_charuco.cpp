@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/imgcodecs.hpp>
 
 #include "orbcal/render/renderer.hpp"
 #include "orbcal/render/settings.hpp"
@@ -12,6 +13,7 @@
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/vision/charuco.hpp"
 #include "orbcal/vision/corners.hpp"
+#include "orbcal/vision/intrinsics.hpp"
 #include "orbcal/vision/measurement.hpp"
 #include "orbcal/vision/pose.hpp"
 
@@ -28,13 +30,14 @@ sim::Scene charucoScene() {
   return scene;
 }
 
-/// camera_T_board for a camera 1.8 m in front of the board centre, tilted 20 deg, looking at a point
-/// shifted by `shift_m` along board x (so the board slides out of the image on one side).
-Eigen::Isometry3d view(const sim::Board& board, double shift_m) {
-  const double t = 20.0 * sim::kDegToRad;
+/// camera_T_board for a camera 1.8 m from the board, tilted `tilt_deg` toward azimuth `azimuth_deg`
+/// about z_board (90: toward +y), looking at the board centre shifted by `shift_m` along board x (so
+/// the board slides out of the image on one side).
+Eigen::Isometry3d view(const sim::Board& board, double shift_m, double tilt_deg = 20.0, double azimuth_deg = 90.0) {
+  const double t = tilt_deg * sim::kDegToRad, a = azimuth_deg * sim::kDegToRad;
   const Eigen::Vector3d target = sim::boardCentre(board) + Eigen::Vector3d(shift_m, 0.0, 0.0);
-  const Eigen::Vector3d z(0.0, std::sin(t), std::cos(t));  // optical axis, toward the board
-  const Eigen::Vector3d x = Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d z(std::sin(t) * std::cos(a), std::sin(t) * std::sin(a), std::cos(t));  // optical axis
+  const Eigen::Vector3d x = (Eigen::Vector3d::UnitX() - z * z.x()).normalized();
   Eigen::Isometry3d board_T_camera = Eigen::Isometry3d::Identity();
   board_T_camera.linear() << x, z.cross(x), z;
   board_T_camera.translation() = target - 1.8 * z;
@@ -148,4 +151,35 @@ TEST_CASE("measure: a ChArUco scene file's partly visible view is used, the ches
   const cv::Mat chess_image = render::BoardRenderer(chess, render::loadRenderSettings(sim::kDefaultScene)).render(T, 3, 0);
   const vision::Measurement lost = vision::measureImage(chess_image, chess, arm, no_q);
   CHECK(lost.status == vision::ImageStatus::kNotFound);
+}
+
+TEST_CASE("intrinsics from rendered ChArUco views, some partly outside the image", "[e2e][charuco]") {
+  const sim::Scene scene = charucoScene();
+  render::BoardRenderer renderer(scene, render::loadRenderSettings(sim::kDefaultScene));
+  const std::string dir = std::filesystem::temp_directory_path() / "orbcal-test-charuco-intrinsics";
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  // Nine views tilted 30 deg in different directions; three of them shifted until 20% of the corners
+  // are outside the image (lost to a chessboard detector).
+  std::vector<std::string> files;
+  int partial = 0;
+  for (int k = 0; k < 9; ++k) {
+    double shift = 0.0;
+    while (k % 3 == 2 && fractionOutside(scene, view(scene.board, shift, 30.0, 40.0 * k)) < 0.2) shift += 0.01;
+    const Eigen::Isometry3d T = view(scene.board, shift, 30.0, 40.0 * k);
+    partial += fractionOutside(scene, T) > 0.0 ? 1 : 0;
+    files.push_back(dir + "/view" + std::to_string(k) + ".png");
+    cv::imwrite(files.back(), renderer.renderClean(T));
+  }
+  CHECK(partial == 3);
+  const vision::IntrinsicsResult r = vision::calibrateIntrinsicsFromFiles(files, scene.board);
+  REQUIRE(r.ok);
+  CHECK(r.images_used == 9);
+  const sim::Camera& c = r.camera, &truth = scene.camera;
+  INFO("fx " << c.fx_px << " fy " << c.fy_px << " cx " << c.cx_px << " cy " << c.cy_px << " RMS " << r.rms_px);
+  CHECK(r.rms_px < 0.1);
+  CHECK(std::abs(c.fx_px - truth.fx_px) < 2.0);
+  CHECK(std::abs(c.fy_px - truth.fy_px) < 2.0);
+  CHECK(std::abs(c.cx_px - truth.cx_px) < 2.0);
+  CHECK(std::abs(c.cy_px - truth.cy_px) < 2.0);
 }

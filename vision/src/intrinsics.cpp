@@ -10,6 +10,7 @@
 
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
+#include "orbcal/vision/charuco.hpp"
 #include "orbcal/vision/measurement.hpp"
 
 namespace orbcal::vision {
@@ -46,23 +47,29 @@ IntrinsicsResult calibrateIntrinsics(const std::vector<BoardView>& views, const 
   r.camera.width_px = image_size.width;
   r.camera.height_px = image_size.height;
   for (const BoardView& v : views) {
-    if (static_cast<int>(v.corners_px.size()) != board.numCorners()) {
+    if (v.ids.empty() && static_cast<int>(v.corners_px.size()) != board.numCorners()) {
       throw std::invalid_argument("calibrateIntrinsics: expected " + std::to_string(board.numCorners()) +
                                   " corners per view, got " + std::to_string(v.corners_px.size()));
+    }
+    if (!v.ids.empty() && v.ids.size() != v.corners_px.size()) {
+      throw std::invalid_argument("calibrateIntrinsics: expected one id per corner");
     }
   }
   if (static_cast<int>(views.size()) < std::max(1, settings.min_images)) {
     r.reason = "too few images with a board: " + std::to_string(views.size()) + " < " + std::to_string(settings.min_images);
     return r;
   }
-  std::vector<cv::Point3f> object;
-  for (const Eigen::Vector3d& P : sim::boardCorners(board)) object.emplace_back(P.x(), P.y(), P.z());
   std::vector<std::vector<cv::Point3f>> object_points;
   std::vector<std::vector<cv::Point2f>> image_points;
   for (const BoardView& v : views) {
     std::vector<cv::Point2f> pts;
-    for (const auto& p : v.corners_px) pts.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
-    object_points.push_back(object);
+    std::vector<cv::Point3f> object;
+    for (std::size_t n = 0; n < v.corners_px.size(); ++n) {
+      pts.emplace_back(static_cast<float>(v.corners_px[n].x()), static_cast<float>(v.corners_px[n].y()));
+      const Eigen::Vector3d P = sim::cornerInBoard(board, v.ids.empty() ? static_cast<int>(n) : v.ids[n]);
+      object.emplace_back(P.x(), P.y(), P.z());
+    }
+    object_points.push_back(std::move(object));
     image_points.push_back(std::move(pts));
   }
   int flags = 0;
@@ -99,7 +106,6 @@ IntrinsicsResult calibrateIntrinsics(const std::vector<BoardView>& views, const 
 
 IntrinsicsResult calibrateIntrinsicsFromFiles(const std::vector<std::string>& paths, const sim::Board& board,
                                               const IntrinsicsSettings& settings) {
-  if (board.type != sim::BoardType::kChessboard) throw std::invalid_argument("calibrateIntrinsicsFromFiles: chessboards only");
   DetectorSettings det = settings.detector;
   det.require_orientation = false;
   std::vector<IntrinsicsImage> images(paths.size());
@@ -114,11 +120,23 @@ IntrinsicsResult calibrateIntrinsicsFromFiles(const std::vector<std::string>& pa
       im.status = ImageStatus::kUnreadable;
       continue;
     }
-    const CornerDetection d = detectCorners(gray, board, det);
-    im.status = d.status;
-    im.reason = d.reason;
-    im.detail = d.detail;
-    if (!d.found()) continue;
+    BoardView view;
+    if (board.type == sim::BoardType::kCharuco) {
+      // Corners by identity, interpolated by local homographies (no camera model yet).
+      const CharucoDetection d = detectCharuco(gray, board);
+      im.status = d.status;
+      im.reason = d.reason;
+      im.detail = d.detail;
+      if (!d.found()) continue;
+      view = {d.corners_px, d.ids};
+    } else {
+      const CornerDetection d = detectCorners(gray, board, det);
+      im.status = d.status;
+      im.reason = d.reason;
+      im.detail = d.detail;
+      if (!d.found()) continue;
+      view = {d.corners_px, {}};
+    }
     if (size.area() == 0) size = gray.size();
     if (gray.size() != size) {
       im.status = ImageStatus::kRejected;
@@ -127,7 +145,7 @@ IntrinsicsResult calibrateIntrinsicsFromFiles(const std::vector<std::string>& pa
                   "x" + std::to_string(size.height);
       continue;
     }
-    views.push_back({d.corners_px});
+    views.push_back(std::move(view));
     view_of.push_back(i);
   }
   IntrinsicsResult r = calibrateIntrinsics(views, size, board, settings);

@@ -39,9 +39,11 @@ struct IntrinsicsResult {
   std::vector<IntrinsicsImage> images;  ///< one per input, in input order
 };
 
-/// One detected view: corners in sim::cornerInBoard order (any orientation).
+/// One detected view: every corner in sim::cornerInBoard order (any orientation), or (ChArUco) the
+/// corners seen, corners_px[n] being inner corner ids[n].
 struct BoardView {
   std::vector<Eigen::Vector2d> corners_px;
+  std::vector<int> ids;  ///< empty: all corners in order
 };
 
 /// calibrateCamera on views already detected (all from one camera of size image_size).
@@ -50,8 +52,8 @@ IntrinsicsResult calibrateIntrinsics(const std::vector<BoardView>& views, const 
                                      const sim::Board& board, const IntrinsicsSettings& settings = {});
 
 /// Reads, detects and calibrates. Every path gets a status; a board image whose size differs from the
-/// first board image's (another camera) is rejected. Never throws for a bad image; throws
-/// std::invalid_argument for a board that is not a chessboard (ChArUco intrinsics are not implemented).
+/// first board image's (another camera) is rejected. Never throws for a bad image. A ChArUco board's
+/// views are its corners found by identity (detectCharuco), so partly visible boards count.
 IntrinsicsResult calibrateIntrinsicsFromFiles(const std::vector<std::string>& paths, const sim::Board& board,
                                               const IntrinsicsSettings& settings = {});
 
