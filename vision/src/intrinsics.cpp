@@ -162,7 +162,11 @@ std::string formatIntrinsicsYaml(const IntrinsicsResult& r, const sim::Board& bo
   s << "# orbcal intrinsics: Zhang's method (cv::calibrateCamera). The camera section uses the scene file's keys.\n";
   s << "ok: " << (r.ok ? "true" : "false") << "\n";
   if (!r.ok) s << "reason: " << quoted(r.reason) << "\n";
-  s << "board: {inner_corners_x: " << board.corners_x << ", inner_corners_y: " << board.corners_y
+  s << "board: {";
+  if (board.type == sim::BoardType::kCharuco) {
+    s << "type: charuco, dictionary: " << board.dictionary << ", marker_m: " << n(board.marker_m) << ", ";
+  }
+  s << "inner_corners_x: " << board.corners_x << ", inner_corners_y: " << board.corners_y
     << ", square_m: " << n(board.square_m) << "}\n";
   if (r.ok) {
     const sim::Camera& c = r.camera;
