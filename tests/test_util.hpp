@@ -1,6 +1,7 @@
 #pragma once
 // Helpers shared by the test suites.
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
@@ -13,6 +14,7 @@
 #include "orbcal/sim/arm.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/scene.hpp"
 
 namespace orbcal::test {
 
@@ -74,6 +76,31 @@ inline std::vector<Eigen::VectorXd> randomConfigs(const sim::Arm& arm, int n, st
     qs.push_back(q);
   }
   return qs;
+}
+
+/// A camera with every field different from the default and numbers that need all 17 digits (file
+/// round trips).
+inline sim::Camera oddCamera() {
+  sim::Camera c;
+  c.width_px = 1288;
+  c.height_px = 964;
+  c.fx_px = 1401.123456789012;
+  c.fy_px = 1399.987654321098;
+  c.cx_px = 643.30000000000007;
+  c.cy_px = 508.91234567890123;
+  c.distortion = {-0.21234567890123, 0.1234567890123456, 1.234567890123e-4, -9.87654321098e-5, -0.0123456789012345};
+  return c;
+}
+
+/// Same size, and every intrinsic and distortion coefficient within `tol`.
+inline void checkSameCamera(const sim::Camera& a, const sim::Camera& b, double tol = 1e-12) {
+  CHECK(a.width_px == b.width_px);
+  CHECK(a.height_px == b.height_px);
+  CHECK(std::abs(a.fx_px - b.fx_px) <= tol);
+  CHECK(std::abs(a.fy_px - b.fy_px) <= tol);
+  CHECK(std::abs(a.cx_px - b.cx_px) <= tol);
+  CHECK(std::abs(a.cy_px - b.cy_px) <= tol);
+  for (int i = 0; i < 5; ++i) CHECK(std::abs(a.distortion[i] - b.distortion[i]) <= tol);
 }
 
 }  // namespace orbcal::test

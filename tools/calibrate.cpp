@@ -24,7 +24,7 @@ std::vector<calib::CornerObservation> cornerObservations(const std::vector<calib
                                                          const std::vector<vision::Measurement>& meas,
                                                          const std::vector<std::size_t>& which) {
   std::vector<calib::CornerObservation> out;
-  for (std::size_t i = 0; i < which.size(); ++i) out.push_back({obs[i].sample, meas[which[i]].corners_px});
+  for (std::size_t i = 0; i < which.size(); ++i) out.push_back({obs[i].sample, meas[which[i]].corners_px, meas[which[i]].corner_ids});
   return out;
 }
 

@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "cli.hpp"
+#include "orbcal/sim/camera_io.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/fileio.hpp"
@@ -73,12 +74,18 @@ void addIntrinsicsCommand(CLI::App& app) {
   auto opt = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand(
       "intrinsics", "Camera intrinsics from board images (Zhang's method, cv::calibrateCamera) -> YAML");
-  cmd->add_option("images", opt->images, "board images (any format OpenCV reads), all from one camera")->required();
-  cmd->add_option("--scene", opt->scene, "take the board from this scene (YAML; or builtin:default_scene.yaml)");
+  cmd->add_option("images", opt->images,
+                 "board images (any format OpenCV reads), all from one camera; a folder stands for every image file in it "
+                 "(png jpg jpeg bmp tif tiff pgm ppm pnm webp), sorted by name")
+      ->required();
+  cmd->add_option("--scene", opt->scene, "take the board from this scene (YAML; or builtin:default_scene.yaml); a ChArUco board's corners are found by identity");
   cmd->add_option("--corners-x", opt->corners_x, "inner corners along a row (e.g. 9)")->check(CLI::Range(2, 1000));
   cmd->add_option("--corners-y", opt->corners_y, "inner corners along a column (e.g. 6)")->check(CLI::Range(2, 1000));
   cmd->add_option("--square-m", opt->square_m, "side of one square (m)")->check(CLI::PositiveNumber);
-  cmd->add_option("-o,--out", opt->out, "output YAML; written atomically")->capture_default_str();
+  cmd->add_option("-o,--out", opt->out,
+                 "output YAML; beside it STEM_camera_info.yaml (ROS camera_info) and STEM_opencv.yml (OpenCV "
+                 "FileStorage), either usable as a scene's camera: {file: ...}; all written atomically")
+      ->capture_default_str();
   addDetectorOption(*cmd, opt->detector);
   cmd->add_flag("--fix-aspect-ratio", opt->settings.fix_aspect_ratio, "fx = fy");
   cmd->add_flag("--zero-tangential", opt->settings.zero_tangential, "p1 = p2 = 0");
@@ -96,7 +103,8 @@ void addIntrinsicsCommand(CLI::App& app) {
       if (opt->square_m > 0.0) board.square_m = opt->square_m;
     }
     opt->settings.detector.detector = vision::parseDetector(opt->detector);
-    const vision::IntrinsicsResult r = vision::calibrateIntrinsicsFromFiles(opt->images, board, opt->settings);
+    const std::vector<std::string> images = vision::expandImageArguments(opt->images);
+    const vision::IntrinsicsResult r = vision::calibrateIntrinsicsFromFiles(images, board, opt->settings);
     for (const auto& im : r.images) {
       std::printf("  %-10s %s", vision::toString(im.status), im.image.c_str());
       if (im.status == vision::ImageStatus::kFound && r.ok) std::printf("  (RMS %.3f px)", im.rms_px);
@@ -105,13 +113,16 @@ void addIntrinsicsCommand(CLI::App& app) {
     }
     sim::writeFileAtomic(opt->out, vision::formatIntrinsicsYaml(r, board));
     if (!r.ok) throw sim::InputError("intrinsics: " + r.reason + " (statuses written to " + opt->out + ")");
+    const vision::CameraFileNames files = vision::cameraFileNames(opt->out);
+    sim::writeFileAtomic(files.camera_info, sim::formatCameraInfoYaml(r.camera, "orbcal_intrinsics"));
+    sim::writeFileAtomic(files.opencv, sim::formatOpenCvCameraYaml(r.camera));
     const sim::Camera& c = r.camera;
     std::printf("%d of %zu images used; RMS %.4f px\n", r.images_used, r.images.size(), r.rms_px);
     std::printf("fx %.4f  fy %.4f  cx %.4f  cy %.4f px  (1-sigma %.3f %.3f %.3f %.3f)\n", c.fx_px, c.fy_px, c.cx_px,
                 c.cy_px, r.std_dev[0], r.std_dev[1], r.std_dev[2], r.std_dev[3]);
     std::printf("distortion k1 k2 p1 p2 k3: %.6g %.6g %.6g %.6g %.6g\n", c.distortion[0], c.distortion[1],
                 c.distortion[2], c.distortion[3], c.distortion[4]);
-    std::printf("-> %s\n", opt->out.c_str());
+    std::printf("-> %s, %s, %s\n", opt->out.c_str(), files.camera_info.c_str(), files.opencv.c_str());
   });
 }
 

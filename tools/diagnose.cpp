@@ -199,9 +199,10 @@ DistortionCheck checkDistortion(const sim::Dataset& d, const std::vector<vision:
   std::vector<std::vector<cv::Point3f>> object(static_cast<std::size_t>(n));
   std::vector<std::vector<cv::Point2f>> image(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
-    const std::vector<Eigen::Vector2d>& px = meas[usable[static_cast<std::size_t>(i)]].corners_px;
+    const vision::Measurement& m = meas[usable[static_cast<std::size_t>(i)]];
+    const std::vector<Eigen::Vector2d>& px = m.corners_px;
     for (std::size_t c2 = 0; c2 < px.size(); ++c2) {
-      const Eigen::Vector3d b = sim::cornerInBoard(d.scene.board, static_cast<int>(c2));
+      const Eigen::Vector3d b = sim::cornerInBoard(d.scene.board, m.cornerId(c2));
       object[static_cast<std::size_t>(i)].emplace_back(static_cast<float>(b.x()), static_cast<float>(b.y()), static_cast<float>(b.z()));
       image[static_cast<std::size_t>(i)].emplace_back(static_cast<float>(px[c2].x()), static_cast<float>(px[c2].y()));
     }

@@ -4,7 +4,8 @@
 # Usage: tools/install-deps.sh [--tests]   (--tests adds what only the test suite needs)
 set -euo pipefail
 pkgs=(build-essential cmake pkg-config libeigen3-dev libopencv-dev libosmesa6-dev libassimp-dev
-      catch2 libceres-dev libcli11-dev libyaml-cpp-dev liburdfdom-dev python3-matplotlib)
+      catch2 libceres-dev libcli11-dev libyaml-cpp-dev liburdfdom-dev python3-matplotlib
+      libopencv-contrib-dev)   # cv::aruco: ChArUco boards
 if [[ "${1:-}" == "--tests" ]]; then
   pkgs+=(opencv-doc)   # OpenCV's sample chessboard photographs (left01..14.jpg) for the real-image tests
 fi

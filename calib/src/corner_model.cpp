@@ -34,9 +34,15 @@ CornerMeasurementModel::CornerMeasurementModel(sim::KinematicModel model, sim::C
   if (!(noise_.sigma_px > 0.0)) throw std::invalid_argument("CornerMeasurementModel: sigma_px must be positive");
   for (const CornerObservation& o : observations_) {
     sim::checkJointVector(model_.arm, o.sample.q_rad, "CornerMeasurementModel");
-    if (static_cast<int>(o.corners_px.size()) != board_.numCorners()) {
+    if (o.ids.empty() && static_cast<int>(o.corners_px.size()) != board_.numCorners()) {
       throw std::invalid_argument("CornerMeasurementModel: an observation has " + std::to_string(o.corners_px.size()) +
                                   " corners, the board " + std::to_string(board_.numCorners()));
+    }
+    if (!o.ids.empty()) {
+      if (o.ids.size() != o.corners_px.size()) throw std::invalid_argument("CornerMeasurementModel: one id per corner");
+      for (const int id : o.ids) {
+        if (id < 0 || id >= board_.numCorners()) throw std::invalid_argument("CornerMeasurementModel: corner id out of range");
+      }
     }
   }
 }
@@ -55,8 +61,9 @@ Eigen::VectorXd CornerMeasurementModel::residual(int k, const Eigen::VectorXd& p
   const Eigen::Isometry3d camera_T_board = sim::predictMarkerPose(model_, p.head(nc), o.sample).inverse();
   const sim::Camera cam = cameraAt(p);
   Eigen::VectorXd nu(rows(k));
-  for (int i = 0; i < board_.numCorners(); ++i) {
-    nu.segment<2>(2 * i) = o.corners_px[static_cast<std::size_t>(i)] - sim::project(cam, camera_T_board * sim::cornerInBoard(board_, i));
+  for (int i = 0; i < static_cast<int>(o.corners_px.size()); ++i) {
+    nu.segment<2>(2 * i) = o.corners_px[static_cast<std::size_t>(i)] -
+                           sim::project(cam, camera_T_board * sim::cornerInBoard(board_, o.cornerId(static_cast<std::size_t>(i))));
   }
   return nu;
 }
@@ -76,8 +83,8 @@ Linearization CornerMeasurementModel::linearize(int k, const Eigen::VectorXd& y)
   lin.innovation.resize(m);
   lin.H.setZero(m, layout_.size());
   Eigen::MatrixXd G(m, 6);  // d(uv) / d(xi), xi the right perturbation of board_T_camera in the camera frame
-  for (int i = 0; i < board_.numCorners(); ++i) {
-    const Eigen::Vector3d pc = camera_T_board * sim::cornerInBoard(board_, i);
+  for (int i = 0; i < static_cast<int>(o.corners_px.size()); ++i) {
+    const Eigen::Vector3d pc = camera_T_board * sim::cornerInBoard(board_, o.cornerId(static_cast<std::size_t>(i)));
     const double z = pc.z();
     const Eigen::Vector2d xy(pc.x() / z, pc.y() / z);
     Eigen::Matrix2d J_d_xy;

@@ -201,6 +201,29 @@ std::string yamlQuoted(const std::string& s) {
   return q + "\"";
 }
 
+/// Where the one-line scalar `node` of `text` (parsed from it) ends: past its closing quote, or past its
+/// value when plain; npos when it is not written on one line.
+std::size_t scalarEnd(const std::string& text, const YAML::Node& node) {
+  const std::size_t begin = static_cast<std::size_t>(node.Mark().pos);
+  const std::string value = node.Scalar();
+  const char open = begin < text.size() ? text[begin] : '\0';
+  if (open == '"' || open == '\'') {
+    for (std::size_t k = begin + 1; k < text.size() && text[k] != '\n'; ++k) {
+      if (open == '"' && text[k] == '\\') {
+        ++k;
+      } else if (text[k] == open) {
+        if (open == '\'' && k + 1 < text.size() && text[k + 1] == '\'') {
+          ++k;  // '' is a quote inside a single-quoted string
+        } else {
+          return k + 1;
+        }
+      }
+    }
+    return std::string::npos;
+  }
+  return text.compare(begin, value.size(), value) == 0 ? begin + value.size() : std::string::npos;
+}
+
 /// The scene text with the `file:` value of each rewritten mesh replaced by its place in the dataset,
 /// everything else (comments, layout) unchanged, and a comment at the top saying what was rewritten.
 std::string rewriteMeshPaths(const std::string& scene_text, const RenderSettings& settings,
@@ -218,24 +241,7 @@ std::string rewriteMeshPaths(const std::string& scene_text, const RenderSettings
     const YAML::Node node = root["meshes"][i]["file"];
     const std::size_t begin = static_cast<std::size_t>(node.Mark().pos);
     const std::string value = node.Scalar();
-    std::size_t end = std::string::npos;
-    const char open = begin < scene_text.size() ? scene_text[begin] : '\0';
-    if (open == '"' || open == '\'') {
-      for (std::size_t k = begin + 1; k < scene_text.size() && scene_text[k] != '\n'; ++k) {
-        if (open == '"' && scene_text[k] == '\\') {
-          ++k;
-        } else if (scene_text[k] == open) {
-          if (open == '\'' && k + 1 < scene_text.size() && scene_text[k + 1] == '\'') {
-            ++k;  // '' is a quote inside a single-quoted string
-          } else {
-            end = k + 1;
-            break;
-          }
-        }
-      }
-    } else if (scene_text.compare(begin, value.size(), value) == 0) {
-      end = begin + value.size();
-    }
+    const std::size_t end = scalarEnd(scene_text, node);
     if (end == std::string::npos) {
       throw sim::InputError(settings.source + ": " + spec.key + ": cannot rewrite this mesh path in the dataset's copy "
                             "of the scene (write it on one line, plain or quoted)");
@@ -257,6 +263,41 @@ std::string rewriteMeshPaths(const std::string& scene_text, const RenderSettings
   }
   return "# orbcal render: copied into this dataset with these mesh paths rewritten to the copies in meshes/;\n"
          "# they were:\n" + note + text;
+}
+
+/// A scene whose camera is {file: PATH} (sim::Scene::camera_file): the camera file goes into the dataset
+/// as camera.EXT (camera-2.EXT, ... if a mesh copy holds that name), appended to `files`, and the copied
+/// scene's camera.file names it (whether PATH was relative, absolute or had ".."), so the dataset
+/// stands alone. Returns the scene text to copy.
+std::string placeCameraFile(const sim::Scene& scene, const std::string& scene_copy, std::vector<MeshCopy>& files) {
+  if (scene.camera_file.empty()) return scene_copy;
+  MeshCopy c;
+  c.bytes = sim::readTextSource(scene.camera_file);  // read before by sim::loadScene
+  c.rewritten = true;
+  const std::filesystem::path original(scene.camera_file);
+  const std::string ext = original.has_extension() ? original.extension().string() : ".yaml";
+  c.relative = "camera" + ext;
+  for (int n = 2;; ++n) {
+    const auto same = [&](const MeshCopy& f) { return f.relative == c.relative; };
+    const auto it = std::find_if(files.begin(), files.end(), same);
+    if (it == files.end() || it->bytes == c.bytes) break;
+    c.relative = "camera-" + std::to_string(n) + ext;
+  }
+  const YAML::Node node = YAML::Load(scene_copy)["camera"]["file"];
+  const std::size_t begin = static_cast<std::size_t>(node.Mark().pos);
+  const std::size_t end = scalarEnd(scene_copy, node);
+  if (end == std::string::npos) {
+    throw sim::InputError(scene.source + ": camera.file: cannot rewrite this path in the dataset's copy of the scene "
+                          "(write it on one line, plain or quoted)");
+  }
+  std::string text = scene_copy;
+  text.replace(begin, end - begin, yamlQuoted(c.relative));
+  if (YAML::Load(text)["camera"]["file"].Scalar() != c.relative) {
+    throw sim::InputError(scene.source + ": camera.file: cannot rewrite this path in the dataset's copy of the scene");
+  }
+  files.push_back(c);
+  return "# orbcal render: camera.file rewritten to the copy " + c.relative + " in this dataset; it was: " +
+         node.Scalar() + "\n" + text;
 }
 
 /// Relative tolerance of the manifest's numbers (12 significant digits in degrees and mm), as
@@ -366,8 +407,8 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   sim::DatasetManifest& m = dataset.manifest;
   if (truth.fromFile()) m.error_set_file = sim::kDatasetErrorSetFile;  // before the meshes are placed
   // The meshes go into the folder too, so that the dataset stands alone (see planMeshCopies).
-  const std::vector<MeshCopy> meshes = planMeshCopies(settings, m);
-  const std::string scene_copy = rewriteMeshPaths(scene_text, settings, meshes);
+  std::vector<MeshCopy> meshes = planMeshCopies(settings, m);
+  const std::string scene_copy = placeCameraFile(scene, rewriteMeshPaths(scene_text, settings, meshes), meshes);
   m.program_version = ORBCAL_VERSION;
   m.num_samples = job.count;
   m.true_errors = truth.geometryErrors();

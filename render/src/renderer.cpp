@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <stdexcept>
@@ -66,6 +67,9 @@ uniform vec4 u_squares;         // squared area of the board in squares: x0, y0,
 uniform float u_square;
 uniform float u_black;
 uniform float u_white;
+#if CHARUCO
+uniform sampler2D u_markers;    // ArUco marker blackness over the squared area (charucoMarkerImage)
+#endif
 out vec4 o_colour;
 // Antiderivative of the square wave that is +1 on [2k, 2k+1) and -1 on [2k+1, 2k+2).
 float triangleWave(float t) { return 1.0 - abs(mod(t, 2.0) - 1.0); }
@@ -81,6 +85,9 @@ float filteredChecker() {
   vec2 wave = (b.x > a.x && b.y > a.y) ? vec2(triangleWave(b.x) - triangleWave(a.x), triangleWave(b.y) - triangleWave(a.y)) / (2.0 * h)
                                        : vec2(0.0);
   float black = 0.5 * inside.x * inside.y + 0.5 * wave.x * wave.y;
+#if CHARUCO  // markers lie in the white squares, inset from their edges: they add to the checker's black
+  black = min(1.0, black + texture(u_markers, (p - u_squares.xy) / (u_squares.zw - u_squares.xy)).r);
+#endif
   return mix(u_white, u_black, black);
 }
 float sunVisibility() {
@@ -243,6 +250,38 @@ std::vector<float> boardVertices(const sim::Board& b, const RenderOptions& o) {
   return v;
 }
 
+/// A ChArUco board's marker blackness (CV_8UC1, 255 = black marker cell) over its squared area,
+/// texels_per_square texels per square, row 0 at the lowest board y (GL's first texture row), each
+/// texel the area fraction of black cells in it (4 x 4 supersampled, then averaged).
+cv::Mat charucoMarkerImage(const sim::Board& b, int texels_per_square) {
+  sim::ArucoDictionaryInfo info;
+  if (!sim::arucoDictionary(b.dictionary, &info)) throw std::invalid_argument("render: unknown ArUco dictionary " + b.dictionary);
+  const cv::Ptr<cv::aruco::Dictionary> dictionary =
+      cv::aruco::getPredefinedDictionary(static_cast<cv::aruco::PREDEFINED_DICTIONARY_NAME>(info.cv_id));
+  constexpr int kSuper = 4;
+  const int S = kSuper * texels_per_square;  // fine pixels per square
+  cv::Mat fine((b.corners_y + 1) * S, (b.corners_x + 1) * S, CV_8UC1, cv::Scalar(0));
+  const int cells = info.bits + 2;  // the code's bits and a one-cell black border
+  const double side = b.marker_m / b.square_m * S;
+  for (const sim::CharucoMarker& m : sim::charucoMarkers(b)) {
+    cv::Mat bits;
+    cv::aruco::drawMarker(dictionary, m.id, cells, bits, 1);  // one pixel per cell, 0 = black
+    const double x0 = (m.top_left.x() / b.square_m + 1.0) * S, y0 = (m.top_left.y() / b.square_m + 1.0) * S;
+    for (int y = static_cast<int>(std::floor(y0)); y < static_cast<int>(std::ceil(y0 + side)); ++y) {
+      const int v = static_cast<int>(std::floor((y + 0.5 - y0) / side * cells));
+      if (v < 0 || v >= cells) continue;
+      for (int x = static_cast<int>(std::floor(x0)); x < static_cast<int>(std::ceil(x0 + side)); ++x) {
+        const int u = static_cast<int>(std::floor((x + 0.5 - x0) / side * cells));
+        if (u < 0 || u >= cells) continue;
+        if (bits.at<unsigned char>(v, u) == 0) fine.at<unsigned char>(y, x) = 255;
+      }
+    }
+  }
+  cv::Mat texture;
+  cv::resize(fine, texture, cv::Size(fine.cols / kSuper, fine.rows / kSuper), 0, 0, cv::INTER_AREA);
+  return texture;
+}
+
 struct Drawable {
   GLuint vao = 0, vbo = 0;
   GLsizei count = 0;
@@ -316,6 +355,7 @@ struct BoardRenderer::Impl {
   Fbo msaa, single;
   GLuint program = 0, shadow_program = 0;
   GLuint shadow_fbo = 0, shadow_tex = 0;
+  GLuint marker_tex = 0;  // ChArUco boards: charucoMarkerImage
   bool shadows = false;
   Eigen::Matrix4f light_T_board = Eigen::Matrix4f::Identity();
   Eigen::Vector3d to_sun_board = Eigen::Vector3d::UnitZ();
@@ -399,8 +439,17 @@ struct BoardRenderer::Impl {
     }
     checkGl("geometry upload");
     if (!caster_points.empty() && settings.lighting.sun_intensity > 0) buildShadowMap(caster_points);
+    const bool charuco = scene.board.type == sim::BoardType::kCharuco;
+    if (charuco) {
+      if (!settings.options.board_filter) {
+        throw sim::InputError(settings.source + ": render.board_filter: a ChArUco board is drawn by the board filter; "
+                              "it must be on");
+      }
+      uploadMarkers();
+    }
     std::string fragment = kFragmentShader;  // the switches go right after the #version line
-    fragment.insert(fragment.find('\n', fragment.find("#version")) + 1, std::string("#define SHADOWS ") + (shadows ? "1" : "0") + "\n");
+    fragment.insert(fragment.find('\n', fragment.find("#version")) + 1, std::string("#define SHADOWS ") + (shadows ? "1" : "0") +
+                                                                          "\n#define CHARUCO " + (charuco ? "1" : "0") + "\n");
     program = link(kVertexShader, fragment.c_str());
   }
 
@@ -419,9 +468,26 @@ struct BoardRenderer::Impl {
     deleteFbo(msaa);
     deleteFbo(single);
     if (shadow_tex) glDeleteTextures(1, &shadow_tex);
+    if (marker_tex) glDeleteTextures(1, &marker_tex);
     if (shadow_fbo) glDeleteFramebuffers(1, &shadow_fbo);
     glDeleteProgram(program);
     glDeleteProgram(shadow_program);
+  }
+
+  /// The marker texture, 128 texels per square (a square spans 45-75 px in the default scene's views),
+  /// mipmapped so that distant views average the cells instead of aliasing them.
+  void uploadMarkers() {
+    const cv::Mat image = charucoMarkerImage(scene.board, 128);
+    glGenTextures(1, &marker_tex);
+    glBindTexture(GL_TEXTURE_2D, marker_tex);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R8, image.cols, image.rows, 0, GL_RED, GL_UNSIGNED_BYTE, image.data);
+    glGenerateMipmap(GL_TEXTURE_2D);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    checkGl("ChArUco marker texture");
   }
 
   /// Orthographic depth map from the sun covering the board (casters anywhere along the light).
@@ -556,6 +622,12 @@ struct BoardRenderer::Impl {
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, shadow_tex);
     glUniform1i(loc("u_shadow_map"), 0);
+    if (marker_tex) {
+      glActiveTexture(GL_TEXTURE1);
+      glBindTexture(GL_TEXTURE_2D, marker_tex);
+      glUniform1i(loc("u_markers"), 1);
+      glActiveTexture(GL_TEXTURE0);
+    }
     const sim::Board& b = scene.board;
     glUniform4f(loc("u_squares"), -1.f, -1.f, float(b.corners_x), float(b.corners_y));
     glUniform1f(loc("u_square"), float(b.square_m));

@@ -39,6 +39,33 @@ Eigen::Vector3d cornerInBoard(const Board& board, int k) {
 
 bool isBlackSquare(int i, int j) { return (i + j) % 2 == 0; }
 
+bool arucoDictionary(const std::string& name, ArucoDictionaryInfo* info) {
+  // cv::aruco::DICT_4X4_50 = 0, DICT_4X4_100, DICT_4X4_250, DICT_4X4_1000, DICT_5X5_50, ... DICT_7X7_1000 = 15.
+  static const int kCounts[4] = {50, 100, 250, 1000};
+  for (int bits = 4; bits <= 7; ++bits) {
+    for (int c = 0; c < 4; ++c) {
+      const std::string n = "DICT_" + std::to_string(bits) + "X" + std::to_string(bits) + "_" + std::to_string(kCounts[c]);
+      if (n != name) continue;
+      if (info) *info = {(bits - 4) * 4 + c, kCounts[c], bits};
+      return true;
+    }
+  }
+  return false;
+}
+
+std::vector<CharucoMarker> charucoMarkers(const Board& board) {
+  std::vector<CharucoMarker> markers;
+  const double s = board.square_m, inset = 0.5 * (board.square_m - board.marker_m);
+  for (int j = 0; j <= board.corners_y; ++j) {
+    for (int i = 0; i <= board.corners_x; ++i) {
+      if (isBlackSquare(i, j)) continue;
+      const int id = static_cast<int>(markers.size());
+      markers.push_back({id, i, j, Eigen::Vector3d((i - 1) * s + inset, (j - 1) * s + inset, 0.0)});
+    }
+  }
+  return markers;
+}
+
 std::vector<Eigen::Vector3d> boardCorners(const Board& board) {
   std::vector<Eigen::Vector3d> corners;
   corners.reserve(board.numCorners());

@@ -1,5 +1,7 @@
 #include <algorithm>
+#include <filesystem>
 
+#include "orbcal/sim/camera_io.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -19,45 +21,53 @@ Scene loadScene(const std::string& path) {
   s.source = path;
   s.name = printable(root["name"].asString());  // a label printed as is: no raw control bytes
 
-  const ConfigNode cam = root["camera"];
-  cam.requireOnlyKeys({"width_px", "height_px", "fx_px", "fy_px", "cx_px", "cy_px", "distortion"});
-  s.camera.width_px = cam["width_px"].asInt();
-  s.camera.height_px = cam["height_px"].asInt();
-  if (s.camera.width_px < 16 || s.camera.width_px > 16384) cam["width_px"].fail("must be within 16..16384");
-  if (s.camera.height_px < 16 || s.camera.height_px > 16384) cam["height_px"].fail("must be within 16..16384");
-  // Physical ranges, so that an absurd value is named at its key and not found later as "no
-  // configuration sees the board": a focal length of 1 px to 1e6 px, the principal point in the image,
-  // OpenCV's radial k1 k2 k3 within +-10 and tangential p1 p2 within +-1.
-  const char* kFocal = "1 px to 1e6 px (a focal length in pixels)";
-  s.camera.fx_px = cam["fx_px"].asDoubleWithin(1.0, 1e6, kFocal);
-  s.camera.fy_px = cam["fy_px"].asDoubleWithin(1.0, 1e6, kFocal);
-  s.camera.cx_px = cam["cx_px"].asDoubleWithin(0.0, s.camera.width_px, "the image: 0 to width_px px");
-  s.camera.cy_px = cam["cy_px"].asDoubleWithin(0.0, s.camera.height_px, "the image: 0 to height_px px");
-  if (cam.has("distortion")) {
-    const ConfigNode k = cam["distortion"];
-    if (!k.isSequence() || k.size() != 5) k.fail("expected a sequence of 5 numbers (OpenCV k1 k2 p1 p2 k3)");
-    for (std::size_t i = 0; i < 5; ++i) {
-      const bool tangential = i == 2 || i == 3;
-      s.camera.distortion[static_cast<Eigen::Index>(i)] =
-          tangential ? k[i].asDoubleWithin(-1.0, 1.0, "-1 to 1 (a tangential coefficient p1, p2)")
-                     : k[i].asDoubleWithin(-10.0, 10.0, "-10 to 10 (a radial coefficient k1, k2, k3)");
-    }
-  }
+  std::string scene_dir;
+  if (path.rfind("builtin:", 0) != 0) scene_dir = std::filesystem::path(path).parent_path().string();
+  s.camera = parseSceneCamera(root["camera"], scene_dir, &s.camera_file);
 
   const ConfigNode board = root["board"];
-  board.requireOnlyKeys({"inner_corners_x", "inner_corners_y", "square_m", "margin_m"});
+  board.requireOnlyKeys({"type", "inner_corners_x", "inner_corners_y", "square_m", "margin_m", "dictionary", "marker_m"});
+  const std::string type = board.optional("type").asString("chessboard");
+  if (type == "charuco") {
+    s.board.type = BoardType::kCharuco;
+  } else if (type != "chessboard") {
+    board["type"].fail("expected chessboard or charuco, got '" + type + "'");
+  }
   s.board.corners_x = board["inner_corners_x"].asInt();
   s.board.corners_y = board["inner_corners_y"].asInt();
   if (s.board.corners_x < 2) board["inner_corners_x"].fail("must be at least 2");
   if (s.board.corners_y < 2) board["inner_corners_y"].fail("must be at least 2");
-  if (s.board.corners_x % 2 == s.board.corners_y % 2) {
-    // An even-by-even or odd-by-odd square count looks the same after a half turn: the corner order
-    // could flip. The squares are inner corners + 1 along each side.
-    board.fail("inner_corners_x and inner_corners_y must differ in parity (an even-by-odd square count), "
-               "so that the board's orientation is unambiguous");
+  if (s.board.type == BoardType::kChessboard) {
+    for (const char* key : {"dictionary", "marker_m"}) {
+      if (board.has(key)) board[key].fail("only for a ChArUco board (type: charuco)");
+    }
+    if (s.board.corners_x % 2 == s.board.corners_y % 2) {
+      // An even-by-even or odd-by-odd square count looks the same after a half turn: the corner order
+      // could flip. The squares are inner corners + 1 along each side. (A ChArUco board's markers
+      // identify its corners: no such rule.)
+      board.fail("inner_corners_x and inner_corners_y must differ in parity (an even-by-odd square count), "
+                 "so that the board's orientation is unambiguous");
+    }
   }
   s.board.square_m = board["square_m"].asDoubleWithin(1e-4, 10.0, "0.1 mm to 10 m");
   s.board.margin_m = board.has("margin_m") ? board["margin_m"].asDoubleWithin(0.0, 10.0, "0 m to 10 m") : s.board.square_m;
+  if (s.board.type == BoardType::kCharuco) {
+    s.board.dictionary = board["dictionary"].asString();
+    ArucoDictionaryInfo info;
+    if (!arucoDictionary(s.board.dictionary, &info)) {
+      board["dictionary"].fail("unknown ArUco dictionary '" + s.board.dictionary +
+                               "' (expected DICT_NxN_M, N = 4..7, M = 50, 100, 250 or 1000)");
+    }
+    const int markers = static_cast<int>(charucoMarkers(s.board).size());
+    if (markers > info.markers) {
+      board["dictionary"].fail(s.board.dictionary + " has " + std::to_string(info.markers) + " markers, the board needs " +
+                               std::to_string(markers));
+    }
+    s.board.marker_m = board["marker_m"].asDouble();
+    if (!(s.board.marker_m > 0.0 && s.board.marker_m < s.board.square_m)) {
+      board["marker_m"].fail("must be positive and smaller than square_m");
+    }
+  }
 
   s.base_T_board = root["base_T_board"].asTransform();
   s.flange_T_camera = root["flange_T_camera"].asTransform();

@@ -153,3 +153,40 @@ TEST_CASE("corner model: every estimator runs on it and recovers the distortion 
     CHECK(rms_start > 1.3 * rms);    // the distortion left out (a board near the image centre: ~0.1 px)
   }
 }
+
+TEST_CASE("corner model: corners known by identity (a partly seen ChArUco board) give the full model's rows",
+          "[calib][corner][charuco]") {
+  Setup s = makeSetup({}, 2, nullptr, nullptr, 0.05, 21);
+  s.scene.camera = distortedCamera(s.scene.camera);
+  // Each view keeps every third corner, in a scrambled order, with its identity.
+  std::vector<calib::CornerObservation> partial;
+  std::vector<std::vector<int>> kept;
+  for (const calib::CornerObservation& o : s.obs) {
+    calib::CornerObservation p;
+    p.sample = o.sample;
+    std::vector<int> ids;
+    for (int k = s.scene.board.numCorners() - 1; k >= 0; k -= 3) ids.push_back(k);
+    for (const int k : ids) p.corners_px.push_back(o.corners_px[static_cast<std::size_t>(k)]);
+    p.ids = ids;
+    kept.push_back(ids);
+    partial.push_back(std::move(p));
+  }
+  const calib::CornerMeasurementModel full(s.model, s.scene.camera, s.scene.board, s.obs, {});
+  const calib::CornerMeasurementModel part(s.model, s.scene.camera, s.scene.board, partial, {});
+  std::mt19937_64 rng(6);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const Eigen::VectorXd y = full.layout().typical().unaryExpr([&](double t) { return t * u(rng); });
+  for (int k = 0; k < full.numSamples(); ++k) {
+    const calib::Linearization a = full.linearize(k, y), b = part.linearize(k, y);
+    REQUIRE(b.innovation.size() == 2 * static_cast<int>(kept[static_cast<std::size_t>(k)].size()));
+    for (std::size_t n = 0; n < kept[static_cast<std::size_t>(k)].size(); ++n) {
+      const int id = kept[static_cast<std::size_t>(k)][n];
+      CHECK((b.innovation.segment<2>(2 * n) - a.innovation.segment<2>(2 * id)).norm() == 0.0);
+      CHECK((b.H.middleRows<2>(2 * n) - a.H.middleRows<2>(2 * id)).norm() == 0.0);
+    }
+  }
+  checkJacobian(part, y);
+  // An id outside the board is refused.
+  partial[0].ids[0] = s.scene.board.numCorners();
+  CHECK_THROWS_AS(calib::CornerMeasurementModel(s.model, s.scene.camera, s.scene.board, partial, {}), std::invalid_argument);
+}

@@ -217,14 +217,14 @@ TEST_CASE("safe files: a focal length of 1e-9 px is refused at camera.fx_px with
   const std::string dir = test::tempDir("safe-fx");
   const std::string scene = editedCopy(dir, "scenes/quick_scene.yaml", "  fx_px: 700.0", "  fx_px: 1e-9");
   CHECK(renderError(dir, sim::kDefaultRobot, scene) ==
-        scene + ": camera.fx_px: '1e-9' is outside 1 px to 1e6 px (a focal length in pixels)");
+        scene + ": camera.fx_px: '1e-09' is outside 1 px to 1e6 px (a focal length in pixels)");
 }
 
 TEST_CASE("safe files: a distortion coefficient of 50 is refused at its own entry with its range", "[e2e][safe][badinput]") {
   const std::string dir = test::tempDir("safe-distortion");
   const std::string scene = editedCopy(dir, "scenes/quick_scene.yaml", "distortion: [0.0,", "distortion: [50,");
   CHECK(renderError(dir, sim::kDefaultRobot, scene) ==
-        scene + ": camera.distortion[0]: '50' is outside -10 to 10 (a radial coefficient k1, k2, k3)");
+        scene + ": camera.distortion: coefficient 1 of k1 k2 p1 p2 k3, '50', is outside -10 to 10 (a radial coefficient k1, k2, k3)");
 }
 
 TEST_CASE("safe files: a link offset d of 1e308 m is refused at its own key with its range", "[e2e][safe][badinput]") {

@@ -7,6 +7,7 @@
 #include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/render/renderer.hpp"
 #include "orbcal/render/settings.hpp"
+#include "orbcal/sim/camera_io.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/configurations.hpp"
 #include "orbcal/sim/dataset.hpp"
@@ -254,4 +255,45 @@ TEST_CASE("a dataset with meshes stands alone: meshes copied in, compared on res
   CHECK(r.resumed);
   CHECK(r.rendered == 0);
   CHECK(r.skipped == 2);
+}
+
+TEST_CASE("a dataset whose scene takes its camera from a camera_info file stands alone", "[render][dataset][camera_io]") {
+  const std::string dir = test::tempDir("render-dataset-camera-file");
+  const sim::Scene inline_scene = sim::loadScene(sim::kDefaultScene);
+  // The camera file outside the scene's folder, by an absolute path: copied in as camera.yaml and the
+  // copied scene rewritten to name it.
+  std::filesystem::create_directories(dir + "/cams");
+  std::filesystem::create_directories(dir + "/scene");
+  const std::string camera_text = sim::formatCameraInfoYaml(inline_scene.camera, "cam");
+  std::ofstream(dir + "/cams/cam.yaml") << camera_text;
+  std::string text = sim::readTextSource(sim::kDefaultScene);
+  const auto a = text.find("\ncamera:\n"), b = text.find("\nboard:\n");
+  REQUIRE(a != std::string::npos);
+  REQUIRE(b != std::string::npos);
+  text.replace(a + 1, b - a, "camera: {file: '" + dir + "/cams/cam.yaml'}\n");
+  const std::string scene = dir + "/scene/scene.yaml";
+  std::ofstream(scene) << text;
+
+  render::DatasetJob job = smallJob(scene, dir + "/ds");
+  job.count = 2;
+  render::renderDataset(job);
+  CHECK(readBytes(job.out + "/camera.yaml") == camera_text);
+  // Moved with the camera file gone: the dataset's scene finds its copy, the same camera as inline.
+  const std::string moved = dir + "/moved";
+  std::filesystem::copy(job.out, moved, std::filesystem::copy_options::recursive);
+  std::filesystem::remove_all(dir + "/cams");
+  const sim::Dataset d = sim::loadDataset(moved);
+  CHECK(d.scene.camera_file == moved + "/camera.yaml");
+  CHECK(d.scene.camera.fx_px == inline_scene.camera.fx_px);
+  CHECK(d.scene.camera.cx_px == inline_scene.camera.cx_px);
+  CHECK(d.scene.camera.cy_px == inline_scene.camera.cy_px);
+  CHECK(d.scene.camera.width_px == inline_scene.camera.width_px);
+  // The images are those of the inline camera.
+  render::BoardRenderer renderer(inline_scene, render::loadRenderSettings(sim::kDefaultScene));
+  for (const sim::DatasetSample& s : d.samples) {
+    const cv::Mat stored = cv::imread(d.path(s.image), cv::IMREAD_UNCHANGED);
+    const cv::Mat again = renderer.render(*s.camera_T_board_true, job.render_seed, render::kRenderStream + s.index);
+    REQUIRE(stored.size() == again.size());
+    CHECK(cv::countNonZero(stored != again) == 0);
+  }
 }

@@ -107,7 +107,7 @@ TEST_CASE("malformed scene files name the file and the key", "[sim][io][badinput
   with("inner_corners_y: 6", "inner_corners_y: 7");
   CHECK_THAT(inputError([&] { loadScene(f); }), Catch::StartsWith(f + ": board: inner_corners_x and inner_corners_y must differ in parity"));
   with("fx_px: 1400.0", "fx_px: -1");
-  CHECK(inputError([&] { loadScene(f); }) == f + ": camera.fx_px: '-1' is outside 1 px to 1e6 px (a focal length in pixels)");
+  CHECK_THAT(inputError([&] { loadScene(f); }), Catch::StartsWith(f + ": camera.fx_px: '-1' is outside 1 px to 1e6 px"));
   with("base_T_board: {xyz_m: [6.0, 4.0, 6.0],", "base_T_board: {xyz_m: [6.0, 4.0],");
   CHECK(inputError([&] { loadScene(f); }) == f + ": base_T_board.xyz_m: expected a sequence of 3 numbers");
   with("distance_m: [1.5, 2.5]", "distance_m: [2.5, 1.5]");

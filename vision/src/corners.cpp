@@ -155,6 +155,13 @@ OrientationEvidence orientationEvidence(const cv::Mat& gray, const sim::Board& b
   return ev;
 }
 
+void refineCornersSubPix(const cv::Mat& gray, std::vector<cv::Point2f>& corners, double half_window_px, int max_half_window_px) {
+  if (corners.empty()) return;
+  const int half = std::clamp(static_cast<int>(half_window_px), 1, std::max(1, max_half_window_px));
+  cv::cornerSubPix(gray, corners, cv::Size(half, half), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-4));
+}
+
 CornerDetection detectCorners(const cv::Mat& gray, const sim::Board& board, const DetectorSettings& settings) {
   if (gray.empty() || gray.type() != CV_8UC1) {
     throw std::invalid_argument("detectCorners: expected a non-empty CV_8UC1 image, got type " +
@@ -196,9 +203,7 @@ CornerDetection detectCorners(const cv::Mat& gray, const sim::Board& board, cons
         if (r + 1 < board.corners_y) d_min = std::min(d_min, cv::norm(p - found[(r + 1) * board.corners_x + c]));
       }
     }
-    const int half = std::clamp(static_cast<int>(0.4 * d_min), 1, std::max(1, settings.max_subpix_half_window_px));
-    cv::cornerSubPix(gray, found, cv::Size(half, half), cv::Size(-1, -1),
-                     cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-4));
+    refineCornersSubPix(gray, found, 0.4 * d_min, settings.max_subpix_half_window_px);
   }
 
   CornerDetection d;

@@ -1,11 +1,16 @@
 #include "orbcal/vision/intrinsics.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
+#include <filesystem>
 #include <opencv2/calib3d.hpp>
 #include <sstream>
 #include <stdexcept>
 
+#include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
+#include "orbcal/vision/charuco.hpp"
 #include "orbcal/vision/measurement.hpp"
 
 namespace orbcal::vision {
@@ -42,23 +47,29 @@ IntrinsicsResult calibrateIntrinsics(const std::vector<BoardView>& views, const 
   r.camera.width_px = image_size.width;
   r.camera.height_px = image_size.height;
   for (const BoardView& v : views) {
-    if (static_cast<int>(v.corners_px.size()) != board.numCorners()) {
+    if (v.ids.empty() && static_cast<int>(v.corners_px.size()) != board.numCorners()) {
       throw std::invalid_argument("calibrateIntrinsics: expected " + std::to_string(board.numCorners()) +
                                   " corners per view, got " + std::to_string(v.corners_px.size()));
+    }
+    if (!v.ids.empty() && v.ids.size() != v.corners_px.size()) {
+      throw std::invalid_argument("calibrateIntrinsics: expected one id per corner");
     }
   }
   if (static_cast<int>(views.size()) < std::max(1, settings.min_images)) {
     r.reason = "too few images with a board: " + std::to_string(views.size()) + " < " + std::to_string(settings.min_images);
     return r;
   }
-  std::vector<cv::Point3f> object;
-  for (const Eigen::Vector3d& P : sim::boardCorners(board)) object.emplace_back(P.x(), P.y(), P.z());
   std::vector<std::vector<cv::Point3f>> object_points;
   std::vector<std::vector<cv::Point2f>> image_points;
   for (const BoardView& v : views) {
     std::vector<cv::Point2f> pts;
-    for (const auto& p : v.corners_px) pts.emplace_back(static_cast<float>(p.x()), static_cast<float>(p.y()));
-    object_points.push_back(object);
+    std::vector<cv::Point3f> object;
+    for (std::size_t n = 0; n < v.corners_px.size(); ++n) {
+      pts.emplace_back(static_cast<float>(v.corners_px[n].x()), static_cast<float>(v.corners_px[n].y()));
+      const Eigen::Vector3d P = sim::cornerInBoard(board, v.ids.empty() ? static_cast<int>(n) : v.ids[n]);
+      object.emplace_back(P.x(), P.y(), P.z());
+    }
+    object_points.push_back(std::move(object));
     image_points.push_back(std::move(pts));
   }
   int flags = 0;
@@ -109,11 +120,23 @@ IntrinsicsResult calibrateIntrinsicsFromFiles(const std::vector<std::string>& pa
       im.status = ImageStatus::kUnreadable;
       continue;
     }
-    const CornerDetection d = detectCorners(gray, board, det);
-    im.status = d.status;
-    im.reason = d.reason;
-    im.detail = d.detail;
-    if (!d.found()) continue;
+    BoardView view;
+    if (board.type == sim::BoardType::kCharuco) {
+      // Corners by identity, interpolated by local homographies (no camera model yet).
+      const CharucoDetection d = detectCharuco(gray, board);
+      im.status = d.status;
+      im.reason = d.reason;
+      im.detail = d.detail;
+      if (!d.found()) continue;
+      view = {d.corners_px, d.ids};
+    } else {
+      const CornerDetection d = detectCorners(gray, board, det);
+      im.status = d.status;
+      im.reason = d.reason;
+      im.detail = d.detail;
+      if (!d.found()) continue;
+      view = {d.corners_px, {}};
+    }
     if (size.area() == 0) size = gray.size();
     if (gray.size() != size) {
       im.status = ImageStatus::kRejected;
@@ -122,7 +145,7 @@ IntrinsicsResult calibrateIntrinsicsFromFiles(const std::vector<std::string>& pa
                   "x" + std::to_string(size.height);
       continue;
     }
-    views.push_back({d.corners_px});
+    views.push_back(std::move(view));
     view_of.push_back(i);
   }
   IntrinsicsResult r = calibrateIntrinsics(views, size, board, settings);
@@ -139,7 +162,11 @@ std::string formatIntrinsicsYaml(const IntrinsicsResult& r, const sim::Board& bo
   s << "# orbcal intrinsics: Zhang's method (cv::calibrateCamera). The camera section uses the scene file's keys.\n";
   s << "ok: " << (r.ok ? "true" : "false") << "\n";
   if (!r.ok) s << "reason: " << quoted(r.reason) << "\n";
-  s << "board: {inner_corners_x: " << board.corners_x << ", inner_corners_y: " << board.corners_y
+  s << "board: {";
+  if (board.type == sim::BoardType::kCharuco) {
+    s << "type: charuco, dictionary: " << board.dictionary << ", marker_m: " << n(board.marker_m) << ", ";
+  }
+  s << "inner_corners_x: " << board.corners_x << ", inner_corners_y: " << board.corners_y
     << ", square_m: " << n(board.square_m) << "}\n";
   if (r.ok) {
     const sim::Camera& c = r.camera;
@@ -161,6 +188,43 @@ std::string formatIntrinsicsYaml(const IntrinsicsResult& r, const sim::Board& bo
     s << "}\n";
   }
   return s.str();
+}
+
+std::vector<std::string> expandImageArguments(const std::vector<std::string>& arguments) {
+  static const std::vector<std::string> kExtensions{".png", ".jpg", ".jpeg", ".bmp", ".tif",
+                                                     ".tiff", ".pgm", ".ppm", ".pnm", ".webp"};
+  namespace fs = std::filesystem;
+  std::vector<std::string> out;
+  for (const std::string& a : arguments) {
+    std::error_code ec;
+    if (!fs::is_directory(a, ec)) {
+      if (!fs::exists(a, ec)) throw sim::InputError(a + ": no such image file or folder");
+      out.push_back(a);
+      continue;
+    }
+    std::vector<std::string> found;
+    for (fs::directory_iterator it(a, ec), end; !ec && it != end; it.increment(ec)) {
+      std::error_code ec_file;
+      if (!it->is_regular_file(ec_file)) continue;
+      std::string ext = it->path().extension().string();
+      std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+      if (std::find(kExtensions.begin(), kExtensions.end(), ext) != kExtensions.end()) found.push_back(it->path().string());
+    }
+    if (ec) throw sim::InputError(a + ": cannot list the folder: " + ec.message());
+    if (found.empty()) {
+      throw sim::InputError(a + ": no image files in this folder (looked for .png .jpg .jpeg .bmp .tif .tiff .pgm .ppm .pnm .webp)");
+    }
+    std::sort(found.begin(), found.end());
+    out.insert(out.end(), found.begin(), found.end());
+  }
+  return out;
+}
+
+CameraFileNames cameraFileNames(const std::string& out) {
+  const std::filesystem::path p(out);
+  const std::filesystem::path dir = p.parent_path();
+  const std::string stem = p.stem().string();
+  return {(dir / (stem + "_camera_info.yaml")).string(), (dir / (stem + "_opencv.yml")).string()};
 }
 
 }  // namespace orbcal::vision

@@ -7,6 +7,7 @@
 
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
+#include "orbcal/vision/charuco.hpp"
 
 namespace orbcal::vision {
 
@@ -67,22 +68,37 @@ Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim
                std::to_string(cam.width_px) + "x" + std::to_string(cam.height_px);
     return m;
   }
-  const CornerDetection det = detectCorners(gray, scene.board, settings.detector);
-  m.status = det.status;
-  m.reason = det.reason;
-  m.detail = det.detail;
-  if (!det.found()) return m;
-  if (!det.orientation_known) {
-    // Possible when the detector settings make the orientation optional (intrinsics do): a pose from
-    // a half-turned corner order would be wrong by a half turn about the board normal, not noisy.
-    m.status = ImageStatus::kRejected;
-    m.reason = "orientation undecidable";
-    m.detail = det.detail.empty() ? "the board's orientation is not known" : det.detail;
-    return m;
+  std::vector<Eigen::Vector2d> corners_px;
+  std::vector<int> ids;
+  if (scene.board.type == sim::BoardType::kCharuco) {
+    // Corners known by identity: a partly visible board still gives a pose.
+    const CharucoDetection det = detectCharuco(gray, scene.board, &cam);
+    m.status = det.status;
+    m.reason = det.reason;
+    m.detail = det.detail;
+    if (!det.found()) return m;
+    corners_px = det.corners_px;
+    ids = det.ids;
+  } else {
+    const CornerDetection det = detectCorners(gray, scene.board, settings.detector);
+    m.status = det.status;
+    m.reason = det.reason;
+    m.detail = det.detail;
+    if (!det.found()) return m;
+    if (!det.orientation_known) {
+      // Possible when the detector settings make the orientation optional (intrinsics do): a pose from
+      // a half-turned corner order would be wrong by a half turn about the board normal, not noisy.
+      m.status = ImageStatus::kRejected;
+      m.reason = "orientation undecidable";
+      m.detail = det.detail.empty() ? "the board's orientation is not known" : det.detail;
+      return m;
+    }
+    corners_px = det.corners_px;
   }
-  m.num_corners = static_cast<int>(det.corners_px.size());
+  m.num_corners = static_cast<int>(corners_px.size());
 
-  const BoardPose pose = estimateBoardPose(cam, scene.board, det.corners_px);
+  const BoardPose pose = ids.empty() ? estimateBoardPose(cam, scene.board, corners_px)
+                                     : estimateBoardPose(cam, scene.board, corners_px, ids);
   if (!pose.ok) {
     m.status = ImageStatus::kRejected;
     m.reason = pose.reason;
@@ -97,7 +113,8 @@ Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim
     return m;
   }
   m.camera_T_board = pose.camera_T_board;
-  m.corners_px = det.corners_px;
+  m.corners_px = corners_px;
+  m.corner_ids = ids;
   m.base_T_flange = measuredFlangePose(scene, pose.camera_T_board);
   m.covariance = flangeCovariance(scene.flange_T_camera, pose.covariance_camera);
   if (q.size() > 0) {

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 
@@ -54,30 +55,33 @@ Eigen::Matrix<double, 2, 3> projectionJacobian(const sim::Camera& camera, const 
   return J_uv_d * J_d_xy * J_xy_p;
 }
 
+namespace {
+/// J_uv_ec of one point at p (camera frame): J_uv_pc [-I, S(p)] (the file comment of pose.hpp).
+Eigen::Matrix<double, 2, 6> pointJacobian(const sim::Camera& camera, const Eigen::Vector3d& p) {
+  Eigen::Matrix<double, 3, 6> J_pc_ec;
+  J_pc_ec << -Eigen::Matrix3d::Identity(), sim::skew(p);
+  return projectionJacobian(camera, p) * J_pc_ec;
+}
+}  // namespace
+
 Eigen::MatrixXd reprojectionJacobian(const sim::Camera& camera, const sim::Board& board,
                                      const Eigen::Isometry3d& camera_T_board) {
   Eigen::MatrixXd J(2 * board.numCorners(), 6);
   for (int k = 0; k < board.numCorners(); ++k) {
-    const Eigen::Vector3d p = camera_T_board * sim::cornerInBoard(board, k);
-    Eigen::Matrix<double, 3, 6> J_pc_ec;
-    J_pc_ec << -Eigen::Matrix3d::Identity(), sim::skew(p);
-    J.middleRows<2>(2 * k) = projectionJacobian(camera, p) * J_pc_ec;
+    J.middleRows<2>(2 * k) = pointJacobian(camera, camera_T_board * sim::cornerInBoard(board, k));
   }
   return J;
 }
 
-BoardPose estimateBoardPose(const sim::Camera& camera, const sim::Board& board,
-                            const std::vector<Eigen::Vector2d>& corners_px) {
-  const int n = board.numCorners();
-  if (static_cast<int>(corners_px.size()) != n || n < 4) {
-    throw std::invalid_argument("estimateBoardPose: expected " + std::to_string(n) + " corners (>= 4), got " +
-                                std::to_string(corners_px.size()));
-  }
+namespace {
+/// PnP + LM + covariance on the board points P[n] (board frame) seen at corners_px[n].
+BoardPose solvePose(const sim::Camera& camera, const std::vector<Eigen::Vector3d>& P,
+                    const std::vector<Eigen::Vector2d>& corners_px) {
+  const int n = static_cast<int>(P.size());
   std::vector<cv::Point3d> object;
   std::vector<cv::Point2d> image;
   for (int k = 0; k < n; ++k) {
-    const Eigen::Vector3d P = sim::cornerInBoard(board, k);
-    object.emplace_back(P.x(), P.y(), P.z());
+    object.emplace_back(P[k].x(), P[k].y(), P[k].z());
     image.emplace_back(corners_px[k].x(), corners_px[k].y());
   }
   const cv::Matx33d K = cameraMatrix(camera);
@@ -104,15 +108,16 @@ BoardPose estimateBoardPose(const sim::Camera& camera, const sim::Board& board,
   pose.camera_T_board.translation() = Eigen::Vector3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
   if (!pose.camera_T_board.matrix().allFinite()) return failure("pose not solved", "solvePnP returned a non-finite pose");
   for (int k = 0; k < n; ++k) {
-    if ((pose.camera_T_board * sim::cornerInBoard(board, k)).z() <= 0.0) {
-      return failure("pose not solved", "the solved board lies behind the camera");
-    }
+    if ((pose.camera_T_board * P[k]).z() <= 0.0) return failure("pose not solved", "the solved board lies behind the camera");
   }
 
-  const std::vector<Eigen::Vector2d> projected = projectBoard(camera, board, pose.camera_T_board);
   double sse = 0.0;
-  for (int k = 0; k < n; ++k) sse += (corners_px[k] - projected[k]).squaredNorm();
-  const Eigen::MatrixXd J = reprojectionJacobian(camera, board, pose.camera_T_board);
+  Eigen::MatrixXd J(2 * n, 6);
+  for (int k = 0; k < n; ++k) {
+    const Eigen::Vector3d p = pose.camera_T_board * P[k];
+    sse += (corners_px[k] - sim::project(camera, p)).squaredNorm();
+    J.middleRows<2>(2 * k) = pointJacobian(camera, p);
+  }
   const sim::Matrix6d JtJ = J.transpose() * J;
   const double s2 = sse / (2.0 * n - 6.0);
   pose.covariance_camera = s2 * JtJ.ldlt().solve(sim::Matrix6d::Identity());
@@ -122,6 +127,41 @@ BoardPose estimateBoardPose(const sim::Camera& camera, const sim::Board& board,
   pose.num_corners = n;
   pose.ok = true;
   return pose;
+}
+}  // namespace
+
+BoardPose estimateBoardPose(const sim::Camera& camera, const sim::Board& board,
+                            const std::vector<Eigen::Vector2d>& corners_px) {
+  const int n = board.numCorners();
+  if (static_cast<int>(corners_px.size()) != n || n < 4) {
+    throw std::invalid_argument("estimateBoardPose: expected " + std::to_string(n) + " corners (>= 4), got " +
+                                std::to_string(corners_px.size()));
+  }
+  return solvePose(camera, sim::boardCorners(board), corners_px);
+}
+
+BoardPose estimateBoardPose(const sim::Camera& camera, const sim::Board& board,
+                            const std::vector<Eigen::Vector2d>& corners_px, const std::vector<int>& ids) {
+  if (corners_px.size() != ids.size() || ids.size() < 6) {
+    throw std::invalid_argument("estimateBoardPose: expected >= 6 corners with one id each, got " +
+                                std::to_string(corners_px.size()) + " corners and " + std::to_string(ids.size()) + " ids");
+  }
+  std::vector<Eigen::Vector3d> P;
+  std::vector<bool> seen(static_cast<std::size_t>(board.numCorners()), false);
+  std::set<int> rows, cols;
+  for (const int id : ids) {
+    if (id < 0 || id >= board.numCorners() || seen[static_cast<std::size_t>(id)]) {
+      throw std::invalid_argument("estimateBoardPose: corner id " + std::to_string(id) + " out of range or repeated");
+    }
+    seen[static_cast<std::size_t>(id)] = true;
+    rows.insert(id / board.corners_x);
+    cols.insert(id % board.corners_x);
+    P.push_back(sim::cornerInBoard(board, id));
+  }
+  if (rows.size() < 2 || cols.size() < 2) {
+    throw std::invalid_argument("estimateBoardPose: the corners lie on one row or column of the board");
+  }
+  return solvePose(camera, P, corners_px);
 }
 
 sim::Matrix6d flangeCovariance(const Eigen::Isometry3d& flange_T_camera, const sim::Matrix6d& covariance_camera) {

@@ -32,7 +32,9 @@ namespace orbcal::calib {
 
 struct CornerObservation {
   sim::JointSample sample;
-  std::vector<Eigen::Vector2d> corners_px;  ///< every inner corner, k as in sim::cornerInBoard
+  std::vector<Eigen::Vector2d> corners_px;  ///< every inner corner, k as in sim::cornerInBoard, or those of `ids`
+  std::vector<int> ids;  ///< empty: corners_px holds every corner in order; else corners_px[n] is corner ids[n] (ChArUco)
+  int cornerId(std::size_t n) const { return ids.empty() ? static_cast<int>(n) : ids[n]; }
 };
 
 struct CornerNoise {

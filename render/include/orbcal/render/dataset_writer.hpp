@@ -22,7 +22,9 @@
 // (with -2, -3, ... before the extension when two different files share a name), and scene.yaml is then
 // NOT verbatim: that `file:` value is rewritten to the copy's path and a comment at the top of the copy
 // lists the original paths. Otherwise scene.yaml is a verbatim copy. Only the mesh files themselves are
-// copied (not side files such as an .obj's .mtl: the renderer uses only the geometry).
+// copied (not side files such as an .obj's .mtl: the renderer uses only the geometry). A scene whose
+// camera is a file (`camera: {file: ...}`, sim/camera_io.hpp) has it copied to DIR/camera.EXT and its
+// `file:` value rewritten the same way, compared on resume like the meshes.
 // A URDF robot (sim/urdf.hpp): robot.urdf is a verbatim copy of the URDF and robot.yaml the chain read
 // from it (sim::formatArm, convention urdf, naming robot.urdf and the links), so that a dataset's
 // readers load robot.yaml as for any robot and `orbcal calibrate` finds the URDF to write back.

@@ -17,6 +17,9 @@
 //   So the square touching the first inner corner diagonally, (-s, -s)..(0, 0), is black.
 //   A white margin of margin_m surrounds the squares. The printed face looks along -z_board; the
 //   back (seen from +z) is a uniform grey (render.board_back).
+//   A ChArUco board (sim::BoardType::kCharuco) adds its ArUco markers (sim::charucoMarkers, the bits of
+//   OpenCV's dictionary) in the white squares: a mipmapped texture of their black cells, 128 texels per
+//   square, added to the board filter's black fraction (render.board_filter must be on).
 //
 // Lighting (GLSL 330 core): L = albedo (ambient + sun max(0, n.l) shadow) + specular sun (n.h)^shininess shadow,
 // n facing the viewer, l toward the sun (given in the base frame), h the half vector; then times the

@@ -33,13 +33,43 @@ Eigen::Vector2d project(const Camera& camera, const Eigen::Vector3d& p_cam);
 Eigen::Vector2d distortNormalized(const std::array<double, 5>& k, const Eigen::Vector2d& xy,
                                   Eigen::Matrix2d* J_distorted_xy = nullptr);
 
+/// The board's pattern. A ChArUco board (OpenCV's aruco module) has the chessboard's squares and
+/// colouring, plus an ArUco marker centred in every white square (charucoMarkers), so that each inner
+/// corner is known by its identity and a partly visible board still gives a pose.
+enum class BoardType { kChessboard, kCharuco };
+
 struct Board {
+  BoardType type = BoardType::kChessboard;
+  std::string dictionary;  ///< ChArUco only: OpenCV's predefined dictionary, e.g. "DICT_5X5_100"
+  double marker_m = 0.0;   ///< ChArUco only: side of a marker (black border included), < square_m
   int corners_x = 9;       ///< inner corners along board x (squares along x = corners_x + 1)
   int corners_y = 6;       ///< inner corners along board y
   double square_m = 0.08;  ///< side of one square
   double margin_m = 0.08;  ///< white border around the squares
   int numCorners() const { return corners_x * corners_y; }
 };
+
+/// OpenCV's predefined ArUco dictionaries DICT_NxN_M (N = 4..7, M = 50, 100, 250, 1000): the value of
+/// cv::aruco::PREDEFINED_DICTIONARY_NAME for `name`, its marker count M and bits per side N; false for
+/// another name. (sim does not link OpenCV; render/ and vision/ cast the id.)
+struct ArucoDictionaryInfo {
+  int cv_id = -1;
+  int markers = 0;
+  int bits = 0;
+};
+bool arucoDictionary(const std::string& name, ArucoDictionaryInfo* info);
+
+/// One ArUco marker of a ChArUco board: the OpenCV id (0, 1, ... over the white squares row by row,
+/// as cv::aruco::CharucoBoard numbers them), its square (i, j) as in isBlackSquare, and its corner of
+/// lowest x and y in the board frame (the marker image's top-left; it spans marker_m along +x and +y).
+/// A ChArUco board's inner corner k is OpenCV's ChArUco corner id k: the board frame is OpenCV's
+/// CharucoBoard frame shifted by (-square_m, -square_m), the same axes.
+struct CharucoMarker {
+  int id = 0;
+  int i = 0, j = 0;
+  Eigen::Vector3d top_left;
+};
+std::vector<CharucoMarker> charucoMarkers(const Board& board);
 
 /// Inner corner k in the board frame (m).
 Eigen::Vector3d cornerInBoard(const Board& board, int k);
@@ -73,6 +103,9 @@ struct Scene {
   std::string name;
   std::string source;  ///< file the scene was loaded from (for messages)
   Camera camera;
+  /// The camera file (ROS camera_info or OpenCV FileStorage) when the scene's camera is {file: PATH},
+  /// resolved against the scene file's folder; empty when the camera is inline (sim/camera_io.hpp).
+  std::string camera_file;
   Board board;
   Eigen::Isometry3d base_T_board = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d flange_T_camera = Eigen::Isometry3d::Identity();

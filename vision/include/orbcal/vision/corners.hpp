@@ -109,6 +109,11 @@ struct OrientationEvidence {
 OrientationEvidence orientationEvidence(const cv::Mat& gray, const sim::Board& board,
                                         const std::vector<Eigen::Vector2d>& corners_px);
 
+/// cv::cornerSubPix on `corners` with a half window of half_window_px clamped to [1, max_half_window_px]
+/// (the caller keeps the window off the neighbouring corners and any marker).
+void refineCornersSubPix(const cv::Mat& gray, std::vector<cv::Point2f>& corners, double half_window_px,
+                         int max_half_window_px);
+
 /// True when the board's colouring is the same after a half turn (corners_x + corners_y even).
 bool isHalfTurnSymmetric(const sim::Board& board);
 

@@ -39,9 +39,11 @@ struct IntrinsicsResult {
   std::vector<IntrinsicsImage> images;  ///< one per input, in input order
 };
 
-/// One detected view: corners in sim::cornerInBoard order (any orientation).
+/// One detected view: every corner in sim::cornerInBoard order (any orientation), or (ChArUco) the
+/// corners seen, corners_px[n] being inner corner ids[n].
 struct BoardView {
   std::vector<Eigen::Vector2d> corners_px;
+  std::vector<int> ids;  ///< empty: all corners in order
 };
 
 /// calibrateCamera on views already detected (all from one camera of size image_size).
@@ -50,12 +52,27 @@ IntrinsicsResult calibrateIntrinsics(const std::vector<BoardView>& views, const 
                                      const sim::Board& board, const IntrinsicsSettings& settings = {});
 
 /// Reads, detects and calibrates. Every path gets a status; a board image whose size differs from the
-/// first board image's (another camera) is rejected. Never throws for a bad image.
+/// first board image's (another camera) is rejected. Never throws for a bad image. A ChArUco board's
+/// views are its corners found by identity (detectCharuco), so partly visible boards count.
 IntrinsicsResult calibrateIntrinsicsFromFiles(const std::vector<std::string>& paths, const sim::Board& board,
                                               const IntrinsicsSettings& settings = {});
 
 /// YAML: a `camera:` section in the scene file's keys (paste it into a scene), plus the fit's RMS,
 /// standard deviations and per-image statuses.
 std::string formatIntrinsicsYaml(const IntrinsicsResult& r, const sim::Board& board);
+
+/// The image arguments of `orbcal intrinsics`: a file stays as given; a folder becomes every image file
+/// directly in it (by extension: png, jpg, jpeg, bmp, tif, tiff, pgm, ppm, pnm, webp; any case), sorted
+/// by name; other files are ignored. Throws sim::InputError naming a folder without images, or an
+/// argument that does not exist.
+std::vector<std::string> expandImageArguments(const std::vector<std::string>& arguments);
+
+/// The files `orbcal intrinsics -o OUT` writes beside OUT (OUT = DIR/STEM.EXT): DIR/STEM_camera_info.yaml
+/// (ROS camera_info) and DIR/STEM_opencv.yml (OpenCV FileStorage). Either loads as a scene's camera
+/// (`camera: {file: ...}`, sim/camera_io.hpp).
+struct CameraFileNames {
+  std::string camera_info, opencv;
+};
+CameraFileNames cameraFileNames(const std::string& out);
 
 }  // namespace orbcal::vision

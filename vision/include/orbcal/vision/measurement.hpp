@@ -58,10 +58,16 @@ struct Measurement {
   /// The detected inner corners (px), k as in sim::cornerInBoard; in memory only (measurements.csv
   /// does not hold them, so loadMeasurements leaves this empty). Filled when found.
   std::vector<Eigen::Vector2d> corners_px;
+  /// ChArUco boards: the inner corner each of corners_px is (ascending; a partly visible board gives
+  /// some). Empty for a chessboard: corners_px then holds every corner in order.
+  std::vector<int> corner_ids;
+  /// The inner corner corners_px[n] is.
+  int cornerId(std::size_t n) const { return corner_ids.empty() ? static_cast<int>(n) : corner_ids[n]; }
   bool found() const { return status == ImageStatus::kFound; }
 };
 
-/// Detect, order, solve and convert one grey image (CV_8UC1; throws std::invalid_argument otherwise).
+/// Detect (a chessboard: every corner, ordered; a ChArUco board: the corners seen, with identities),
+/// solve and convert one grey image (CV_8UC1; throws std::invalid_argument otherwise).
 /// `nominal`/`q` give the pose error; pass q empty to skip it. index/image are left for the caller.
 /// A detection whose orientation is not known is never kFound (kRejected, "orientation undecidable"),
 /// whatever settings.detector.require_orientation says: a half-turned pose would be silently wrong.

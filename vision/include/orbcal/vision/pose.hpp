@@ -65,6 +65,12 @@ Eigen::MatrixXd reprojectionJacobian(const sim::Camera& camera, const sim::Board
 [[nodiscard]] BoardPose estimateBoardPose(const sim::Camera& camera, const sim::Board& board,
                                           const std::vector<Eigen::Vector2d>& corners_px);
 
+/// The same from a subset of the corners, known by identity (a ChArUco detection, a partly visible
+/// board): corners_px[n] is inner corner ids[n] (sim::cornerInBoard). Needs >= 6 corners, distinct ids
+/// in range, not all on one row or column of the board (std::invalid_argument otherwise: check first).
+[[nodiscard]] BoardPose estimateBoardPose(const sim::Camera& camera, const sim::Board& board,
+                                          const std::vector<Eigen::Vector2d>& corners_px, const std::vector<int>& ids);
+
 /// Sigma_f = Ad(flange_T_camera) Sigma_c Ad(flange_T_camera)^T (see the file comment).
 sim::Matrix6d flangeCovariance(const Eigen::Isometry3d& flange_T_camera, const sim::Matrix6d& covariance_camera);
 
