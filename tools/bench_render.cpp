@@ -52,7 +52,10 @@ struct Variant {
 std::string sceneFor(const Variant& v) {
   std::vector<std::pair<std::string, std::string>> r;
   if (v.distorted) r.emplace_back("distortion: [0.0, 0.0, 0.0, 0.0, 0.0]", kDistortion);
-  if (v.legacy) r.emplace_back("render:\n  msaa_samples: 0", "render:\n  crop_to_scene: false\n  msaa_samples: 4");
+  if (v.legacy) {  // the scene's own keys edited in place (a key given twice is an error)
+    r.emplace_back("  msaa_samples: 0", "  msaa_samples: 4");
+    r.emplace_back("  crop_to_scene: true", "  crop_to_scene: false");
+  }
   return editedScene(r);
 }
 
