@@ -17,13 +17,21 @@ using namespace orbcal;
 
 using orbcal::test::slurp;
 
-TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces the estimate and cuts the hold-out error",
-          "[e2e][calibrate]") {
+namespace {
+/// A 40-view quick-scene dataset (Table 3 errors, 0.01 deg joint noise, seed 1) in a fresh temporary folder.
+render::DatasetJob renderQuick(const std::string& name) {
   render::DatasetJob job;
   job.scene = test::sourcePath("scenes/quick_scene.yaml");
   job.count = 40;
-  job.out = test::tempDir("calibrate") + "/dataset";
+  job.out = test::tempDir(name) + "/dataset";
   render::renderDataset(job);
+  return job;
+}
+}  // namespace
+
+TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces the estimate and cuts the hold-out error",
+          "[e2e][calibrate]") {
+  render::DatasetJob job = renderQuick("calibrate");
 
   tools::CalibrateOptions o;
   o.dataset = job.out;
@@ -114,11 +122,7 @@ void misplaceBoard(const std::string& dataset) {
 
 TEST_CASE("calibrate --estimate-frames: a wrong base_T_board in the scene no longer spoils the calibration",
           "[e2e][calibrate]") {
-  render::DatasetJob job;
-  job.scene = test::sourcePath("scenes/quick_scene.yaml");
-  job.count = 40;
-  job.out = test::tempDir("calibrate-frames") + "/dataset";
-  render::renderDataset(job);
+  const render::DatasetJob job = renderQuick("calibrate-frames");
   tools::CalibrateOptions o;
   o.dataset = job.out;
   o.quiet = true;
@@ -147,11 +151,7 @@ TEST_CASE("calibrate --model dr: frame-free pairs of camera poses; a wrong base_
   // Jia et al. 2019's reason for the distance-and-rotation model: the board-to-base transform changes
   // between the ground calibration and use; distances and rotation angles between camera poses do not
   // depend on it.
-  render::DatasetJob job;
-  job.scene = test::sourcePath("scenes/quick_scene.yaml");
-  job.count = 40;
-  job.out = test::tempDir("calibrate-dr") + "/dataset";
-  render::renderDataset(job);
+  const render::DatasetJob job = renderQuick("calibrate-dr");
   tools::CalibrateOptions o;
   o.dataset = job.out;
   o.quiet = true;
@@ -192,11 +192,7 @@ TEST_CASE("calibrate --model dr: frame-free pairs of camera poses; a wrong base_
 
 TEST_CASE("calibrate: an inconsistent fit is refused, named, and writes no robot file unless --accept-worse",
           "[e2e][calibrate]") {
-  render::DatasetJob job;
-  job.scene = test::sourcePath("scenes/quick_scene.yaml");
-  job.count = 40;
-  job.out = test::tempDir("calibrate-refuse") + "/dataset";
-  render::renderDataset(job);
+  const render::DatasetJob job = renderQuick("calibrate-refuse");
   tools::CalibrateOptions o;
   o.dataset = job.out;
   o.quiet = true;
