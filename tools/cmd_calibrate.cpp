@@ -35,6 +35,13 @@ void printMeasured(const MeasuredCalibrateResult& r) {
   std::printf("report: %s\n", r.report_path.c_str());
 }
 
+/// Every estimator an image dataset can be calibrated with, for --help.
+std::string imageMethodNames() {
+  std::string names;
+  for (const calib::MethodSpec& m : calib::comparisonMethods(0.0)) names += (names.empty() ? "" : ", ") + m.name;
+  return names;
+}
+
 void addCalibrateCommand(CLI::App& app) {
   struct Opts {
     CalibrateOptions images;
@@ -54,8 +61,7 @@ void addCalibrateCommand(CLI::App& app) {
       "them worse than the nominal arm is refused (exit 1) unless --accept-worse.");
   cmd->add_option("dataset", o->images.dataset, "image dataset folder, or measurement description (.yaml)")->required();
   cmd->add_option("--method", o->method,
-                  "estimator. Images: EKF (default), IEKF, LM, LM (Huber), LSE (weighted), LSE (paper), EKF (paper), ... "
-                  "Measured data: LM (default), LSE, EKF");
+                  "estimator. Images: " + imageMethodNames() + " (default EKF). Measured data: LM (default), LSE, EKF");
   cmd->add_option("--effects", o->measured.effects,
                   "effects to fit, effect:joints (joints from 1): compliance:2,4 cyclic:2 (2 harmonics; "
                   "cyclic:2/3 for 3) scale:1 backlash:1 thermal drift mount; image datasets (with --estimate-frames, "
