@@ -74,7 +74,7 @@ std::vector<sim::JointSample> samplesOf(const std::vector<Eigen::VectorXd>& conf
 
 /// Simulated marker poses: `truth` at p_true driven by each commanded sample's joints plus Gaussian
 /// joint noise (joint_noise_sigma_rad), each pose perturbed on the right by N(0, sigma^2) per axis
-/// (setup.noise's position and rotation sigmas); the observations carry the commanded samples, as
+/// (noise's position and rotation sigmas); the observations carry the commanded samples, as
 /// real readings do. Seeded through rng.
 std::vector<MarkerObservation> simulatePoses(const sim::KinematicModel& truth, const Eigen::VectorXd& p_true,
                                              const std::vector<sim::JointSample>& commanded, double joint_noise_sigma_rad,
