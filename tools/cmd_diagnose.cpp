@@ -3,6 +3,7 @@
 
 #include "cli.hpp"
 #include "diagnose.hpp"
+#include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::tools {
@@ -62,8 +63,15 @@ void addStudyCommand(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "seed of the draws")->capture_default_str();
   cmd->add_option("--effects", o->effects, "effects to inject (catalog names)")->capture_default_str();
   cmd->add_flag("--quiet", o->quiet, "no progress output");
-  cmd->callback([o] {
+  auto out = std::make_shared<std::string>();
+  cmd->add_option("-o,--out", *out, "also write the confusion table to DIR/diagnose_study.csv and DIR/report.md");
+  cmd->callback([o, out] {
     const StudyResult r = runDiagnoseStudy(*o);
+    if (!out->empty()) {
+      sim::makeDirectories(*out);
+      sim::writeFileAtomic(*out + "/diagnose_study.csv", formatStudyCsv(r));
+      sim::writeFileAtomic(*out + "/report.md", "# orbcal diagnose-study: what the detector names\n\n" + formatStudy(r));
+    }
     std::printf("%s\n%.1f s\n", formatStudy(r).c_str(), r.seconds);
   });
 }

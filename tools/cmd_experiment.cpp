@@ -68,7 +68,7 @@ void addExperimentCommand(CLI::App& app) {
                   "liu2012: Liu et al. 2012, laser ranger to a plane: 50 and 100 of 101 configurations by O3, 20 validation\n"
                   "  (--valid), repeated; robot default builtin:puma_hayati.yaml; --scene, --errors, --ident, --joint-noise-deg unused)")
       ->required()
-      ->check(CLI::IsMember({"table4", "table5", "fig8", "floor", "selection", "jia2019", "liu2012"}));
+      ->check(CLI::IsMember(kExperimentPresets));
   addExperimentOptions(*cmd, opt->e);
   cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, selection, jia2019, liu2012)")
       ->capture_default_str()

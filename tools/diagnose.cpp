@@ -503,4 +503,17 @@ std::string formatStudy(const StudyResult& r) {
   return md + (misses.empty() ? "" : "\nNot named right (injected -> named): " + misses + "\n");
 }
 
+std::string formatStudyCsv(const StudyResult& r) {
+  std::string csv = "injected,datasets,named,wrong_joint,other,clean_verdict,extra,named_rate,wrong_joint_rate,other_rate,"
+                    "clean_rate,extra_rate\n";
+  for (const StudyRow& row : r.rows) {
+    const double n = std::max(1, row.datasets);
+    csv += row.injected + "," + std::to_string(row.datasets);
+    for (int k : {row.named, row.wrong_joint, row.other, row.clean_verdict, row.extra}) csv += "," + std::to_string(k);
+    for (int k : {row.named, row.wrong_joint, row.other, row.clean_verdict, row.extra}) csv += "," + sim::formatNumber("%.6f", k / n);
+    csv += "\n";
+  }
+  return csv;
+}
+
 }  // namespace orbcal::tools

@@ -69,6 +69,8 @@ struct StudyResult {
 StudyResult runDiagnoseStudy(const StudyOptions& o);
 /// The confusion table (markdown).
 std::string formatStudy(const StudyResult& r);
+/// The confusion table as CSV: counts per injected effect and their rates (fractions of its datasets).
+std::string formatStudyCsv(const StudyResult& r);
 
 /// diagnosis.json (the machine-readable result).
 std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& distortion = {});

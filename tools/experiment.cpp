@@ -107,14 +107,11 @@ std::string drawFigure(const ExperimentOptions& o, const std::string& folder, co
   return "(figure " + png + " not drawn: python3 with matplotlib is needed)\n";
 }
 
-namespace {
-/// FNV-1a, 64 bit: a stable fingerprint (the same on every run and machine).
 std::uint64_t fingerprint(const std::string& text) {
   std::uint64_t h = 0xcbf29ce484222325ULL;
   for (unsigned char c : text) h = (h ^ c) * 0x100000001b3ULL;
   return h;
 }
-}  // namespace
 
 MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& prefix, int count, std::uint64_t seed) {
   MeasuredSet m;
@@ -213,6 +210,7 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
   sim::writeFileAtomic(folder + "/validation_errors.csv", calib::formatValidationErrorsCsv(r.comparison));
   sim::writeFileAtomic(folder + "/validation_errors_measured.csv", calib::formatValidationErrorsCsv(r.measured_comparison));
   sim::writeFileAtomic(folder + "/estimates.csv", calib::formatEstimatesCsv(nominal, r.comparison, &y_true));
+  sim::writeFileAtomic(folder + "/summary.csv", calib::formatComparisonSummaryCsv(r.comparison));
 
   std::vector<Eigen::VectorXd> ident_configs = r.identification.plant.q_commanded;
   std::ostringstream md;
@@ -255,7 +253,8 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
      << "(their measurement noise adds to every column).\n\n"
      << calib::formatComparisonSummary(r.measured_comparison) << "\n"
      << methodsLegend(methods)
-     << "Files: `validation_errors.csv`, `validation_errors_measured.csv`, `estimates.csv` (per method and "
+     << "Files: `summary.csv` (per method: average and largest error, x floor), `validation_errors.csv`, "
+        "`validation_errors_measured.csv`, `estimates.csv` (per method and "
      << "parameter: estimate, 1-sigma, truth, held), datasets under `" << o.out << "/datasets/`.\n\n"
      << "## Headline\n\n```\n" << table4Headline(r) << "```\n";
   r.report_path = folder + "/report.md";

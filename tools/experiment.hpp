@@ -21,6 +21,9 @@ class App;
 
 namespace orbcal::tools {
 
+/// The presets of `orbcal experiment --preset`.
+inline const std::vector<std::string> kExperimentPresets{"table4", "table5", "fig8", "floor", "selection", "jia2019", "liu2012"};
+
 struct ExperimentOptions {
   std::string robot = "builtin:ssrms.yaml";
   std::string scene = "builtin:default_scene.yaml";
@@ -85,6 +88,9 @@ using sim::formatNumber;  // printf-style formatting of one number (sim/csv.hpp)
 std::string injectedEffects(const sim::TrueArm& truth, const std::string& source);
 /// Draws <folder>/<png> with tools/plot_report.py (`args` = its kind and CSV path, quoted); returns the
 /// Markdown image line, or a line saying why the figure was not drawn (also warned on stderr).
+/// FNV-1a, 64 bit: a stable fingerprint of a text (the same on every run and machine).
+std::uint64_t fingerprint(const std::string& text);
+
 std::string drawFigure(const ExperimentOptions& o, const std::string& folder, const std::string& args,
                        const std::string& png, const std::string& caption);
 

@@ -100,6 +100,17 @@ double fSurvival(double f, double d1, double d2) {
   return betaI(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * f));
 }
 
+double studentTCritical(double two_sided_alpha, double dof) {
+  // P(|T| > t) = P(F(1, dof) > t^2): bisection on the F survival function, which falls with t.
+  double lo = 0.0, hi = 1.0;
+  while (fSurvival(hi * hi, 1.0, dof) > two_sided_alpha) hi *= 2.0;
+  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (fSurvival(mid * mid, 1.0, dof) > two_sided_alpha ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
 std::vector<double> holmAdjust(const std::vector<double>& p) {
   const std::size_t n = p.size();
   std::vector<std::size_t> order(n);

@@ -146,6 +146,22 @@ std::string formatValidationErrorsCsv(const Comparison& c) {
   return out.str();
 }
 
+std::string formatComparisonSummaryCsv(const Comparison& c) {
+  std::ostringstream out;
+  out << "method,avg_position_mm,max_position_mm,avg_x_deg,avg_y_deg,avg_z_deg,x_floor\n";
+  const auto row = [&](const std::string& name, const ErrorSummary& e) {
+    const Eigen::Vector3d d = e.orientation_avg_rad * sim::kRadToDeg;
+    char buf[200];
+    std::snprintf(buf, sizeof buf, ",%.6f,%.6f,%.7f,%.7f,%.7f,%.6f\n", e.position_avg_m * 1e3, e.position_max_m * 1e3, d.x(),
+                  d.y(), d.z(), c.floor.position_avg_m > 0 ? e.position_avg_m / c.floor.position_avg_m : 0.0);
+    out << name << buf;
+  };
+  row("initial", c.initial);
+  row("floor", c.floor);
+  for (const MethodOutcome& m : c.methods) row(m.method.name, m.summary);
+  return out.str();
+}
+
 std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd* y_true) {
   std::ostringstream out;
   out << "method,parameter,unit,estimate,sigma,truth,held\n";

@@ -151,6 +151,13 @@ std::size_t ConfigNode::size() const {
   return node_.size();
 }
 
+std::vector<std::string> ConfigNode::keys() const {
+  if (!node_.IsMap()) fail("expected a map");
+  std::vector<std::string> out;
+  for (const auto& kv : node_) out.push_back(kv.first.as<std::string>());
+  return out;
+}
+
 void ConfigNode::fail(const std::string& what) const {
   throw InputError(source_ + ": " + (path_.empty() ? std::string("(top level)") : path_) + ": " + what);
 }

@@ -95,6 +95,9 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
 double chiSquareSurvival(double x, double k);
 /// The survival function of the F distribution F(d1, d2): P(X > f).
 double fSurvival(double f, double d1, double d2);
+/// Student's t critical value: the t > 0 with P(|T| > t) = two_sided_alpha for `dof` degrees of freedom
+/// (e.g. 2.228 for 0.05 and 10): the half-width of a confidence interval in standard errors.
+double studentTCritical(double two_sided_alpha, double dof);
 /// Holm's step-down adjusted p-values (family-wise error control), same order as the input.
 std::vector<double> holmAdjust(const std::vector<double>& p);
 

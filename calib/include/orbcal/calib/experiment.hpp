@@ -72,6 +72,9 @@ const MethodOutcome* bestOfKind(const Comparison& c, MethodSpec::Kind kind);
 /// One row per (model, validation sample): model, sample, position_mm, x_deg, y_deg, z_deg.
 /// Models: "initial", "floor" and each method. For box plots.
 std::string formatValidationErrorsCsv(const Comparison& c);
+/// One row per model (initial, floor, each method): average and largest validation position error [mm],
+/// average X/Y/Z orientation error [deg] and the average position error over the floor's (x_floor).
+std::string formatComparisonSummaryCsv(const Comparison& c);
 /// One row per (method, parameter): estimate, 1-sigma and truth in deg or mm, held. Without a truth
 /// (y_true null: real data) the truth cells are empty.
 std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd* y_true);

@@ -56,6 +56,8 @@ class ConfigNode {
   /// Sequence element; throws unless this is a sequence with index < size().
   ConfigNode operator[](std::size_t index) const;
   std::size_t size() const;  ///< sequence length; throws unless a sequence
+  /// The keys of a map in file order; throws unless this is a map.
+  std::vector<std::string> keys() const;
 
   double asDouble() const;  ///< finite number, else InputError
   /// A finite number within [lo, hi], the physical range of the key (`range` says what it is, e.g.

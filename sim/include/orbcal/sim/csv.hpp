@@ -17,6 +17,7 @@ class CsvTable {
   static CsvTable parse(const std::string& text, const std::string& source);
 
   int column(const std::string& name) const;          ///< -1 when absent
+  const std::vector<std::string>& header() const { return header_; }
   int requireColumn(const std::string& name) const;   ///< throws "<file>: header: missing column '<name>'"
   std::size_t rows() const { return rows_.size(); }
   const std::string& cell(std::size_t row, int col) const { return rows_[row][col]; }

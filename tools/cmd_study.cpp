@@ -1,0 +1,255 @@
+// `orbcal study run|submit|status|merge|task`: a grid of orbcal jobs over seeds, locally or on Slurm (study.hpp).
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <mutex>
+#include <thread>
+
+#include "cli.hpp"
+#include "interrupt.hpp"
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/fileio.hpp"
+#include "progress.hpp"
+#include "study.hpp"
+
+namespace fs = std::filesystem;
+
+namespace orbcal::tools {
+
+namespace {
+
+/// Checks a study's option names against this program's own commands.
+StudyOptionCheck programOptions() {
+  return [](const std::string& job, const std::string& option, bool flag) -> std::string {
+    CLI::App probe;
+    addRegisteredCommands(probe);
+    CLI::App* sub = nullptr;
+    for (CLI::App* c : probe.get_subcommands({})) {
+      if (c->get_name() == job) sub = c;
+    }
+    const CLI::Option* o = sub ? sub->get_option_no_throw("--" + option) : nullptr;
+    if (!o) return "not an option of orbcal " + job + " (see orbcal " + job + " --help)";
+    if (flag && o->get_expected_max() != 0) return "--" + option + " takes a value, not true";
+    if (!flag && o->get_expected_max() == 0) return "--" + option + " is a flag: give true or false";
+    return "";
+  };
+}
+
+/// Reads the study file and prepares its folder; returns the number of tasks.
+int prepare(const std::string& study_file, const std::string& dir) {
+  const StudySpec s = parseStudy(sim::readTextSource(study_file), study_file, programOptions());
+  const std::string origin = fs::absolute(fs::path(study_file)).parent_path().lexically_normal().string();
+  initStudyFolder(s, dir, origin);
+  return static_cast<int>(expandStudy(s).size());
+}
+
+struct Counts {
+  std::map<TaskState, std::vector<int>> by_state;
+  int done() const { return by_state.count(TaskState::kDone) ? static_cast<int>(by_state.at(TaskState::kDone).size()) : 0; }
+};
+Counts count(const std::vector<TaskState>& states) {
+  Counts c;
+  for (std::size_t i = 0; i < states.size(); ++i) c.by_state[states[i]].push_back(static_cast<int>(i));
+  return c;
+}
+
+void printStatus(const std::string& dir, const std::vector<TaskState>& states) {
+  const Counts c = count(states);
+  std::printf("%s: %zu tasks:", dir.c_str(), states.size());
+  for (TaskState s : {TaskState::kDone, TaskState::kRunning, TaskState::kQueued, TaskState::kFailed, TaskState::kMissing}) {
+    const auto it = c.by_state.find(s);
+    std::printf(" %zu %s%s", it == c.by_state.end() ? 0 : it->second.size(), taskStateName(s),
+                s == TaskState::kMissing ? "\n" : ",");
+  }
+  for (TaskState s : {TaskState::kRunning, TaskState::kQueued, TaskState::kFailed, TaskState::kMissing}) {
+    const auto it = c.by_state.find(s);
+    if (it != c.by_state.end()) std::printf("  %s: %s\n", taskStateName(s), arrayRanges(it->second).c_str());
+  }
+  if (c.by_state.count(TaskState::kFailed)) {
+    const int first = c.by_state.at(TaskState::kFailed).front();
+    std::printf("  a failed task's output: %s.failed/log.txt (or the .tmp folder of a killed one; Slurm's logs in %s/slurm/logs)\n",
+                taskFolder(dir, first).c_str(), dir.c_str());
+  }
+}
+
+void mergeAndPrint(const std::string& dir, const std::string& out, bool plots) {
+  const MergeReport r = mergeStudy(dir, out, plots);
+  std::printf("merged: %zu files; report: %s\n", r.files.size(), r.report_path.c_str());
+}
+
+void addStudyCommand(CLI::App& app) {
+  CLI::App* study = app.add_subcommand(
+      "study",
+      "Studies: one job (an experiment preset, run, diagnose-study or render) over a grid of options and a list of seeds, "
+      "as independent tasks run locally on every core or as a Slurm job array, merged into one report (README, 'Studies')");
+  study->require_subcommand(1);
+
+  struct RunOpts {
+    std::string file, dir;
+    int jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    bool merge = true, plots = true;
+  };
+  auto ro = std::make_shared<RunOpts>();
+  CLI::App* run = study->add_subcommand(
+      "run", "Run every task of STUDY.yaml here, several at once; each task's result goes atomically into its shard folder. "
+             "Rerunning resumes: only missing and failed tasks run. Merges when all are done.");
+  run->add_option("study", ro->file, "the study file (YAML, format orbcal-study-1)")->required();
+  run->add_option("-o,--out", ro->dir, "the study folder (created; a rerun resumes it)")->required();
+  run->add_option("-j,--jobs", ro->jobs, "tasks at once (default: the hardware threads)")->capture_default_str()->check(CLI::Range(1, 4096));
+  run->add_flag("--no-merge{false}", ro->merge, "do not merge when every task is done");
+  run->add_flag("--no-plots{false}", ro->plots, "merge without drawing figures");
+  run->callback([ro] {
+    const int n = prepare(ro->file, ro->dir);
+    sim::FolderLock lock(ro->dir, "orbcal study run");
+    setInterruptNote("finished tasks are kept in " + ro->dir + "/shards: rerun the same command to run the missing and failed ones");
+    std::vector<int> todo;
+    const std::vector<TaskState> before = studyTaskStates(ro->dir, n);
+    for (int i = 0; i < n; ++i) {
+      if (before[i] == TaskState::kRunning || before[i] == TaskState::kQueued) {
+        throw sim::InputError(ro->dir + ": task " + std::to_string(i) + " is " + taskStateName(before[i]) +
+                              " elsewhere (Slurm or another process); wait for it, see `orbcal study status " + ro->dir + "`");
+      }
+      if (before[i] != TaskState::kDone) todo.push_back(i);
+    }
+    const std::string program = selfProgram();
+    std::printf("%s: %d tasks, %d done before, %zu to run, %d at once\n", ro->dir.c_str(), n, n - static_cast<int>(todo.size()),
+                todo.size(), ro->jobs);
+    std::fflush(stdout);
+    Progress bar("study tasks", n);
+    std::atomic<int> next{0}, done{n - static_cast<int>(todo.size())};
+    std::mutex m;
+    std::vector<std::string> failures;
+    bar.update(done);
+    std::vector<std::thread> workers;
+    for (int w = 0; w < std::min<int>(ro->jobs, static_cast<int>(todo.size())); ++w) {
+      workers.emplace_back([&] {
+        for (int k; (k = next++) < static_cast<int>(todo.size());) {
+          std::string failure;
+          try {
+            const int status = runStudyTask(ro->dir, todo[k], program);
+            if (status != 0) failure = "task " + std::to_string(todo[k]) + ": exit status " + std::to_string(status) + ", see " +
+                                       taskFolder(ro->dir, todo[k]) + ".failed/log.txt";
+          } catch (const std::exception& e) {
+            failure = "task " + std::to_string(todo[k]) + ": " + e.what();
+          }
+          const std::lock_guard<std::mutex> g(m);
+          if (!failure.empty()) failures.push_back(failure);
+          bar.update(++done);
+        }
+      });
+    }
+    for (std::thread& t : workers) t.join();
+    bar.finish();
+    for (const std::string& f : failures) std::fprintf(stderr, "orbcal: %s\n", f.c_str());
+    if (!failures.empty()) {
+      std::fprintf(stderr, "orbcal: %zu of %d tasks failed; rerun the same command to run them again\n", failures.size(), n);
+      throw CLI::RuntimeError(1);
+    }
+    if (ro->merge) mergeAndPrint(ro->dir, "", ro->plots);
+  });
+
+  struct SubmitOpts {
+    std::string file, dir;
+    SlurmSubmitOptions slurm;
+    bool wait = false;
+  };
+  auto so = std::make_shared<SubmitOpts>();
+  CLI::App* submit = study->add_subcommand(
+      "submit", "Write an sbatch job-array script for the tasks of STUDY.yaml that are missing or failed (array index = task; "
+                "throttle, time and memory from the study's slurm: section) and submit it. Resubmitting runs only what is "
+                "missing or failed. The study folder must be on a filesystem the compute nodes share.");
+  submit->add_option("study", so->file, "the study file (YAML)")->required();
+  submit->add_option("-o,--out", so->dir, "the study folder (created; shared with the compute nodes)")->required();
+  submit->add_option("--partition", so->slurm.partition, "Slurm partition (sbatch --partition)");
+  submit->add_option("--account", so->slurm.account, "Slurm account (sbatch --account)");
+  submit->add_option("--sbatch-arg", so->slurm.extra, "one more sbatch argument, verbatim (repeatable), e.g. --sbatch-arg=--qos=long");
+  submit->add_option("--program", so->slurm.program, "orbcal's path on the compute nodes (default: this program's path)");
+  submit->add_flag("--dry-run", so->slurm.dry_run, "write the script, do not submit it");
+  submit->add_flag("--wait", so->wait, "wait until the submitted tasks have finished (progress from the shard folders)");
+  submit->callback([so] {
+    const int n = prepare(so->file, so->dir);
+    SlurmSubmission sub;
+    {
+      sim::FolderLock lock(so->dir, "orbcal study submit");
+      sub = submitStudy(so->dir, so->slurm);
+    }
+    if (sub.tasks.empty()) {
+      std::printf("%s: nothing to submit (every task is done, running or queued)\n", so->dir.c_str());
+    }
+    for (std::size_t k = 0; k < sub.scripts.size(); ++k) {
+      std::printf("%s%s%s\n", sub.scripts[k].c_str(), k < sub.job_ids.size() ? ": submitted as job " : " (not submitted)",
+                  k < sub.job_ids.size() ? sub.job_ids[k].c_str() : "");
+    }
+    if (!sub.tasks.empty()) std::printf("tasks %s of %d\n", arrayRanges(sub.tasks).c_str(), n);
+    std::fflush(stdout);
+    if (!so->wait || so->slurm.dry_run) return;
+    setInterruptNote("the Slurm jobs go on; `orbcal study status " + so->dir + "` shows where they stand");
+    Progress bar("study tasks", n);
+    std::vector<TaskState> states;
+    for (;;) {
+      states = studyTaskStates(so->dir, n);
+      const Counts c = count(states);
+      bar.update(c.done());
+      if (!c.by_state.count(TaskState::kRunning) && !c.by_state.count(TaskState::kQueued)) break;
+      std::this_thread::sleep_for(std::chrono::seconds(2));
+    }
+    bar.finish();
+    printStatus(so->dir, states);
+    if (count(states).done() != n) throw CLI::RuntimeError(1);
+  });
+
+  auto status_dir = std::make_shared<std::string>();
+  CLI::App* status = study->add_subcommand(
+      "status", "Per task: done, running, queued, failed or missing, from the shard folders and from Slurm (squeue, and sacct "
+                "where accounting is on). Exit status 0 when every task is done, 3 otherwise.");
+  status->add_option("dir", *status_dir, "the study folder")->required();
+  status->callback([status_dir] {
+    const StudySpec s = loadStudyFolder(*status_dir);
+    const std::vector<TaskState> states = studyTaskStates(*status_dir, static_cast<int>(expandStudy(s).size()));
+    printStatus(*status_dir, states);
+    if (count(states).done() != static_cast<int>(states.size())) throw CLI::RuntimeError(3);
+  });
+
+  struct MergeOpts {
+    std::string dir, out;
+    bool plots = true;
+  };
+  auto mo = std::make_shared<MergeOpts>();
+  CLI::App* merge = study->add_subcommand(
+      "merge", "Merge a finished study: its jobs' CSVs concatenated (task, cell, replicate, seed, grid values first), per cell "
+               "the mean, standard deviation and 95 % confidence interval over the seeds, the presets' figures per cell; a render "
+               "study's shards as one dataset with one manifest. The same whether the tasks ran here or on a cluster.");
+  merge->add_option("dir", mo->dir, "the study folder")->required();
+  merge->add_option("-o,--out", mo->out, "output folder (default DIR/merged; replaced atomically)");
+  merge->add_flag("--no-plots{false}", mo->plots, "do not draw the figures");
+  merge->callback([mo] {
+    sim::FolderLock lock(mo->dir, "orbcal study merge");
+    mergeAndPrint(mo->dir, mo->out, mo->plots);
+  });
+
+  struct TaskOpts {
+    std::string dir;
+    int index = -1;
+  };
+  auto to = std::make_shared<TaskOpts>();
+  CLI::App* task = study->add_subcommand(
+      "task", "Run one task of a study folder (what each Slurm array task and each local worker runs): its job's output goes "
+              "to DIR/shards/task-NNNNNN/ when it succeeds, .failed/ when not. A done task is not run again.");
+  task->add_option("dir", to->dir, "the study folder")->required();
+  task->add_option("--index", to->index, "the task (0-based; tasks.csv)")->required()->check(CLI::NonNegativeNumber);
+  task->callback([to] {
+    const int status = runStudyTask(to->dir, to->index, selfProgram());
+    if (status != 0) {
+      std::fprintf(stderr, "orbcal: task %d failed (exit status %d): %s.failed/log.txt\n", to->index, status,
+                   taskFolder(to->dir, to->index).c_str());
+      throw CLI::RuntimeError(1);
+    }
+  });
+}
+
+}  // namespace
+
+ORBCAL_COMMAND(60, addStudyCommand);
+
+}  // namespace orbcal::tools
