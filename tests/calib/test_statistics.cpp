@@ -30,11 +30,11 @@ TEST_CASE("Holm's step-down adjustment", "[statistics]") {
 }
 
 TEST_CASE("Student's t critical values match statistical tables", "[statistics]") {
-  // Two-sided 95 % and 99 % critical values (any t table).
-  CHECK(studentTCritical(0.05, 1) == Approx(12.7062).epsilon(1e-5));
-  CHECK(studentTCritical(0.05, 2) == Approx(4.3027).epsilon(1e-5));
-  CHECK(studentTCritical(0.05, 10) == Approx(2.2281).epsilon(1e-5));
-  CHECK(studentTCritical(0.05, 99) == Approx(1.9842).epsilon(1e-5));
-  CHECK(studentTCritical(0.01, 20) == Approx(2.8453).epsilon(1e-5));
-  CHECK(studentTCritical(0.05, 1e7) == Approx(1.95996).epsilon(1e-5));  // the normal's 1.96
+  // Two-sided 95 % and 99 % critical values (t tables to 6 decimals).
+  CHECK(studentTCritical(0.05, 1) == Approx(12.706205).epsilon(1e-5));
+  CHECK(studentTCritical(0.05, 2) == Approx(4.302653).epsilon(1e-5));
+  CHECK(studentTCritical(0.05, 10) == Approx(2.228139).epsilon(1e-5));
+  CHECK(studentTCritical(0.05, 99) == Approx(1.984217).epsilon(1e-5));
+  CHECK(studentTCritical(0.01, 20) == Approx(2.845340).epsilon(1e-5));
+  CHECK(studentTCritical(0.05, 1e7) == Approx(1.959964).epsilon(1e-5));  // the normal's 1.96
 }
