@@ -16,6 +16,7 @@
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "experiment.hpp"
 #include "orbcal/calib/diagnose.hpp"
@@ -499,16 +500,16 @@ std::vector<SubmittedJob> submittedJobs(const std::string& dir) {
   return jobs;
 }
 
-/// "1234_5" of the study's jobs -> task index.
-int arrayTask(const std::vector<SubmittedJob>& jobs, const std::string& job_step) {
+/// "1234_5" of the study's jobs -> (the job's place in jobs.csv, task index); (-1, -1) for others.
+std::pair<int, int> arrayTask(const std::vector<SubmittedJob>& jobs, const std::string& job_step) {
   const std::size_t us = job_step.find('_');
-  if (us == std::string::npos) return -1;
+  if (us == std::string::npos) return {-1, -1};
   const std::string id = job_step.substr(0, us), element = job_step.substr(us + 1);
-  if (element.empty() || element.find_first_not_of("0123456789") != std::string::npos) return -1;  // "[5-9]" etc.
-  for (const SubmittedJob& j : jobs) {
-    if (j.id == id) return j.offset + std::stoi(element);
+  if (element.empty() || element.find_first_not_of("0123456789") != std::string::npos) return {-1, -1};  // "[5-9]" etc.
+  for (std::size_t j = 0; j < jobs.size(); ++j) {
+    if (jobs[j].id == id) return {static_cast<int>(j), jobs[j].offset + std::stoi(element)};
   }
-  return -1;
+  return {-1, -1};
 }
 
 std::string shellQuote(const std::string& s) {
@@ -525,24 +526,26 @@ std::map<int, std::string> slurmTaskStates(const std::string& dir) {
   if (jobs.empty()) return states;
   std::string ids;
   for (const SubmittedJob& j : jobs) ids += (ids.empty() ? "" : ",") + j.id;
-  // sacct first (finished elements, where accounting is on), then squeue (the live ones) on top.
+  // (source, job, task) -> state: sacct (where accounting is on) first, then squeue (live jobs and, for
+  // a few minutes, finished ones), each in submission order, so the latest word on a task wins.
+  std::map<std::tuple<int, int, int>, std::string> seen;
   std::istringstream acct(capture("sacct -n -P -X -j " + ids + " -o JobID,State"));
   for (std::string line; std::getline(acct, line);) {
     const std::size_t bar = line.find('|');
     if (bar == std::string::npos) continue;
-    const int task = arrayTask(jobs, line.substr(0, bar));
-    std::string state = line.substr(bar + 1);
-    state = state.substr(0, state.find(' '));  // "CANCELLED by 0"
-    if (task >= 0) states[task] = state;
+    const auto [job, task] = arrayTask(jobs, line.substr(0, bar));
+    const std::string state = line.substr(bar + 1);
+    if (task >= 0) seen[{0, job, task}] = state.substr(0, state.find(' '));  // "CANCELLED by 0"
   }
-  std::istringstream queue(capture("squeue -h -r -j " + ids + " -o '%i %T'"));
+  std::istringstream queue(capture("squeue -h -r --states=all -j " + ids + " -o '%i %T'"));
   for (std::string line; std::getline(queue, line);) {
     std::istringstream words(line);
     std::string step, state;
     if (!(words >> step >> state)) continue;
-    const int task = arrayTask(jobs, step);
-    if (task >= 0) states[task] = state;
+    const auto [job, task] = arrayTask(jobs, step);
+    if (task >= 0) seen[{1, job, task}] = state;
   }
+  for (const auto& [key, state] : seen) states[std::get<2>(key)] = state;
   return states;
 }
 
