@@ -5,6 +5,7 @@
 # non-default ports and runs its own munged with its own socket, so it neither touches a system
 # Slurm or munged nor collides with a second checkout's cluster on the same machine.
 set -euo pipefail
+PATH=$PATH:/usr/sbin:/sbin   # the daemons and mungekey live in sbin
 
 usage() {
   cat <<'EOF'
@@ -111,17 +112,18 @@ stop_cluster() {
 
 # --- start ------------------------------------------------------------------------------------
 
-# Prints a TCP port no socket of this machine uses, and whose successor is free too.
+# Prints a TCP port that no socket of this machine uses, and whose successor is free too, below
+# Linux's ephemeral range (32768 and up) so that no outgoing connection takes it meanwhile.
 free_port_pair() {
   local p i
   for ((i = 0; i < 200; i++)); do
-    p=$((20000 + RANDOM % 40000))
-    if [[ -z "$(ss -Htan "( sport = :$p or sport = :$((p + 1)) or dport = :$p or dport = :$((p + 1)) )")" ]]; then
+    p=$((10000 + RANDOM % 22000))
+    if [[ -z "$(ss -Htan "( sport = :$p or sport = :$((p + 1)) )")" ]]; then
       echo "$p"
       return 0
     fi
   done
-  die "found no free TCP port pair in 20000..60000"
+  die "found no free TCP port pair in 10000..32000"
 }
 
 log_tails() {
@@ -172,6 +174,7 @@ TaskPlugin=task/none
 SelectType=select/cons_tres
 SelectTypeParameters=CR_Core
 MpiDefault=none
+MailProg=/bin/true
 AccountingStorageType=accounting_storage/none
 JobAcctGatherType=jobacct_gather/none
 JobCompType=jobcomp/none
@@ -192,8 +195,10 @@ start_munged() {
   chown -R munge:munge "$m"
   chmod 755 "$m"   # clients need to reach the socket; the key itself is 0600
   chmod 600 "$m/munge.key"
+  # --force: run even where a folder above STATE_DIR is group- or world-writable (munged then
+  # only warns); the key is this test cluster's own, made above.
   runuser -u munge -- munged --key-file="$m/munge.key" --socket="$m/munged.socket" \
-    --pid-file="$m/munged.pid" --log-file="$m/munged.log" --seed-file="$m/munged.seed" ||
+    --pid-file="$m/munged.pid" --log-file="$m/munged.log" --seed-file="$m/munged.seed" --force ||
     return 1
   local i
   for ((i = 0; i < 50; i++)); do
@@ -205,12 +210,19 @@ start_munged() {
   return 1
 }
 
-# Waits up to 60 s for sinfo to show the node idle.
+# Waits up to 60 s for sinfo to show the node idle; fails at once when slurmctld or slurmd dies
+# (a port taken meanwhile, a bad configuration).
 wait_idle() {
-  local i st=""
-  for ((i = 0; i < 300; i++)); do
+  local st="" d end=$((SECONDS + 60))
+  while ((SECONDS < end)); do
     st=$(SLURM_CONF=$conf timeout 5 sinfo --noheader --Node --format=%T 2>/dev/null || true)
     [[ "$st" == idle ]] && return 0
+    for d in slurmctld slurmd; do
+      if [[ -f "$state/$d.pid" ]] && ! live_pid "$state/$d.pid" >/dev/null; then
+        echo "slurm-cluster: $d exited during start" >&2
+        return 1
+      fi
+    done
     sleep 0.2
   done
   echo "slurm-cluster: the node is not idle after 60 s (sinfo state: '${st:-no answer}')" >&2
@@ -225,6 +237,13 @@ start_cluster() {
   done
   [[ $(id -u) -eq 0 ]] || die "start needs root (SlurmUser=root, munged run as the munge user)"
   id munge >/dev/null 2>&1 || die "no 'munge' user: run tools/install-deps.sh --tests"
+  local host
+  host=$(hostname -s)
+  # Unix socket paths hold at most 107 bytes: slurmstepd's STATE_DIR/spool/HOST_JOBID.STEPID is
+  # the longest (job and step ids up to 10 digits each).
+  local longest=$state/spool/${host}_0123456789.0123456789
+  ((${#longest} <= 107)) ||
+    die "STATE_DIR $state is too long for Slurm's Unix sockets (${#state} characters; at most $((107 - ${#longest} + ${#state})))"
   if [[ -e "$state" ]]; then
     if [[ -f "$marker" ]]; then
       stop_cluster || die "cannot stop the daemons of the earlier cluster in $state"
@@ -236,17 +255,23 @@ start_cluster() {
   mkdir -p "$state/ctld" "$state/spool"
   chmod 755 "$state"
   : >"$marker"
-  local host port t0 t1
-  host=$(hostname -s)
-  port=$(free_port_pair)
+  local port t0 t1 attempt
   t0=$(date +%s.%N)
-  write_conf "$port" "$host"
-  if ! start_munged || ! slurmctld -f "$conf" || ! slurmd -f "$conf" || ! wait_idle; then
+  for attempt in 1 2 3; do
+    port=$(free_port_pair)
+    write_conf "$port" "$host"
+    if start_munged && slurmctld -f "$conf" && slurmd -f "$conf" && wait_idle; then break; fi
     log_tails
     stop_cluster || true
+    # Another program took one of the two ports between the check and the bind: try new ones.
+    if ((attempt < 3)) && grep -qs 'Address already in use' "$state/slurmctld.log" "$state/slurmd.log"; then
+      echo "slurm-cluster: port $port or $((port + 1)) was taken meanwhile; retrying with others" >&2
+      rm -rf "$state/munge" "$state"/*.log "$state/ctld"/* "$state/spool"/*
+      continue
+    fi
     echo "slurm-cluster: start failed; state and logs kept in $state" >&2
     exit 1
-  fi
+  done
   t1=$(date +%s.%N)
   cat >"$state/env.sh.tmp" <<EOF
 # Source this to use the Slurm test cluster in $state.
@@ -268,6 +293,7 @@ case "$action" in
     ;;
   status)
     [[ -f "$conf" ]] || die "no cluster in $state (no slurm.conf)"
+    live_pid "$state/slurmctld.pid" >/dev/null || die "the cluster in $state is not running (no slurmctld)"
     export SLURM_CONF=$conf
     timeout 10 sinfo || exit 1
     timeout 10 squeue

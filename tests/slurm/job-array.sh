@@ -10,7 +10,7 @@ set -euo pipefail
 work=$(realpath -m "$1")
 rm -rf "$work"
 mkdir -p "$work"
-fail() { echo "FAIL: $*" >&2; squeue --states=all >&2 || true; exit 1; }
+fail() { echo "FAIL: $*" >&2; timeout 5 squeue --states=all >&2 || true; exit 1; }
 
 # Job state of job (or array task) $1, as squeue prints it ("" once slurmctld forgot it).
 state_of() { squeue --noheader --states=all --jobs="$1" --format=%T 2>/dev/null | head -n 1; }
