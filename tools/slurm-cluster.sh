@@ -97,8 +97,8 @@ kill_orphans() {
 stop_cluster() {
   local rc=0
   if [[ -f "$conf" ]] && live_pid "$state/slurmctld.pid" >/dev/null; then
-    # Cancel running jobs so that their steps end with the cluster (bounded: 10 s).
-    SLURM_CONF=$conf timeout 10 scancel --quiet --user=root 2>/dev/null || true
+    # Cancel every job of its one partition so that their steps end with the cluster (bounded).
+    SLURM_CONF=$conf timeout 10 scancel --quiet --partition=debug 2>/dev/null || true
     local i
     for ((i = 0; i < 50; i++)); do
       [[ -z "$(SLURM_CONF=$conf timeout 5 squeue --noheader --states=RUNNING,COMPLETING 2>/dev/null)" ]] && break
