@@ -42,11 +42,12 @@ for id in 0 1 2 3; do
 done
 
 # --- 2. scancel of a running array task ---------------------------------------------------------
-# Task 0 sleeps 60 s and then writes 'done'; we cancel it while it runs. Task 1 exits at once.
+# Task 0 sleeps 60 s and then, if the sleep was not killed, writes done_0; we cancel it while it
+# runs. Task 1 writes done_1 at once.
 cancel=$work/cancel
 mkdir -p "$cancel"
 job=$(sbatch --parsable --array=0-1 --job-name=orbcal-cancel --chdir="$work" --output=/dev/null \
-  --wrap "if [ \$SLURM_ARRAY_TASK_ID = 0 ]; then touch $cancel/started; sleep 60; fi; touch $cancel/done_\$SLURM_ARRAY_TASK_ID")
+  --wrap "if [ \$SLURM_ARRAY_TASK_ID = 0 ]; then touch $cancel/started; sleep 60 && touch $cancel/done_0; else touch $cancel/done_1; fi")
 job=${job%%;*}
 task=${job}_0
 for ((i = 0; i < 150; i++)); do   # up to 30 s for the task to start running
