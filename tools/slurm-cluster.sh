@@ -178,9 +178,13 @@ MailProg=/bin/true
 AccountingStorageType=accounting_storage/none
 JobAcctGatherType=jobacct_gather/none
 JobCompType=jobcomp/none
+# The node becomes usable as soon as its slurmd registers.
 ReturnToService=2
+# scancel: SIGKILL 5 s after SIGTERM (default 30 s).
 KillWait=5
+# No accounting database: squeue shows a finished job's state for 5 minutes.
 MinJobAge=300
+# Start batch jobs (array tasks too) at the next scheduling pass, not up to 3 s later.
 SchedulerParameters=batch_sched_delay=0
 NodeName=$host NodeAddr=127.0.0.1 CPUs=$cpus Boards=${boards:-1} SocketsPerBoard=$sockets CoresPerSocket=$cores ThreadsPerCore=$threads RealMemory=$((mem * 95 / 100)) State=UNKNOWN
 PartitionName=debug Nodes=$host Default=YES MaxTime=INFINITE State=UP
