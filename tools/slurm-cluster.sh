@@ -90,7 +90,7 @@ kill_orphans() {
       env=$( { tr '\0' '\n' <"$p/environ"; } 2>/dev/null) || continue
       grep -qxF "SLURM_CONF=$conf" <<<"$env" && grep -q '^SLURM_JOB_ID=' <<<"$env" && mine=1
     fi
-    ((mine)) && kill -KILL "$pid" 2>/dev/null || true
+    if ((mine)); then kill -KILL "$pid" 2>/dev/null || true; fi
   done
 }
 
