@@ -67,9 +67,10 @@ void printStatus(const std::string& dir, const std::vector<TaskState>& states) {
     if (it != c.by_state.end()) std::printf("  %s: %s\n", taskStateName(s), arrayRanges(it->second).c_str());
   }
   if (c.by_state.count(TaskState::kFailed)) {
-    const int first = c.by_state.at(TaskState::kFailed).front();
-    std::printf("  a failed task's output: %s.failed/log.txt (or the .tmp folder of a killed one; Slurm's logs in %s/slurm/logs)\n",
-                taskFolder(dir, first).c_str(), dir.c_str());
+    const std::string folder = taskFolder(dir, c.by_state.at(TaskState::kFailed).front());
+    const bool killed = !fs::exists(folder + ".failed") && fs::exists(folder + ".tmp");
+    std::printf("  the first failed task's output: %s/log.txt%s (Slurm's logs: %s/slurm/logs)\n",
+                (folder + (killed ? ".tmp" : ".failed")).c_str(), killed ? ", killed while running" : "", dir.c_str());
   }
 }
 
