@@ -906,7 +906,8 @@ MergeReport mergeStudy(const std::string& dir, const std::string& out_arg, bool 
         const std::string stem = fs::path(file).stem().string() + "-cell-" + std::to_string(c);
         sim::makeDirectories(tmp + "/figures");
         sim::writeFileAtomic(tmp + "/figures/" + stem + ".csv", csv.str());
-        md << "Cell " << c << " (" << describeCell(s, *first) << "), all seeds pooled:\n\n"
+        md << (s.grid.empty() ? std::string("All seeds pooled") : "Cell " + std::to_string(c) + " (" + describeCell(s, *first) + "), all seeds pooled")
+           << ":\n\n"
            << drawFigure(plot_options, tmp, kind + " '" + tmp + "/figures/" + stem + ".csv'", "figures/" + stem + ".png", stem)
            << "\n";
       }
