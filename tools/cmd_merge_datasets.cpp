@@ -1,5 +1,7 @@
 // `orbcal merge-datasets`: the shards of `orbcal render --shard` joined into one dataset folder
 // (sim::mergeDatasetShards, sim/dataset.hpp).
+#include <unistd.h>
+
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -27,6 +29,8 @@ void addMergeDatasetsCommand(CLI::App& app) {
   cmd->add_option("shards", opt->shards, "the shard folders (any order)")->required();
   cmd->add_option("-o,--out", opt->out, "the merged dataset folder (must not exist; written atomically)")->required();
   cmd->callback([opt] {
+    setInterruptNote(opt->out + " is not written and the shards are unchanged (" + opt->out + ".tmp-" +
+                     std::to_string(::getpid()) + " may be left: remove it); rerun the same command to merge");
     std::unique_ptr<Progress> images;
     const sim::MergeReport r = sim::mergeDatasetShards(opt->shards, opt->out, [&](int done, int total) {
       if (!images) images = std::make_unique<Progress>("merge", total);

@@ -215,7 +215,7 @@ TEST_CASE("merging refuses a missing shard, an overlap, another seed, an unfinis
   CHECK(sim::loadDataset(s1).samples.size() == 2);
 }
 
-TEST_CASE("--shard i/N outside 0 <= i < N <= count is an InputError naming --shard", "[render][dataset][shard][badinput]") {
+TEST_CASE("a shard i/N outside 0 <= i < N <= count is an InputError naming --shard", "[render][dataset][shard][badinput]") {
   for (const char* bad : {"3/3", "0/0", "1/0", "-1/3", "1", "a/3", "1/3x", "/3", ""}) {
     CAPTURE(bad);
     CHECK_THAT(test::inputError([&] { sim::parseShardSpec(bad, "--shard"); }), Contains("--shard"));
