@@ -215,10 +215,16 @@ struct RemoveOnFailure {
 
 }  // namespace
 
-MergeReport mergeDatasetShards(const std::vector<std::string>& shard_dirs, const std::string& out,
+MergeReport mergeDatasetShards(const std::vector<std::string>& shard_dirs, const std::string& out_as_given,
                                const std::function<void(int, int)>& progress) {
   if (shard_dirs.empty()) throw InputError("merge-datasets: no shard folders given");
-  if (out.empty()) throw InputError("--out: the merged dataset folder must be given");
+  if (out_as_given.empty()) throw InputError("--out: the merged dataset folder must be given");
+  // "OUT/" names OUT: the temporary folder goes beside it, not into it.
+  std::string out = out_as_given;
+  while (out.size() > 1 && out.back() == '/') out.pop_back();
+  if (fs::path(out).filename().empty() || out == "." || out == "..") {
+    throw InputError(out_as_given + ": name a new folder for the merged dataset");
+  }
   std::error_code ec;
   if (fs::exists(fs::symlink_status(out, ec))) {
     throw InputError(out + ": already exists; the merged dataset goes to a new folder (remove it or choose another -o)");

@@ -70,6 +70,10 @@ TEST_CASE("orbcal render --shard and orbcal merge-datasets on the command line",
   // The same shards again into the same folder: refused, the folder left as it was.
   CHECK(runOrbcal(dir, "merge-datasets " + dir + "/s0 " + dir + "/s1 -o " + dir + "/merged") != 0);
   CHECK_THAT(test::slurp(dir + "/stderr.txt"), Contains(dir + "/merged") && Contains("already exists"));
+  // "OUT/" names OUT (the temporary folder goes beside it, not into it).
+  REQUIRE(runOrbcal(dir, "merge-datasets " + dir + "/s0 " + dir + "/s1 -o " + dir + "/slash/") == 0);
+  CHECK(sim::loadDataset(dir + "/slash").samples.size() == 5);
+  CHECK(test::slurp(dir + "/slash/samples.csv") == test::slurp(dir + "/merged/samples.csv"));
   CHECK(runOrbcal(dir, "merge-datasets --help") == 0);
   CHECK_THAT(test::slurp(dir + "/stdout.txt"), Contains("--out") && Contains("shard"));
 }
