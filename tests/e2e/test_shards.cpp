@@ -43,6 +43,9 @@ TEST_CASE("a shard folder alone is measured and calibrated like any dataset", "[
   CHECK(r.usable >= 38);  // clean rendered views; the planner keeps a 20 px margin
   REQUIRE(r.has_truth);
   CHECK(r.written);
+  // The measurements (vision::measureDataset, as `orbcal measure`) keep the global indices 40..79.
+  const std::string measurements = test::slurp(job.out + "/measurements.csv");
+  CHECK_THAT(measurements, Contains("\n40,") && Contains("\n79,") && !Contains("\n0,") && !Contains("\n39,"));
   // The bar of the unsharded dataset's test (test_calibrate.cpp): 90 % of the held-out error removed.
   CHECK(calib::improvement(r.truth_before.position_avg_m, r.truth_after.position_avg_m) >= 0.90);
 }
