@@ -29,9 +29,11 @@ struct Shard {
   std::string header;                        ///< the samples file's header line
   std::vector<std::string> rows;             ///< its rows as written (parsing and printing again would not
                                              ///< give the rotation vectors' last bits back)
+  bool whole = false;                        ///< a dataset without the shard key: shard 0 of 1
   const DatasetShard& shard() const { return *data.manifest.shard; }
   std::string name() const {
-    return dir + " (shard " + std::to_string(shard().index) + "/" + std::to_string(shard().count) + ")";
+    return dir + (whole ? " (a whole dataset)"
+                        : " (shard " + std::to_string(shard().index) + "/" + std::to_string(shard().count) + ")");
   }
 };
 
@@ -100,16 +102,20 @@ Shard readShard(const std::string& dir) {
   s.dir = dir;
   const std::string manifest_path = dir + "/manifest.yaml";
   DatasetManifest m = parseManifest(readTextSource(manifest_path), manifest_path);
-  if (!m.shard) {
-    throw InputError(manifest_path + ": no shard key: " + dir + " is a whole dataset, not a shard of orbcal render --shard");
-  }
-  const DatasetShard& sh = *m.shard;
   std::error_code ec;
   if (!fs::exists(dir + "/" + m.samples_file, ec)) {
-    throw InputError(dir + ": unfinished shard " + std::to_string(sh.index) + "/" + std::to_string(sh.count) + " (no " +
-                     m.samples_file + "): rerun its orbcal render --shard command to finish it");
+    throw InputError(dir + ": unfinished " +
+                     (m.shard ? "shard " + std::to_string(m.shard->index) + "/" + std::to_string(m.shard->count)
+                              : std::string("dataset")) +
+                     " (no " + m.samples_file + "): rerun its orbcal render command to finish it");
   }
   s.data = loadDataset(dir);
+  if (s.data.samples.empty()) throw InputError(s.data.path(m.samples_file) + ": no samples to merge");
+  if (!s.data.manifest.shard) {  // a whole dataset: shard 0 of 1 (so that one unsharded render merges too)
+    s.whole = true;
+    s.data.manifest.shard = datasetShard(0, 1, std::max(1, s.data.manifest.num_samples), "shard");
+  }
+  const DatasetShard& sh = *s.data.manifest.shard;
   const std::string samples_path = s.data.path(m.samples_file);
   // The lines as sim::CsvTable reads them (a byte order mark and CR line ends dropped, blank lines skipped).
   {
@@ -131,9 +137,8 @@ Shard readShard(const std::string& dir) {
     const int expected = sh.first_sample + static_cast<int>(k);
     if (sample.index != expected) {
       throw InputError(samples_path + ": row " + std::to_string(k + 1) + ": index " + std::to_string(sample.index) +
-                       ", but shard " + std::to_string(sh.index) + "/" + std::to_string(sh.count) + " holds " +
-                       sampleRange(sh.first_sample, sh.end_sample) + " in order (expected " + std::to_string(expected) +
-                       ")");
+                       ", but " + s.name() + " holds " + sampleRange(sh.first_sample, sh.end_sample) +
+                       " in order (expected " + std::to_string(expected) + ")");
     }
     if (!insideFolder(sample.image)) {
       throw InputError(samples_path + ": sample " + std::to_string(sample.index) + ": image " + quoteInput(sample.image) +

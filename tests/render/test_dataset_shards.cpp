@@ -197,10 +197,15 @@ TEST_CASE("merging refuses a missing shard, an overlap, another seed, an unfinis
     REQUIRE(!fs::exists(unfinished.out + "/samples.csv"));
     CHECK_THAT(refused({s0, unfinished.out, s2}), Contains(unfinished.out) && Contains("unfinished"));
   }
-  SECTION("a whole dataset, an image gone, the output folder already there") {
+  SECTION("a whole dataset with a shard, an image gone, the output folder already there") {
+    // A whole dataset is shard 0 of 1: alone it merges into a copy of itself; with a shard it overlaps.
     render::DatasetJob whole = job(in, kCount, dir + "/whole");
     render::renderDataset(whole);
-    CHECK_THAT(refused({whole.out}), Contains(whole.out) && Contains("not a shard"));
+    CHECK_THAT(refused({s1, whole.out}), Contains(whole.out + " (a whole dataset)") && Contains(s1) && Contains("overlap"));
+    const sim::MergeReport alone = sim::mergeDatasetShards({whole.out}, out);
+    CHECK(alone.samples == kCount);
+    CHECK(folderFiles(out) == folderFiles(whole.out));
+    fs::remove_all(out);
     const std::string copy = dir + "/no-image";
     fs::copy(s1, copy, fs::copy_options::recursive);
     fs::remove(copy + "/images/000003.png");

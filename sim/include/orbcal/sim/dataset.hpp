@@ -128,8 +128,9 @@ struct MergeReport {
 /// meshes, camera file: every file of a shard but its manifest, samples file and images), its images
 /// (hard links when the file systems allow, else copies; orbcal never rewrites an image in place, so a
 /// shard re-rendered later leaves the linked ones alone) and one samples.csv in index order.
-/// Each shard is locked (sim::FolderLock) while it is read. Checked first, each a one-line InputError
-/// naming the shard folder: a folder that is not a shard, an unfinished shard (no samples file), rows
+/// A dataset without the shard key counts as shard 0 of 1 (one unsharded render merges into a copy of
+/// itself). Each shard is locked (sim::FolderLock) while it is read. Checked first, each a one-line
+/// InputError naming the shard folder: a folder that is not a dataset, an unfinished shard (no samples file), rows
 /// that are not the shard's samples, an image missing, a manifest (shard key apart) or an input file that
 /// differs from the first shard's (names the field or file), and the shards together covering every
 /// sample exactly once (names the missing samples or the overlapping shards). `out` must not exist: it
