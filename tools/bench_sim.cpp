@@ -21,6 +21,14 @@ void benchSim() {
   printFigure("generate 250 board-visible configurations (" + std::to_string(std::thread::hardware_concurrency()) +
                   " threads)",
               t_gen, "s ", 1.0, "< 1 s");
+  // `orbcal render --shard i/N` plans the configurations up to its last sample: shard N-1 of a 20,000-view
+  // dataset plans all 20,000 (what its 20,000 / N images must outweigh).
+  sim::GeneratorSettings large;
+  large.count = 20000;
+  const auto t_large = timeRepeats(3, [&] { sim::generateConfigurations(arm, scene, large); });
+  printFigure("generate 20,000 configurations (" + std::to_string(std::thread::hardware_concurrency()) +
+                  " threads; the last shard's planning)",
+              t_large, "s ", 1.0, "");
   sim::Matrix6Xd J(6, arm.numParams());
   double sink = 0.0;
   const auto t_jac = timeRepeats(9, [&] {

@@ -1,9 +1,11 @@
 // `orbcal render`: a rendered calibration dataset (render/dataset_writer.hpp; layout in the README).
 #include <cstdio>
 #include <iostream>
+#include <memory>
 
 #include "cli.hpp"
 #include "orbcal/render/dataset_writer.hpp"
+#include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "progress.hpp"
 
@@ -18,6 +20,7 @@ void addRenderCommand(CLI::App& app) {
     double joint_noise_deg = 0.01;
     double error_angle_sigma_deg = 0.3;
     double error_length_sigma_mm = 1.0;
+    std::string shard;
   };
   auto opt = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand(
@@ -44,6 +47,10 @@ void addRenderCommand(CLI::App& app) {
       ->check(CLI::Range(0.0, 10.0));
   cmd->add_option("-o,--out", opt->job.out, "dataset folder (created; an unfinished one with the same inputs is resumed)")
       ->required();
+  cmd->add_option("--shard", opt->shard,
+                  "i/N: render only shard i (0 .. N-1) of N of the dataset, samples floor(i n / N) .. floor((i + 1) n / N) - 1 "
+                  "with their global indices and image names, into a dataset folder of its own; "
+                  "`orbcal merge-datasets` joins the shards");
   cmd->add_flag("--force", opt->job.force, "replace a dataset made from different inputs in --out");
   cmd->add_option("--png-compression", opt->job.png_compression,
                   "PNG compression level 0..9, or -1: OpenCV's fast path (zlib level 1, SUB filter); lossless at any level")
@@ -59,11 +66,19 @@ void addRenderCommand(CLI::App& app) {
     job.joint_noise_sigma_rad = opt->joint_noise_deg * sim::kDegToRad;
     job.errors.angle_sigma_rad = opt->error_angle_sigma_deg * sim::kDegToRad;
     job.errors.length_sigma_m = opt->error_length_sigma_mm * 1e-3;
+    if (!opt->shard.empty()) job.shard = sim::parseShardSpec(opt->shard, "--shard");
     setInterruptNote("the finished images are kept in " + job.out + ": rerun the same command to resume");
-    Progress bar("render", job.count);
-    const render::DatasetRunReport r = render::renderDataset(job, [&](int done, int) { bar.update(done); });
-    bar.finish();
+    std::unique_ptr<Progress> bar;  // made once the shard's size is known
+    const render::DatasetRunReport r = render::renderDataset(job, [&](int done, int total) {
+      if (!bar) bar = std::make_unique<Progress>("render", total);
+      bar->update(done);
+    });
+    if (bar) bar->finish();
     for (const std::string& w : r.warnings) std::fprintf(stderr, "orbcal: warning: %s\n", w.c_str());
+    if (job.shard) {
+      std::printf("%s: shard %d/%d, samples %d..%d of %d; planned in %.1f s\n", job.out.c_str(), job.shard->first,
+                  job.shard->second, r.first_sample, r.end_sample - 1, job.count, r.plan_seconds);
+    }
     std::printf("%s: %d images rendered, %d kept from an earlier run%s; MSAA %dx; %.1f s (%.0f ms per rendered image)\n",
                 job.out.c_str(), r.rendered, r.skipped, r.resumed ? " (resumed)" : "", r.msaa_samples, r.render_seconds,
                 r.rendered > 0 ? 1e3 * r.render_seconds / r.rendered : 0.0);

@@ -12,6 +12,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <thread>
@@ -300,39 +301,6 @@ std::string placeCameraFile(const sim::Scene& scene, const std::string& scene_co
          node.Scalar() + "\n" + text;
 }
 
-/// Relative tolerance of the manifest's numbers (12 significant digits in degrees and mm), as
-/// sim::DatasetManifest::operator== uses.
-bool sameNumber(double a, double b) { return std::abs(a - b) <= 1e-11 * std::max(std::abs(a), std::abs(b)); }
-
-/// The manifest fields (as named in manifest.yaml) in which `old` and `fresh` differ.
-std::vector<std::string> manifestDifferences(const sim::DatasetManifest& old, const sim::DatasetManifest& fresh) {
-  std::vector<std::string> d;
-  const auto check = [&](bool same, const char* field) {
-    if (!same) d.emplace_back(field);
-  };
-  check(old.format == fresh.format, "format");
-  check(old.program_version == fresh.program_version, "program_version");
-  check(old.robot_file == fresh.robot_file, "robot");
-  check(old.scene_file == fresh.scene_file, "scene");
-  check(old.samples_file == fresh.samples_file, "samples");
-  check(old.num_samples == fresh.num_samples, "num_samples");
-  check(sameNumber(old.joint_noise_sigma_rad, fresh.joint_noise_sigma_rad), "joint_noise_deg");
-  check(old.configuration_seed == fresh.configuration_seed, "seeds.configurations");
-  check(old.noise_seed == fresh.noise_seed, "seeds.joint_noise");
-  check(old.render_seed == fresh.render_seed, "seeds.render");
-  check(old.error_set == fresh.error_set, "true_errors.name");
-  check(old.error_set_file == fresh.error_set_file, "true_errors.file");
-  bool errors_same = old.true_errors.has_value() == fresh.true_errors.has_value();
-  if (errors_same && old.true_errors) {
-    errors_same = old.true_errors->size() == fresh.true_errors->size();
-    for (Eigen::Index i = 0; errors_same && i < old.true_errors->size(); ++i) {
-      errors_same = sameNumber((*old.true_errors)[i], (*fresh.true_errors)[i]);
-    }
-  }
-  check(errors_same, "true_errors.joints");
-  return d;
-}
-
 /// Removes `path` (a file; absent is fine) for --force; throws InputError naming it when it stays.
 void removeForForce(const std::string& path, bool folder) {
   std::error_code ec;
@@ -384,6 +352,9 @@ struct RemoveNewFolderOnFailure {
 DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& progress) {
   if (job.out.empty()) throw sim::InputError("--out: the dataset folder must be given");
   if (job.count < 1) throw sim::InputError("--count: must be at least 1");
+  std::optional<sim::DatasetShard> shard;
+  if (job.shard) shard = sim::datasetShard(job.shard->first, job.shard->second, job.count, "--shard");
+  const int first = shard ? shard->first_sample : 0, end = shard ? shard->end_sample : job.count;
   // Inputs: everything is read and checked before anything is written.
   std::string robot_text = sim::readTextSource(job.robot);
   const std::string scene_text = sim::readTextSource(job.scene);
@@ -410,7 +381,8 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   std::vector<MeshCopy> meshes = planMeshCopies(settings, m);
   const std::string scene_copy = placeCameraFile(scene, rewriteMeshPaths(scene_text, settings, meshes), meshes);
   m.program_version = ORBCAL_VERSION;
-  m.num_samples = job.count;
+  m.num_samples = end - first;
+  m.shard = shard;
   m.true_errors = truth.geometryErrors();
   m.true_errors_per_joint = nominal.paramsPerJoint();
   m.error_set = truth.fromFile() ? "file" : job.errors.name;
@@ -442,8 +414,7 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
       // when (and only when) the inputs are the same.
       const sim::DatasetManifest fresh = sim::parseManifest(sim::formatManifest(m), manifest_path);
       if (!(old == fresh)) {
-        differ = manifestDifferences(old, fresh);
-        if (differ.empty()) differ.emplace_back("manifest.yaml");
+        differ = sim::manifestDifferences(old, fresh);
       }
     } catch (const sim::InputError& e) {
       differ.push_back(std::string("manifest.yaml (") + e.what() + ")");
@@ -474,23 +445,35 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   }
 
   // Configurations on the nominal arm; the plant's joints and the true board pose (sample i of the
-  // plant: its covariates at t_i, the approach direction from sample i - 1).
+  // plant: its covariates at t_i, the approach direction from sample i - 1). A shard takes the samples
+  // first..end-1 of that same sequence: the configurations are the first `end` of job.count (the
+  // generator stops there, with job.count's attempt budget) and the joint noise is drawn for every
+  // sample before `end`, in order.
+  const auto t_plan = std::chrono::steady_clock::now();
+  report.first_sample = first;
+  report.end_sample = end;
   sim::GeneratorSettings gen;
   gen.count = job.count;
+  gen.stop_after = end;
   gen.seed = job.configuration_seed;
   gen.threads = job.generator_threads;
   const std::vector<Eigen::VectorXd> commanded = sim::generateConfigurations(nominal, scene, gen);
   std::mt19937_64 noise_rng = sim::makeRng(job.noise_seed, kJointNoiseStream);
-  for (int i = 0; i < job.count; ++i) {
-    sim::DatasetSample s;
-    s.index = i;
-    s.image = imageName(i);
-    s.q_rad = commanded[i];
-    s.q_true_rad = sim::addJointNoise(commanded[i], job.joint_noise_sigma_rad, noise_rng);
-    const Eigen::VectorXd* previous = i > 0 ? &*dataset.samples[i - 1].q_true_rad : nullptr;
-    s.camera_T_board_true = sim::cameraTBoard(truth.flangePose(i, *s.q_true_rad, previous), scene);
-    dataset.samples.push_back(std::move(s));
+  Eigen::VectorXd q_true_previous;
+  for (int i = 0; i < end; ++i) {
+    Eigen::VectorXd q_true = sim::addJointNoise(commanded[i], job.joint_noise_sigma_rad, noise_rng);
+    if (i >= first) {
+      sim::DatasetSample s;
+      s.index = i;
+      s.image = imageName(i);
+      s.q_rad = commanded[i];
+      s.q_true_rad = q_true;
+      s.camera_T_board_true = sim::cameraTBoard(truth.flangePose(i, q_true, i > 0 ? &q_true_previous : nullptr), scene);
+      dataset.samples.push_back(std::move(s));
+    }
+    q_true_previous = std::move(q_true);
   }
+  report.plan_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_plan).count();
 
   // Inputs copied in and the manifest, then the images, then samples.csv.
   sim::makeDirectories(job.out);
@@ -517,20 +500,21 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   const auto t0 = std::chrono::steady_clock::now();
   {
     AsyncPngWriter writer(job.png_compression);
-    for (int i = 0; i < job.count; ++i) {
-      const sim::DatasetSample& s = dataset.samples[i];
+    const int total = static_cast<int>(dataset.samples.size());
+    for (int k = 0; k < total; ++k) {
+      const sim::DatasetSample& s = dataset.samples[k];
       const std::string path = dataset.path(s.image);
       if (report.resumed && usableImage(path, scene.camera)) {
         ++report.skipped;
       } else {
         // Drawn here (the GL context's thread), finished on the writer's: renderer.render() in two halves.
         auto drawn = std::make_shared<const BoardRenderer::Drawn>(renderer.draw(*s.camera_T_board_true));
-        writer.push(path, [&renderer, drawn, seed = job.render_seed, stream = kRenderStream + i] {
+        writer.push(path, [&renderer, drawn, seed = job.render_seed, stream = kRenderStream + s.index] {
           return renderer.finish(*drawn, seed, stream);
         });
         ++report.rendered;
       }
-      if (progress) progress(i + 1, job.count);
+      if (progress) progress(k + 1, total);
     }
     writer.finish();
   }

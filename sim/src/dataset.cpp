@@ -31,6 +31,51 @@ namespace {
 bool sameValue(double a, double b) { return std::abs(a - b) <= 1e-11 * std::max(std::abs(a), std::abs(b)); }
 }  // namespace
 
+bool DatasetShard::operator==(const DatasetShard& o) const {
+  return index == o.index && count == o.count && first_sample == o.first_sample && end_sample == o.end_sample &&
+         dataset_samples == o.dataset_samples;
+}
+
+DatasetShard datasetShard(int index, int count, int dataset_samples, const std::string& what) {
+  const std::string spec = std::to_string(index) + "/" + std::to_string(count);
+  if (count < 1) throw InputError(what + ": " + spec + ": the number of shards must be at least 1");
+  if (index < 0 || index >= count) {
+    throw InputError(what + ": " + spec + ": shard " + std::to_string(index) + " of " + std::to_string(count) +
+                     " does not exist (shards are numbered 0 to " + std::to_string(count - 1) + ")");
+  }
+  if (count > dataset_samples) {
+    throw InputError(what + ": " + spec + ": " + std::to_string(count) + " shards of " + std::to_string(dataset_samples) +
+                     " samples would leave some empty (at most one shard per sample)");
+  }
+  DatasetShard s;
+  s.index = index;
+  s.count = count;
+  s.dataset_samples = dataset_samples;
+  const auto bound = [&](int i) {
+    return static_cast<int>(static_cast<std::int64_t>(i) * dataset_samples / count);  // floor: both non-negative
+  };
+  s.first_sample = bound(index);
+  s.end_sample = bound(index + 1);
+  return s;
+}
+
+std::pair<int, int> parseShardSpec(const std::string& text, const std::string& what) {
+  const auto slash = text.find('/');
+  const auto whole = [](const std::string& t) {
+    return !t.empty() && t.size() <= 9 && t.find_first_not_of("0123456789") == std::string::npos;
+  };
+  if (slash == std::string::npos || !whole(text.substr(0, slash)) || !whole(text.substr(slash + 1))) {
+    throw InputError(what + ": expected i/N (shard i of N, numbered from 0), got " + quoteInput(text));
+  }
+  const int index = std::stoi(text.substr(0, slash)), count = std::stoi(text.substr(slash + 1));
+  if (count < 1) throw InputError(what + ": " + quoteInput(text) + ": the number of shards must be at least 1");
+  if (index >= count) {
+    throw InputError(what + ": " + quoteInput(text) + ": shard " + std::to_string(index) + " of " + std::to_string(count) +
+                     " does not exist (shards are numbered 0 to " + std::to_string(count - 1) + ")");
+  }
+  return {index, count};
+}
+
 bool DatasetManifest::operator==(const DatasetManifest& o) const {
   bool errors_equal = true_errors.has_value() == o.true_errors.has_value();
   if (errors_equal && true_errors) {
@@ -43,7 +88,34 @@ bool DatasetManifest::operator==(const DatasetManifest& o) const {
          scene_file == o.scene_file && samples_file == o.samples_file && num_samples == o.num_samples &&
          errors_equal && error_set == o.error_set && error_set_file == o.error_set_file &&
          sameValue(joint_noise_sigma_rad, o.joint_noise_sigma_rad) &&
-         configuration_seed == o.configuration_seed && noise_seed == o.noise_seed && render_seed == o.render_seed;
+         configuration_seed == o.configuration_seed && noise_seed == o.noise_seed && render_seed == o.render_seed &&
+         shard == o.shard;
+}
+
+std::vector<std::string> manifestDifferences(const DatasetManifest& a, const DatasetManifest& b) {
+  std::vector<std::string> d;
+  const auto check = [&](bool same, const char* field) {
+    if (!same) d.emplace_back(field);
+  };
+  check(a.format == b.format, "format");
+  check(a.program_version == b.program_version, "program_version");
+  check(a.robot_file == b.robot_file, "robot");
+  check(a.scene_file == b.scene_file, "scene");
+  check(a.samples_file == b.samples_file, "samples");
+  check(a.num_samples == b.num_samples, "num_samples");
+  check(sameValue(a.joint_noise_sigma_rad, b.joint_noise_sigma_rad), "joint_noise_deg");
+  check(a.configuration_seed == b.configuration_seed, "seeds.configurations");
+  check(a.noise_seed == b.noise_seed, "seeds.joint_noise");
+  check(a.render_seed == b.render_seed, "seeds.render");
+  check(a.error_set == b.error_set, "true_errors.name");
+  check(a.error_set_file == b.error_set_file, "true_errors.file");
+  DatasetManifest errors_only_a, errors_only_b;  // operator== on the true errors alone
+  errors_only_a.true_errors = a.true_errors, errors_only_a.true_errors_per_joint = a.true_errors_per_joint;
+  errors_only_b.true_errors = b.true_errors, errors_only_b.true_errors_per_joint = b.true_errors_per_joint;
+  check(errors_only_a == errors_only_b, "true_errors.joints");
+  check(a.shard == b.shard, "shard");
+  if (d.empty() && !(a == b)) d.emplace_back("manifest.yaml");  // a field this list does not know yet
+  return d;
 }
 
 std::string formatManifest(const DatasetManifest& m) {
@@ -55,6 +127,11 @@ std::string formatManifest(const DatasetManifest& m) {
   s << "scene: " << m.scene_file << "\n";
   s << "samples: " << m.samples_file << "\n";
   s << "num_samples: " << m.num_samples << "\n";
+  if (m.shard) {
+    s << "shard: {index: " << m.shard->index << ", count: " << m.shard->count << ", first_sample: " << m.shard->first_sample
+      << ", end_sample: " << m.shard->end_sample << ", dataset_samples: " << m.shard->dataset_samples
+      << "}   # samples first_sample..end_sample-1 of dataset_samples (orbcal render --shard)\n";
+  }
   s << "joint_noise_deg: " << num(m.joint_noise_sigma_rad * kRadToDeg) << "\n";
   s << "seeds: {configurations: " << m.configuration_seed << ", joint_noise: " << m.noise_seed
     << ", render: " << m.render_seed << "}\n";
@@ -74,7 +151,7 @@ std::string formatManifest(const DatasetManifest& m) {
 DatasetManifest parseManifest(const std::string& text, const std::string& source) {
   const ConfigNode root = ConfigNode::parse(text, source);
   root.requireOnlyKeys({"format", "program_version", "robot", "scene", "samples", "num_samples", "joint_noise_deg",
-                        "seeds", "true_errors"});
+                        "seeds", "true_errors", "shard"});
   DatasetManifest m;
   m.format = root["format"].asString();
   if (m.format != kDatasetFormat) root["format"].fail("expected '" + std::string(kDatasetFormat) + "', got " + quoteInput(m.format));
@@ -84,6 +161,28 @@ DatasetManifest parseManifest(const std::string& text, const std::string& source
   m.samples_file = root["samples"].asString();
   m.num_samples = root["num_samples"].asInt();
   if (m.num_samples < 0) root["num_samples"].fail("must not be negative");
+  if (const ConfigNode shard = root.optional("shard"); shard.defined()) {
+    shard.requireOnlyKeys({"index", "count", "first_sample", "end_sample", "dataset_samples"});
+    const int samples = shard["dataset_samples"].asInt();
+    if (samples < 1) shard["dataset_samples"].fail("must be at least 1");
+    DatasetShard expected;
+    try {
+      expected = datasetShard(shard["index"].asInt(), shard["count"].asInt(), samples, "shard");
+    } catch (const InputError& e) {
+      shard["index"].fail(e.what());
+    }
+    for (const auto& [key, value] : {std::pair<const char*, int>{"first_sample", expected.first_sample},
+                                     std::pair<const char*, int>{"end_sample", expected.end_sample}}) {
+      if (shard[key].asInt() != value) {
+        shard[key].fail("expected " + std::to_string(value) + " for shard " + std::to_string(expected.index) + " of " +
+                        std::to_string(expected.count) + " of " + std::to_string(samples) + " samples");
+      }
+    }
+    if (m.num_samples != expected.size()) {
+      root["num_samples"].fail("expected " + std::to_string(expected.size()) + ", the samples of its shard");
+    }
+    m.shard = expected;
+  }
   m.joint_noise_sigma_rad = root.optional("joint_noise_deg").asDouble(0.0) * kDegToRad;
   const ConfigNode seeds = root.optional("seeds");
   if (seeds.defined()) {

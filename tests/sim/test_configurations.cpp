@@ -28,6 +28,31 @@ TEST_CASE("generator is reproducible and independent of the thread count", "[sim
   CHECK((a[0] - c[0]).norm() > 1e-3);
 }
 
+TEST_CASE("fewer configurations, or stop_after, give a prefix of the same list", "[sim][generator]") {
+  // The generator returns the first accepted attempts in attempt order, so its batches (sized from the
+  // count still needed) must not matter: a shorter list is a prefix of a longer one, bit for bit.
+  const Arm arm = loadArm(kDefaultRobot);
+  const Scene scene = loadScene(kDefaultScene);
+  GeneratorSettings s;
+  s.seed = 5;
+  s.count = 300;
+  const auto all = generateConfigurations(arm, scene, s);
+  REQUIRE(all.size() == 300);
+  for (int count : {1, 37, 299}) {
+    CAPTURE(count);
+    GeneratorSettings fewer = s;
+    fewer.count = count;
+    const auto head = generateConfigurations(arm, scene, fewer);
+    REQUIRE(static_cast<int>(head.size()) == count);
+    for (int k = 0; k < count; ++k) REQUIRE(head[k] == all[k]);
+    GeneratorSettings prefix = s;
+    prefix.stop_after = count;
+    const auto stopped = generateConfigurations(arm, scene, prefix);
+    REQUIRE(static_cast<int>(stopped.size()) == count);
+    for (int k = 0; k < count; ++k) REQUIRE(stopped[k] == all[k]);
+  }
+}
+
 TEST_CASE("every generated configuration sees every board corner inside the image", "[sim][generator]") {
   const Arm arm = loadArm(kDefaultRobot);
   const Scene scene = loadScene(kDefaultScene);

@@ -9,6 +9,12 @@
 //     direction from sample i - 1; sim/truth.hpp);
 //  4. that pose rendered (BoardRenderer::render, degradations drawn from makeRng(render seed,
 //     kRenderStream + index)), written as images/NNNNNN.png.
+// Shard i of N (job.shard, `--shard i/N`): everything above is computed for the whole dataset of
+// job.count samples, as without a shard, and only the samples [floor(i count / N), floor((i + 1) count / N))
+// are rendered and written, with their global indices, image names and render streams; the folder is a
+// dataset of its own (samples.csv: its rows; the manifest's `shard` key and num_samples = its rows, see
+// sim/dataset.hpp) that sim::mergeDatasetShards joins with the others. The configurations are planned up to
+// the shard's last sample only (sim::GeneratorSettings::stop_after: the same ones).
 // Order on disk: robot.yaml, errors.yaml (a verbatim copy of an error-set file, when --errors names one), the
 // scene's mesh files, scene.yaml and manifest.yaml first; the images
 // (each frame drawn on the calling thread, then undistorted, degraded, PNG-encoded and written on two
@@ -31,12 +37,14 @@
 // Resume: rerunning with the same inputs (manifest, robot.yaml, errors.yaml, scene.yaml and mesh
 // bytes) into the same folder deletes the temporary files a killed run left in images/ (NAME.tmp.PID),
 // keeps every image that exists and decodes as 8-bit grey of the camera's size, and renders the rest.
-// Different inputs: refused (InputError naming manifest.yaml and the manifest fields or files that
-// differ) unless `force`, which deletes the old images, samples.csv and manifest.yaml first, and
+// Different inputs (a different shard too): refused (InputError naming manifest.yaml and the manifest
+// fields or files that differ) unless `force`, which deletes the old images, samples.csv and manifest.yaml first, and
 // errors.yaml when the new plant has no error-set file (InputError naming any file it cannot remove).
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "orbcal/sim/errors.hpp"
@@ -59,6 +67,9 @@ struct DatasetJob {
   std::uint64_t render_seed = 1;
   double joint_noise_sigma_rad = 0.01 * sim::kDegToRad;
   std::string out;                         ///< dataset folder (created)
+  /// {i, N}: render only shard i of N of the `count` samples (sim::datasetShard; InputError naming --shard
+  /// unless 0 <= i < N <= count).
+  std::optional<std::pair<int, int>> shard;
   bool force = false;
   int generator_threads = 0;               ///< 0: all hardware threads
   /// -1: OpenCV's fast PNG path (zlib level 1, SUB filter); 0..9: cv::IMWRITE_PNG_COMPRESSION, which also
@@ -69,6 +80,9 @@ struct DatasetJob {
 struct DatasetRunReport {
   int rendered = 0;          ///< images rendered and written by this run
   int skipped = 0;           ///< images already there (resumed)
+  int first_sample = 0;      ///< the samples [first_sample, end_sample) were written (a shard's; else all)
+  int end_sample = 0;
+  double plan_seconds = 0;   ///< wall time of planning: configurations, joint noise, true poses
   bool resumed = false;      ///< the folder held this dataset's manifest
   int msaa_samples = 0;
   std::vector<std::string> warnings;  ///< from the renderer (e.g. MSAA fallback)

@@ -28,9 +28,13 @@ namespace orbcal::sim {
 struct GeneratorSettings {
   int count = 50;
   std::uint64_t seed = 1;
-  int max_attempts = 0;        ///< 0: 400 per configuration asked for, at least 4000
+  int max_attempts = 0;        ///< 0: 400 per configuration asked for (count), at least 4000
   int threads = 0;             ///< 0: all hardware threads
+  /// > 0: stop after the first stop_after configurations; they are the first stop_after of the `count`
+  /// (attempt budget and order unchanged), for a caller that needs only a prefix (a dataset's shard).
+  int stop_after = 0;
 };
+
 
 struct GeneratorStats {
   int attempts = 0;
@@ -41,7 +45,7 @@ struct GeneratorStats {
 };
 
 /// Throws InputError naming scene.source ("...: board: no configuration sees the whole board ...")
-/// when fewer than settings.count configurations are found within the attempt budget.
+/// when fewer than settings.count (settings.stop_after) configurations are found within the attempt budget.
 std::vector<Eigen::VectorXd> generateConfigurations(const Arm& arm, const Scene& scene, const GeneratorSettings& settings,
                                                     GeneratorStats* stats = nullptr,
                                                     const std::function<void(int, int)>& progress = {});

@@ -16,9 +16,16 @@
 //                                                 translation and rotation vector (simulation only)
 //   <folder>/images/...      the images named in the image column (paths relative to the folder)
 // Optional columns may be absent from the header or left empty on a row.
+//
+// A shard (`orbcal render --shard i/N`) is a dataset folder of its own holding the samples
+// [floor(i C / N), floor((i + 1) C / N)) of a dataset of C samples, with their global indices and image
+// names; its manifest has `shard: {index: i, count: N, first_sample: a, end_sample: b, dataset_samples: C}`
+// and num_samples = b - a (its own rows). mergeDatasetShards puts finished shards back together.
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <functional>
 #include <optional>
+#include <utility>
 #include <string>
 #include <vector>
 
@@ -30,6 +37,25 @@ namespace orbcal::sim {
 inline constexpr const char* kDatasetFormat = "orbcal-dataset-1";
 /// A URDF robot's URDF in a dataset folder (robot.yaml names it; render/dataset_writer.hpp).
 inline constexpr const char* kDatasetUrdfFile = "robot.urdf";
+
+/// Shard `index` of `count` of a dataset of `dataset_samples` samples: the samples
+/// [first_sample, end_sample) = [floor(index dataset_samples / count), floor((index + 1) dataset_samples / count)).
+struct DatasetShard {
+  int index = 0;
+  int count = 1;
+  int first_sample = 0;
+  int end_sample = 0;
+  int dataset_samples = 0;
+  int size() const { return end_sample - first_sample; }
+  bool operator==(const DatasetShard& o) const;
+  bool operator!=(const DatasetShard& o) const { return !(*this == o); }
+};
+
+/// Shard `index` of `count` (0 <= index < count) of a dataset of `dataset_samples` samples. Throws
+/// InputError naming `what` (e.g. "--shard") for an index or count out of range.
+DatasetShard datasetShard(int index, int count, int dataset_samples, const std::string& what);
+/// "i/N" (as `--shard` takes it) -> {i, N} with 0 <= i < N; InputError naming `what` otherwise.
+std::pair<int, int> parseShardSpec(const std::string& text, const std::string& what);
 
 struct DatasetManifest {
   std::string format = kDatasetFormat;
@@ -49,8 +75,13 @@ struct DatasetManifest {
   std::uint64_t configuration_seed = 0;
   std::uint64_t noise_seed = 0;
   std::uint64_t render_seed = 0;
+  std::optional<DatasetShard> shard;           ///< a shard of a larger dataset (num_samples: its own rows)
   bool operator==(const DatasetManifest& o) const;
 };
+
+/// The manifest fields (as named in manifest.yaml, e.g. "seeds.configurations", "shard") in which `a` and
+/// `b` differ, compared as operator== does; empty when a == b.
+std::vector<std::string> manifestDifferences(const DatasetManifest& a, const DatasetManifest& b);
 
 struct DatasetSample {
   int index = 0;
@@ -83,5 +114,30 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
 Dataset loadDataset(const std::string& folder);
 /// Writes manifest.yaml and samples.csv atomically (robot.yaml and scene.yaml are the caller's).
 void writeDatasetTables(const Dataset& dataset, int num_joints);
+
+struct MergeReport {
+  int shards = 0;
+  int samples = 0;
+  int linked = 0;   ///< images hard-linked (shard and output on one file system)
+  int copied = 0;   ///< images copied (hard links refused, e.g. across file systems)
+};
+
+/// Merges the finished shards of one dataset (`orbcal render --shard`) into the dataset folder `out`,
+/// which is what rendering the dataset in one go writes: one manifest.yaml without the shard key
+/// (num_samples: all of them), the shards' input files (robot.yaml, scene.yaml, errors.yaml, robot.urdf,
+/// meshes, camera file: every file of a shard but its manifest, samples file and images), its images
+/// (hard links when the file systems allow, else copies; orbcal never rewrites an image in place, so a
+/// shard re-rendered later leaves the linked ones alone) and one samples.csv in index order.
+/// A dataset without the shard key counts as shard 0 of 1 (one unsharded render merges into a copy of
+/// itself). Each shard is locked (sim::FolderLock) while it is read. Checked first, each a one-line
+/// InputError naming the shard folder: a folder that is not a dataset, an unfinished shard (no samples file), rows
+/// that are not the shard's samples, an image missing, a manifest (shard key apart) or an input file that
+/// differs from the first shard's (names the field or file), and the shards together covering every
+/// sample exactly once (names the missing samples or the overlapping shards). `out` must not exist: it
+/// is built in `out`.tmp-PID beside it, flushed to disk and renamed into place, so it never holds half a
+/// dataset (a killed merge may leave that temporary folder). `progress` is called per image with
+/// (done, total).
+MergeReport mergeDatasetShards(const std::vector<std::string>& shard_dirs, const std::string& out,
+                               const std::function<void(int, int)>& progress = {});
 
 }  // namespace orbcal::sim
