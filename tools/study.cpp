@@ -825,7 +825,8 @@ MergeReport mergeStudy(const std::string& dir, const std::string& out_arg, bool 
       std::vector<std::string> shard_dirs;
       for (int k = 0; k < s.shards; ++k) shard_dirs.push_back(taskFolder(dir, t.index + k) + "/out");
       const std::string name = "datasets/cell-" + std::to_string(t.cell) + "-seed-" + std::to_string(t.seed);
-      const int samples = 0;  // TODO(shard helper): sim::mergeDatasetShards(shard_dirs, tmp + "/" + name)
+      sim::makeDirectories(tmp + "/datasets");
+      const int samples = sim::mergeDatasetShards(shard_dirs, tmp + "/" + name).samples;
       report.files.push_back(name);
       md << "| `" << name << "` | " << describeCell(s, t) << " | " << t.seed << " | " << s.shards << " | " << samples << " |\n";
     }

@@ -221,3 +221,31 @@ TEST_CASE("orbcal study: a failed task is named, the merge refuses, and a killed
   CHECK_FALSE(fs::exists(dir + "/clean/shards/task-000000/out/datasets"));
   CHECK(fs::exists(dir + "/clean/shards/task-000000/out/table5/table5.csv"));
 }
+
+TEST_CASE("orbcal study: a render study in shards merges into the dataset one render writes", "[study]") {
+  const std::string dir = test::tempDir("study-render");
+  const std::string scene = test::sourcePath("scenes/quick_scene.yaml");
+  test::write(dir + "/render.yaml", "format: orbcal-study-1\njob: render\noptions: {scene: '" + scene +
+                                        "', count: 7, errors: random}\nseeds: [4]\nshards: 3\n");
+  REQUIRE(runOrbcal("study run " + dir + "/render.yaml -o " + dir + "/s -j 2", dir + "/s.log") == 0);
+  const tools::StudySpec s = tools::parseStudy(test::slurp(dir + "/render.yaml"), "render.yaml");
+  const auto tasks = tools::expandStudy(s);
+  REQUIRE(tasks.size() == 3);
+  CHECK(tasks[2].args.back() == "2/3");
+  CHECK(tasks[0].seed == tasks[2].seed);  // the shards of one dataset share its seed
+  // The same dataset rendered in one go, by hand: every file the same, byte for byte.
+  REQUIRE(runOrbcal("render --scene " + scene + " --count 7 --errors random --seed " + std::to_string(tasks[0].seed) + " -o " +
+                        dir + "/one",
+                    dir + "/one.log") == 0);
+  const std::string merged = dir + "/s/merged/datasets/cell-0-seed-" + std::to_string(tasks[0].seed);
+  int files = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir + "/one")) {
+    if (!e.is_regular_file()) continue;
+    const std::string rel = fs::relative(e.path(), dir + "/one").string();
+    INFO(rel);
+    CHECK(test::slurp(e.path().string()) == test::slurp(merged + "/" + rel));
+    ++files;
+  }
+  CHECK(files >= 7 + 4);  // 7 images, manifest, samples, robot, scene
+  CHECK(test::slurp(dir + "/s/merged/report.md").find("| 3 | 7 |") != std::string::npos);
+}
