@@ -35,6 +35,10 @@ void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o) {
       "--joint-noise-deg", [&o](double d) { o.joint_noise_sigma_rad = d * sim::kDegToRad; },
       "joint control noise, 1 sigma [deg] (default 0.01, Wang et al. 2023)");
   jn->check(CLI::Range(0.0, 10.0));
+  std::string names;
+  for (const calib::MethodSpec& m : calib::comparisonMethods(0.0)) names += (names.empty() ? "" : ", ") + m.name;
+  cmd.add_option("--methods", o.methods,
+                 "estimators to compare, by name (repeatable; table4, table5, fig8 and run; default: the preset's own): " + names);
 }
 
 namespace {
@@ -89,17 +93,19 @@ void addExperimentCommand(CLI::App& app) {
       if (cmd->count("--ident") == 0) e.identification = 200;  // the paper's range: 10 to 200
       runFig8(e);
     } else if (opt->preset == "selection") {
+      refuseUnused(*cmd, "selection", {"--methods"});
       runSelection(e);
     } else if (opt->preset == "jia2019") {
-      refuseUnused(*cmd, "jia2019", {"--scene", "--errors", "--ident", "--valid"});
+      refuseUnused(*cmd, "jia2019", {"--scene", "--errors", "--ident", "--valid", "--methods"});
       if (cmd->count("--robot") == 0) e.robot = "builtin:ssrms_hayati.yaml";  // Jia et al. 2019's Hayati model
       runJia2019(e);
     } else if (opt->preset == "liu2012") {
-      refuseUnused(*cmd, "liu2012", {"--scene", "--errors", "--ident", "--joint-noise-deg"});
+      refuseUnused(*cmd, "liu2012", {"--scene", "--errors", "--ident", "--joint-noise-deg", "--methods"});
       if (cmd->count("--robot") == 0) e.robot = "builtin:puma_hayati.yaml";
       if (cmd->count("--valid") == 0) e.validation = 20;  // the paper's 20 validation configurations
       runLiu2012(e);
     } else {
+      refuseUnused(*cmd, "floor", {"--methods"});
       runFloor(e);
     }
   });

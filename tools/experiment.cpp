@@ -107,6 +107,14 @@ std::string drawFigure(const ExperimentOptions& o, const std::string& folder, co
   return "(figure " + png + " not drawn: python3 with matplotlib is needed)\n";
 }
 
+std::vector<calib::MethodSpec> chosenMethods(const ExperimentOptions& o, std::vector<calib::MethodSpec> preset) {
+  if (o.methods.empty()) return preset;
+  const auto all = calib::comparisonMethods(o.joint_noise_sigma_rad);
+  std::vector<calib::MethodSpec> chosen;
+  for (const std::string& name : o.methods) chosen.push_back(calib::findMethod(all, name));
+  return chosen;
+}
+
 std::uint64_t fingerprint(const std::string& text) {
   std::uint64_t h = 0xcbf29ce484222325ULL;
   for (unsigned char c : text) h = (h ^ c) * 0x100000001b3ULL;
@@ -193,7 +201,7 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
     throw sim::InputError(o.out + "/datasets: no identification image gave a pose (" +
                           vision::formatSummary(r.identification.summary) + ")");
   }
-  const auto methods = calib::comparisonMethods(o.joint_noise_sigma_rad);
+  const auto methods = chosenMethods(o, calib::comparisonMethods(o.joint_noise_sigma_rad));
   log(o, "estimating with " + std::to_string(methods.size()) + " methods ...");
   r.comparison = calib::compareMethods(nominal, truth, r.identification.observations, r.validation.plant, methods);
   // Validation as a camera would see it: against the measured validation poses (found ones only).

@@ -37,7 +37,13 @@ struct ExperimentOptions {
   std::string source = "images";                       ///< fig8: "images" or "synthetic"
   bool plots = true;                                   ///< draw the PNG figures (python3 + matplotlib)
   bool quiet = false;                                  ///< no progress bars
+  /// Estimators to compare (names from calib::comparisonMethods, e.g. "LM", "EKF (paper)"); empty: the
+  /// preset's own (table4 / run: all of them; table5, fig8: LSE (paper), EKF (paper), EKF, LM).
+  std::vector<std::string> methods;
 };
+
+/// o.methods when given (each checked: an unknown name is an InputError listing the names), else `preset`.
+std::vector<calib::MethodSpec> chosenMethods(const ExperimentOptions& o, std::vector<calib::MethodSpec> preset);
 
 /// A rendered dataset and what the vision pipeline measured in it.
 struct MeasuredSet {

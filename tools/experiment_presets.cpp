@@ -67,7 +67,7 @@ void runTable5(const ExperimentOptions& o) {
                                     {"0.3mm/0.01deg", 0.3e-3, 0.01 * sim::kDegToRad},
                                     {"0.3mm/0.5deg", 0.3e-3, 0.5 * sim::kDegToRad},
                                     {"images", -1.0, -1.0}};
-  const auto methods = mainMethods(o.joint_noise_sigma_rad);
+  const auto methods = chosenMethods(o, mainMethods(o.joint_noise_sigma_rad));
   // (column, method) -> per-repetition average and extreme position error; pooled errors for plots.
   std::map<std::pair<std::string, std::string>, std::vector<std::pair<double, double>>> results;
   std::ostringstream rows, pooled;
@@ -145,7 +145,7 @@ void runFig8(const ExperimentOptions& o) {
   const std::string folder = o.out + "/fig8";
   sim::makeDirectories(folder);
   const int n_max = std::max(10, o.identification);
-  const auto methods = mainMethods(o.joint_noise_sigma_rad);
+  const auto methods = chosenMethods(o, mainMethods(o.joint_noise_sigma_rad));
   std::ostringstream rows;
   rows << "method,n,repetition,avg_position_mm,max_position_mm,floor_mm\n";
   std::map<std::pair<std::string, int>, std::vector<double>> avg;

@@ -118,10 +118,28 @@ bool isTiming(const std::string& column) {
   return column == "seconds" || (column.size() > 8 && column.compare(column.size() - 8, 8, "_seconds") == 0);
 }
 
+std::string shellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+/// A command line as a shell reads it back: arguments with other characters than [A-Za-z0-9_./:=+-] quoted.
 std::string joinArgs(const std::vector<std::string>& args) {
   std::string out;
-  for (const std::string& a : args) out += (out.empty() ? "" : " ") + a;
+  for (const std::string& a : args) {
+    const bool plain = !a.empty() && a.find_first_not_of("ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_./:=+-") ==
+                                         std::string::npos;
+    out += (out.empty() ? "" : " ") + (plain ? a : shellQuote(a));
+  }
   return out;
+}
+
+/// A YAML double-quoted scalar.
+std::string yamlQuote(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) out += c == '"' || c == '\\' ? std::string("\\") + c : std::string(1, c);
+  return out + "\"";
 }
 
 std::string joinList(const std::vector<std::string>& items) {
@@ -184,15 +202,14 @@ StudySpec parseStudy(const std::string& text, const std::string& source, const S
     const sim::ConfigNode opts = root["options"];
     for (const std::string& key : opts.keys()) {
       const sim::ConfigNode v = opts[key];
-      if (v.isSequence()) {
-        std::string joined;
-        for (const std::string& x : stringList(v)) joined += (joined.empty() ? "" : " ") + x;
-        s.options.emplace_back(checkedOption(v, key, s.job, false, check), joined);
+      if (v.isSequence()) {  // an option that takes several values
+        s.options.emplace_back(checkedOption(v, key, s.job, false, check), stringList(v));
         continue;
       }
       const std::string value = cellValue(v);
       if (isFalse(value)) continue;  // a flag left off
-      s.options.emplace_back(checkedOption(v, key, s.job, isTrue(value), check), isTrue(value) ? "" : value);
+      s.options.emplace_back(checkedOption(v, key, s.job, isTrue(value), check),
+                             isTrue(value) ? std::vector<std::string>{} : std::vector<std::string>{value});
     }
   }
   if (root.has("grid")) {
@@ -297,10 +314,9 @@ std::vector<StudyTask> expandStudy(const StudySpec& s) {
         t.seed = s.common_seeds ? s.seeds[r] : deriveSeed(s.seeds[r], values);
         t.args.push_back(s.job);
         if (!s.preset.empty()) t.args.insert(t.args.end(), {"--preset", s.preset});
-        for (const auto& [key, value] : s.options) {
+        for (const auto& [key, values] : s.options) {
           t.args.push_back("--" + key);
-          std::istringstream words(value);  // a list option: one argument per value
-          for (std::string w; words >> w;) t.args.push_back(w);
+          t.args.insert(t.args.end(), values.begin(), values.end());
         }
         for (std::size_t k = 0; k < s.grid.size(); ++k) t.args.insert(t.args.end(), {"--" + s.grid[k].first, values[k]});
         t.args.insert(t.args.end(), {"--seed", std::to_string(t.seed)});
@@ -328,7 +344,7 @@ void initStudyFolder(const StudySpec& s, const std::string& dir, const std::stri
                      "); give another -o, or delete the folder");
   }
   if (!exists(copy)) sim::writeFileAtomic(copy, s.text);
-  sim::writeFileAtomic(dir + "/study-origin.yaml", "# where the study's relative paths resolve\norigin: '" + origin + "'\n");
+  sim::writeFileAtomic(dir + "/study-origin.yaml", "# where the study's relative paths resolve\norigin: " + yamlQuote(origin) + "\n");
   std::ostringstream csv;
   csv << "index,cell,replicate,shard,seed";
   for (const auto& [key, values] : s.grid) csv << "," << key;
@@ -454,11 +470,11 @@ int runStudyTask(const std::string& dir, int index, const std::string& program) 
   std::ostringstream y;
   y << "index: " << t.index << "\ncell: " << t.cell << "\nreplicate: " << t.replicate << "\nshard: " << t.shard
     << "\nseed: " << t.seed << "\ngrid: {";
-  for (std::size_t k = 0; k < s.grid.size(); ++k) y << (k ? ", " : "") << s.grid[k].first << ": '" << t.cell_values[k] << "'";
-  y << "}\ncommand: '" << program << " " << joinArgs(args) << "'\nexit_status: " << status << "\nseconds: "
-    << formatNumber("%.3f", seconds) << "\nhost: '" << host << "'\n";
+  for (std::size_t k = 0; k < s.grid.size(); ++k) y << (k ? ", " : "") << s.grid[k].first << ": " << yamlQuote(t.cell_values[k]);
+  y << "}\ncommand: " << yamlQuote(joinArgs({program}) + " " + joinArgs(args)) << "\nexit_status: " << status
+    << "\nseconds: " << formatNumber("%.3f", seconds) << "\nhost: " << yamlQuote(host) << "\n";
   const char* job_id = std::getenv("SLURM_JOB_ID");
-  if (job_id) y << "slurm_job: '" << job_id << "'\n";
+  if (job_id) y << "slurm_job: " << yamlQuote(job_id) << "\n";
   sim::writeFileAtomic(tmp + "/task.yaml", y.str());
   const std::string target = status == 0 ? final_dir : final_dir + ".failed";
   removeAll(target);
@@ -512,11 +528,6 @@ std::pair<int, int> arrayTask(const std::vector<SubmittedJob>& jobs, const std::
   return {-1, -1};
 }
 
-std::string shellQuote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
 
 }  // namespace
 
@@ -811,7 +822,7 @@ MergeReport mergeStudy(const std::string& dir, const std::string& out_arg, bool 
      << " (`tasks.csv` has every task's command).\n\n";
   if (!s.options.empty()) {
     md << "Fixed options:";
-    for (const auto& [key, value] : s.options) md << " `--" << key << (value.empty() ? "" : " " + value) << "`";
+    for (const auto& [key, values] : s.options) md << " `--" << key << (values.empty() ? "" : " " + joinList(values)) << "`";
     md << "\n\n";
   }
   for (const auto& [key, values] : s.grid) md << "- grid `--" << key << "`: " << joinArgs(values) << "\n";

@@ -45,8 +45,8 @@ struct StudySpec {
   std::string name;    ///< `name:` or the file's stem; the Slurm job name
   std::string job;     ///< experiment | run | diagnose-study | render
   std::string preset;  ///< experiment only
-  /// Fixed options: long name without "--" -> value; a flag has the value "" (given as `true`).
-  std::vector<std::pair<std::string, std::string>> options;
+  /// Fixed options: long name without "--" -> its values (one argument each); a flag (given as `true`) has none.
+  std::vector<std::pair<std::string, std::vector<std::string>>> options;
   /// Crossed options: long name -> its values, in file order; the cells are every combination.
   std::vector<std::pair<std::string, std::vector<std::string>>> grid;
   std::vector<std::uint64_t> seeds;
