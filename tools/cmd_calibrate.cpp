@@ -15,6 +15,10 @@ namespace orbcal::tools {
 namespace {
 
 void printMeasured(const MeasuredCalibrateResult& r) {
+  if (r.inconsistent) {
+    std::fprintf(stderr, "orbcal: calibrate: the fit is inconsistent with the given measurement noise: %s%s\n",
+                 inconsistencyText(r).c_str(), r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "");
+  }
   if (r.worse) {
     std::fprintf(stderr,
                  "orbcal: calibrate: the calibrated model predicts the %d held-out samples worse than the nominal arm "
@@ -58,7 +62,8 @@ void addCalibrateCommand(CLI::App& app) {
       "Calibrate an arm. From an image dataset (folder): the DH errors, written as a calibrated robot file. From "
       "measured data (a measurement description, .yaml): geometry + the unknown registration frames + the chosen "
       "effects (--effects), written as model.yaml. The gain is measured on held-out samples; a model that predicts "
-      "them worse than the nominal arm is refused (exit 1) unless --accept-worse.");
+      "them worse than the nominal arm, or a fit inconsistent with its noise (chi-square test; measured data: when the noise is "
+      "given), is refused (exit 1, no calibrated file) unless --accept-worse.");
   cmd->add_option("dataset", o->images.dataset, "image dataset folder, or measurement description (.yaml)")->required();
   cmd->add_option("--method", o->method,
                   "estimator. Images: " + imageMethodNames() + " (default EKF). Measured data: LM (default), LSE, EKF");
@@ -114,7 +119,7 @@ void addCalibrateCommand(CLI::App& app) {
       if (o->noise_rotation_deg > 0) m.noise_rotation_rad = o->noise_rotation_deg * sim::kDegToRad;
       const MeasuredCalibrateResult r = runMeasuredCalibrate(m);
       printMeasured(r);
-      if (r.worse && !m.accept_worse) throw CLI::RuntimeError(1);
+      if ((r.worse || r.inconsistent) && !m.accept_worse) throw CLI::RuntimeError(1);
       return;
     }
     CalibrateOptions c = o->images;

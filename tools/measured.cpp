@@ -6,6 +6,8 @@
 #include <random>
 #include <sstream>
 
+#include "orbcal/calib/consistency.hpp"
+#include "orbcal/calib/diagnose.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
@@ -85,6 +87,12 @@ std::string folderOf(const std::string& path) {
 
 }  // namespace
 
+std::string inconsistencyText(const MeasuredCalibrateResult& r) {
+  return "chi-square " + formatNumber("%.1f", r.fit.chi2) + " for " + std::to_string(r.fit.dof) + " degrees of freedom (" +
+         formatNumber("%.2f", r.fit.chi2 / r.fit.dof) + " per degree, p = " + formatNumber("%.2g", r.consistency_p) +
+         "); the noise given is too small for these residuals, or the model misses an effect (`orbcal diagnose` names it)";
+}
+
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) {
   if (!(o.holdout >= 0.0 && o.holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
   MeasuredCalibrateResult r;
@@ -143,7 +151,11 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate) from " << o.description << "\n"
          << "nominal: " << data.robot_file << "; effects: " << (o.effects.empty() ? "none" : "");
   for (const std::string& e : o.effects) header << e << " ";
-  const bool write_model = !r.worse || o.accept_worse;
+  if (!r.fit.noise_estimated && r.fit.dof > 0) {
+    r.consistency_p = calib::chiSquareSurvival(r.fit.chi2, r.fit.dof);
+    r.inconsistent = r.consistency_p < calib::Consistency{}.alpha;
+  }
+  const bool write_model = (!r.worse && !r.inconsistent) || o.accept_worse;
   sim::makeDirectories(out);
   if (write_model) {
     r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(r.fit), out, header.str());
@@ -156,6 +168,10 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
        << formatNumber("%.4f", r.heldout_before.position_rms_m * 1e3) << " -> " << formatNumber("%.4f", r.heldout_after.position_rms_m * 1e3)
        << " mm).** " << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.")
        << "\n\n";
+  }
+  if (r.inconsistent) {
+    md << "**The fit is inconsistent with the given measurement noise: " << inconsistencyText(r) << ".** "
+       << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.") << "\n\n";
   }
   md << "Description `" << o.description << "`: " << r.samples << " samples in " << data.numSessions() << " session(s); "
      << r.identification << " fitted, " << r.held_out << " held out (seed " << o.seed << ", per session).\n\n"

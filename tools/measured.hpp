@@ -29,10 +29,16 @@ struct MeasuredCalibrateResult {
   calib::ResidualStats heldout_after;    ///< the calibrated model
   int samples = 0, identification = 0, held_out = 0;
   bool worse = false;                    ///< held-out position RMS grew
+  /// With the noise given (not estimated): the fit's chi-square against chi-square(dof) at the alpha of
+  /// calib::Consistency; inconsistent when P(chi-square(dof) > chi2) < alpha.
+  bool inconsistent = false;
+  double consistency_p = 1.0;
   std::string model_path, report_path;
 };
 
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o);
+/// Why a measured-data fit is inconsistent with its given noise, one line (report and terminal).
+std::string inconsistencyText(const MeasuredCalibrateResult& r);
 
 /// "LM", "LSE", "EKF" (case as written); InputError naming `what` otherwise.
 calib::FitOptions::Method parseFitMethod(const std::string& name, const std::string& what);

@@ -100,3 +100,39 @@ TEST_CASE("model files: errors name the file and the key", "[e2e][measured]") {
   CHECK_THAT(messageFor("sessions: 2", "sessions: 3"), Catch::Contains("registration.flange_T_marker"));
   CHECK(sim::loadModelFile(dir + "/truth/model.yaml").model.effects.size() == 1);
 }
+
+TEST_CASE("measured data: a fit inconsistent with the given noise is refused; with the hidden effect modelled it is not",
+          "[e2e][measured]") {
+  const std::string dir = test::tempDir("measured-inconsistent");
+  sim::SimulationSpec s = spec(120, 7);
+  s.effects = {sim::Compliance{{1}}};  // joint 2's compliance, drawn from the seed: hidden in the data
+  const sim::SimulatedData d = tools::runSimulate(test::sourcePath("scenes/iiwa7.yaml"), s, dir + "/data");
+  tools::MeasuredCalibrateOptions o;
+  o.description = d.data.description;
+  o.noise_position_m = s.noise_position_m;  // the tracker's true noise, given
+  o.noise_rotation_rad = s.noise_rotation_rad;
+  o.out = dir + "/geometry-only";
+  const tools::MeasuredCalibrateResult bad = tools::runMeasuredCalibrate(o);
+  CHECK(bad.inconsistent);  // geometry alone cannot absorb the compliance: residuals far above the noise
+  CHECK(bad.consistency_p < 1e-3);
+  CHECK(bad.fit.chi2 > 2.0 * bad.fit.dof);
+  CHECK(bad.model_path.empty());
+  CHECK_FALSE(std::filesystem::exists(dir + "/geometry-only/model.yaml"));
+  const std::string report = test::slurp(bad.report_path);
+  const std::size_t said = report.find("**The fit is inconsistent with the given measurement noise: chi-square");
+  REQUIRE(said != std::string::npos);
+  CHECK(said < report.find("Description `"));  // said first, before anything else of the report
+  o.effects = {"compliance:2"};
+  o.out = dir + "/with-compliance";
+  const tools::MeasuredCalibrateResult good = tools::runMeasuredCalibrate(o);
+  CHECK_FALSE(good.inconsistent);  // chi-square(dof) at the true noise: p >= 0.001 but for 1 run in 1000
+  CHECK(good.fit.chi2 / good.fit.dof == Approx(1.0).margin(0.2));
+  CHECK_FALSE(good.model_path.empty());
+  // --accept-worse writes the inconsistent one, and the report still says so first.
+  o.effects.clear();
+  o.accept_worse = true;
+  o.out = dir + "/accepted";
+  const tools::MeasuredCalibrateResult accepted = tools::runMeasuredCalibrate(o);
+  CHECK_FALSE(accepted.model_path.empty());
+  CHECK(test::slurp(accepted.report_path).find("model.yaml was written because --accept-worse was given") != std::string::npos);
+}
