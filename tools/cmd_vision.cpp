@@ -1,5 +1,6 @@
 // Subcommands on images: measure (dataset images -> measured flange poses) and intrinsics (Zhang).
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <optional>
 
@@ -111,6 +112,8 @@ void addIntrinsicsCommand(CLI::App& app) {
       if (!im.reason.empty()) std::printf("  %s%s%s", im.reason.c_str(), im.detail.empty() ? "" : ": ", im.detail.c_str());
       std::printf("\n");
     }
+    const std::string parent = std::filesystem::path(opt->out).parent_path().string();
+    if (!parent.empty()) sim::makeDirectories(parent);  // -o calib/cam.yaml into a folder not made yet
     sim::writeFileAtomic(opt->out, vision::formatIntrinsicsYaml(r, board));
     if (!r.ok) throw sim::InputError("intrinsics: " + r.reason + " (statuses written to " + opt->out + ")");
     const vision::CameraFileNames files = vision::cameraFileNames(opt->out);

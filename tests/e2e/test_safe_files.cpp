@@ -513,3 +513,17 @@ TEST_CASE("safe files: Ctrl-C stops a render with one line saying where it stand
 TEST_CASE("safe files: SIGTERM stops a render with one line saying where it stands; a rerun completes it", "[e2e][safe]") {
   interruptAndResume(SIGTERM, "safe-sigterm", "stopped (SIGTERM)");
 }
+
+TEST_CASE("orbcal intrinsics -o into a folder that does not exist yet creates it", "[safe]") {
+  const std::string data = "/usr/share/doc/opencv-doc/examples/data/";
+  if (!fs::exists(data + "left01.jpg")) {
+    WARN("skipped: " << data << " absent (Debian package opencv-doc)");
+    return;
+  }
+  const std::string dir = test::tempDir("intrinsics-new-folder");
+  const std::string cmd = std::string(ORBCAL_BINARY) + " intrinsics " + data + "left01.jpg " + data + "left02.jpg " + data +
+                          "left03.jpg " + data + "left04.jpg --corners-x 9 --corners-y 6 --square-m 0.025 -o " + dir +
+                          "/new/sub/cam.yaml > " + dir + "/log.txt 2>&1";
+  CHECK(std::system(cmd.c_str()) == 0);
+  for (const char* f : {"cam.yaml", "cam_camera_info.yaml", "cam_opencv.yml"}) CHECK(fs::exists(dir + "/new/sub/" + f));
+}
