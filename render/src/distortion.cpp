@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <opencv2/imgproc.hpp>
 
 namespace orbcal::render {
@@ -10,6 +12,7 @@ namespace {
 constexpr int kMaxNewtonIterations = 50;
 constexpr double kNewtonTol = 1e-14;  // normalised units: ~1e-11 px at f = 1400 px
 constexpr int kBicubicReachPx = 2;  // a lookup at x reads floor(x) - 1 .. floor(x) + 2; x is rounded to 1/32 px first
+constexpr int kGatherRowPx = 4096;  // applyDistortion's gathered lookups: cv::remap's rows
 constexpr int kBorderPx = 2;          // around the used area of the pinhole image: bicubic lookups read 4 x 4 pixels (-1..+2)
 }  // namespace
 
@@ -94,17 +97,24 @@ DistortionMap makeDistortionMap(const sim::Camera& camera, int max_side_px) {
   m.tiles_x = (W + m.tile_px - 1) / m.tile_px;
   m.tiles_y = (H + m.tile_px - 1) / m.tile_px;
   m.tile_reads.assign(static_cast<std::size_t>(m.tiles_x) * m.tiles_y, cv::Rect());
+  m.tile_maps_none.assign(m.tile_reads.size(), 0);
   for (int ty = 0; ty < m.tiles_y; ++ty) {
     for (int tx = 0; tx < m.tiles_x; ++tx) {
       float x0 = 1e30f, x1 = -1e30f, y0 = 1e30f, y1 = -1e30f;
       for (int v = ty * m.tile_px; v < std::min(H, (ty + 1) * m.tile_px); ++v) {
         for (int u = tx * m.tile_px; u < std::min(W, (tx + 1) * m.tile_px); ++u) {
           const float x = m.map_x.at<float>(v, u), y = m.map_y.at<float>(v, u);
-          if (x < 0 || y < 0) continue;  // -1: no lookup (only the border value)
+          if (x < 0 || y < 0) {  // -1: no lookup (only the border value)
+            m.tile_maps_none[static_cast<std::size_t>(ty) * m.tiles_x + tx] = 1;
+            continue;
+          }
           x0 = std::min(x0, x), x1 = std::max(x1, x), y0 = std::min(y0, y), y1 = std::max(y1, y);
         }
       }
-      if (x0 > x1) continue;
+      if (x0 > x1) {
+        m.tile_maps_none[static_cast<std::size_t>(ty) * m.tiles_x + tx] = 1;
+        continue;
+      }
       // Bicubic at x reads pixels floor(x) - 1 .. floor(x) + 2, x rounded to 1/32 px first: one more each side.
       const int a = static_cast<int>(std::floor(x0)) - kBicubicReachPx, b = static_cast<int>(std::floor(x1)) + kBicubicReachPx + 1;
       const int c = static_cast<int>(std::floor(y0)) - kBicubicReachPx, d = static_cast<int>(std::floor(y1)) + kBicubicReachPx + 1;
@@ -131,13 +141,88 @@ std::vector<cv::Rect> outputStripsReading(const DistortionMap& map, const cv::Re
   return strips;
 }
 
-cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, int background, const cv::Rect& pinhole_rect) {
-  cv::Mat out(map.map_x.size(), CV_8UC1, cv::Scalar(background));
-  for (const cv::Rect& r : outputStripsReading(map, pinhole_rect)) {
-    cv::Mat dst = out(r);
-    cv::remap(pinhole_image, dst, map.map_fixed(r), map.map_fraction(r), cv::INTER_CUBIC, cv::BORDER_CONSTANT,
-              cv::Scalar::all(background));
+namespace {
+/// The grey level every lookup of output tile `t` reads, when they all read one: the tile's read rectangle
+/// holds that level wherever it lies in `pinhole_rect`, and outside it (background there, also past the
+/// image's edge) and for pixels mapping to -1 (the border value) only `background` is read. -1 otherwise.
+int constantTileLevel(const DistortionMap& map, std::size_t t, const cv::Mat& pinhole_image, int background,
+                      const cv::Rect& pinhole_rect) {
+  const cv::Rect& reads = map.tile_reads[t];
+  const cv::Rect r = reads & pinhole_rect;
+  if (r.empty()) return background;
+  const unsigned char c = pinhole_image.at<unsigned char>(r.y, r.x);
+  if (c != background && (map.tile_maps_none[t] || r != reads)) return -1;
+  for (int y = r.y; y < r.y + r.height; ++y) {
+    const unsigned char* p = pinhole_image.ptr<unsigned char>(y) + r.x;
+    unsigned char differ = 0;
+    for (int x = 0; x < r.width; ++x) differ |= static_cast<unsigned char>(p[x] ^ c);
+    if (differ) return -1;
   }
+  return c;
+}
+}  // namespace
+
+cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, int background, const cv::Rect& pinhole_rect) {
+  CV_Assert(pinhole_image.type() == CV_8UC1 && map.map_fixed.type() == CV_16SC2 && map.map_fraction.type() == CV_16UC1);
+  cv::Mat out(map.map_x.size(), CV_8UC1, cv::Scalar(background));
+  // A lookup whose 4 x 4 pixels all hold one grey level gives that level (bicubic weights sum to one in
+  // OpenCV's fixed point): tiles whose lookups all do are filled; in the other tiles each pixel whose
+  // lookup does is set, and the rest are gathered into rows of lookups for one cv::remap, whose results
+  // are put back (each output pixel depends only on its own lookup: the same pixels).
+  std::vector<unsigned> gathered;  // output pixels, v * width + u
+  std::vector<cv::Vec2s> fixed;    // their lookups, as in map_fixed, map_fraction
+  std::vector<unsigned short> fraction;
+  // Lookups at (x, y) with x - 1 .. x + 2 (likewise y) inside pinhole_rect are checked for one grey level.
+  const int check_x = pinhole_rect.x + 1, check_y = pinhole_rect.y + 1;
+  const unsigned check_w = static_cast<unsigned>(std::max(0, pinhole_rect.width - 3));
+  const unsigned check_h = static_cast<unsigned>(std::max(0, pinhole_rect.height - 3));
+  const unsigned char* src = pinhole_image.data;
+  const std::size_t step = pinhole_image.step[0];
+  for (const cv::Rect& strip : outputStripsReading(map, pinhole_rect)) {
+    const int ty = strip.y / map.tile_px;
+    for (int x0 = strip.x; x0 < strip.x + strip.width; x0 += map.tile_px) {
+      const cv::Rect tile(x0, strip.y, std::min(map.tile_px, strip.x + strip.width - x0), strip.height);
+      const int level = constantTileLevel(map, static_cast<std::size_t>(ty) * map.tiles_x + x0 / map.tile_px, pinhole_image,
+                                          background, pinhole_rect);
+      if (level >= 0) {
+        if (level != background) out(tile).setTo(level);
+        continue;
+      }
+      for (int v = tile.y; v < tile.y + tile.height; ++v) {
+        const cv::Vec2s* xy = map.map_fixed.ptr<cv::Vec2s>(v);
+        const unsigned short* a = map.map_fraction.ptr<unsigned short>(v);
+        unsigned char* o = out.ptr<unsigned char>(v);
+        for (int u = tile.x; u < tile.x + tile.width; ++u) {
+          const int x = xy[u][0], y = xy[u][1];
+          if (static_cast<unsigned>(x - check_x) < check_w && static_cast<unsigned>(y - check_y) < check_h) {
+            const unsigned char* p = src + (y - 1) * step + (x - 1);
+            std::uint32_t r0, r1, r2, r3;
+            std::memcpy(&r0, p, 4), std::memcpy(&r1, p + step, 4), std::memcpy(&r2, p + 2 * step, 4), std::memcpy(&r3, p + 3 * step, 4);
+            if (((r0 ^ r1) | (r0 ^ r2) | (r0 ^ r3) | (r0 ^ (0x01010101u * (r0 & 0xffu)))) == 0) {
+              o[u] = static_cast<unsigned char>(r0);
+              continue;
+            }
+          }
+          gathered.push_back(static_cast<unsigned>(v) * static_cast<unsigned>(out.cols) + static_cast<unsigned>(u));
+          fixed.push_back(xy[u]);
+          fraction.push_back(a[u]);
+        }
+      }
+    }
+  }
+  if (gathered.empty()) return out;
+  // cv::remap takes images under 32767 px a side: rows of kGatherRowPx lookups, the last one padded with
+  // lookups outside the image (never put back).
+  const std::size_t n = gathered.size(), rows = (n + kGatherRowPx - 1) / kGatherRowPx;
+  fixed.resize(rows * kGatherRowPx, cv::Vec2s(-8, -8));
+  fraction.resize(rows * kGatherRowPx, 0);
+  cv::Mat values;
+  cv::remap(pinhole_image, values, cv::Mat(static_cast<int>(rows), kGatherRowPx, CV_16SC2, fixed.data()),
+            cv::Mat(static_cast<int>(rows), kGatherRowPx, CV_16UC1, fraction.data()), cv::INTER_CUBIC, cv::BORDER_CONSTANT,
+            cv::Scalar::all(background));
+  const unsigned char* val = values.ptr<unsigned char>(0);  // continuous
+  unsigned char* o = out.ptr<unsigned char>(0);               // continuous
+  for (std::size_t i = 0; i < n; ++i) o[gathered[i]] = val[i];
   return out;
 }
 

@@ -195,3 +195,36 @@ TEST_CASE("the precomputed fixed-point distortion maps give cv::remap's pixels f
   cv::remap(pinhole, expected, map.map_x, map.map_y, cv::INTER_CUBIC, cv::BORDER_CONSTANT, cv::Scalar::all(40));
   CHECK(differingPixels(render::applyDistortion(map, pinhole, 40.0), expected) == 0);
 }
+
+TEST_CASE("the cropped remap gives cv::remap's pixels where lookups read one grey level and where they do not",
+          "[render][crop][distortion]") {
+  // applyDistortion with a drawn rectangle fills the tiles and pixels whose 4 x 4 lookups all read one grey
+  // level and remaps the rest: against cv::remap of the float maps over the whole image, on a pinhole image
+  // of 8 x 8 px blocks (the background level, two other levels, noise) inside the drawn rectangle.
+  const sim::Camera c = smallDistortedCamera();
+  const render::DistortionMap map = render::makeDistortionMap(c);
+  const cv::Rect drawn(map.pinhole.width_px / 5, map.pinhole.height_px / 6, map.pinhole.width_px / 2, map.pinhole.height_px / 2);
+  cv::RNG rng(11);
+  for (const int background : {40, 0}) {
+    CAPTURE(background);
+    cv::Mat pinhole(map.pinhole.height_px, map.pinhole.width_px, CV_8UC1, cv::Scalar(background));
+    for (int y = drawn.y; y < drawn.br().y; y += 8) {
+      for (int x = drawn.x; x < drawn.br().x; x += 8) {
+        cv::Mat block = pinhole(cv::Rect(x, y, 8, 8) & drawn);
+        const int kind = rng.uniform(0, 4);
+        if (kind == 3) {
+          rng.fill(block, cv::RNG::UNIFORM, 0, 256);
+        } else {
+          block.setTo(kind == 0 ? background : kind == 1 ? 10 : 200);
+        }
+      }
+    }
+    cv::Mat expected;
+    cv::remap(pinhole, expected, map.map_x, map.map_y, cv::INTER_CUBIC, cv::BORDER_CONSTANT, cv::Scalar::all(background));
+    CHECK(differingPixels(render::applyDistortion(map, pinhole, background, drawn), expected) == 0);
+    // Uniform lookups of each level were there to be filled, and mixed ones to be remapped.
+    CHECK(cv::countNonZero(expected == 10) > 200);
+    CHECK(cv::countNonZero(expected == 200) > 200);
+    CHECK(cv::countNonZero(expected != 10 & expected != 200 & expected != background) > 500);
+  }
+}

@@ -36,6 +36,7 @@ struct DistortionMap {
   int tile_px = 16;
   int tiles_x = 0, tiles_y = 0;
   std::vector<cv::Rect> tile_reads;
+  std::vector<unsigned char> tile_maps_none;  ///< per tile: 1 when some pixel of it maps to -1 (none)
 };
 
 /// The pinhole camera keeps fx, fy unless the undistorted field would need more than max_side_px
