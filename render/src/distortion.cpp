@@ -152,10 +152,16 @@ int constantTileLevel(const DistortionMap& map, std::size_t t, const cv::Mat& pi
   if (r.empty()) return background;
   const unsigned char c = pinhole_image.at<unsigned char>(r.y, r.x);
   if (c != background && (map.tile_maps_none[t] || r != reads)) return -1;
+  const std::uint64_t cccc = 0x0101010101010101ull * c;
   for (int y = r.y; y < r.y + r.height; ++y) {
     const unsigned char* p = pinhole_image.ptr<unsigned char>(y) + r.x;
-    unsigned char differ = 0;
-    for (int x = 0; x < r.width; ++x) differ |= static_cast<unsigned char>(p[x] ^ c);
+    std::uint64_t differ = 0, word = 0;
+    if (r.width >= 8) {  // 8 bytes at a time, the last 8 overlapping
+      for (int x = 0; x + 8 <= r.width; x += 8) std::memcpy(&word, p + x, 8), differ |= word ^ cccc;
+      std::memcpy(&word, p + r.width - 8, 8), differ |= word ^ cccc;
+    } else {
+      for (int x = 0; x < r.width; ++x) differ |= static_cast<unsigned char>(p[x] ^ c);
+    }
     if (differ) return -1;
   }
   return c;
@@ -169,53 +175,72 @@ cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, 
   // OpenCV's fixed point): tiles whose lookups all do are filled; in the other tiles each pixel whose
   // lookup does is set, and the rest are gathered into rows of lookups for one cv::remap, whose results
   // are put back (each output pixel depends only on its own lookup: the same pixels).
-  std::vector<unsigned> gathered;  // output pixels, v * width + u
-  std::vector<cv::Vec2s> fixed;    // their lookups, as in map_fixed, map_fraction
-  std::vector<unsigned short> fraction;
-  // Lookups at (x, y) with x - 1 .. x + 2 (likewise y) inside pinhole_rect are checked for one grey level.
-  const int check_x = pinhole_rect.x + 1, check_y = pinhole_rect.y + 1;
-  const unsigned check_w = static_cast<unsigned>(std::max(0, pinhole_rect.width - 3));
-  const unsigned check_h = static_cast<unsigned>(std::max(0, pinhole_rect.height - 3));
-  const unsigned char* src = pinhole_image.data;
-  const std::size_t step = pinhole_image.step[0];
+  std::vector<cv::Rect> mixed;  // tiles whose lookups do not all read one level
+  std::size_t mixed_area = 0;
   for (const cv::Rect& strip : outputStripsReading(map, pinhole_rect)) {
     const int ty = strip.y / map.tile_px;
     for (int x0 = strip.x; x0 < strip.x + strip.width; x0 += map.tile_px) {
       const cv::Rect tile(x0, strip.y, std::min(map.tile_px, strip.x + strip.width - x0), strip.height);
       const int level = constantTileLevel(map, static_cast<std::size_t>(ty) * map.tiles_x + x0 / map.tile_px, pinhole_image,
                                           background, pinhole_rect);
-      if (level >= 0) {
-        if (level != background) out(tile).setTo(level);
-        continue;
+      if (level < 0) {
+        if (!mixed.empty() && mixed.back().y == tile.y && mixed.back().br().x == tile.x) {
+          mixed.back().width += tile.width;  // runs of neighbouring tiles: the maps are read along rows
+        } else {
+          mixed.push_back(tile);
+        }
+        mixed_area += static_cast<std::size_t>(tile.area());
+      } else if (level != background) {
+        out(tile).setTo(level);
       }
-      for (int v = tile.y; v < tile.y + tile.height; ++v) {
-        const cv::Vec2s* xy = map.map_fixed.ptr<cv::Vec2s>(v);
-        const unsigned short* a = map.map_fraction.ptr<unsigned short>(v);
-        unsigned char* o = out.ptr<unsigned char>(v);
-        for (int u = tile.x; u < tile.x + tile.width; ++u) {
+    }
+  }
+  // Each pixel of those: set when its 4 x 4 lookup pixels hold one level, else gathered (without branching
+  // on the image: every pixel is written both ways, the gathered count grows only for the mixed ones).
+  // Kept by each thread from call to call: fresh memory costs a page fault per 4 kB, more than the work.
+  thread_local std::vector<unsigned> gathered;  // output pixels, v * width + u
+  thread_local std::vector<cv::Vec2s> fixed;    // their lookups, as in map_fixed, map_fraction
+  thread_local std::vector<unsigned short> fraction;
+  const std::size_t capacity = (mixed_area + kGatherRowPx - 1) / kGatherRowPx * kGatherRowPx;  // whole rows
+  if (gathered.size() < capacity) gathered.resize(capacity), fixed.resize(capacity), fraction.resize(capacity);
+  std::size_t n = 0;
+  // Lookups at (x, y) with x - 1 .. x + 2 (likewise y) inside pinhole_rect are checked for one grey level.
+  const int check_x = pinhole_rect.x + 1, check_y = pinhole_rect.y + 1;
+  const unsigned check_w = static_cast<unsigned>(std::max(0, pinhole_rect.width - 3));
+  const unsigned check_h = static_cast<unsigned>(std::max(0, pinhole_rect.height - 3));
+  const unsigned char* src = pinhole_image.data;
+  const std::size_t step = pinhole_image.step[0];
+  for (std::size_t first = 0, last = 0; first < mixed.size(); first = last) {  // the runs of one row of tiles
+    while (last < mixed.size() && mixed[last].y == mixed[first].y) ++last;
+    for (int v = mixed[first].y; v < mixed[first].y + mixed[first].height; ++v) {
+      const cv::Vec2s* xy = map.map_fixed.ptr<cv::Vec2s>(v);
+      const unsigned short* a = map.map_fraction.ptr<unsigned short>(v);
+      unsigned char* o = out.ptr<unsigned char>(v);
+      for (std::size_t k = first; k < last; ++k) {
+        for (int u = mixed[k].x; u < mixed[k].x + mixed[k].width; ++u) {
           const int x = xy[u][0], y = xy[u][1];
+          bool uniform = false;
           if (static_cast<unsigned>(x - check_x) < check_w && static_cast<unsigned>(y - check_y) < check_h) {
             const unsigned char* p = src + (y - 1) * step + (x - 1);
             std::uint32_t r0, r1, r2, r3;
             std::memcpy(&r0, p, 4), std::memcpy(&r1, p + step, 4), std::memcpy(&r2, p + 2 * step, 4), std::memcpy(&r3, p + 3 * step, 4);
-            if (((r0 ^ r1) | (r0 ^ r2) | (r0 ^ r3) | (r0 ^ (0x01010101u * (r0 & 0xffu)))) == 0) {
-              o[u] = static_cast<unsigned char>(r0);
-              continue;
-            }
+            uniform = ((r0 ^ r1) | (r0 ^ r2) | (r0 ^ r3) | (r0 ^ (0x01010101u * (r0 & 0xffu)))) == 0;
+            o[u] = static_cast<unsigned char>(r0);
           }
-          gathered.push_back(static_cast<unsigned>(v) * static_cast<unsigned>(out.cols) + static_cast<unsigned>(u));
-          fixed.push_back(xy[u]);
-          fraction.push_back(a[u]);
+          gathered[n] = static_cast<unsigned>(v) * static_cast<unsigned>(out.cols) + static_cast<unsigned>(u);
+          fixed[n] = xy[u];
+          fraction[n] = a[u];
+          n += uniform ? 0 : 1;
         }
       }
     }
   }
-  if (gathered.empty()) return out;
+  if (n == 0) return out;
   // cv::remap takes images under 32767 px a side: rows of kGatherRowPx lookups, the last one padded with
   // lookups outside the image (never put back).
-  const std::size_t n = gathered.size(), rows = (n + kGatherRowPx - 1) / kGatherRowPx;
-  fixed.resize(rows * kGatherRowPx, cv::Vec2s(-8, -8));
-  fraction.resize(rows * kGatherRowPx, 0);
+  const std::size_t rows = (n + kGatherRowPx - 1) / kGatherRowPx;
+  std::fill(fixed.begin() + static_cast<std::ptrdiff_t>(n), fixed.begin() + static_cast<std::ptrdiff_t>(rows * kGatherRowPx), cv::Vec2s(-8, -8));
+  std::fill(fraction.begin() + static_cast<std::ptrdiff_t>(n), fraction.begin() + static_cast<std::ptrdiff_t>(rows * kGatherRowPx), 0);
   cv::Mat values;
   cv::remap(pinhole_image, values, cv::Mat(static_cast<int>(rows), kGatherRowPx, CV_16SC2, fixed.data()),
             cv::Mat(static_cast<int>(rows), kGatherRowPx, CV_16UC1, fraction.data()), cv::INTER_CUBIC, cv::BORDER_CONSTANT,
