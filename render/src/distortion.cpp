@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <memory>
 #include <opencv2/imgproc.hpp>
 
 namespace orbcal::render {
@@ -228,12 +229,10 @@ cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, 
   }
   // Each pixel of those: set when its 4 x 4 lookup pixels hold one level, else gathered (without branching
   // on the image: every pixel is written both ways, the gathered count grows only for the mixed ones).
-  // Kept by each thread from call to call: fresh memory costs a page fault per 4 kB, more than the work.
-  thread_local std::vector<unsigned> gathered;  // output pixels, v * width + u
-  thread_local std::vector<cv::Vec2s> fixed;    // their lookups, as in map_fixed, map_fraction
-  thread_local std::vector<unsigned short> fraction;
   const std::size_t capacity = (mixed_area + kGatherRowPx - 1) / kGatherRowPx * kGatherRowPx;  // whole rows
-  if (gathered.size() < capacity) gathered.resize(capacity), fixed.resize(capacity), fraction.resize(capacity);
+  std::unique_ptr<unsigned[]> gathered(new unsigned[capacity]);  // output pixels, v * width + u
+  std::unique_ptr<cv::Vec2s[]> fixed(new cv::Vec2s[capacity]);    // their lookups, as in map_fixed, map_fraction
+  std::unique_ptr<unsigned short[]> fraction(new unsigned short[capacity]);
   std::size_t n = 0;
   // Lookups at (x, y) with x - 1 .. x + 2 (likewise y) inside pinhole_rect are checked for one grey level.
   const int check_x = pinhole_rect.x + 1, check_y = pinhole_rect.y + 1;
@@ -270,11 +269,11 @@ cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, 
   // cv::remap takes images under 32767 px a side: rows of kGatherRowPx lookups, the last one padded with
   // lookups outside the image (never put back).
   const std::size_t rows = (n + kGatherRowPx - 1) / kGatherRowPx;
-  std::fill(fixed.begin() + static_cast<std::ptrdiff_t>(n), fixed.begin() + static_cast<std::ptrdiff_t>(rows * kGatherRowPx), cv::Vec2s(-8, -8));
-  std::fill(fraction.begin() + static_cast<std::ptrdiff_t>(n), fraction.begin() + static_cast<std::ptrdiff_t>(rows * kGatherRowPx), 0);
+  std::fill(fixed.get() + n, fixed.get() + rows * kGatherRowPx, cv::Vec2s(-8, -8));
+  std::fill(fraction.get() + n, fraction.get() + rows * kGatherRowPx, 0);
   cv::Mat values;
-  cv::remap(pinhole_image, values, cv::Mat(static_cast<int>(rows), kGatherRowPx, CV_16SC2, fixed.data()),
-            cv::Mat(static_cast<int>(rows), kGatherRowPx, CV_16UC1, fraction.data()), cv::INTER_CUBIC, cv::BORDER_CONSTANT,
+  cv::remap(pinhole_image, values, cv::Mat(static_cast<int>(rows), kGatherRowPx, CV_16SC2, fixed.get()),
+            cv::Mat(static_cast<int>(rows), kGatherRowPx, CV_16UC1, fraction.get()), cv::INTER_CUBIC, cv::BORDER_CONSTANT,
             cv::Scalar::all(background));
   const unsigned char* val = values.ptr<unsigned char>(0);  // continuous
   unsigned char* o = out.ptr<unsigned char>(0);               // continuous
