@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <future>
 
 #include "orbcal/render/distortion.hpp"
 #include "orbcal/render/renderer.hpp"
@@ -227,4 +228,24 @@ TEST_CASE("the cropped remap gives cv::remap's pixels where lookups read one gre
     CHECK(cv::countNonZero(expected == 200) > 200);
     CHECK(cv::countNonZero(expected != 10 & expected != 200 & expected != background) > 500);
   }
+}
+
+TEST_CASE("a renderer given its distortion map built beforehand draws the same images", "[render][distortion]") {
+  // renderDataset builds the map on another thread while it generates the configurations.
+  sim::Scene scene = offCentreScene();
+  scene.camera.distortion = {-0.2, 0.08, 0.0008, -0.0006, -0.01};
+  const render::RenderSettings settings = render::loadRenderSettings(sim::kDefaultScene);
+  std::future<render::DistortionMap> map =
+      std::async(std::launch::async, [c = scene.camera] { return render::makeDistortionMap(c); });
+  render::BoardRenderer given(scene, settings, &map), own(scene, settings);
+  CHECK(!map.valid());  // taken
+  int seen = 0;
+  for (const Eigen::Isometry3d& view : views(scene.board)) {
+    const cv::Mat a = given.renderClean(view), b = own.renderClean(view);
+    CHECK(differingPixels(a, b) == 0);
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(b, &lo, &hi);
+    seen += hi > lo ? 1 : 0;
+  }
+  CHECK(seen == 3);
 }
