@@ -246,18 +246,23 @@ cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, 
       const cv::Vec2s* xy = map.map_fixed.ptr<cv::Vec2s>(v);
       const unsigned short* a = map.map_fraction.ptr<unsigned short>(v);
       unsigned char* o = out.ptr<unsigned char>(v);
+      const unsigned out_row = static_cast<unsigned>(v) * static_cast<unsigned>(out.cols);
+      int row_y = -1;  // the lookup row whose pointer `row` holds
+      const unsigned char* row = nullptr;
       for (std::size_t k = first; k < last; ++k) {
         for (int u = mixed[k].x; u < mixed[k].x + mixed[k].width; ++u) {
           const int x = xy[u][0], y = xy[u][1];
           bool uniform = false;
           if (static_cast<unsigned>(x - check_x) < check_w && static_cast<unsigned>(y - check_y) < check_h) {
-            const unsigned char* p = src + (y - 1) * step + (x - 1);
+            if (y != row_y) row_y = y, row = src + (y - 1) * step;  // y changes every few pixels at most
+            const unsigned char* p = row + (x - 1);
             std::uint32_t r0, r1, r2, r3;
             std::memcpy(&r0, p, 4), std::memcpy(&r1, p + step, 4), std::memcpy(&r2, p + 2 * step, 4), std::memcpy(&r3, p + 3 * step, 4);
-            uniform = ((r0 ^ r1) | (r0 ^ r2) | (r0 ^ r3) | (r0 ^ (0x01010101u * (r0 & 0xffu)))) == 0;
+            // One level: the rows equal and r0's bytes equal (r0 equals itself rotated by a byte).
+            uniform = ((r0 ^ r1) | (r0 ^ r2) | (r0 ^ r3) | (r0 ^ ((r0 >> 8) | (r0 << 24)))) == 0;
             o[u] = static_cast<unsigned char>(r0);
           }
-          gathered[n] = static_cast<unsigned>(v) * static_cast<unsigned>(out.cols) + static_cast<unsigned>(u);
+          gathered[n] = out_row + static_cast<unsigned>(u);
           fixed[n] = xy[u];
           fraction[n] = a[u];
           n += uniform ? 0 : 1;
