@@ -57,9 +57,11 @@ cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, 
 std::vector<cv::Rect> outputStripsReading(const DistortionMap& map, const cv::Rect& pinhole_rect);
 
 /// applyDistortion when the pinhole image is `background` (a grey level, 0..255) everywhere outside
-/// `pinhole_rect`: remaps only outputStripsReading(map, pinhole_rect) and fills the rest with
-/// `background`. The same pixels as applyDistortion (bicubic weights sum to one in OpenCV's fixed point,
-/// so a constant neighbourhood stays that constant); tests/render checks it.
+/// `pinhole_rect`: only outputStripsReading(map, pinhole_rect) can differ from `background`. Bicubic
+/// weights sum to one in OpenCV's fixed point, so a lookup whose 4 x 4 pixels hold one grey level gives
+/// that level: the strips' tiles whose lookups all do are filled with it, then each such pixel of the
+/// other tiles, and only the remaining lookups (about a tenth of the strips for a board) go through one
+/// cv::remap. The same pixels as applyDistortion; tests/render checks it.
 cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, int background, const cv::Rect& pinhole_rect);
 
 }  // namespace orbcal::render
