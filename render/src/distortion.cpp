@@ -12,7 +12,7 @@ namespace orbcal::render {
 namespace {
 constexpr int kMaxNewtonIterations = 50;
 // A single Newton step from a predicted ray is accepted when it moves less than this (normalised units,
-// ~1.4e-4 px at f = 1400 px): the predicted ray was about that close, the result within ~1e-14.
+// 0.014 px at f = 1400 px): the predicted ray was about that close, so the step leaves ~1e-10 (~1e-7 px).
 constexpr double kPredictedStepTol = 1e-5;
 constexpr double kNewtonTol = 1e-14;  // normalised units: ~1e-11 px at f = 1400 px
 constexpr int kBicubicReachPx = 2;  // a lookup at x reads floor(x) - 1 .. floor(x) + 2; x is rounded to 1/32 px first
@@ -65,9 +65,10 @@ DistortionMap makeDistortionMap(const sim::Camera& camera, int max_side_px) {
       double* e = extent.ptr<double>(v);
       e[0] = e[2] = 1e300, e[1] = e[3] = -1e300;
       // The rays of the valid pixels just left of u: after two, one Newton step from their linear
-      // extrapolation (off by ~1e-7) is accepted when it moves less than kPredictedStepTol, so the
-      // result is within ~1e-12 of the root; otherwise Newton's method from the pixel to the left
-      // (2-3 steps instead of 5-6), and from xd when that fails.
+      // extrapolation (off by ~1e-7) is accepted when it moves less than kPredictedStepTol, which leaves
+      // the result within ~1e-10 of the root (tests/render: float rounding of the map is all that
+      // differs); otherwise Newton's method from the pixel to the left (2-3 steps instead of 5-6), and
+      // from xd when that fails.
       int run = 0;
       Eigen::Vector2d x, left, left2;
       for (int u = 0; u < W; ++u) {
