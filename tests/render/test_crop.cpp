@@ -228,6 +228,17 @@ TEST_CASE("the cropped remap gives cv::remap's pixels where lookups read one gre
     CHECK(cv::countNonZero(expected == 200) > 200);
     CHECK(cv::countNonZero(expected != 10 & expected != 200 & expected != background) > 500);
   }
+  // Output pixels without a ray (the distortion folds over before the image corners) get the
+  // background even where every pixel around their tile's lookups holds another level.
+  sim::Camera folded = c;
+  folded.distortion = {-0.8, 0.0, 0.0, 0.0, 0.0};
+  const render::DistortionMap fold_map = render::makeDistortionMap(folded);
+  REQUIRE(cv::countNonZero(fold_map.map_x < 0) > 0);
+  const cv::Mat level(fold_map.pinhole.height_px, fold_map.pinhole.width_px, CV_8UC1, cv::Scalar(200));
+  cv::Mat expected;
+  cv::remap(level, expected, fold_map.map_x, fold_map.map_y, cv::INTER_CUBIC, cv::BORDER_CONSTANT, cv::Scalar::all(40));
+  CHECK(differingPixels(render::applyDistortion(fold_map, level, 40, cv::Rect(0, 0, level.cols, level.rows)), expected) == 0);
+  CHECK(cv::countNonZero(expected == 40) >= cv::countNonZero(fold_map.map_x < 0));
 }
 
 TEST_CASE("a renderer given its distortion map built beforehand draws the same images", "[render][distortion]") {
