@@ -22,7 +22,7 @@ namespace {
 
 constexpr int kImages = 250;
 constexpr int kLegacyImages = 50;  // the old settings are ~3x slower: fewer images, ms per image
-constexpr int kRepeats = 3;
+constexpr int kRepeats = 5;  // the machine is shared: a median of 5 rides out one or two disturbed runs
 constexpr double kTargetSeconds = 2.0;
 constexpr double kTargetDistortedRatio = 1.3;
 constexpr double kTargetRmsPx = 0.05;

@@ -361,7 +361,8 @@ struct BoardRenderer::Impl {
   Eigen::Vector3d to_sun_board = Eigen::Vector3d::UnitZ();
   std::vector<Drawable> drawables;  // [0] is the board
 
-  Impl(const sim::Scene& sc, const RenderSettings& st) : scene(sc), settings(st), context(3, 3) {
+  Impl(const sim::Scene& sc, const RenderSettings& st, std::future<DistortionMap>* prebuilt)
+      : scene(sc), settings(st), context(3, 3) {
     // Meshes first: a missing file is an input error, reported before any GL work.
     const Eigen::Isometry3d board_T_base = scene.base_T_board.inverse();
     std::vector<std::vector<float>> mesh_vertices;
@@ -383,7 +384,7 @@ struct BoardRenderer::Impl {
 
     if (scene.camera.hasDistortion()) {
       distorted = true;
-      distortion = makeDistortionMap(scene.camera);
+      distortion = prebuilt && prebuilt->valid() ? prebuilt->get() : makeDistortionMap(scene.camera);
       pinhole = distortion.pinhole;
     } else {
       pinhole = scene.camera;
@@ -668,8 +669,9 @@ struct BoardRenderer::Impl {
   cv::Rect fullFrame() const { return cv::Rect(0, 0, gl_camera.width_px, gl_camera.height_px); }
 };
 
-BoardRenderer::BoardRenderer(const sim::Scene& scene, const RenderSettings& settings)
-    : impl_(std::make_unique<Impl>(scene, settings)) {}
+BoardRenderer::BoardRenderer(const sim::Scene& scene, const RenderSettings& settings,
+                             std::future<DistortionMap>* distortion_map)
+    : impl_(std::make_unique<Impl>(scene, settings, distortion_map)) {}
 
 BoardRenderer::~BoardRenderer() = default;
 

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <future>
 
 #include "orbcal/render/distortion.hpp"
 #include "orbcal/render/renderer.hpp"
@@ -194,4 +195,68 @@ TEST_CASE("the precomputed fixed-point distortion maps give cv::remap's pixels f
   cv::Mat expected;
   cv::remap(pinhole, expected, map.map_x, map.map_y, cv::INTER_CUBIC, cv::BORDER_CONSTANT, cv::Scalar::all(40));
   CHECK(differingPixels(render::applyDistortion(map, pinhole, 40.0), expected) == 0);
+}
+
+TEST_CASE("the cropped remap gives cv::remap's pixels where lookups read one grey level and where they do not",
+          "[render][crop][distortion]") {
+  // applyDistortion with a drawn rectangle fills the tiles and pixels whose 4 x 4 lookups all read one grey
+  // level and remaps the rest: against cv::remap of the float maps over the whole image, on a pinhole image
+  // of 8 x 8 px blocks (the background level, two other levels, noise) inside the drawn rectangle.
+  const sim::Camera c = smallDistortedCamera();
+  const render::DistortionMap map = render::makeDistortionMap(c);
+  const cv::Rect drawn(map.pinhole.width_px / 5, map.pinhole.height_px / 6, map.pinhole.width_px / 2, map.pinhole.height_px / 2);
+  cv::RNG rng(11);
+  for (const int background : {40, 0}) {
+    CAPTURE(background);
+    cv::Mat pinhole(map.pinhole.height_px, map.pinhole.width_px, CV_8UC1, cv::Scalar(background));
+    for (int y = drawn.y; y < drawn.br().y; y += 8) {
+      for (int x = drawn.x; x < drawn.br().x; x += 8) {
+        cv::Mat block = pinhole(cv::Rect(x, y, 8, 8) & drawn);
+        const int kind = rng.uniform(0, 4);
+        if (kind == 3) {
+          rng.fill(block, cv::RNG::UNIFORM, 0, 256);
+        } else {
+          block.setTo(kind == 0 ? background : kind == 1 ? 10 : 200);
+        }
+      }
+    }
+    cv::Mat expected;
+    cv::remap(pinhole, expected, map.map_x, map.map_y, cv::INTER_CUBIC, cv::BORDER_CONSTANT, cv::Scalar::all(background));
+    CHECK(differingPixels(render::applyDistortion(map, pinhole, background, drawn), expected) == 0);
+    // Uniform lookups of each level were there to be filled, and mixed ones to be remapped.
+    CHECK(cv::countNonZero(expected == 10) > 200);
+    CHECK(cv::countNonZero(expected == 200) > 200);
+    CHECK(cv::countNonZero(expected != 10 & expected != 200 & expected != background) > 500);
+  }
+  // Output pixels without a ray (the distortion folds over before the image corners) get the
+  // background even where every pixel around their tile's lookups holds another level.
+  sim::Camera folded = c;
+  folded.distortion = {-0.8, 0.0, 0.0, 0.0, 0.0};
+  const render::DistortionMap fold_map = render::makeDistortionMap(folded);
+  REQUIRE(cv::countNonZero(fold_map.map_x < 0) > 0);
+  const cv::Mat level(fold_map.pinhole.height_px, fold_map.pinhole.width_px, CV_8UC1, cv::Scalar(200));
+  cv::Mat expected;
+  cv::remap(level, expected, fold_map.map_x, fold_map.map_y, cv::INTER_CUBIC, cv::BORDER_CONSTANT, cv::Scalar::all(40));
+  CHECK(differingPixels(render::applyDistortion(fold_map, level, 40, cv::Rect(0, 0, level.cols, level.rows)), expected) == 0);
+  CHECK(cv::countNonZero(expected == 40) >= cv::countNonZero(fold_map.map_x < 0));
+}
+
+TEST_CASE("a renderer given its distortion map built beforehand draws the same images", "[render][distortion]") {
+  // renderDataset builds the map on another thread while it generates the configurations.
+  sim::Scene scene = offCentreScene();
+  scene.camera.distortion = {-0.2, 0.08, 0.0008, -0.0006, -0.01};
+  const render::RenderSettings settings = render::loadRenderSettings(sim::kDefaultScene);
+  std::future<render::DistortionMap> map =
+      std::async(std::launch::async, [c = scene.camera] { return render::makeDistortionMap(c); });
+  render::BoardRenderer given(scene, settings, &map), own(scene, settings);
+  CHECK(!map.valid());  // taken
+  int seen = 0;
+  for (const Eigen::Isometry3d& view : views(scene.board)) {
+    const cv::Mat a = given.renderClean(view), b = own.renderClean(view);
+    CHECK(differingPixels(a, b) == 0);
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(b, &lo, &hi);
+    seen += hi > lo ? 1 : 0;
+  }
+  CHECK(seen == 3);
 }

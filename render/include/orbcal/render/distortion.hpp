@@ -7,7 +7,10 @@
 // pixel (u, v) (pixel centres at integers) it looks up the pinhole image at
 //   K_pinhole * undistort(K^-1 (u, v)),
 // where undistort inverts sim::distortNormalized (the distortion sim::project applies) by Newton's
-// method with its Jacobian, to ~1e-14 (normalised units).
+// method with its Jacobian, to ~1e-14 (normalised units): from the ray of the pixel to the left, or,
+// with two valid pixels to the left, as one Newton step from their linear extrapolation when that step
+// is under 1e-5 (the result then within ~1e-10, ~1e-7 px; tests/render compares the whole map with
+// Newton's method from scratch: float rounding, 6e-5 px, is all that differs).
 // A point p_cam therefore lands at sim::project(camera, p_cam) in the output, i.e. where
 // cv::projectPoints puts it.
 #include <Eigen/Core>
@@ -36,6 +39,7 @@ struct DistortionMap {
   int tile_px = 16;
   int tiles_x = 0, tiles_y = 0;
   std::vector<cv::Rect> tile_reads;
+  std::vector<unsigned char> tile_maps_none;  ///< per tile: 1 when some pixel of it maps to -1 (none)
 };
 
 /// The pinhole camera keeps fx, fy unless the undistorted field would need more than max_side_px
@@ -53,9 +57,11 @@ cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, 
 std::vector<cv::Rect> outputStripsReading(const DistortionMap& map, const cv::Rect& pinhole_rect);
 
 /// applyDistortion when the pinhole image is `background` (a grey level, 0..255) everywhere outside
-/// `pinhole_rect`: remaps only outputStripsReading(map, pinhole_rect) and fills the rest with
-/// `background`. The same pixels as applyDistortion (bicubic weights sum to one in OpenCV's fixed point,
-/// so a constant neighbourhood stays that constant); tests/render checks it.
+/// `pinhole_rect`: only outputStripsReading(map, pinhole_rect) can differ from `background`. Bicubic
+/// weights sum to one in OpenCV's fixed point, so a lookup whose 4 x 4 pixels hold one grey level gives
+/// that level: the strips' tiles whose lookups all do are filled with it, then each such pixel of the
+/// other tiles, and only the remaining lookups (about a tenth of the strips for a board) go through one
+/// cv::remap. The same pixels as applyDistortion; tests/render checks it.
 cv::Mat applyDistortion(const DistortionMap& map, const cv::Mat& pinhole_image, int background, const cv::Rect& pinhole_rect);
 
 }  // namespace orbcal::render

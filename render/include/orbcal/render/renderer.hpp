@@ -27,11 +27,13 @@
 // casts_shadow (the scene is static in the board frame, so the map is computed once).
 #include <Eigen/Geometry>
 #include <cstdint>
+#include <future>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
 #include <vector>
 
+#include "orbcal/render/distortion.hpp"
 #include "orbcal/render/settings.hpp"
 #include "orbcal/sim/scene.hpp"
 
@@ -51,7 +53,10 @@ class BoardRenderer {
   /// Creates its own OSMesa context, loads the meshes (sim::InputError naming the scene file, key and
   /// mesh path when one is missing), builds the framebuffers (falls back from MSAA with a warning)
   /// and, with distortion, the inverse distortion map. Throws std::runtime_error on GL failures.
-  BoardRenderer(const sim::Scene& scene, const RenderSettings& settings);
+  /// `distortion_map`, when given and valid, is makeDistortionMap(scene.camera) started earlier (e.g.
+  /// std::async, so that it is built while the caller prepares other things): taken instead of building it.
+  BoardRenderer(const sim::Scene& scene, const RenderSettings& settings,
+                std::future<DistortionMap>* distortion_map = nullptr);
   ~BoardRenderer();
   BoardRenderer(const BoardRenderer&) = delete;
   BoardRenderer& operator=(const BoardRenderer&) = delete;
