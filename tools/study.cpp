@@ -13,7 +13,6 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <set>
 #include <sstream>
 #include <tuple>
@@ -36,14 +35,6 @@ using sim::InputError;
 const std::vector<std::string> kJobs{"experiment", "run", "diagnose-study", "render"};
 /// Options the study sets itself on every task.
 const std::set<std::string> kReserved{"o", "out", "seed", "shard", "preset", "help", "h"};
-
-std::string readFile(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path + ": cannot read");
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 /// A scalar that becomes one command-line argument or one CSV cell.
 std::string cellValue(const sim::ConfigNode& n) {
@@ -339,7 +330,7 @@ std::string describeCell(const StudySpec& s, const StudyTask& t) {
 void initStudyFolder(const StudySpec& s, const std::string& dir, const std::string& origin) {
   sim::makeDirectories(dir + "/shards");
   const std::string copy = dir + "/study.yaml";
-  if (exists(copy) && readFile(copy) != s.text) {
+  if (exists(copy) && sim::readTextSource(copy) != s.text) {
     throw InputError(copy + ": this folder holds another study (its study.yaml differs from " + s.source +
                      "); give another -o, or delete the folder");
   }
@@ -360,7 +351,7 @@ void initStudyFolder(const StudySpec& s, const std::string& dir, const std::stri
 StudySpec loadStudyFolder(const std::string& dir) {
   const std::string path = dir + "/study.yaml";
   if (!exists(path)) throw InputError(dir + ": not a study folder (no study.yaml): start it with `orbcal study run` or `orbcal study submit`");
-  return parseStudy(readFile(path), path);
+  return parseStudy(sim::readTextSource(path), path);
 }
 
 const char* taskStateName(TaskState s) {
@@ -510,7 +501,7 @@ std::vector<SubmittedJob> submittedJobs(const std::string& dir) {
   std::vector<SubmittedJob> jobs;
   const std::string path = dir + "/slurm/jobs.csv";
   if (!exists(path)) return jobs;
-  const sim::CsvTable t = sim::CsvTable::parse(readFile(path), path);
+  const sim::CsvTable t = sim::CsvTable::parse(sim::readTextSource(path), path);
   const int id = t.requireColumn("job_id"), offset = t.requireColumn("offset");
   for (std::size_t r = 0; r < t.rows(); ++r) jobs.push_back({t.cell(r, id), static_cast<int>(t.number(r, offset))});
   return jobs;
@@ -643,7 +634,7 @@ SlurmSubmission submitStudy(const std::string& dir, const SlurmSubmitOptions& o)
       throw InputError(script + ": sbatch failed: " + sim::printable(output, 300) +
                        " (is Slurm installed and SLURM_CONF set? the script is kept)");
     }
-    std::string log = exists(abs_dir + "/slurm/jobs.csv") ? readFile(abs_dir + "/slurm/jobs.csv") : "job_id,offset,tasks,script\n";
+    std::string log = exists(abs_dir + "/slurm/jobs.csv") ? sim::readTextSource(abs_dir + "/slurm/jobs.csv") : "job_id,offset,tasks,script\n";
     std::string tasks_cell = arrayRanges(indices);
     std::replace(tasks_cell.begin(), tasks_cell.end(), ',', ' ');
     log += id + "," + std::to_string(offset) + "," + tasks_cell + "," + fs::path(script).filename().string() + "\n";
@@ -855,7 +846,7 @@ MergeReport mergeStudy(const std::string& dir, const std::string& out_arg, bool 
       for (const StudyTask& t : tasks) {
         const std::string path = taskFolder(dir, t.index) + "/out/" + rel;
         if (!exists(path)) continue;
-        const sim::CsvTable table = sim::CsvTable::parse(readFile(path), path);
+        const sim::CsvTable table = sim::CsvTable::parse(sim::readTextSource(path), path);
         if (full_header.empty() && m.rows.empty()) {
           full_header = table.header();
           for (std::size_t c = 0; c < full_header.size(); ++c) {
@@ -927,7 +918,7 @@ MergeReport mergeStudy(const std::string& dir, const std::string& out_arg, bool 
   }
   md << "\nFiles: the jobs' CSVs merged under their own names (columns task, cell, replicate, seed and the grid's first; "
         "wall-time columns left out), `summary/`, `figures/`, `tasks.csv`.\n";
-  sim::writeFileAtomic(tmp + "/tasks.csv", readFile(dir + "/tasks.csv"));
+  sim::writeFileAtomic(tmp + "/tasks.csv", sim::readTextSource(dir + "/tasks.csv"));
   sim::writeFileAtomic(tmp + "/report.md", md.str());
   removeAll(out);
   if (std::rename(tmp.c_str(), out.c_str()) != 0) throw InputError(out + ": cannot rename " + tmp + " into place: " + std::strerror(errno));
