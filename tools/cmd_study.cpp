@@ -164,7 +164,8 @@ void addStudyCommand(CLI::App& app) {
   submit->add_option("-o,--out", so->dir, "the study folder (created; shared with the compute nodes)")->required();
   submit->add_option("--partition", so->slurm.partition, "Slurm partition (sbatch --partition)");
   submit->add_option("--account", so->slurm.account, "Slurm account (sbatch --account)");
-  submit->add_option("--sbatch-arg", so->slurm.extra, "one more sbatch argument, verbatim (repeatable), e.g. --sbatch-arg=--qos=long");
+  submit->add_option("--sbatch-arg", so->slurm.extra, "one more sbatch argument, verbatim (repeatable), e.g. --sbatch-arg=--qos=long")
+      ->allow_extra_args(false);  // one value per --sbatch-arg, so the study file after it stays positional
   submit->add_option("--program", so->slurm.program, "orbcal's path on the compute nodes (default: this program's path)");
   submit->add_flag("--dry-run", so->slurm.dry_run, "write the script, do not submit it");
   submit->add_flag("--wait", so->wait, "wait until the submitted tasks have finished (progress from the shard folders)");

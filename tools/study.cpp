@@ -611,6 +611,7 @@ SlurmSubmission submitStudy(const std::string& dir, const SlurmSubmitOptions& o)
        << "#SBATCH --output=" << abs_dir << "/slurm/logs/%A_%a.out\n";
     if (!o.partition.empty()) sh << "#SBATCH --partition=" << o.partition << "\n";
     if (!o.account.empty()) sh << "#SBATCH --account=" << o.account << "\n";
+    for (const std::string& e : o.extra) sh << "#SBATCH " << e << "\n";
     sh << "set -euo pipefail\n"
        << "exec " << shellQuote(program) << " study task " << shellQuote(abs_dir) << " --index $((SLURM_ARRAY_TASK_ID + "
        << offset << "))\n";
@@ -619,7 +620,6 @@ SlurmSubmission submitStudy(const std::string& dir, const SlurmSubmitOptions& o)
     sub.scripts.push_back(script);
     if (o.dry_run) continue;
     std::string cmd = "sbatch --parsable";
-    for (const std::string& e : o.extra) cmd += " " + shellQuote(e);
     cmd += " " + shellQuote(script) + " 2>&1";
     std::string output;
     int rc = -1;

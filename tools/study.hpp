@@ -115,7 +115,7 @@ std::string selfProgram();
 struct SlurmSubmitOptions {
   std::string partition, account;
   std::string program;              ///< orbcal's path on the compute nodes (default: this program's)
-  std::vector<std::string> extra;   ///< more sbatch arguments, verbatim
+  std::vector<std::string> extra;   ///< more sbatch arguments, verbatim (#SBATCH lines of the script)
   bool wait = false;                ///< sbatch --wait: return when the array has finished
   bool dry_run = false;             ///< write the scripts, do not submit
   int max_array_size = 1000;        ///< Slurm's MaxArraySize - 1 by default: larger studies go in chunks

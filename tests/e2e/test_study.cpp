@@ -249,3 +249,36 @@ TEST_CASE("orbcal study: a render study in shards merges into the dataset one re
   CHECK(files >= 7 + 4);  // 7 images, manifest, samples, robot, scene
   CHECK(test::slurp(dir + "/s/merged/report.md").find("| 3 | 7 |") != std::string::npos);
 }
+
+TEST_CASE("orbcal study submit --dry-run: array scripts, in chunks past the array size limit", "[study]") {
+  const std::string dir = test::tempDir("study-dry");
+  const std::string text = "format: orbcal-study-1\nname: dry\njob: experiment\npreset: floor\nseeds: {first: 1, count: 7}\n"
+                           "slurm: {throttle: 2, time: \"00:05:00\", mem: 1G}\n";
+  const tools::StudySpec s = tools::parseStudy(text, dir + "/dry.yaml");
+  tools::initStudyFolder(s, dir + "/s", dir);
+  tools::SlurmSubmitOptions o;
+  o.dry_run = true;
+  o.max_array_size = 3;  // Slurm's MaxArraySize - 1, made small: 7 tasks go in arrays of 3, 3 and 1
+  o.program = "/opt/orbcal/bin/orbcal";
+  o.partition = "batch";
+  o.extra = {"--qos=long"};
+  const tools::SlurmSubmission sub = tools::submitStudy(dir + "/s", o);
+  CHECK(sub.tasks == std::vector<int>{0, 1, 2, 3, 4, 5, 6});
+  CHECK(sub.job_ids.empty());
+  REQUIRE(sub.scripts.size() == 3);
+  const std::string second = test::slurp(sub.scripts[1]);
+  CHECK(second.find("#SBATCH --array=0-2%2\n") != std::string::npos);
+  CHECK(second.find("#SBATCH --time=00:05:00\n#SBATCH --mem=1G\n") != std::string::npos);
+  CHECK(second.find("#SBATCH --partition=batch\n") != std::string::npos);
+  CHECK(second.find("#SBATCH --qos=long\n") != std::string::npos);
+  CHECK(second.find("exec '/opt/orbcal/bin/orbcal' study task '" + fs::absolute(dir + "/s").lexically_normal().string() +
+                    "' --index $((SLURM_ARRAY_TASK_ID + 3))") != std::string::npos);
+  CHECK(test::slurp(sub.scripts[2]).find("#SBATCH --array=0%2\n") != std::string::npos);  // task 6 = 0 + 6
+  // Tasks done are not submitted again: after task 4 is done, the chunk of 3..5 holds 3 and 5.
+  fs::create_directories(tools::taskFolder(dir + "/s", 4));
+  test::write(tools::taskFolder(dir + "/s", 4) + "/task.yaml", "index: 4\n");
+  const tools::SlurmSubmission again = tools::submitStudy(dir + "/s", o);
+  CHECK(again.tasks == std::vector<int>{0, 1, 2, 3, 5, 6});
+  REQUIRE(again.scripts.size() == 3);
+  CHECK(test::slurp(again.scripts[1]).find("#SBATCH --array=0,2%2\n") != std::string::npos);
+}
