@@ -8,7 +8,7 @@ pkgs=(build-essential cmake pkg-config libeigen3-dev libopencv-dev libosmesa6-de
       libopencv-contrib-dev)   # cv::aruco: ChArUco boards
 if [[ "${1:-}" == "--tests" ]]; then
   pkgs+=(opencv-doc)   # OpenCV's sample chessboard photographs (left01..14.jpg) for the real-image tests
-  pkgs+=(slurmctld slurmd slurm-client munge)   # the one-node Slurm cluster of tools/slurm-cluster.sh
+  pkgs+=(slurmctld slurmd slurm-client munge iproute2)   # the one-node Slurm cluster of tools/slurm-cluster.sh (ss: free ports)
 fi
 missing=()
 for p in "${pkgs[@]}"; do

@@ -46,7 +46,7 @@ timeout 240 "$orbcal" study submit "$work/t5.yaml" -o "$work/slurm" --wait >"$wo
   fail "submit --wait: $(cat "$work/slurm.log")"
 "$orbcal" study merge "$work/slurm" --no-plots >>"$work/slurm.log" 2>&1 || fail "merge: $(cat "$work/slurm.log")"
 t2=$(date +%s.%N)
-echo "wall time: local $(echo "$t1 - $t0" | bc) s, Slurm (submit, wait, merge) $(echo "$t2 - $t1" | bc) s"
+awk -v a="$t0" -v b="$t1" -v c="$t2" 'BEGIN { printf "wall time: local %.1f s, Slurm (submit, wait, merge) %.1f s\n", b - a, c - b }'
 grep -q "submitted as job" "$work/slurm.log" || fail "no job submitted: $(cat "$work/slurm.log")"
 grep -q "^#SBATCH --array=0-3%2$" "$work/slurm/slurm/submit-1.sh" || fail "submit-1.sh: array line: $(grep array "$work/slurm/slurm/submit-1.sh")"
 grep -q "slurm_job:" "$work/slurm/shards/task-000000/task.yaml" || fail "task 0 did not run under Slurm"
