@@ -22,7 +22,7 @@ void addRunCommand(CLI::App& app) {
   cmd->callback([opt] {
     setInterruptNote("the datasets and images rendered so far are kept under " + opt->out +
                      "/datasets: rerun the same command to resume from them");
-    const sim::Arm arm = sim::loadArm(opt->robot);
+    const sim::Arm arm = sim::loadArm(opt->robotSource());
     const sim::Scene scene = sim::loadScene(opt->scene);
     std::printf("Arm: %s (%s), %d revolute joints, %s DH, %d parameter errors\n", arm.name.c_str(), arm.source.c_str(),
                 arm.numJoints(), arm.convention == sim::DhConvention::kModified ? "modified (Craig)" : sim::conventionName(arm.convention),

@@ -126,9 +126,10 @@ MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& pref
   // The folder is named by everything that determines the dataset, so runs with the same inputs
   // reuse (and resume) it, and runs with other inputs never collide with it. An error-set file counts
   // by its content, not its path (checked here before anything is rendered).
-  const sim::TrueArm plant = sim::makeTrueArm(sim::loadArm(o.robot), o.errors, "--errors");
+  const sim::TrueArm plant = sim::makeTrueArm(sim::loadArm(o.robotSource()), o.errors, "--errors");
   const std::string errors = plant.fromFile() ? "file:" + plant.file_text : o.errors.name;
-  const std::string inputs = sim::readTextSource(o.robot) + '\0' + sim::readTextSource(o.scene) + '\0' + errors +
+  const std::string inputs = sim::readTextSource(o.robot) + '\0' + o.base_link + '\0' + o.tip_link + '\0' +
+                             sim::readTextSource(o.scene) + '\0' + errors +
                              '\0' + std::to_string(o.errors.seed) + '\0' + formatNumber("%.17g", o.errors.angle_sigma_rad) +
                              '\0' + formatNumber("%.17g", o.errors.length_sigma_m) + '\0' +
                              formatNumber("%.17g", o.joint_noise_sigma_rad) + '\0' + std::to_string(count) + '\0' +
@@ -143,6 +144,8 @@ MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& pref
                                                                                                        : "images (" + prefix + ")";
   render::DatasetJob job;
   job.robot = o.robot;
+  job.base_link = o.base_link;
+  job.tip_link = o.tip_link;
   job.scene = o.scene;
   job.errors = o.errors;
   job.count = count;

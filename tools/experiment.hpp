@@ -12,6 +12,7 @@
 #include "orbcal/calib/experiment.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/io.hpp"
 #include "orbcal/sim/truth.hpp"
 #include "orbcal/vision/measurement.hpp"
 
@@ -26,6 +27,8 @@ inline const std::vector<std::string> kExperimentPresets{"table4", "table5", "fi
 
 struct ExperimentOptions {
   std::string robot = "builtin:ssrms.yaml";
+  std::string base_link, tip_link;  ///< a URDF robot's chain (empty: its root and only leaf link)
+  sim::RobotSource robotSource() const { return {robot, base_link, tip_link}; }
   std::string scene = "builtin:default_scene.yaml";
   std::string out = "orbcal-out";
   sim::ErrorSetSpec errors;                            ///< injected (default: seed 000 Table 3; or an error-set file)

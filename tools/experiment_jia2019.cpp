@@ -138,7 +138,7 @@ std::string meanStd(const Stat& s, double scale, const char* f = "%.3f") {
 
 void runJia2019(const ExperimentOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  const sim::Arm nominal = sim::loadArm(o.robot);
+  const sim::Arm nominal = sim::loadArm(o.robotSource());
   if (nominal.numJoints() != 7) {
     throw sim::InputError(o.robot + ": the jia2019 preset needs a 7-joint arm (Jia et al. 2019's), got " +
                           std::to_string(nominal.numJoints()));

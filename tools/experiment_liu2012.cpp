@@ -70,7 +70,7 @@ void poolErrors(std::ostringstream& out, const std::string& model, const calib::
 }  // namespace
 
 void runLiu2012(const ExperimentOptions& o) {
-  const sim::Arm nominal = sim::loadArm(o.robot);
+  const sim::Arm nominal = sim::loadArm(o.robotSource());
   if (nominal.numJoints() != 6 || nominal.convention != sim::DhConvention::kHayati) {
     throw sim::InputError(o.robot + ": convention: the liu2012 preset needs a 6-joint arm in the hayati convention");
   }

@@ -26,7 +26,7 @@ struct Setup {
   Eigen::VectorXd y_true;  ///< its DH errors
 };
 Setup setup(const ExperimentOptions& o) {
-  Setup s{sim::loadArm(o.robot), sim::loadScene(o.scene), {}, {}};
+  Setup s{sim::loadArm(o.robotSource()), sim::loadScene(o.scene), {}, {}};
   s.truth = sim::makeTrueArm(s.nominal, o.errors, "--errors");
   s.y_true = s.truth.geometryErrors();
   return s;

@@ -257,7 +257,7 @@ std::vector<RenderedRow> renderedPart(const ExperimentOptions& o, const sim::Arm
 void runSelection(const ExperimentOptions& o) {
   const std::string folder = o.out + "/selection";
   sim::makeDirectories(folder);
-  const sim::Arm nominal = sim::loadArm(o.robot);
+  const sim::Arm nominal = sim::loadArm(o.robotSource());
   const sim::Scene scene = sim::loadScene(o.scene);
   const sim::TrueArm truth = sim::makeTrueArm(nominal, o.errors, "--errors");
   const int synthetic_pool = 300, rendered_pool = 200;

@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include "calibrate.hpp"
+#include "experiment.hpp"
 #include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/io.hpp"
@@ -64,4 +65,28 @@ TEST_CASE("a URDF robot renders, calibrates, and its calibrated URDF reloads to 
   CHECK(moved > 1e-3);  // the calibration moved the flange: a URDF written back unchanged would fail above
   // Only the chain joints' origins changed: the fixed joints' are as they were.
   CHECK_THAT(test::slurp(r.urdf_path), Contains("<origin xyz=\"0 0 0.126\" rpy=\"0 0 0\"/>"));
+}
+
+TEST_CASE("experiments take a URDF's chain by --base-link and --tip-link", "[e2e][urdf]") {
+  const std::string dir = test::tempDir("urdf-experiment");
+  tools::ExperimentOptions o;
+  o.robot = test::sourcePath("tests/data/iiwa7.urdf");
+  o.scene = test::sourcePath("scenes/iiwa7_scene.yaml");
+  o.errors.name = "zero";
+  o.validation = 15;
+  o.repetitions = 1;
+  o.quiet = true;
+  o.out = dir + "/default";
+  tools::runFloor(o);  // the root link to the only leaf link
+  o.base_link = "world";
+  o.tip_link = "iiwa_link_ee";
+  o.out = dir + "/named";
+  tools::runFloor(o);  // the same chain, named
+  const std::string floor = test::slurp(dir + "/default/floor/floor.csv");
+  CHECK(floor.size() > 40);
+  CHECK(floor == test::slurp(dir + "/named/floor/floor.csv"));
+  // A shorter chain is the arm the experiment gets: Table 3's errors are for 7 joints.
+  o.tip_link = "iiwa_link_6";
+  o.errors.name = "table3";
+  CHECK_THAT(test::inputError([&] { tools::runFloor(o); }), Contains("has 6 joints"));
 }
