@@ -9,6 +9,7 @@
 #include "cli.hpp"
 #include "interrupt.hpp"
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/cores.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "progress.hpp"
 #include "study.hpp"
@@ -88,7 +89,7 @@ void addStudyCommand(CLI::App& app) {
 
   struct RunOpts {
     std::string file, dir;
-    int jobs = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+    int jobs = sim::availableCores();
     bool merge = true, plots = true;
   };
   auto ro = std::make_shared<RunOpts>();
@@ -97,7 +98,7 @@ void addStudyCommand(CLI::App& app) {
              "Rerunning resumes: only missing and failed tasks run. Merges when all are done.");
   run->add_option("study", ro->file, "the study file (YAML, format orbcal-study-1)")->required();
   run->add_option("-o,--out", ro->dir, "the study folder (created; a rerun resumes it)")->required();
-  run->add_option("-j,--jobs", ro->jobs, "tasks at once (default: the hardware threads)")->capture_default_str()->check(CLI::Range(1, 4096));
+  run->add_option("-j,--jobs", ro->jobs, "tasks at once (default: the cores this process may use)")->capture_default_str()->check(CLI::Range(1, 4096));
   run->add_flag("--no-merge{false}", ro->merge, "do not merge when every task is done");
   run->add_flag("--no-plots{false}", ro->plots, "merge without drawing figures");
   run->callback([ro] {

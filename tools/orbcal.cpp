@@ -5,6 +5,9 @@
 #include "cli.hpp"
 #include "interrupt.hpp"
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/cores.hpp"
+
+#include <opencv2/core/utility.hpp>
 
 #include <algorithm>
 #include <vector>
@@ -45,6 +48,9 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("orbcal ") + ORBCAL_VERSION);
   orbcal::tools::addRegisteredCommands(app);
+  // OpenCV's threads (distortion maps, remaps, detection) on the cores this process may use: a Slurm
+  // task given 2 CPUs of a 64-core node uses 2.
+  cv::setNumThreads(orbcal::sim::availableCores());
   orbcal::tools::installInterruptHandler("orbcal");  // Ctrl-C / SIGTERM: one line on where things stand
   try {
     app.parse(argc, argv);

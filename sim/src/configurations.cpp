@@ -1,5 +1,7 @@
 #include "orbcal/sim/configurations.hpp"
 
+#include "orbcal/sim/cores.hpp"
+
 #include <Eigen/SVD>
 #include <algorithm>
 #include <thread>
@@ -98,7 +100,7 @@ std::vector<Eigen::VectorXd> generateConfigurations(const Arm& arm, const Scene&
   }
   const int max_attempts = s.max_attempts > 0 ? s.max_attempts : std::max(4000, 400 * s.count);
   const int stop_after = s.stop_after > 0 ? std::min(s.stop_after, s.count) : s.count;
-  const int threads = s.threads > 0 ? s.threads : std::max(1u, std::thread::hardware_concurrency());
+  const int threads = s.threads > 0 ? s.threads : availableCores();
   GeneratorStats stats;
   std::vector<Eigen::VectorXd> out;
   std::vector<Attempt> batch;

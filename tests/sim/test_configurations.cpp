@@ -1,9 +1,13 @@
 // The configuration generator: reproducible, within limits, non-singular, and the camera sees every
 // corner of the board in every configuration.
 #include <catch2/catch.hpp>
+#include <sched.h>
+
+#include <cstdlib>
 
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/configurations.hpp"
+#include "orbcal/sim/cores.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "test_util.hpp"
@@ -128,5 +132,24 @@ TEST_CASE("the scene chooses the locked joint; a joint the arm does not have is 
     FAIL("expected an InputError");
   } catch (const InputError& e) {
     CHECK(std::string(e.what()) == "builtin:default_scene.yaml: views.locked_joint: joint 9 but the arm has 7 joints");
+  }
+}
+
+TEST_CASE("availableCores: the affinity mask, capped by SLURM_CPUS_PER_TASK", "[configurations]") {
+  const char* before = std::getenv("SLURM_CPUS_PER_TASK");
+  const std::string saved = before ? before : "";
+  ::unsetenv("SLURM_CPUS_PER_TASK");
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  REQUIRE(::sched_getaffinity(0, sizeof set, &set) == 0);
+  CHECK(availableCores() == CPU_COUNT(&set));
+  ::setenv("SLURM_CPUS_PER_TASK", "1", 1);
+  CHECK(availableCores() == 1);
+  ::setenv("SLURM_CPUS_PER_TASK", "100000", 1);  // never more than the mask
+  CHECK(availableCores() == CPU_COUNT(&set));
+  if (before) {
+    ::setenv("SLURM_CPUS_PER_TASK", saved.c_str(), 1);
+  } else {
+    ::unsetenv("SLURM_CPUS_PER_TASK");
   }
 }

@@ -29,7 +29,7 @@ struct GeneratorSettings {
   int count = 50;
   std::uint64_t seed = 1;
   int max_attempts = 0;        ///< 0: 400 per configuration asked for (count), at least 4000
-  int threads = 0;             ///< 0: all hardware threads
+  int threads = 0;             ///< 0: sim::availableCores()
   /// > 0: stop after the first stop_after configurations; they are the first stop_after of the `count`
   /// (attempt budget and order unchanged), for a caller that needs only a prefix (a dataset's shard).
   int stop_after = 0;
