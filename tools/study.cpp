@@ -13,8 +13,10 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <set>
 #include <sstream>
+#include <thread>
 #include <tuple>
 
 #include "experiment.hpp"
@@ -445,7 +447,17 @@ int runStudyTask(const std::string& dir, int index, const std::string& program) 
   const sim::ConfigNode origin_yaml = sim::ConfigNode::load(dir + "/study-origin.yaml");
   const std::string origin = origin_yaml["origin"].asString();
   sim::makeDirectories(tmp);
-  sim::FolderLock lock(tmp, "orbcal study task " + std::to_string(index));  // throws when it runs elsewhere
+  // Throws when the task runs elsewhere. `study status` (and `submit --wait`, every 2 s) probes the lock
+  // for a moment: a few tries within a second tell that probe from a task that holds it.
+  std::unique_ptr<sim::FolderLock> lock;
+  for (int attempt = 0; !lock; ++attempt) {
+    try {
+      lock = std::make_unique<sim::FolderLock>(tmp, "orbcal study task " + std::to_string(index));
+    } catch (const InputError&) {
+      if (attempt == 20) throw;
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    }
+  }
   for (const auto& entry : fs::directory_iterator(tmp)) {  // what a killed attempt left
     if (entry.path().filename() != sim::kFolderLockName) removeAll(entry.path().string());
   }
