@@ -67,6 +67,18 @@ void printStatus(const std::string& dir, const std::vector<TaskState>& states) {
     const auto it = c.by_state.find(s);
     if (it != c.by_state.end()) std::printf("  %s: %s\n", taskStateName(s), arrayRanges(it->second).c_str());
   }
+  if (c.by_state.count(TaskState::kDone)) {
+    // The done tasks' wall times (task.yaml): what the study's slurm.time must cover.
+    double total = 0, longest = 0;
+    int longest_task = 0;
+    for (int i : c.by_state.at(TaskState::kDone)) {
+      const double t = sim::ConfigNode::load(taskFolder(dir, i) + "/task.yaml")["seconds"].asDouble();
+      total += t;
+      if (t > longest) longest = t, longest_task = i;
+    }
+    std::printf("  done tasks' wall time: mean %.1f s, longest %.1f s (task %d), sum %.1f s\n",
+                total / c.by_state.at(TaskState::kDone).size(), longest, longest_task, total);
+  }
   if (c.by_state.count(TaskState::kFailed)) {
     const std::string folder = taskFolder(dir, c.by_state.at(TaskState::kFailed).front());
     const bool killed = !fs::exists(folder + ".failed") && fs::exists(folder + ".tmp");

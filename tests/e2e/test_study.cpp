@@ -146,6 +146,7 @@ TEST_CASE("orbcal study run: every task, resumable, merged the same on one or tw
   CHECK(fs::last_write_time(dir + "/a/shards/task-000000/task.yaml") == before);
   CHECK(runOrbcal("study status " + dir + "/a", dir + "/st.log") == 0);
   CHECK(test::slurp(dir + "/st.log").find("12 tasks: 12 done, 0 running, 0 queued, 0 failed, 0 missing") != std::string::npos);
+  CHECK(test::slurp(dir + "/st.log").find("done tasks' wall time: mean ") != std::string::npos);  // for slurm.time
 
   // Another study into the same folder is refused, naming both files.
   test::write(dir + "/other.yaml", std::string(kFloorStudy) + "seed_derivation: common\n");
