@@ -337,7 +337,8 @@ void initStudyFolder(const StudySpec& s, const std::string& dir, const std::stri
                      "); give another -o, or delete the folder");
   }
   if (!exists(copy)) sim::writeFileAtomic(copy, s.text);
-  sim::writeFileAtomic(dir + "/study-origin.yaml", "# where the study's relative paths resolve\norigin: " + yamlQuote(origin) + "\n");
+  sim::writeFileAtomic(dir + "/study-origin.yaml", "# where the study's relative paths resolve, and its name\norigin: " +
+                                                     yamlQuote(origin) + "\nname: " + yamlQuote(s.name) + "\n");
   std::ostringstream csv;
   csv << "index,cell,replicate,shard,seed";
   for (const auto& [key, values] : s.grid) csv << "," << key;
@@ -353,7 +354,11 @@ void initStudyFolder(const StudySpec& s, const std::string& dir, const std::stri
 StudySpec loadStudyFolder(const std::string& dir) {
   const std::string path = dir + "/study.yaml";
   if (!exists(path)) throw InputError(dir + ": not a study folder (no study.yaml): start it with `orbcal study run` or `orbcal study submit`");
-  return parseStudy(sim::readTextSource(path), path);
+  StudySpec s = parseStudy(sim::readTextSource(path), path);
+  // Without a `name:` the name is the original file's stem, not "study".
+  const sim::ConfigNode origin = sim::ConfigNode::load(dir + "/study-origin.yaml");
+  if (origin.has("name")) s.name = origin["name"].asString();
+  return s;
 }
 
 const char* taskStateName(TaskState s) {

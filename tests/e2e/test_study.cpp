@@ -282,4 +282,10 @@ TEST_CASE("orbcal study submit --dry-run: array scripts, in chunks past the arra
   CHECK(again.tasks == std::vector<int>{0, 1, 2, 3, 5, 6});
   REQUIRE(again.scripts.size() == 3);
   CHECK(test::slurp(again.scripts[1]).find("#SBATCH --array=0,2%2\n") != std::string::npos);
+  // Without `name:`, the job is named after the study file, not after the folder's copy of it.
+  const tools::StudySpec unnamed = tools::parseStudy("format: orbcal-study-1\njob: experiment\npreset: floor\nseeds: [1]\n",
+                                                     dir + "/my-floor.yaml");
+  tools::initStudyFolder(unnamed, dir + "/u", dir);
+  CHECK(test::slurp(tools::submitStudy(dir + "/u", o).scripts.at(0)).find("#SBATCH --job-name=orbcal-my-floor\n") !=
+        std::string::npos);
 }
