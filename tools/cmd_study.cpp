@@ -128,7 +128,7 @@ void addStudyCommand(CLI::App& app) {
     }
     const std::string program = selfProgram();
     std::printf("%s: %d tasks, %d done before, %zu to run, %d at once\n", ro->dir.c_str(), n, n - static_cast<int>(todo.size()),
-                todo.size(), ro->jobs);
+                todo.size(), std::max(1, std::min<int>(ro->jobs, static_cast<int>(todo.size()))));
     std::fflush(stdout);
     Progress bar("study tasks", n);
     std::atomic<int> next{0}, done{n - static_cast<int>(todo.size())};

@@ -818,6 +818,14 @@ MergeReport mergeStudy(const std::string& dir, const std::string& out_arg, bool 
   const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
   removeAll(tmp);
   sim::makeDirectories(tmp);
+  struct RemoveOnFailure {  // a merge that fails leaves no half-built folder behind
+    const std::string& path;
+    bool done = false;
+    ~RemoveOnFailure() {
+      std::error_code ec;
+      if (!done) fs::remove_all(path, ec);
+    }
+  } cleanup{tmp};
   MergeReport report;
   std::ostringstream md;
   std::size_t cells = 1;
@@ -939,6 +947,7 @@ MergeReport mergeStudy(const std::string& dir, const std::string& out_arg, bool 
   sim::writeFileAtomic(tmp + "/report.md", md.str());
   removeAll(out);
   if (std::rename(tmp.c_str(), out.c_str()) != 0) throw InputError(out + ": cannot rename " + tmp + " into place: " + std::strerror(errno));
+  cleanup.done = true;
   report.report_path = out + "/report.md";
   return report;
 }

@@ -175,6 +175,12 @@ TEST_CASE("orbcal study: a failed task is named, the merge refuses, and a killed
   CHECK(runOrbcal("study merge " + dir + "/f", dir + "/fm.log") == 1);
   CHECK(test::slurp(dir + "/fm.log").find(dir + "/f: 2 of 4 tasks are not done (failed: 2-3)") != std::string::npos);
   CHECK_FALSE(fs::exists(dir + "/f/merged"));
+  // A merge that fails half-way (a summary of a column no task wrote) leaves no folder behind.
+  test::write(dir + "/badsum.yaml", "format: orbcal-study-1\njob: experiment\npreset: floor\noptions: {quiet: true}\nseeds: [1]\n"
+                                    "summary: [{file: floor/floor.csv, values: [no_such_column]}]\n");
+  CHECK(runOrbcal("study run " + dir + "/badsum.yaml -o " + dir + "/b", dir + "/b.log") == 1);
+  CHECK(test::slurp(dir + "/b.log").find("summary floor/floor.csv: no column 'no_such_column'") != std::string::npos);
+  for (const auto& e : fs::directory_iterator(dir + "/b")) CHECK(e.path().filename().string().rfind("merged", 0) != 0);
 
   // kill -9 of the runner mid-study: its tasks die with it (a task's job is killed with its parent);
   // the rerun runs the killed and the missing tasks, and the merged CSVs equal an uninterrupted run's.
