@@ -815,17 +815,8 @@ MergeReport mergeStudy(const std::string& dir, const std::string& out_arg, bool 
                      what + "); run `orbcal study run` or `orbcal study submit` again, then merge");
   }
   const std::string out = out_arg.empty() ? dir + "/merged" : out_arg;
-  const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
-  removeAll(tmp);
-  sim::makeDirectories(tmp);
-  struct RemoveOnFailure {  // a merge that fails leaves no half-built folder behind
-    const std::string& path;
-    bool done = false;
-    ~RemoveOnFailure() {
-      std::error_code ec;
-      if (!done) fs::remove_all(path, ec);
-    }
-  } cleanup{tmp};
+  sim::StagedFolder staged(out);  // a merge that fails leaves no half-built folder behind
+  const std::string& tmp = staged.path();
   MergeReport report;
   std::ostringstream md;
   std::size_t cells = 1;
@@ -945,9 +936,7 @@ MergeReport mergeStudy(const std::string& dir, const std::string& out_arg, bool 
         "wall-time columns left out), `summary/`, `figures/`, `tasks.csv`.\n";
   sim::writeFileAtomic(tmp + "/tasks.csv", sim::readTextSource(dir + "/tasks.csv"));
   sim::writeFileAtomic(tmp + "/report.md", md.str());
-  removeAll(out);
-  if (std::rename(tmp.c_str(), out.c_str()) != 0) throw InputError(out + ": cannot rename " + tmp + " into place: " + std::strerror(errno));
-  cleanup.done = true;
+  staged.commit(/*replace=*/true);
   report.report_path = out + "/report.md";
   return report;
 }

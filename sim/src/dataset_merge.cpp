@@ -207,16 +207,6 @@ void checkCoverage(const std::vector<const Shard*>& sorted) {
   if (next < total) missing(next, total, "after " + previous->name() + ", the last given");
 }
 
-/// Removes the temporary folder when the merge fails.
-struct RemoveOnFailure {
-  std::string path;
-  bool done = false;
-  ~RemoveOnFailure() {
-    if (done) return;
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-};
 
 }  // namespace
 
@@ -258,10 +248,8 @@ MergeReport mergeDatasetShards(const std::vector<std::string>& shard_dirs, const
   // Built beside `out` (so that the rename is atomic), flushed, renamed into place.
   const Shard& ref = shards[0];
   const int total = ref.shard().dataset_samples;
-  const std::string tmp = out + ".tmp-" + std::to_string(::getpid());
-  fs::remove_all(tmp, ec);
-  makeDirectories(tmp);
-  RemoveOnFailure cleanup{tmp};
+  StagedFolder staged(out);
+  const std::string& tmp = staged.path();
   MergeReport report;
   report.shards = static_cast<int>(shards.size());
   report.samples = total;
@@ -298,11 +286,7 @@ MergeReport mergeDatasetShards(const std::vector<std::string>& shard_dirs, const
   }
   writeFileAtomic(tmp + "/" + manifest.samples_file, samples_text);
   writeFileAtomic(tmp + "/manifest.yaml", formatManifest(manifest));
-  syncFileSystem(tmp);  // every file on disk before the folder appears under its name
-  if (std::rename(tmp.c_str(), out.c_str()) != 0) {
-    throw InputError(out + ": cannot move the merged dataset into place from " + tmp + ": " + std::strerror(errno));
-  }
-  cleanup.done = true;
+  staged.commit();
   syncFileSystem(out);
   return report;
 }

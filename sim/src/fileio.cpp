@@ -50,6 +50,33 @@ void makeDirectories(const std::string& path) {
   if (ec) throw InputError(path + ": cannot create folder: " + ec.message());
 }
 
+StagedFolder::StagedFolder(std::string final_path)
+    : final_(std::move(final_path)), tmp_(final_ + ".tmp-" + std::to_string(::getpid())) {
+  std::error_code ec;
+  std::filesystem::remove_all(tmp_, ec);
+  if (ec) throw InputError(tmp_ + ": cannot remove: " + ec.message());
+  makeDirectories(tmp_);
+}
+
+StagedFolder::~StagedFolder() {
+  if (committed_) return;
+  std::error_code ec;
+  std::filesystem::remove_all(tmp_, ec);
+}
+
+void StagedFolder::commit(bool replace) {
+  syncFileSystem(tmp_);  // every file on disk before the folder appears under its name
+  if (replace) {
+    std::error_code ec;
+    std::filesystem::remove_all(final_, ec);
+    if (ec) throw InputError(final_ + ": cannot remove: " + ec.message());
+  }
+  if (std::rename(tmp_.c_str(), final_.c_str()) != 0) {
+    throw InputError(final_ + ": cannot move " + tmp_ + " into place: " + std::strerror(errno));
+  }
+  committed_ = true;
+}
+
 FolderLock::FolderLock(const std::string& folder, const std::string& command) : path_(folder + "/" + kFolderLockName) {
   for (int attempt = 0; attempt < 100; ++attempt) {
     const int fd = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);

@@ -17,6 +17,26 @@ void syncFileSystem(const std::string& path);
 /// Creates the folder and its parents; throws InputError naming the folder on failure.
 void makeDirectories(const std::string& path);
 
+/// A folder that is never seen half-written: it is built as <path>.tmp-PID beside its final path (so the
+/// rename is atomic), flushed to disk and renamed into place by commit(); destroyed without commit()
+/// (a failure, an exception), it is removed. A stale <path>.tmp-PID of a killed earlier run is replaced.
+class StagedFolder {
+ public:
+  explicit StagedFolder(std::string final_path);
+  ~StagedFolder();
+  StagedFolder(const StagedFolder&) = delete;
+  StagedFolder& operator=(const StagedFolder&) = delete;
+  /// Where to write the content meanwhile.
+  const std::string& path() const { return tmp_; }
+  /// syncFileSystem, then the rename. `replace`: a folder already at the final path is removed first;
+  /// otherwise it makes the rename fail (InputError naming both paths).
+  void commit(bool replace = false);
+
+ private:
+  std::string final_, tmp_;
+  bool committed_ = false;
+};
+
 /// An exclusive lock on a folder while a command writes it (a dataset folder, a calibration output):
 /// flock(2) on <folder>/.orbcal.lock, taken without waiting. A second writer gets an InputError naming
 /// the folder, the lock file and the process holding it, so two runs never mix their files. The lock
