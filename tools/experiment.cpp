@@ -115,6 +115,13 @@ std::vector<calib::MethodSpec> chosenMethods(const ExperimentOptions& o, std::ve
   return chosen;
 }
 
+std::pair<double, double> meanAndStd(const std::vector<double>& v) {
+  double m = 0.0, s = 0.0;
+  for (double x : v) m += x / static_cast<double>(v.size());
+  for (double x : v) s += (x - m) * (x - m) / static_cast<double>(std::max<std::size_t>(1, v.size() - 1));
+  return {m, std::sqrt(s)};
+}
+
 std::uint64_t fingerprint(const std::string& text) {
   std::uint64_t h = 0xcbf29ce484222325ULL;
   for (unsigned char c : text) h = (h ^ c) * 0x100000001b3ULL;

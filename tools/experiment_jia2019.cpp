@@ -115,18 +115,8 @@ Fit identify(const calib::MeasurementModel& model, const sim::Arm& arm, bool cla
 
 struct Stat {
   std::vector<double> v;
-  double mean() const {
-    double m = 0;
-    for (double x : v) m += x / static_cast<double>(v.size());
-    return m;
-  }
-  double stddev() const {
-    if (v.size() < 2) return 0.0;
-    const double m = mean();
-    double s = 0;
-    for (double x : v) s += (x - m) * (x - m);
-    return std::sqrt(s / static_cast<double>(v.size() - 1));
-  }
+  double mean() const { return meanAndStd(v).first; }
+  double stddev() const { return meanAndStd(v).second; }
   double max() const { return v.empty() ? 0.0 : *std::max_element(v.begin(), v.end()); }
 };
 

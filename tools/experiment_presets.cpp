@@ -117,14 +117,13 @@ void runTable5(const ExperimentOptions& o) {
   for (const auto& m : methods) {
     md << "| " << m.name << " |";
     for (const Column& c : columns) {
-      const auto& v = results[{c.name, m.name}];
-      double avg = 0, ext = 0, var = 0;
-      for (const auto& [a, e] : v) {
-        avg += a / v.size();
-        ext += e / v.size();
+      std::vector<double> averages, extremes;
+      for (const auto& [a, e] : results[{c.name, m.name}]) {
+        averages.push_back(a);
+        extremes.push_back(e);
       }
-      for (const auto& [a, e] : v) var += (a - avg) * (a - avg) / std::max<std::size_t>(1, v.size() - 1);
-      md << " " << fmt("%.3f", avg * 1e3) << " +- " << fmt("%.3f", std::sqrt(var) * 1e3) << " | " << fmt("%.3f", ext * 1e3)
+      const auto [avg, sd] = meanAndStd(averages);
+      md << " " << fmt("%.3f", avg * 1e3) << " +- " << fmt("%.3f", sd * 1e3) << " | " << fmt("%.3f", meanAndStd(extremes).first * 1e3)
          << " |";
     }
     md << "\n";

@@ -58,14 +58,6 @@ std::vector<int> choose(const Chooser& c, const std::vector<Eigen::MatrixXd>& bl
   return chosen;
 }
 
-/// Mean and standard deviation (over repetitions) of a list.
-std::pair<double, double> meanStd(const std::vector<double>& v) {
-  double m = 0.0, s = 0.0;
-  for (double x : v) m += x / static_cast<double>(v.size());
-  for (double x : v) s += (x - m) * (x - m) / static_cast<double>(std::max<std::size_t>(1, v.size() - 1));
-  return {m, std::sqrt(s)};
-}
-
 std::vector<Eigen::VectorXd> generate(const sim::Arm& arm, const sim::Scene& scene, int count, std::uint64_t seed) {
   sim::GeneratorSettings g;
   g.count = count;
@@ -331,14 +323,14 @@ void runSelection(const ExperimentOptions& o) {
      << "| kind | n | random | O3 | O1 | gain O3 | gain O1 | O3 index: random / O3 / O1 |\n|---|---|---|---|---|---|---|---|\n";
   for (const std::string kind : {"pose", "position", "dr", "range"}) {
     for (int n : kCounts) {
-      const auto [rm, rs] = meanStd(err[{kind, n, "random"}]);
-      const auto [sm, ss] = meanStd(err[{kind, n, "O3"}]);
-      const auto [dm, ds] = meanStd(err[{kind, n, "O1"}]);
+      const auto [rm, rs] = meanAndStd(err[{kind, n, "random"}]);
+      const auto [sm, ss] = meanAndStd(err[{kind, n, "O3"}]);
+      const auto [dm, ds] = meanAndStd(err[{kind, n, "O1"}]);
       md << "| " << kind << " | " << n << " | " << fmt("%.3f", rm * 1e3) << " +- " << fmt("%.3f", rs * 1e3) << " | "
          << fmt("%.3f", sm * 1e3) << " +- " << fmt("%.3f", ss * 1e3) << " | " << fmt("%.3f", dm * 1e3) << " +- "
          << fmt("%.3f", ds * 1e3) << " | " << fmt("%+.0f%%", 100.0 * (rm - sm) / rm) << " | "
-         << fmt("%+.0f%%", 100.0 * (rm - dm) / rm) << " | " << fmt("%.3g", meanStd(o3[{kind, n, "random"}]).first) << " / "
-         << fmt("%.3g", meanStd(o3[{kind, n, "O3"}]).first) << " / " << fmt("%.3g", meanStd(o3[{kind, n, "O1"}]).first)
+         << fmt("%+.0f%%", 100.0 * (rm - dm) / rm) << " | " << fmt("%.3g", meanAndStd(o3[{kind, n, "random"}]).first) << " / "
+         << fmt("%.3g", meanAndStd(o3[{kind, n, "O3"}]).first) << " / " << fmt("%.3g", meanAndStd(o3[{kind, n, "O1"}]).first)
          << " |\n";
     }
   }
@@ -356,10 +348,10 @@ void runSelection(const ExperimentOptions& o) {
         "(the error the control noise alone leaves with the true parameters: 1.00 is perfect).\n\n"
      << "| chosen by | images used | O3 | LSE (weighted) | EKF | LM |\n|---|---|---|---|---|---|\n";
   for (const Chooser& c : choosers()) {
-    md << "| " << c.name << " | " << fmt("%.1f", meanStd(used[c.name]).first) << " | " << fmt("%.3g", meanStd(ro3[c.name]).first)
+    md << "| " << c.name << " | " << fmt("%.1f", meanAndStd(used[c.name]).first) << " | " << fmt("%.3g", meanAndStd(ro3[c.name]).first)
        << " |";
     for (const char* m : {"LSE (weighted)", "EKF", "LM"}) {
-      const auto [mm, ms] = meanStd(ratio[{c.name, m}]);
+      const auto [mm, ms] = meanAndStd(ratio[{c.name, m}]);
       md << " " << fmt("%.3f", mm) << " +- " << fmt("%.3f", ms) << " |";
     }
     md << "\n";

@@ -775,10 +775,7 @@ std::pair<std::string, std::string> summarize(const StudySpec& s, const std::vec
     csv << "," << n;
     md << " " << n << " |";
     for (const std::vector<double>& x : data) {
-      double mean = 0, var = 0;
-      for (double v : x) mean += v / x.size();
-      for (double v : x) var += (v - mean) * (v - mean) / std::max<std::size_t>(1, x.size() - 1);
-      const double sd = std::sqrt(var);
+      const auto [mean, sd] = meanAndStd(x);
       const double half = x.size() > 1 ? calib::studentTCritical(0.05, x.size() - 1.0) * sd / std::sqrt(double(x.size())) : 0.0;
       if (x.empty()) {
         csv << ",,,,";
