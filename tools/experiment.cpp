@@ -94,12 +94,8 @@ std::string drawFigure(const ExperimentOptions& o, const std::string& folder, co
   const char* python = std::getenv("ORBCAL_PYTHON");
   const std::string interpreter = python ? python : (access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3");
   const std::string cmd = interpreter + " '" + script + "' " + args + " '" + folder + "/" + png + "' 2>&1";
-  std::string output;
-  if (FILE* p = popen(cmd.c_str(), "r")) {
-    char buf[256];
-    while (std::fgets(buf, sizeof buf, p)) output += buf;
-    if (pclose(p) == 0) return "![" + caption + "](" + png + ")\n";
-  }
+  auto [status, output] = shellOutput(cmd);
+  if (status == 0) return "![" + caption + "](" + png + ")\n";
   // The last line of a Python error is its message (e.g. "ModuleNotFoundError: No module named ...").
   while (!output.empty() && output.back() == '\n') output.pop_back();
   std::cerr << "orbcal: warning: figure " << png << " not drawn (python3 with matplotlib is needed): "
@@ -113,6 +109,15 @@ std::vector<calib::MethodSpec> chosenMethods(const ExperimentOptions& o, std::ve
   std::vector<calib::MethodSpec> chosen;
   for (const std::string& name : o.methods) chosen.push_back(calib::findMethod(all, name));
   return chosen;
+}
+
+std::pair<int, std::string> shellOutput(const std::string& command) {
+  std::FILE* p = ::popen(command.c_str(), "r");
+  if (!p) return {-1, {}};
+  std::string out;
+  char buf[4096];
+  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, n);
+  return {::pclose(p), out};
 }
 
 std::pair<double, double> meanAndStd(const std::vector<double>& v) {

@@ -97,6 +97,10 @@ using sim::formatNumber;  // printf-style formatting of one number (sim/csv.hpp)
 std::string injectedEffects(const sim::TrueArm& truth, const std::string& source);
 /// Draws <folder>/<png> with tools/plot_report.py (`args` = its kind and CSV path, quoted); returns the
 /// Markdown image line, or a line saying why the figure was not drawn (also warned on stderr).
+/// Runs a shell command line (its own redirections included) and returns its exit status (pclose's:
+/// 0 for success, -1 when it cannot start) and what it printed on standard output.
+std::pair<int, std::string> shellOutput(const std::string& command);
+
 /// The mean and the sample standard deviation (n - 1 in the denominator) of a list: the spread over
 /// repetitions or seeds that every preset and study summary reports. (0, 0) for an empty list.
 std::pair<double, double> meanAndStd(const std::vector<double>& v);

@@ -141,15 +141,10 @@ std::string joinList(const std::vector<std::string>& items) {
   return out;
 }
 
-std::string capture(const std::string& cmd) {
-  std::string out;
-  if (FILE* p = ::popen((cmd + " 2>/dev/null").c_str(), "r")) {
-    char buf[4096];
-    std::size_t n;
-    while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) out.append(buf, n);
-    if (::pclose(p) != 0) return {};
-  }
-  return out;
+/// What a Slurm query printed; empty where Slurm is not there or refuses (sacct without accounting).
+std::string slurmQuery(const std::string& command) {
+  auto [status, out] = shellOutput(command + " 2>/dev/null");
+  return status == 0 ? out : std::string();
 }
 
 bool exists(const std::string& p) {
@@ -355,8 +350,9 @@ StudySpec loadStudyFolder(const std::string& dir) {
   const std::string path = dir + "/study.yaml";
   if (!exists(path)) throw InputError(dir + ": not a study folder (no study.yaml): start it with `orbcal study run` or `orbcal study submit`");
   StudySpec s = parseStudy(sim::readTextSource(path), path);
-  // Without a `name:` the name is the original file's stem, not "study".
   const sim::ConfigNode origin = sim::ConfigNode::load(dir + "/study-origin.yaml");
+  s.origin = origin["origin"].asString();
+  // Without a `name:` the name is the original file's stem, not "study".
   if (origin.has("name")) s.name = origin["name"].asString();
   return s;
 }
@@ -449,8 +445,6 @@ int runStudyTask(const std::string& dir, int index, const std::string& program) 
   const StudyTask& t = tasks[index];
   const std::string final_dir = taskFolder(dir, index), tmp = final_dir + ".tmp";
   if (exists(final_dir + "/task.yaml")) return 0;  // done earlier (a resubmitted array may hold it again)
-  const sim::ConfigNode origin_yaml = sim::ConfigNode::load(dir + "/study-origin.yaml");
-  const std::string origin = origin_yaml["origin"].asString();
   sim::makeDirectories(tmp);
   // Throws when the task runs elsewhere. `study status` (and `submit --wait`, every 2 s) probes the lock
   // for a moment: a few tries within a second tell that probe from a task that holds it.
@@ -470,7 +464,7 @@ int runStudyTask(const std::string& dir, int index, const std::string& program) 
   std::vector<std::string> args = t.args;
   args.insert(args.end(), {"-o", out});
   const auto t0 = std::chrono::steady_clock::now();
-  const int status = waitProcess(spawnProcess(program, args, origin, tmp + "/log.txt"));
+  const int status = waitProcess(spawnProcess(program, args, s.origin, tmp + "/log.txt"));
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (status == 0 && !s.keep_datasets && s.job != "render") removeAll(out + "/datasets");
   char host[256] = "";
@@ -548,7 +542,7 @@ std::map<int, std::string> slurmTaskStates(const std::string& dir) {
   // (source, job, task) -> state: sacct (where accounting is on) first, then squeue (live jobs and, for
   // a few minutes, finished ones), each in submission order, so the latest word on a task wins.
   std::map<std::tuple<int, int, int>, std::string> seen;
-  std::istringstream acct(capture("sacct -n -P -X -j " + ids + " -o JobID,State"));
+  std::istringstream acct(slurmQuery("sacct -n -P -X -j " + ids + " -o JobID,State"));
   for (std::string line; std::getline(acct, line);) {
     const std::size_t bar = line.find('|');
     if (bar == std::string::npos) continue;
@@ -556,7 +550,7 @@ std::map<int, std::string> slurmTaskStates(const std::string& dir) {
     const std::string state = line.substr(bar + 1);
     if (task >= 0) seen[{0, job, task}] = state.substr(0, state.find(' '));  // "CANCELLED by 0"
   }
-  std::istringstream queue(capture("squeue -h -r --states=all -j " + ids + " -o '%i %T'"));
+  std::istringstream queue(slurmQuery("squeue -h -r --states=all -j " + ids + " -o '%i %T'"));
   for (std::string line; std::getline(queue, line);) {
     std::istringstream words(line);
     std::string step, state;
@@ -638,13 +632,7 @@ SlurmSubmission submitStudy(const std::string& dir, const SlurmSubmitOptions& o)
     if (o.dry_run) continue;
     std::string cmd = "sbatch --parsable";
     cmd += " " + shellQuote(script) + " 2>&1";
-    std::string output;
-    int rc = -1;
-    if (FILE* p = ::popen(cmd.c_str(), "r")) {
-      char buf[512];
-      while (std::fgets(buf, sizeof buf, p)) output += buf;
-      rc = ::pclose(p);
-    }
+    auto [rc, output] = shellOutput(cmd);
     while (!output.empty() && (output.back() == '\n' || output.back() == ' ')) output.pop_back();
     const std::string id = output.substr(0, output.find(';'));  // "1234" or "1234;cluster"
     if (rc != 0 || id.empty() || id.find_first_not_of("0123456789") != std::string::npos) {
@@ -716,14 +704,14 @@ std::pair<std::string, std::string> summarize(const StudySpec& s, const std::vec
   std::vector<int> keys, values;
   for (const std::string& k : spec.keys) keys.push_back(col(k));
   for (const std::string& v : spec.values) values.push_back(col(v));
-  // Groups in order of first appearance: (cell, key cells).
-  std::vector<std::pair<int, std::vector<std::string>>> order;
+  // Groups in order of first appearance, each with its first row's task (whose cell values it shows).
+  std::vector<std::pair<std::pair<int, std::vector<std::string>>, int>> order;
   std::map<std::pair<int, std::vector<std::string>>, std::vector<std::vector<double>>> groups;
   for (const auto& [task, cells] : t.rows) {
     std::pair<int, std::vector<std::string>> g{tasks[task].cell, {}};
     for (int k : keys) g.second.push_back(cells[k]);
     auto [it, fresh] = groups.try_emplace(g, std::vector<std::vector<double>>(values.size()));
-    if (fresh) order.push_back(g);
+    if (fresh) order.emplace_back(g, task);
     for (std::size_t v = 0; v < values.size(); ++v) {
       const std::string& c = cells[values[v]];
       if (c.empty()) continue;  // a value the job left empty on this row
@@ -752,18 +740,11 @@ std::pair<std::string, std::string> summarize(const StudySpec& s, const std::vec
   md << "\n|";
   for (std::size_t i = 0; i < s.grid.size() + spec.keys.size() + 1 + spec.values.size(); ++i) md << "---|";
   md << "\n";
-  for (const auto& g : order) {
+  for (const auto& [g, first] : order) {
     const auto& data = groups[g];
-    const StudyTask* first = nullptr;
-    for (const StudyTask& task : tasks) {
-      if (task.cell == g.first) {
-        first = &task;
-        break;
-      }
-    }
     csv << g.first;
     md << "|";
-    for (const std::string& v : first->cell_values) {
+    for (const std::string& v : tasks[first].cell_values) {
       csv << "," << v;
       md << " " << v << " |";
     }

@@ -55,6 +55,7 @@ struct StudySpec {
   bool keep_datasets = false;  ///< experiment / run: keep each task's rendered datasets
   StudySlurm slurm;
   std::vector<StudySummarySpec> summaries;  ///< `summary:`, else the job's built-in ones
+  std::string origin;  ///< loadStudyFolder: the folder its relative paths resolve against (study-origin.yaml)
 };
 
 struct StudyTask {
