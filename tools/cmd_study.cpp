@@ -22,11 +22,11 @@ namespace {
 
 /// Checks a study's option names against this program's own commands.
 StudyOptionCheck programOptions() {
-  return [](const std::string& job, const std::string& option, bool flag) -> std::string {
-    CLI::App probe;
-    addRegisteredCommands(probe);
+  auto probe = std::make_shared<CLI::App>();  // built once, asked for every option of the study
+  addRegisteredCommands(*probe);
+  return [probe](const std::string& job, const std::string& option, bool flag) -> std::string {
     CLI::App* sub = nullptr;
-    for (CLI::App* c : probe.get_subcommands({})) {
+    for (CLI::App* c : probe->get_subcommands({})) {
       if (c->get_name() == job) sub = c;
     }
     const CLI::Option* o = sub ? sub->get_option_no_throw("--" + option) : nullptr;
