@@ -18,6 +18,10 @@ struct ArmSceneOptions {
 void addArmSceneOptions(CLI::App& cmd, ArmSceneOptions& opt);
 /// --robot, --base-link and --tip-link alone (what addArmSceneOptions adds before --scene).
 void addRobotOptions(CLI::App& cmd, ArmSceneOptions& opt);
+/// --robot (`robot`: what the command needs of it, e.g. "with masses for torques"), --base-link and
+/// --tip-link into the three strings of a sim::RobotSource.
+void addRobotOptions(CLI::App& cmd, std::string& robot, std::string& base_link, std::string& tip_link,
+                     const std::string& robot_help = "robot description");
 
 /// Subcommands register themselves from their own cmd_*.cpp (no shared list to edit):
 ///   ORBCAL_COMMAND(30, addRenderCommand);

@@ -56,7 +56,7 @@ void addStudyCommand(CLI::App& app) {
       "The power of orbcal diagnose: N seeded simulated tracker datasets per catalog effect (random joint; each "
       "parameter's magnitude uniform in [0.5, 2] x its typical value, random sign; random DH errors and frames; 200 "
       "samples, two sessions at 0 and 1.25 kg) and N clean ones, each diagnosed; prints the confusion table.");
-  cmd->add_option("--robot", o->robot, "robot file (with masses)")->capture_default_str();
+  addRobotOptions(*cmd, o->robot, o->base_link, o->tip_link, "robot with masses");
   cmd->add_option("-n,--per-effect", o->per_effect, "datasets per effect")->capture_default_str()->check(CLI::Range(1, 10000));
   cmd->add_option("--clean", o->clean, "clean datasets")->capture_default_str()->check(CLI::Range(0, 10000));
   cmd->add_option("--samples", o->samples, "samples per dataset")->capture_default_str()->check(CLI::Range(20, 100000));

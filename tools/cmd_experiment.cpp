@@ -10,10 +10,7 @@
 namespace orbcal::tools {
 
 void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o) {
-  cmd.add_option("--robot", o.robot, "robot description: a robot YAML (or builtin:ssrms.yaml) or a URDF (.urdf)")
-      ->capture_default_str();
-  cmd.add_option("--base-link", o.base_link, "URDF robot: the link the arm's chain starts from (default: the root link)");
-  cmd.add_option("--tip-link", o.tip_link, "URDF robot: the link the chain ends at, the flange (default: the only leaf link)");
+  addRobotOptions(cmd, o.robot, o.base_link, o.tip_link);
   cmd.add_option("--scene", o.scene, "scene (YAML; or builtin:default_scene.yaml)")->capture_default_str();
   cmd.add_option("-o,--out", o.out, "output folder (reports under <out>/<preset>, datasets under <out>/datasets)")
       ->capture_default_str();

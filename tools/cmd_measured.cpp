@@ -36,7 +36,7 @@ void addEvaluateCommand(CLI::App& app) {
 
 void addSimulateCommand(CLI::App& app) {
   struct Opts {
-    std::string robot = "scenes/iiwa7.yaml", out;
+    std::string robot = "builtin:iiwa7.yaml", base_link, tip_link, out;
     sim::SimulationSpec spec;
     std::vector<std::string> inject;
     std::vector<double> values;
@@ -53,7 +53,7 @@ void addSimulateCommand(CLI::App& app) {
       "injected effects, seen in an unknown tracker frame through an unknown marker, with noise, gravity torques "
       "(robot file masses + payload), a warm-up temperature and time. Writes measurements.yaml + CSVs, and the truth as "
       "truth/model.yaml (loadable by orbcal evaluate).");
-  cmd->add_option("--robot", o->robot, "robot file (with masses for torques)")->capture_default_str();
+  addRobotOptions(*cmd, o->robot, o->base_link, o->tip_link, "robot, with masses for torques");
   cmd->add_option("-o,--out", o->out, "output folder")->required();
   cmd->add_option("-n,--samples", o->spec.samples, "samples in all")->capture_default_str()->check(CLI::Range(1, 1000000));
   cmd->add_option("--sessions", o->spec.sessions, "sessions (files), samples split evenly")->capture_default_str()->check(CLI::Range(1, 1000));
@@ -83,7 +83,7 @@ void addSimulateCommand(CLI::App& app) {
       ->check(CLI::IsMember({"shared", "per_session", "known"}));
   cmd->callback([o] {
     sim::SimulationSpec s = o->spec;
-    const sim::Arm arm = sim::loadArm(o->robot);
+    const sim::Arm arm = sim::loadArm(sim::RobotSource{o->robot, o->base_link, o->tip_link});
     for (const std::string& e : o->inject) s.effects.push_back(sim::parseEffect(e, arm.numJoints(), "--inject"));
     s.effect_values = Eigen::Map<const Eigen::VectorXd>(o->values.data(), static_cast<Eigen::Index>(o->values.size()));
     s.geometry = {o->geometry, o->error_angle_deg * sim::kDegToRad, o->error_length_mm * 1e-3, o->spec.seed};
@@ -96,7 +96,7 @@ void addSimulateCommand(CLI::App& app) {
     };
     s.base = sharing(o->base);
     s.marker = sharing(o->marker);
-    const sim::SimulatedData d = runSimulate(o->robot, s, o->out);
+    const sim::SimulatedData d = runSimulate(arm, s, o->out);
     std::printf("%d samples in %d session(s)%s: %s\ntruth: %s/truth/model.yaml\n", s.samples, s.sessions,
                 d.data.has_torque ? " with torques" : " (no masses in the robot file: no torques)", d.data.description.c_str(),
                 o->out.c_str());

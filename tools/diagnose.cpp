@@ -391,7 +391,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
 
 StudyResult runDiagnoseStudy(const StudyOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  const sim::Arm arm = sim::loadArm(o.robot);
+  const sim::Arm arm = sim::loadArm(o.robotSource());
   StudyResult out;
   std::vector<std::string> kinds = o.effects;
   kinds.push_back("clean");

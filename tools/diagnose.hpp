@@ -5,6 +5,7 @@
 #include <string>
 
 #include "orbcal/calib/diagnose.hpp"
+#include "orbcal/sim/io.hpp"
 
 namespace orbcal::tools {
 
@@ -43,7 +44,9 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o);
 /// (random joint; each parameter's magnitude uniform in [0.5, 2] x its typical value, random sign;
 /// random geometric errors and frames) and N clean ones, each diagnosed.
 struct StudyOptions {
-  std::string robot = "scenes/iiwa7.yaml";
+  std::string robot = "builtin:iiwa7.yaml";  ///< with masses (compliance is drawn among loaded joints)
+  std::string base_link, tip_link;           ///< a URDF robot's chain
+  sim::RobotSource robotSource() const { return {robot, base_link, tip_link}; }
   int per_effect = 20;
   int clean = 20;
   int samples = 200;

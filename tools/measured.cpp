@@ -227,11 +227,10 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   return r;
 }
 
-sim::SimulatedData runSimulate(const std::string& robot_file, const sim::SimulationSpec& spec, const std::string& out) {
-  const sim::Arm arm = sim::loadArm(robot_file);
+sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& spec, const std::string& out) {
   sim::SimulatedData s = sim::simulateMeasured(arm, spec);
   sim::makeDirectories(out);
-  sim::writeFileAtomic(out + "/robot.yaml", sim::formatArm(arm, "Nominal robot of a dataset simulated by orbcal simulate from " + robot_file));
+  sim::writeFileAtomic(out + "/robot.yaml", sim::formatArm(arm, "Nominal robot of a dataset simulated by orbcal simulate from " + arm.source));
   s.data.description = sim::writeMeasuredData(s.data, out, "robot.yaml");
   const sim::FoldedModel truth = sim::foldParameters(s.truth, s.p_true);
   std::vector<sim::ParameterRow> rows;

@@ -51,7 +51,7 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
 
 /// Writes measurements.yaml + session CSVs + robot.yaml into `out`, and the truth (a model file) into
 /// `out`/truth/. Returns the simulated data.
-sim::SimulatedData runSimulate(const std::string& robot_file, const sim::SimulationSpec& spec, const std::string& out);
+sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& spec, const std::string& out);
 
 /// Parameter rows (display units are the caller's) of a fit: every parameter, value p, 1-sigma, held.
 std::vector<sim::ParameterRow> parameterRows(const calib::Fit& fit);

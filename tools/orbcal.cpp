@@ -32,11 +32,12 @@ void addArmSceneOptions(CLI::App& cmd, ArmSceneOptions& opt) {
   addRobotOptions(cmd, opt);
   cmd.add_option("--scene", opt.scene, "scene (YAML; or builtin:default_scene.yaml)")->capture_default_str();
 }
-void addRobotOptions(CLI::App& cmd, ArmSceneOptions& opt) {
-  cmd.add_option("--robot", opt.robot, "robot description: a robot YAML (or builtin:ssrms.yaml) or a URDF (.urdf)")
-      ->capture_default_str();
-  cmd.add_option("--base-link", opt.base_link, "URDF robot: the link the arm's chain starts from (default: the root link)");
-  cmd.add_option("--tip-link", opt.tip_link, "URDF robot: the link the chain ends at, the flange (default: the only leaf link)");
+void addRobotOptions(CLI::App& cmd, ArmSceneOptions& opt) { addRobotOptions(cmd, opt.robot, opt.base_link, opt.tip_link); }
+void addRobotOptions(CLI::App& cmd, std::string& robot, std::string& base_link, std::string& tip_link,
+                     const std::string& robot_help) {
+  cmd.add_option("--robot", robot, robot_help + ": a robot YAML (or builtin:NAME) or a URDF (.urdf)")->capture_default_str();
+  cmd.add_option("--base-link", base_link, "URDF robot: the link the arm's chain starts from (default: the root link)");
+  cmd.add_option("--tip-link", tip_link, "URDF robot: the link the chain ends at, the flange (default: the only leaf link)");
 }
 }  // namespace orbcal::tools
 

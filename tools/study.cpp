@@ -685,10 +685,15 @@ std::string prefixCells(const StudyTask& t) {
   return h;
 }
 
+/// "2.432 +- 0.093 [2.414, 2.451]": the standard deviation to two significant digits, the mean and the
+/// interval to the same decimal place (a spread of 0 or a single seed: four significant digits).
 std::string markdownCell(double mean, double sd, double half, std::size_t n) {
   if (n == 0) return "-";
-  return formatNumber("%.4g", mean) + " +- " + formatNumber("%.2g", sd) + " [" + formatNumber("%.4g", mean - half) + ", " +
-         formatNumber("%.4g", mean + half) + "]";
+  if (!(sd > 0.0) || !std::isfinite(sd)) return formatNumber("%.4g", mean) + (n > 1 ? " +- 0" : "");
+  const int decimals = std::clamp(1 - static_cast<int>(std::floor(std::log10(sd))), 0, 12);
+  const std::string f = "%." + std::to_string(decimals) + "f";
+  return formatNumber(f.c_str(), mean) + " +- " + formatNumber(f.c_str(), sd) + " [" + formatNumber(f.c_str(), mean - half) +
+         ", " + formatNumber(f.c_str(), mean + half) + "]";
 }
 
 /// One summary: per cell and key, n, mean, std and the 95 % t interval of each value; CSV and markdown.

@@ -13,6 +13,7 @@
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "orbcal/sim/urdf.hpp"
 
 namespace orbcal::sim {
 
@@ -169,8 +170,21 @@ void readSources(const ConfigNode& root, MeasuredData& d) {
   const ConfigNode format = valueOf(root, "format");
   if (format.asString() != kFormat) format.fail("expected '" + std::string(kFormat) + "', got '" + format.asString() + "'");
   const std::string folder = std::filesystem::path(d.description).parent_path().string();
-  d.robot_file = resolvePath(folder, valueOf(root, "robot").asString());
-  d.arm = loadArm(d.robot_file);
+  // robot: FILE, or {file: FILE, base_link: L, tip_link: T} for the chain between two links of a URDF.
+  const ConfigNode robot = valueOf(root, "robot");
+  RobotSource source;
+  if (robot.isMap()) {
+    robot.requireOnlyKeys({"file", "base_link", "tip_link"});
+    source.path = resolvePath(folder, valueOf(robot, "file").asString());
+    if (const auto base = optionalValueOf(robot, "base_link")) source.base_link = base->asString();
+    if (const auto tip = optionalValueOf(robot, "tip_link")) source.tip_link = tip->asString();
+    const bool links = !source.base_link.empty() || !source.tip_link.empty();
+    if (links && !looksLikeXml(readTextSource(source.path))) robot.fail("base_link and tip_link choose a chain in a URDF; " + source.path + " is not one");
+  } else {
+    source.path = resolvePath(folder, robot.asString());
+  }
+  d.robot_file = source.path;
+  d.arm = loadArm(source);
   const ConfigNode files = valueOf(root, "files");
   if (files.size() == 0) files.fail("expected at least one CSV file");
   for (std::size_t i = 0; i < files.size(); ++i) d.files.push_back(resolvePath(folder, files[i].asString()));

@@ -5,9 +5,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <map>
+#include <regex>
 #include <set>
 #include <thread>
 
@@ -134,6 +137,31 @@ TEST_CASE("orbcal study run: every task, resumable, merged the same on one or tw
     CHECK(sum.number(c, sum.requireColumn("avg_position_mm_std")) == Approx(std::sqrt(var)).epsilon(1e-8));
     CHECK(sum.number(c, sum.requireColumn("avg_position_mm_ci95_low")) == Approx(mean - half).epsilon(1e-8));
     CHECK(sum.number(c, sum.requireColumn("avg_position_mm_ci95_high")) == Approx(mean + half).epsilon(1e-8));
+  }
+  // report.md rounds to the spread: the standard deviation to two significant digits, the mean and the
+  // interval to its decimal place (within half a unit of it of the CSV's values).
+  const std::string report = test::slurp(dir + "/a/merged/report.md");
+  const std::regex cell(R"((-?[0-9]+(?:\.([0-9]+))?) \+- ([0-9]+(?:\.([0-9]+))?) \[(-?[0-9.]+), (-?[0-9.]+)\])");
+  int cells = 0;
+  for (auto it = std::sregex_iterator(report.begin(), report.end(), cell); it != std::sregex_iterator(); ++it, ++cells) {
+    const std::smatch& c = *it;
+    const std::size_t decimals = c[4].length();
+    CHECK(c[2].length() == decimals);
+    std::string digits = c[3].str();
+    digits.erase(std::remove(digits.begin(), digits.end(), '.'), digits.end());
+    digits.erase(0, digits.find_first_not_of('0'));
+    CHECK(digits.size() == 2);
+    for (const int k : {5, 6}) CHECK(c[k].str().size() - c[k].str().find('.') - 1 == decimals);
+  }
+  CHECK(cells >= 4);
+  for (std::size_t c = 0; c < 4; ++c) {  // each cell's mean is shown, rounded
+    const double mean = sum.number(c, sum.requireColumn("avg_position_mm_mean"));
+    bool shown = false;
+    for (auto it = std::sregex_iterator(report.begin(), report.end(), cell); it != std::sregex_iterator(); ++it) {
+      const double half_unit = 0.5 * std::pow(10.0, -static_cast<double>((*it)[2].length())) * (1 + 1e-9);
+      shown = shown || std::abs(std::stod((*it)[1].str()) - mean) <= half_unit;
+    }
+    CHECK(shown);
   }
   // Doubling the joint noise doubles the floor (cell 1 against cell 0: same valid count, 0.02 vs 0.01 deg).
   CHECK(sum.number(1, sum.requireColumn("avg_position_mm_mean")) / sum.number(0, sum.requireColumn("avg_position_mm_mean")) ==

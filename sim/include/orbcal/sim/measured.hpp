@@ -5,7 +5,9 @@
 // them that says what each column is. No column is renamed or converted by hand.
 //
 //   format: orbcal-measurements-1
-//   robot: iiwa7.yaml                      # relative to this file or absolute, or builtin:NAME
+//   robot: iiwa7.yaml                      # relative to this file or absolute, or builtin:NAME; a URDF's
+//                                          # chain: {file: arm.urdf, base_link: L, tip_link: T} (each optional:
+//                                          # the root link, the only leaf link)
 //   files: [run1_0kg.csv, run2_1.25kg.csv] # relative to this file or absolute; a file = a session
 //   joints: {columns: [theta_1, ..., theta_7], unit: rad}       # or deg; one name per joint of the robot
 //   pose:                                  # one of:
