@@ -205,8 +205,10 @@ TrueArm parseTrueArm(const Arm& nominal, const std::string& text, const std::str
                 "session");
     }
     if (std::holds_alternative<Compliance>(effect) && arm.masses.empty()) {
+      const bool urdf = !nominal.urdf.empty() && nominal.urdf.file == nominal.source;  // read from the URDF itself
       spec.fail("compliance deflects the joints under the gravity torques of the robot file's masses, and " + nominal.source +
-                " has no masses: section and covariates.payload_kg is 0");
+                (urdf ? " has no <inertial> on a link the chain moves" : " has no masses: section") +
+                " and covariates.payload_kg is 0");
     }
     if (std::holds_alternative<Thermal>(effect) && !temp.defined()) {
       spec.fail("thermal reads the temperature: give covariates.temperature ({start_C, rise_C, tau_s}); at the "

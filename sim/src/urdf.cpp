@@ -38,7 +38,14 @@ struct CollectMessages : console_bridge::OutputHandler {
   }
 };
 
-urdf::ModelInterfaceSharedPtr parseUrdf(const std::string& xml, const std::string& source) {
+/// A URDF as urdfdom read it, with the errors it reported on parts of links it skipped but still gave
+/// a model for (an unreadable <inertial>, e.g. a mass "nan", is kept with mass 0).
+struct ParsedUrdf {
+  urdf::ModelInterfaceSharedPtr model;
+  std::string errors;  ///< one line
+};
+
+ParsedUrdf parseUrdf(const std::string& xml, const std::string& source) {
   static std::mutex mutex;  // console_bridge's handler is process-wide
   const std::lock_guard<std::mutex> lock(mutex);
   CollectMessages messages;
@@ -46,14 +53,14 @@ urdf::ModelInterfaceSharedPtr parseUrdf(const std::string& xml, const std::strin
   console_bridge::useOutputHandler(&messages);
   urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(xml);
   console_bridge::useOutputHandler(previous);
+  for (char& c : messages.errors) {
+    if (c == '\n' || c == '\r') c = ' ';
+  }
   if (!model) {
-    std::string why = messages.errors.empty() ? "urdfdom could not parse it" : messages.errors;
-    for (char& c : why) {
-      if (c == '\n' || c == '\r') c = ' ';
-    }
+    const std::string why = messages.errors.empty() ? "urdfdom could not parse it" : messages.errors;
     throw InputError(source + ": not a valid URDF: " + why);
   }
-  return model;
+  return {model, messages.errors};
 }
 
 Eigen::Isometry3d poseOf(const urdf::Pose& p) {
@@ -94,10 +101,87 @@ std::string onlyLeaf(const urdf::LinkConstSharedPtr& base, const std::string& so
   return leaves.front();
 }
 
+/// Bodies lumped into one: total mass and first moment sum(m c), in one frame.
+struct Lumped {
+  double mass_kg = 0.0;
+  Eigen::Vector3d moment_kg_m = Eigen::Vector3d::Zero();
+};
+
+/// The mass (kg) of `link`'s <inertial>; an InputError naming the link when it is negative or not finite,
+/// or when urdfdom could not read the <inertial> (its `urdf_errors`, ParsedUrdf::errors: how a mass
+/// "nan" or "inf" shows, urdfdom keeping mass 0).
+double inertialMass(const urdf::Link& link, const std::string& urdf_errors, const std::string& source) {
+  const std::string what = source + ": link '" + link.name + "': <inertial>";
+  if (urdf_errors.find("inertial element for Link [" + link.name + "]") != std::string::npos) {
+    throw InputError(what + " not readable (urdfdom: " + urdf_errors + ")");
+  }
+  const double m = link.inertial->mass;
+  if (!std::isfinite(m) || m < 0.0) throw InputError(what + " mass " + exactNumber(m) + " kg must be finite and not negative");
+  return m;
+}
+
+/// Adds a point mass `mass_kg` at `com_m` (in sum's frame) to `sum`.
+void addPointMass(Lumped& sum, double mass_kg, const Eigen::Vector3d& com_m) {
+  sum.mass_kg += mass_kg;
+  sum.moment_kg_m += mass_kg * com_m;
+}
+
+/// The lumped bodies as one: COM = sum(m c) / sum(m) (the frame's origin when the mass is 0).
+LinkMass asLinkMass(const Lumped& sum) {
+  LinkMass l;
+  l.mass_kg = sum.mass_kg;
+  if (sum.mass_kg > 0.0) l.com_m = sum.moment_kg_m / sum.mass_kg;
+  return l;
+}
+
+/// armFromUrdf's mass model: the <inertial> of every link below `base` that moves rigidly with movable
+/// chain joint j lumped into LinkMass j, COM in joint j's child link frame (chainFrames(arm, q)[j + 1]).
+/// That is the child link, links below it through fixed joints (on the chain, or after the tip) and
+/// side branches through joints off the chain, fixed or not: a joint off the chain is taken at its
+/// zero position (the static torques of one fixed posture). Links that no chain joint moves (the base
+/// side) are left out. Empty when no moving link has an <inertial>; gravity the MassModel default,
+/// -9.80665 m/s^2 along -z of the base link; no payload.
+MassModel massesFromInertials(const urdf::LinkConstSharedPtr& base, const Arm& arm, const std::string& urdf_errors,
+                              const std::string& source) {
+  struct Visit {
+    urdf::LinkConstSharedPtr link;
+    int joint;                        ///< the movable chain joint the link moves with; -1: none (base side)
+    Eigen::Isometry3d frame_T_link;  ///< the link's pose in that joint's child link frame
+  };
+  const std::vector<std::string>& names = arm.urdf.joint_names;
+  std::vector<Lumped> sums(names.size());
+  bool any = false;
+  std::vector<Visit> stack{{base, -1, Eigen::Isometry3d::Identity()}};
+  while (!stack.empty()) {
+    const Visit v = stack.back();
+    stack.pop_back();
+    if (v.joint >= 0 && v.link->inertial) {  // a point mass at the COM, the inertial origin's position
+      addPointMass(sums[static_cast<std::size_t>(v.joint)], inertialMass(*v.link, urdf_errors, source),
+                   v.frame_T_link * poseOf(v.link->inertial->origin).translation());
+      any = true;
+    }
+    for (const auto& child : v.link->child_links) {
+      const urdf::JointConstSharedPtr joint = child->parent_joint;
+      const auto it = std::find(names.begin(), names.end(), joint->name);
+      if (it != names.end()) {
+        stack.push_back({child, static_cast<int>(it - names.begin()), Eigen::Isometry3d::Identity()});
+      } else {  // fixed, or movable off the chain at its zero position: the origin alone
+        stack.push_back({child, v.joint, v.frame_T_link * poseOf(joint->parent_to_joint_origin_transform)});
+      }
+    }
+  }
+  MassModel masses;
+  if (any) {
+    for (const Lumped& s : sums) masses.links.push_back(asLinkMass(s));
+  }
+  return masses;
+}
+
 }  // namespace
 
 Arm armFromUrdf(const std::string& xml, const std::string& source, const std::string& base_link, const std::string& tip_link) {
-  const urdf::ModelInterfaceSharedPtr model = parseUrdf(xml, source);
+  const ParsedUrdf parsed = parseUrdf(xml, source);
+  const urdf::ModelInterfaceSharedPtr& model = parsed.model;
   const urdf::LinkConstSharedPtr base = base_link.empty() ? model->getRoot() : model->getLink(base_link);
   if (!base) throw InputError(source + ": no link '" + base_link + "' (the base link) in the URDF");
   const std::string tip_name = tip_link.empty() ? onlyLeaf(base, source) : tip_link;
@@ -166,6 +250,7 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
   arm.last_T_flange = pending;
   arm.lower_rad = Eigen::Map<const Eigen::VectorXd>(lower.data(), static_cast<Eigen::Index>(lower.size()));
   arm.upper_rad = Eigen::Map<const Eigen::VectorXd>(upper.data(), static_cast<Eigen::Index>(upper.size()));
+  arm.masses = massesFromInertials(base, arm, parsed.errors, source);
   return arm;
 }
 

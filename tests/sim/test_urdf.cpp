@@ -6,6 +6,7 @@
 #include <random>
 
 #include "orbcal/sim/dataset.hpp"
+#include "orbcal/sim/gravity.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/jacobian.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -21,6 +22,7 @@ using Catch::Matchers::Contains;
 namespace {
 
 const std::string kIiwaUrdf = sourcePath("tests/data/iiwa7.urdf");
+const std::string kIiwaInertialUrdf = sourcePath("tests/data/iiwa7_inertial.urdf");  // the same with <inertial>s
 
 /// Largest translation difference (m) and rotation difference (rad) of FK over `qs`.
 std::pair<double, double> fkDifference(const Arm& a, const Arm& b, const std::vector<Eigen::VectorXd>& qs) {
@@ -199,6 +201,163 @@ TEST_CASE("a URDF arm written as YAML (convention urdf) reads back to the same k
   CHECK(dr < 1e-12);
 }
 
+namespace {
+
+/// A planar two-joint arm, both axes along y (gravity -z gives the torques m g x of lever arms x), with
+/// mass off the chain: a camera on l1 through a fixed joint, a finger after the tip (tool) through a
+/// revolute joint that is not in the chain, turned by its origin's pitch, and a base mass that no
+/// joint moves. The camera's inertial frame is turned: only its position counts.
+const char* kSideBranch = R"(<?xml version="1.0"?>
+<robot name="side">
+  <link name="base">
+    <inertial>
+      <origin xyz="0.3 0 0.1"/>
+      <mass value="10"/>
+      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>
+    </inertial>
+  </link>
+  <link name="l1">
+    <inertial>
+      <origin xyz="0.2 0 0"/>
+      <mass value="2"/>
+      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>
+    </inertial>
+  </link>
+  <link name="camera">
+    <inertial>
+      <origin xyz="0.05 0 0" rpy="0 1 0"/>
+      <mass value="0.5"/>
+      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>
+    </inertial>
+  </link>
+  <link name="l2">
+    <inertial>
+      <origin xyz="0.15 0 0"/>
+      <mass value="1"/>
+      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>
+    </inertial>
+  </link>
+  <link name="tool"/>
+  <link name="finger">
+    <inertial>
+      <origin xyz="0.02 0 0"/>
+      <mass value="0.2"/>
+      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>
+    </inertial>
+  </link>
+  <joint name="j1" type="revolute">
+    <parent link="base"/><child link="l1"/><origin xyz="0 0 0.5"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="1" velocity="1"/>
+  </joint>
+  <joint name="to_camera" type="fixed"><parent link="l1"/><child link="camera"/><origin xyz="0.2 0 0.1"/></joint>
+  <joint name="j2" type="revolute">
+    <parent link="l1"/><child link="l2"/><origin xyz="0.4 0 0"/><axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="1" velocity="1"/>
+  </joint>
+  <joint name="to_tool" type="fixed"><parent link="l2"/><child link="tool"/><origin xyz="0.3 0 0"/></joint>
+  <joint name="finger_joint" type="revolute">
+    <parent link="tool"/><child link="finger"/><origin xyz="0.1 0 0" rpy="0 -1.5707963267948966 0"/><axis xyz="0 1 0"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+</robot>
+)";
+
+}  // namespace
+
+TEST_CASE("gravity torques of the iiwa7 URDF's <inertial>s equal those of the DH file's masses", "[sim][urdf][gravity]") {
+  // iiwa7_inertial.urdf's COMs were converted from scenes/iiwa7.yaml's (see its comment), link 7's mass
+  // split across the fixed joint to iiwa_link_ee, and a base mass added that must not count.
+  const Arm dh = loadArm(sourcePath("scenes/iiwa7.yaml"));
+  const Arm urdf = loadArm(kIiwaInertialUrdf);
+  REQUIRE(dh.masses.links.size() == 7);
+  REQUIRE(urdf.masses.links.size() == 7);
+  CHECK(urdf.masses.gravity_base == Eigen::Vector3d(0.0, 0.0, -9.80665));
+  CHECK(urdf.masses.payload_kg == 0.0);
+  for (std::size_t j = 0; j < 7; ++j) CHECK(urdf.masses.links[j].mass_kg == Approx(dh.masses.links[j].mass_kg).epsilon(1e-15));
+  double worst = 0.0, largest = 0.0;
+  for (const Eigen::VectorXd& q : orbcal::test::randomConfigs(dh, 50, 31)) {
+    const Eigen::VectorXd tau_dh = gravityTorques(dh, dh.masses, q), tau_urdf = gravityTorques(urdf, urdf.masses, q);
+    worst = std::max(worst, (tau_dh - tau_urdf).cwiseAbs().maxCoeff());
+    largest = std::max(largest, tau_dh.cwiseAbs().maxCoeff());
+  }
+  INFO("worst difference " << worst << " N m of torques up to " << largest << " N m");
+  CHECK(worst < 1e-9);
+  CHECK(largest > 10.0);  // the configurations do load the joints
+  // The calibrated URDF keeps the <inertial>s byte for byte, and so the same masses.
+  const std::string xml = orbcal::test::slurp(kIiwaInertialUrdf);
+  const std::string out = replaceUrdfOrigins(xml, withErrors(urdf, randomErrors(urdf, 12)));
+  for (std::size_t i = xml.find("<inertial>"); i != std::string::npos; i = xml.find("<inertial>", i + 1)) {
+    CHECK_THAT(out, Contains(xml.substr(i, xml.find("</inertial>", i) + 11 - i)));
+  }
+  const Arm reloaded = armFromUrdf(out, "out.urdf");
+  REQUIRE(reloaded.masses.links.size() == 7);
+  for (std::size_t j = 0; j < 7; ++j) {
+    CHECK(reloaded.masses.links[j].mass_kg == urdf.masses.links[j].mass_kg);
+    CHECK(reloaded.masses.links[j].com_m == urdf.masses.links[j].com_m);
+  }
+}
+
+TEST_CASE("URDF masses: side branches and links after the tip move with their chain joint", "[sim][urdf][gravity]") {
+  const Arm arm = armFromUrdf(kSideBranch, "side.urdf", "base", "tool");
+  REQUIRE(arm.numJoints() == 2);
+  REQUIRE(arm.masses.links.size() == 2);
+  CHECK(arm.masses.links[0].mass_kg == 2.5);  // l1 and the camera; not the base's 10 kg
+  CHECK(arm.masses.links[1].mass_kg == Approx(1.2).epsilon(1e-15));  // l2 and the finger
+  // By hand, in the x-z plane: joint 1 at the base origin, joint 2 at x = 0.4 in l1; a point (x, z) of
+  // l1 is at horizontal distance x c1 + z s1 from joint 1, one of l2 at x c12 + z s12 from joint 2
+  // (c12 = cos(q1 + q2)). In l1: l1's COM (0.2, 0), the camera's (0.2 + 0.05, 0.1). In l2: l2's COM
+  // (0.15, 0), the finger's (0.3 + 0.1, 0.02) (finger_joint at its zero, pitched -90 deg: its x is l2's z).
+  // Each mass m at horizontal distance x from the joint takes a hold of -m g x (axes along +y).
+  const double g = 9.80665;
+  for (const Eigen::Vector2d& q : {Eigen::Vector2d(0.0, 0.0), Eigen::Vector2d(0.3, -0.9), Eigen::Vector2d(-1.2, 1.7)}) {
+    CAPTURE(q.transpose());
+    const double c1 = std::cos(q[0]), s1 = std::sin(q[0]), c12 = std::cos(q[0] + q[1]), s12 = std::sin(q[0] + q[1]);
+    const double outer = 1.0 * 0.15 * c12 + 0.2 * (0.4 * c12 + 0.02 * s12);  // sum m x of l2 and the finger about joint 2
+    const double tau2 = -g * outer;
+    const double tau1 = -g * (2.0 * 0.2 * c1 + 0.5 * (0.25 * c1 + 0.1 * s1) + 1.2 * 0.4 * c1 + outer);
+    const Eigen::VectorXd tau = gravityTorques(arm, arm.masses, q);
+    CHECK(tau[0] == Approx(tau1).epsilon(1e-13));
+    CHECK(tau[1] == Approx(tau2).epsilon(1e-13));
+  }
+  // At q = 0 in numbers: tau2 = -g (0.15 + 0.2 * 0.4), tau1 = -g (0.4 + 0.125 + 0.48 + 0.23).
+  const Eigen::VectorXd tau0 = gravityTorques(arm, arm.masses, Eigen::Vector2d::Zero());
+  CHECK(tau0[1] == Approx(-g * 0.23).epsilon(1e-14));
+  CHECK(tau0[0] == Approx(-g * 1.235).epsilon(1e-14));
+
+  // A joint whose links carry no <inertial> gets mass 0; none on any moving link: no mass model.
+  std::string light = kSideBranch;
+  for (const char* link : {"l2", "finger"}) {
+    const std::size_t at = light.find("<link name=\"" + std::string(link) + "\">");
+    const std::size_t end = light.find("</link>", at) + 7;
+    light.replace(at, end - at, "<link name=\"" + std::string(link) + "\"/>");
+  }
+  const Arm first_only = armFromUrdf(light, "light.urdf", "base", "tool");
+  REQUIRE(first_only.masses.links.size() == 2);
+  CHECK(first_only.masses.links[1].mass_kg == 0.0);
+  CHECK(first_only.masses.links[1].com_m == Eigen::Vector3d::Zero());
+  CHECK(gravityTorques(first_only, first_only.masses, Eigen::Vector2d(0.3, 0.2))[1] == 0.0);
+  CHECK(armFromUrdf(kTwisted, "twisted.urdf", "base", "tool").masses.empty());
+  CHECK(loadArm(kIiwaUrdf).masses.empty());
+  // From l1 on, l1 and its camera are on the base side: joint 2 carries l2 and the finger alone.
+  CHECK(armFromUrdf(kSideBranch, "side.urdf", "l1", "tool").masses.links[0].mass_kg == Approx(1.2).epsilon(1e-15));
+}
+
+TEST_CASE("a URDF arm's masses written as YAML read back the same", "[sim][urdf][gravity]") {
+  const Arm arm = loadArm(kIiwaInertialUrdf);
+  const std::string path = tempFile("iiwa7_inertial.yaml", formatArm(arm, "test"));
+  const Arm back = loadArm(path);
+  REQUIRE(back.masses.links.size() == arm.masses.links.size());
+  for (std::size_t j = 0; j < arm.masses.links.size(); ++j) {
+    CHECK(back.masses.links[j].mass_kg == arm.masses.links[j].mass_kg);
+    CHECK(back.masses.links[j].com_m == arm.masses.links[j].com_m);
+  }
+  CHECK(back.masses.gravity_base == arm.masses.gravity_base);
+  CHECK(back.masses.payload_kg == 0.0);
+  for (const Eigen::VectorXd& q : orbcal::test::randomConfigs(arm, 20, 5)) {
+    CHECK((gravityTorques(back, back.masses, q) - gravityTorques(arm, arm.masses, q)).cwiseAbs().maxCoeff() < 1e-12);
+  }
+}
+
 TEST_CASE("URDF input errors name the file and the link or joint", "[sim][urdf]") {
   const std::string yaml_text = orbcal::test::slurp(sourcePath("scenes/iiwa7.yaml"));
   const std::string urdf_text = orbcal::test::slurp(kIiwaUrdf);
@@ -237,6 +396,22 @@ TEST_CASE("URDF input errors name the file and the link or joint", "[sim][urdf]"
   const std::string msg = inputError([&] { loadArm(no_limit_path); });
   CHECK_THAT(msg, Contains(no_limit_path + ": not a valid URDF: "));
   CHECK_THAT(msg, Contains("iiwa_joint_4"));
+
+  // A negative mass on a moving link (the camera, off the chain).
+  std::string negative = kSideBranch;
+  negative.replace(negative.find("<mass value=\"0.5\"/>"), 19, "<mass value=\"-0.5\"/>");
+  const std::string negative_path = tempFile("negative.urdf", negative);
+  CHECK(inputError([&] { loadArm(RobotSource{negative_path, "base", "tool"}); }) ==
+        negative_path + ": link 'camera': <inertial> mass -0.5 kg must be finite and not negative");
+  // A non-finite mass: urdfdom cannot read it (it would keep the link with mass 0); its reason is kept.
+  for (const char* bad : {"nan", "inf"}) {
+    std::string text = kSideBranch;
+    text.replace(text.find("<mass value=\"1\"/>"), 17, "<mass value=\"" + std::string(bad) + "\"/>");
+    const std::string bad_path = tempFile(std::string(bad) + ".urdf", text);
+    const std::string bad_msg = inputError([&] { loadArm(RobotSource{bad_path, "base", "tool"}); });
+    CHECK_THAT(bad_msg, Contains(bad_path + ": link 'l2': <inertial> not readable (urdfdom: "));
+    CHECK_THAT(bad_msg, Contains(std::string("mass [") + bad + "]"));
+  }
 
   const std::string junk = tempFile("junk.urdf", "<robot name=\"x\"><link name=\"a\"/>");
   CHECK_THAT(inputError([&] { loadArm(junk); }), Contains(junk + ": not a valid URDF: "));

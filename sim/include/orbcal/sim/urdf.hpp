@@ -7,6 +7,15 @@
 //   - a continuous joint is a revolute joint without limits: it gets [-180, 180] deg;
 //   - a prismatic, planar or floating joint is an error.
 // base_T_first is the identity: the base link is the arm's base frame; the tip link is the flange.
+// Masses (Arm::masses, for static gravity torques, sim/gravity.hpp) come from the links' <inertial>
+// (mass, and COM = its origin's position; the inertia tensor is not used): LinkMass j lumps exactly
+// (total mass, COM = sum(m c) / sum(m)) every link that moves rigidly with movable joint j, its COM in
+// joint j's child link frame: the child link, links below it through fixed joints (also after the
+// tip) and side branches (e.g. gripper fingers) through joints off the chain, a movable one taken at
+// its zero position (the static torques of one fixed posture). Links before the first movable joint
+// do not move and are left out. Gravity is -9.80665 m/s^2 along -z of the base link (a URDF has no
+// gravity); no payload. No <inertial> on any moving link: no mass model, as before; a joint whose
+// links have none gets mass 0. A negative or non-finite mass is an error naming the link.
 // Errors are InputError "<file>: <what>", naming the link or joint.
 #include <string>
 
@@ -19,7 +28,8 @@ bool looksLikeXml(const std::string& text);
 
 /// The chain from `base_link` to `tip_link` of the URDF `xml` (read from `source`, for messages and
 /// Arm::urdf.file). An empty base_link means the root link; an empty tip_link the only leaf link
-/// (an error naming them when there are several).
+/// (an error naming them when there are several). Arm::masses lumps the moving links' <inertial>
+/// (above), empty when they have none.
 Arm armFromUrdf(const std::string& xml, const std::string& source, const std::string& base_link = "",
                 const std::string& tip_link = "");
 
