@@ -32,7 +32,8 @@ void addDiagnoseCommand(CLI::App& app) {
   cmd->add_option("--max-effects", o->diagnose.max_effects, "effects added at most")->capture_default_str()->check(CLI::Range(1, 10));
   cmd->add_option_function<double>(
          "--joint-noise-deg", [o](double d) { o->diagnose.joint_noise_sigma_rad = d * sim::kDegToRad; },
-         "joint readings vs true angles, 1 sigma [deg] (images: default the manifest's, else 0.01; measured data: 0)")
+         "joint readings vs true angles, 1 sigma [deg] (images: default the manifest's, else 0.01; measured data: "
+         "estimated from the residuals beside the tracker's noise)")
       ->check(CLI::Range(0.0, 10.0));
   cmd->add_flag("--no-plots", [o](std::int64_t) { o->plots = false; }, "skip the PNG figures");
   cmd->add_flag("--quiet", o->quiet, "no progress output");

@@ -116,7 +116,10 @@ std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& dist
     if (d.confounded[c].with_geometry) j << (d.confounded[c].effects.empty() ? "" : ", ") << "{\"effect\": \"geometry\", \"joints\": []}";
     j << "]";
   }
-  j << "],\n \"heldout\": {\"base\": " << residualJson(d.heldout.base) << ", \"selected\": " << residualJson(d.heldout.selected) << "},\n"
+  const calib::MarkerNoise& n = d.base_fit.noise;  // SI: m, rad
+  j << "],\n \"noise\": {\"position_m\": " << sim::exactNumber(n.sigma_position_m) << ", \"rotation_rad\": "
+    << sim::exactNumber(n.sigma_rotation_rad) << ", \"joint_rad\": " << sim::exactNumber(n.joint_noise_sigma_rad) << "}";
+  j << ",\n \"heldout\": {\"base\": " << residualJson(d.heldout.base) << ", \"selected\": " << residualJson(d.heldout.selected) << "},\n"
     << " \"seconds\": " << sim::formatNumber("%.3f", d.seconds) << "}\n";
   return j.str();
 }
@@ -240,6 +243,22 @@ DistortionCheck checkDistortion(const sim::Dataset& d, const std::vector<vision:
   return c;
 }
 
+/// "Noise (1 sigma per axis) of the base fit: ..." with where each number came from.
+std::string noiseSentence(const calib::Fit& base, const calib::DiagnoseOptions& o, const sim::MeasuredData& data,
+                          const std::vector<calib::MarkerObservation>& obs) {
+  const calib::MarkerNoise& n = base.noise;
+  const auto source = [](bool given) { return given ? " (given)" : " (estimated from the residuals)"; };
+  const std::string joints = "joint readings " + sim::formatNumber("%.4f", n.joint_noise_sigma_rad * sim::kRadToDeg) + " deg" +
+                             source(o.joint_noise_sigma_rad || data.noise_joint_rad);
+  if (std::any_of(obs.begin(), obs.end(), [](const calib::MarkerObservation& x) { return x.covariance.size() > 0; })) {
+    return "Noise, as every fit here whitens with it: each sample's own pose covariance, and " + joints + ".";
+  }
+  const bool pos_given = o.sigma_position_m || data.noise_position_m, rot_given = o.sigma_rotation_rad || data.noise_rotation_rad;
+  return "Noise, 1 sigma per axis, as every fit here whitens with it: position " + sim::formatNumber("%.4f", n.sigma_position_m * 1e3) +
+         " mm" + source(pos_given) + ", rotation " + sim::formatNumber("%.4f", n.sigma_rotation_rad * sim::kRadToDeg) + " deg" +
+         source(rot_given) + ", " + joints + ".";
+}
+
 }  // namespace
 
 DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
@@ -267,7 +286,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
     data = std::move(im.data);
     obs = std::move(im.observations);
     // As orbcal calibrate: the manifest's joint noise, else seed 000's 0.01 deg.
-    if (options.joint_noise_sigma_rad == 0.0) {
+    if (!options.joint_noise_sigma_rad) {
       options.joint_noise_sigma_rad =
           dataset->manifest.joint_noise_sigma_rad > 0.0 ? dataset->manifest.joint_noise_sigma_rad : 0.01 * sim::kDegToRad;
     }
@@ -335,6 +354,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
      << o.diagnose.folds << "-fold cross-validation by configuration (seed " << o.diagnose.seed << "); candidate tests at "
      << "family-wise error " << o.diagnose.alpha << " (Holm); a parameter must cut the held-out whitened squared error by "
      << o.diagnose.penalty_per_param << " to be added. " << sim::formatNumber("%.2f", dg.seconds) << " s.\n\n"
+     << noiseSentence(dg.base_fit, options, data, obs) << "\n\n"
      << "## Held-out errors (cross-validated)\n\n"
      << "| model | position mean (mm) | position RMS (mm) | position max (mm) | rotation RMS (deg) | whitened SSE |\n|---|---|---|---|---|---|\n";
   const auto row = [&](const std::string& name, const calib::ResidualStats& s, double sse) {

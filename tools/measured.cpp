@@ -90,7 +90,10 @@ std::string folderOf(const std::string& path) {
 std::string inconsistencyText(const MeasuredCalibrateResult& r) {
   return "chi-square " + formatNumber("%.1f", r.fit.chi2) + " for " + std::to_string(r.fit.dof) + " degrees of freedom (" +
          formatNumber("%.2f", r.fit.chi2 / r.fit.dof) + " per degree, p = " + formatNumber("%.2g", r.consistency_p) +
-         "); the noise given is too small for these residuals, or the model misses an effect (`orbcal diagnose` names it)";
+         "); the noise given is too small for these residuals (" +
+         (r.fit.noise.joint_noise_sigma_rad > 0.0 ? std::string("the joint readings' too?")
+                                                  : std::string("the joint readings' is not given: noise.joint_deg")) +
+         "), or the model misses an effect (`orbcal diagnose` names it)";
 }
 
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) {
@@ -123,6 +126,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   fo.method = o.method;
   fo.sigma_position_m = o.noise_position_m ? o.noise_position_m : data.noise_position_m;
   fo.sigma_rotation_rad = o.noise_rotation_rad ? o.noise_rotation_rad : data.noise_rotation_rad;
+  fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
   sim::KinematicModel start;
   try {
     start = calib::startingModel(data, ident, effects);
@@ -181,7 +185,9 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   md << "; " << r.fit.model.layout.size() << " parameters, " << r.fit.estimate.held.size() << " held as unidentifiable.\n\n"
      << "Measurement noise (1 sigma per axis): position " << formatNumber("%.4f", r.fit.noise.sigma_position_m * 1e3) << " mm, rotation "
      << formatNumber("%.4f", r.fit.noise.sigma_rotation_rad * sim::kRadToDeg) << " deg"
-     << (r.fit.noise_estimated ? " (estimated from the residuals)" : " (given)") << ". chi-square " << formatNumber("%.1f", r.fit.chi2)
+     << (r.fit.noise_estimated ? " (estimated from the residuals)" : " (given)") << "; joint readings "
+     << formatNumber("%.4f", r.fit.noise.joint_noise_sigma_rad * sim::kRadToDeg) << " deg"
+     << (data.noise_joint_rad ? " (given)" : " (not given: not modelled)") << ". chi-square " << formatNumber("%.1f", r.fit.chi2)
      << " for " << r.fit.dof << " degrees of freedom.\n\n"
      << "## Held-out prediction\n\n" << kStatsHeader << statsRow("nominal arm, registration fitted", r.heldout_before)
      << statsRow("calibrated", r.heldout_after) << "\n## Fit residuals\n\n" << kStatsHeader << statsRow("calibrated (fitted samples)", r.fit.residuals)
@@ -210,6 +216,7 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   calib::FitOptions fo;
   fo.sigma_position_m = data.noise_position_m;
   fo.sigma_rotation_rad = data.noise_rotation_rad;
+  fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
   EvaluateResult r;
   r.fit = calib::predictWithModel({lm.model, lm.p}, data, obs, fo);
   sim::makeDirectories(out);

@@ -17,6 +17,12 @@ Eigen::VectorXd residualOf(const MarkerObservation& o, const Eigen::Isometry3d& 
   if (o.has_rotation) return sim::poseMinus(o.world_T_marker, predicted);
   return o.world_T_marker.translation() - predicted.translation();
 }
+
+/// The joint Jacobian of the prediction error as the residual sees it: position-only residuals are
+/// in the measuring system's frame, so the marker-frame translation rows are rotated into it.
+Eigen::MatrixXd residualJointJacobian(const MarkerObservation& o, const Eigen::Isometry3d& predicted, const Eigen::MatrixXd& J_e_q) {
+  return o.has_rotation ? J_e_q : Eigen::MatrixXd(predicted.linear() * J_e_q.topRows(3));
+}
 }  // namespace
 
 Eigen::VectorXd markerResidual(const sim::KinematicModel& model, const Eigen::VectorXd& p, const MarkerObservation& o) {
@@ -43,10 +49,17 @@ Linearization MarkerPoseModel::linearize(int k, const Eigen::VectorXd& y) const 
     lin.R = d.asDiagonal();
   }
   if (noise_.joint_noise_sigma_rad > 0.0) {
-    const Eigen::MatrixXd Jq = o.has_rotation ? J_e_q : Eigen::MatrixXd(R * J_e_q.topRows(3));
+    const Eigen::MatrixXd Jq = residualJointJacobian(o, predicted, J_e_q);
     lin.R += noise_.joint_noise_sigma_rad * noise_.joint_noise_sigma_rad * Jq * Jq.transpose();
   }
   return lin;
+}
+
+Eigen::MatrixXd MarkerPoseModel::jointJacobian(int k, const Eigen::VectorXd& y) const {
+  const MarkerObservation& o = observations_.at(static_cast<std::size_t>(k));
+  Eigen::MatrixXd J_e_p, J_e_q;
+  const Eigen::Isometry3d predicted = sim::predictMarkerPose(model_, p0_ + y, o.sample, &J_e_p, &J_e_q);
+  return residualJointJacobian(o, predicted, J_e_q);
 }
 
 }  // namespace orbcal::calib

@@ -3,6 +3,7 @@
 #include "orbcal/calib/observability.hpp"
 
 #include <Eigen/SVD>
+#include <array>
 #include <cmath>
 #include <algorithm>
 #include <map>
@@ -157,6 +158,75 @@ Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o) {
   }
 }
 
+/// Variance components of the residuals r_k of `m` at y (REML-type Fisher scoring; Koch, Parameter
+/// Estimation and Hypothesis Testing in Linear Models, 1999, ch. 3.6): R_k = sum_c theta_c V_kc with
+/// V_k1 = the position rows, V_k2 = the rotation rows, V_k3 = Jq_k Jq_k^T (joint noise through the
+/// residual's joint Jacobian). The components `free` are estimated, the others kept at `noise`'s
+/// values; each step solves sum_k tr(W V_c W V_d) theta_d = sum_k r^T W V_c W r with W = R_k^-1, until
+/// the free variances change by less than 1e-6 of themselves. `correction` (rows / dof) then inflates
+/// the free ones for the parameters fitted. Variances are kept >= 0 (sigmas of position and rotation
+/// >= 1e-9).
+MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::VectorXd& y, const MarkerNoise& noise,
+                                    const std::array<bool, 3>& free, double correction) {
+  const int n = m.numSamples();
+  std::vector<Eigen::VectorXd> r(static_cast<std::size_t>(n));
+  std::vector<Eigen::MatrixXd> Jq(static_cast<std::size_t>(n));
+  for (int k = 0; k < n; ++k) {
+    r[static_cast<std::size_t>(k)] = m.linearize(k, y).innovation;
+    Jq[static_cast<std::size_t>(k)] = m.jointJacobian(k, y);
+  }
+  Eigen::Vector3d theta(noise.sigma_position_m * noise.sigma_position_m, noise.sigma_rotation_rad * noise.sigma_rotation_rad,
+                        noise.joint_noise_sigma_rad * noise.joint_noise_sigma_rad);
+  std::vector<int> f;
+  for (int c = 0; c < 3; ++c) {
+    if (free[static_cast<std::size_t>(c)]) f.push_back(c);
+  }
+  const auto nf = static_cast<Eigen::Index>(f.size());
+  for (int iteration = 0; iteration < 50 && nf > 0; ++iteration) {
+    Eigen::MatrixXd F = Eigen::MatrixXd::Zero(nf, nf);
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(nf);
+    for (int k = 0; k < n; ++k) {
+      const Eigen::VectorXd& rk = r[static_cast<std::size_t>(k)];
+      const Eigen::Index rows = rk.size();
+      std::array<Eigen::MatrixXd, 3> V;
+      V[0] = Eigen::MatrixXd::Zero(rows, rows);
+      V[0].topLeftCorner(3, 3).setIdentity();
+      V[1] = Eigen::MatrixXd::Zero(rows, rows);
+      if (rows == 6) V[1].bottomRightCorner(3, 3).setIdentity();
+      V[2] = Jq[static_cast<std::size_t>(k)] * Jq[static_cast<std::size_t>(k)].transpose();
+      Eigen::MatrixXd R = theta[0] * V[0] + theta[1] * V[1] + theta[2] * V[2];
+      const Eigen::LDLT<Eigen::MatrixXd> W(R);
+      const Eigen::VectorXd Wr = W.solve(rk);
+      // W V_c, the fixed components' share moved to the right-hand side.
+      std::array<Eigen::MatrixXd, 3> WV;
+      for (int c = 0; c < 3; ++c) WV[static_cast<std::size_t>(c)] = W.solve(V[static_cast<std::size_t>(c)]);
+      for (Eigen::Index a = 0; a < nf; ++a) {
+        const auto ca = static_cast<std::size_t>(f[static_cast<std::size_t>(a)]);
+        u[a] += Wr.dot(V[ca] * Wr);
+        for (int c = 0; c < 3; ++c) {
+          if (!free[static_cast<std::size_t>(c)]) u[a] -= theta[c] * (WV[ca] * WV[static_cast<std::size_t>(c)]).trace();
+        }
+        for (Eigen::Index b = 0; b < nf; ++b) F(a, b) += (WV[ca] * WV[static_cast<std::size_t>(f[static_cast<std::size_t>(b)])]).trace();
+      }
+    }
+    const Eigen::VectorXd next = F.completeOrthogonalDecomposition().solve(u);
+    double change = 0.0;
+    for (Eigen::Index a = 0; a < nf; ++a) {
+      const int c = f[static_cast<std::size_t>(a)];
+      const double floor = c == 2 ? 0.0 : 1e-18;
+      const double v = std::max(floor, next[a]);
+      change = std::max(change, std::abs(v - theta[c]) / std::max(v, 1e-300));
+      theta[c] = v;
+    }
+    if (change < 1e-6) break;
+  }
+  MarkerNoise out = noise;
+  if (free[0]) out.sigma_position_m = std::max(1e-9, std::sqrt(theta[0] * correction));
+  if (free[1]) out.sigma_rotation_rad = std::max(1e-9, std::sqrt(theta[1] * correction));
+  if (free[2]) out.joint_noise_sigma_rad = std::sqrt(theta[2] * correction);
+  return out;
+}
+
 }  // namespace
 
 sim::KinematicModel startingModel(const sim::MeasuredData& data, const std::vector<MarkerObservation>& observations,
@@ -213,7 +283,7 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
   fit.noise.joint_noise_sigma_rad = o.joint_noise_sigma_rad;
   if (o.sigma_position_m) fit.noise.sigma_position_m = *o.sigma_position_m;
   if (o.sigma_rotation_rad) fit.noise.sigma_rotation_rad = *o.sigma_rotation_rad;
-  fit.noise_estimated = !(o.sigma_position_m && o.sigma_rotation_rad);
+  fit.noise_estimated = !(o.sigma_position_m && o.sigma_rotation_rad) || o.estimate_joint_noise;
   const int rounds = fit.noise_estimated ? 3 : 1;
   int rows = 0;
   for (const MarkerObservation& x : obs) rows += x.has_rotation ? 6 : 3;
@@ -234,6 +304,13 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
       fit.observability = observability(m, Eigen::VectorXd::Zero(m.numParams()), fit.estimate.held);
       break;
     }
+    const double correction = static_cast<double>(rows) / fit.dof;
+    if (o.estimate_joint_noise) {
+      const bool rotations = std::any_of(obs.begin(), obs.end(), [](const MarkerObservation& x) { return x.has_rotation; });
+      fit.noise = estimateNoiseComponents(m, fit.estimate.y, fit.noise,
+                                          {!o.sigma_position_m, !o.sigma_rotation_rad && rotations, true}, correction);
+      continue;
+    }
     // Variance components: position and rotation sigmas from their residuals, corrected for the
     // parameters fitted (rows / dof).
     double pos2 = 0.0, rot2 = 0.0;
@@ -247,7 +324,6 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
         nrot += 3;
       }
     }
-    const double correction = static_cast<double>(rows) / fit.dof;
     if (!o.sigma_position_m) fit.noise.sigma_position_m = std::max(1e-9, std::sqrt(pos2 / npos * correction));
     if (!o.sigma_rotation_rad && nrot) fit.noise.sigma_rotation_rad = std::max(1e-9, std::sqrt(rot2 / nrot * correction));
   }

@@ -224,9 +224,12 @@ std::optional<double> readSigma(const ConfigNode& noise, const std::string& key,
 void readNoise(const ConfigNode& root, MeasuredData& d) {
   const auto noise = optionalValueOf(root, "noise");
   if (!noise) return;
-  noise->requireOnlyKeys({"position_mm", "rotation_deg"});
+  noise->requireOnlyKeys({"position_mm", "rotation_deg", "joint_deg"});
   d.noise_position_m = readSigma(*noise, "position_mm", 1e-3);
   d.noise_rotation_rad = readSigma(*noise, "rotation_deg", kDegToRad);
+  if (const auto joint = optionalValueOf(*noise, "joint_deg")) {  // 0: readings exact
+    d.noise_joint_rad = joint->asDoubleWithin(0.0, 10.0, "0 to 10 deg") * kDegToRad;
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -449,10 +452,11 @@ std::string formatDescription(const MeasuredData& d, const std::string& robot_fi
   s << "registration: {base: " << frameSharingName(d.base) << ", marker: " << frameSharingName(d.marker) << "}\n";
   if (d.base == FrameSharing::kKnown) s << "world_T_base: " << transformYaml(d.world_T_base) << "\n";
   if (d.marker == FrameSharing::kKnown) s << "flange_T_marker: " << transformYaml(d.flange_T_marker) << "\n";
-  if (d.noise_position_m || d.noise_rotation_rad) {
+  if (d.noise_position_m || d.noise_rotation_rad || d.noise_joint_rad) {
     std::vector<std::string> keys;
     if (d.noise_position_m) keys.push_back("position_mm: " + exactNumber(*d.noise_position_m * 1e3));
     if (d.noise_rotation_rad) keys.push_back("rotation_deg: " + exactNumber(*d.noise_rotation_rad * kRadToDeg));
+    if (d.noise_joint_rad) keys.push_back("joint_deg: " + exactNumber(*d.noise_joint_rad * kRadToDeg));
     s << "noise: {" << joined(keys) << "}\n";
   }
   return s.str();

@@ -78,6 +78,7 @@ SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
   d.flange_T_marker = M.front();
   d.noise_position_m = spec.noise_position_m;
   d.noise_rotation_rad = spec.rotation ? std::optional<double>(spec.noise_rotation_rad) : std::nullopt;
+  if (spec.joint_noise_rad > 0.0) d.noise_joint_rad = spec.joint_noise_rad;
   const bool torques = !nominal.masses.links.empty();
   d.has_torque = torques;
   d.has_temperature = d.has_time = true;

@@ -156,3 +156,57 @@ TEST_CASE("a model with all-joint compliance says which compliances this data ca
   CHECK(fit.noise_estimated);
   CHECK(fit.noise.sigma_position_m == Approx(kNoisePosition).epsilon(0.2));
 }
+
+TEST_CASE("joint reading noise is estimated as a variance component beside the tracker's", "[measured]") {
+  // Encoders whose readings differ from the true angles by N(0, 0.01 deg) (Wang et al. 2023's control
+  // noise) put a configuration-dependent share into every residual: about 0.17 mm at 1 m of reach,
+  // three times the tracker's 0.05 mm. The truth is the simulator's sigma; 200 samples of 6 rows
+  // estimate a standard deviation to a few percent (sd of a variance estimate ~ sqrt(2 / n)).
+  const sim::Arm arm = sim::loadArm(test::sourcePath("scenes/iiwa7.yaml"));
+  const double joint_sigma = 0.01 * sim::kDegToRad;
+  for (const std::uint64_t seed : {31u, 32u}) {
+    sim::SimulationSpec spec;
+    spec.samples = 200;
+    spec.sessions = 2;
+    spec.payload_kg = {0.0, 1.25};
+    spec.seed = seed;
+    spec.geometry.seed = seed;
+    spec.noise_position_m = kNoisePosition;
+    spec.joint_noise_rad = joint_sigma;
+    const sim::SimulatedData s = sim::simulateMeasured(arm, spec);
+    const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(s.data, false);
+    const sim::KinematicModel start = calib::startingModel(s.data, obs, {});
+    CAPTURE(seed);
+    // The tracker's sigmas given (as the description states them), the joint noise estimated.
+    calib::FitOptions given;
+    given.sigma_position_m = s.data.noise_position_m;
+    given.sigma_rotation_rad = s.data.noise_rotation_rad;
+    given.estimate_joint_noise = true;
+    const calib::Fit a = calib::fitMarkerModel(start, obs, given);
+    CHECK(a.noise.joint_noise_sigma_rad == Approx(joint_sigma).epsilon(0.15));
+    CHECK(a.noise.sigma_position_m == *s.data.noise_position_m);
+    // Every component estimated: the tracker's too.
+    calib::FitOptions all;
+    all.estimate_joint_noise = true;
+    const calib::Fit b = calib::fitMarkerModel(start, obs, all);
+    CHECK(b.noise.joint_noise_sigma_rad == Approx(joint_sigma).epsilon(0.15));
+    CHECK(b.noise.sigma_position_m == Approx(kNoisePosition).epsilon(0.25));
+    CHECK(b.noise.sigma_rotation_rad == Approx(*s.data.noise_rotation_rad).epsilon(0.25));
+    // Whitened with the estimate, the fit is consistent: chi-square per degree of freedom near 1,
+    // where the tracker's noise alone makes it several times too large.
+    CHECK(a.chi2 / a.dof == Approx(1.0).margin(0.15));
+    calib::FitOptions tracker_only = given;
+    tracker_only.estimate_joint_noise = false;
+    const calib::Fit c = calib::fitMarkerModel(start, obs, tracker_only);
+    CHECK(c.chi2 / c.dof > 3.0);
+  }
+  // Without joint noise in the data the component stays small (well below the 0.01 deg above).
+  const sim::SimulatedData clean = simulate(arm, {}, 33);
+  const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(clean.data, false);
+  calib::FitOptions o;
+  o.sigma_position_m = clean.data.noise_position_m;
+  o.sigma_rotation_rad = clean.data.noise_rotation_rad;
+  o.estimate_joint_noise = true;
+  const calib::Fit f = calib::fitMarkerModel(calib::startingModel(clean.data, obs, {}), obs, o);
+  CHECK(f.noise.joint_noise_sigma_rad < 0.002 * sim::kDegToRad);
+}

@@ -142,7 +142,7 @@ TEST_CASE("measured data: position-only poses, temperature in K, time in min, se
       "  time: {column: t, unit: min}\n"
       "registration: {base: known, marker: shared}\n"
       "world_T_base: {xyz_m: [1, 2, 3], rpy_deg: [0, 0, 90]}\n"
-      "noise: {position_mm: 0.05, rotation_deg: 0.01}\n";
+      "noise: {position_mm: 0.05, rotation_deg: 0.01, joint_deg: 0.005}\n";
   const Files f = writeFiles("position-only", description, "unused");
   std::filesystem::create_directories(f.dir + "/sub");
   write(f.dir + "/a.csv", "x,y,z,j1,j2,T,t\n0.1,0.2,0.3,0.5,-0.5,300,2\n");
@@ -169,6 +169,7 @@ TEST_CASE("measured data: position-only poses, temperature in K, time in min, se
   CHECK((d.world_T_base.linear() * Eigen::Vector3d::UnitX() - Eigen::Vector3d::UnitY()).norm() < 1e-15);
   CHECK(*d.noise_position_m == Approx(5e-5).epsilon(1e-15));
   CHECK(*d.noise_rotation_rad == Approx(0.01 * kDegToRad).epsilon(1e-15));
+  CHECK(*d.noise_joint_rad == Approx(0.005 * kDegToRad).epsilon(1e-15));
 }
 
 TEST_CASE("measured data: every bad cell is named by file, line and column", "[sim][measured][badinput]") {
@@ -276,6 +277,9 @@ TEST_CASE("measured data: a bad description names the file and the key", "[sim][
   CHECK(error("registration: {base: shared, marker: per_session}\n",
               "registration: {base: shared, marker: per_session}\nnoise: {position_mm: 0}\n") ==
         desc + ": noise.position_mm: must be positive");
+  CHECK_THAT(error("registration: {base: shared, marker: per_session}\n",
+                   "registration: {base: shared, marker: per_session}\nnoise: {joint_deg: -0.01}\n"),
+             Catch::StartsWith(desc + ": noise.joint_deg:") && Catch::Contains("0 to 10 deg"));
 }
 
 TEST_CASE("fillApproachDirections: the sign of each joint's last move within a session", "[sim][measured]") {
@@ -314,6 +318,7 @@ TEST_CASE("writeMeasuredData: loadMeasuredData reads the same samples back bit f
   d.marker = FrameSharing::kPerSession;
   d.noise_position_m = 3.7e-5;
   d.noise_rotation_rad = 1.1e-4;
+  d.noise_joint_rad = 2.3e-5;
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.5, 1.5);
   for (int k = 0; k < 6; ++k) {
@@ -355,6 +360,7 @@ TEST_CASE("writeMeasuredData: loadMeasuredData reads the same samples back bit f
   CHECK((back.world_T_base.matrix() - d.world_T_base.matrix()).cwiseAbs().maxCoeff() < 1e-14);
   CHECK(*back.noise_position_m == Approx(*d.noise_position_m).epsilon(1e-15));
   CHECK(*back.noise_rotation_rad == Approx(*d.noise_rotation_rad).epsilon(1e-15));
+  CHECK(*back.noise_joint_rad == Approx(*d.noise_joint_rad).epsilon(1e-15));
 
   SECTION("position-only data, directions from the order, no covariates") {
     MeasuredData p = back;
@@ -364,6 +370,7 @@ TEST_CASE("writeMeasuredData: loadMeasuredData reads the same samples back bit f
     p.flange_T_marker = fromXyzRpy(Eigen::Vector3d(0, 0, 0.05), Eigen::Vector3d(0, 0, 0.5));
     p.noise_position_m.reset();
     p.noise_rotation_rad.reset();
+    p.noise_joint_rad.reset();
     for (MeasuredPose& m : p.poses) {
       m.has_rotation = false;
       m.world_T_marker.linear().setIdentity();

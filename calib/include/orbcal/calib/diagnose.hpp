@@ -36,7 +36,9 @@ struct DiagnoseOptions {
   /// gain to within this fraction: the data cannot tell which it is.
   double confounding_gain_margin = 0.1;
   std::optional<double> sigma_position_m, sigma_rotation_rad;  ///< else estimated from the base fit
-  double joint_noise_sigma_rad = 0.0;  ///< joint readings vs true angles, carried into every R
+  /// Joint readings vs true angles, carried into every R; else (measured data without a covariance
+  /// per sample) estimated from the base fit as a third variance component beside the tracker's.
+  std::optional<double> joint_noise_sigma_rad;
 };
 
 /// One row of the evidence table: held-out residuals against one variable.

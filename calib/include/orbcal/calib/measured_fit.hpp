@@ -47,6 +47,10 @@ struct FitOptions {
   /// rotation, two refits) when not given.
   std::optional<double> sigma_position_m, sigma_rotation_rad;
   double joint_noise_sigma_rad = 0.0;
+  /// Also estimate the joint noise (joint readings vs true angles, carried into R through the joint
+  /// Jacobian) as a third variance component, starting from joint_noise_sigma_rad: its share of the
+  /// residuals depends on the configuration, unlike the tracker's.
+  bool estimate_joint_noise = false;
   std::vector<int> hold;  ///< parameters held at their start whatever the data says
   bool fix_unidentifiable = true;
 };

@@ -23,7 +23,9 @@
 //   registration: {base: shared, marker: per_session}   # shared | per_session | known
 //   world_T_base: {xyz_m: [x, y, z], rpy_deg: [r, p, y]}  # exactly when base: known
 //   flange_T_marker: {xyz_m: [...], rpy_deg: [...]}       # exactly when marker: known
-//   noise: {position_mm: 0.05, rotation_deg: 0.01}      # optional; estimated from the fit when absent
+//   noise: {position_mm: 0.05, rotation_deg: 0.01, joint_deg: 0.01}  # optional, each key too; the
+//                                          # tracker's sigmas per axis and the joint readings' (vs the true
+//                                          # angles, 0: exact); absent ones are estimated from the fit
 //
 // Every key but covariates and noise (and their entries) is required; an unknown key or an empty
 // value (`unit:` and nothing) is an InputError naming the description and the key, never a default.
@@ -81,6 +83,7 @@ struct MeasuredData {
   Eigen::Isometry3d flange_T_marker = Eigen::Isometry3d::Identity();
   std::optional<double> noise_position_m;      ///< 1 sigma per axis, when the description gives it
   std::optional<double> noise_rotation_rad;    ///< 1 sigma per axis
+  std::optional<double> noise_joint_rad;       ///< joint readings vs the true angles, 1 sigma per joint
   /// Which covariates the files give (then every sample has them). has_direction is false when the
   /// directions were filled from the sample order (fillApproachDirections) rather than read.
   bool has_torque = false, has_temperature = false, has_time = false, has_direction = false;
