@@ -29,8 +29,9 @@ struct Case {
 };
 
 sim::SimulatedData simulate(const sim::Arm& arm, const std::vector<sim::Effect>& effects, std::uint64_t seed,
-                            sim::FrameSharing marker = sim::FrameSharing::kPerSession) {
+                            sim::FrameSharing marker = sim::FrameSharing::kPerSession, double joint_noise_rad = 0.0) {
   sim::SimulationSpec spec;
+  spec.joint_noise_rad = joint_noise_rad;
   spec.marker = marker;
   spec.samples = 200;
   spec.sessions = 2;
@@ -165,15 +166,7 @@ TEST_CASE("joint reading noise is estimated as a variance component beside the t
   const sim::Arm arm = sim::loadArm(test::sourcePath("scenes/iiwa7.yaml"));
   const double joint_sigma = 0.01 * sim::kDegToRad;
   for (const std::uint64_t seed : {31u, 32u}) {
-    sim::SimulationSpec spec;
-    spec.samples = 200;
-    spec.sessions = 2;
-    spec.payload_kg = {0.0, 1.25};
-    spec.seed = seed;
-    spec.geometry.seed = seed;
-    spec.noise_position_m = kNoisePosition;
-    spec.joint_noise_rad = joint_sigma;
-    const sim::SimulatedData s = sim::simulateMeasured(arm, spec);
+    const sim::SimulatedData s = simulate(arm, {}, seed, sim::FrameSharing::kPerSession, joint_sigma);
     const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(s.data, false);
     const sim::KinematicModel start = calib::startingModel(s.data, obs, {});
     CAPTURE(seed);
