@@ -578,9 +578,18 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
     for (std::size_t i = 0; i < selected.size(); ++i) {
       v << (i ? (i + 1 == selected.size() ? " and " : ", ") : "") << describeEffect(selected[i]);
     }
-    v << ": adding " << (selected.size() > 1 ? "them" : "it") << " cuts the held-out position RMS from "
-      << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " to "
-      << sim::formatNumber("%.3f", out.heldout.selected.position_rms_m * 1e3) << " mm; calibrate with --effects";
+    // In micrometres where millimetres to 3 decimals would read the same ("from 0.091 to 0.091 mm").
+    std::string before = sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) + " mm";
+    std::string after = sim::formatNumber("%.3f", out.heldout.selected.position_rms_m * 1e3) + " mm";
+    if (before == after) {
+      before = sim::formatNumber("%.2f", out.heldout.base.position_rms_m * 1e6) + " um";
+      after = sim::formatNumber("%.2f", out.heldout.selected.position_rms_m * 1e6) + " um";
+    }
+    // Selection weighs the held-out errors by their noise; the plain position RMS can stay level.
+    const bool cut = out.heldout.selected.position_rms_m < out.heldout.base.position_rms_m;
+    v << ": adding " << (selected.size() > 1 ? "them" : "it")
+      << (cut ? " cuts the held-out position RMS from " : " lowers the held-out error weighed by the noise (the position RMS goes from ")
+      << before << " to " << after << (cut ? "" : ")") << "; calibrate with --effects";
     for (const Effect& e : selected) v << " " << sim::formatEffect(e);
     v << (out.confounded.empty() ? "." : " (some causes are confounded in this data: see below).");
   }

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include <random>
+#include <regex>
 
 #include "diagnose.hpp"
 #include "orbcal/render/dataset_writer.hpp"
@@ -173,5 +174,9 @@ TEST_CASE("diagnose: joint reading noise is no effect, and an effect under it is
     CAPTURE(seed, d.verdict);
     REQUIRE_FALSE(d.clean);
     CHECK(sim::formatEffect(d.selected.front()) == "cyclic:2");
+    // The verdict's "from A to B" shows a difference (micrometres where millimetres would not).
+    std::smatch m;
+    REQUIRE(std::regex_search(d.verdict, m, std::regex("from ([0-9.]+ [mu]m) to ([0-9.]+ [mu]m)")));
+    CHECK(m[1].str() != m[2].str());
   }
 }
