@@ -250,7 +250,7 @@ std::string noiseSentence(const calib::Fit& base, const calib::DiagnoseOptions& 
   const auto source = [](bool given) { return given ? " (given)" : " (estimated from the residuals)"; };
   const std::string joints = "joint readings " + sim::formatNumber("%.4f", n.joint_noise_sigma_rad * sim::kRadToDeg) + " deg" +
                              source(o.joint_noise_sigma_rad || data.noise_joint_rad);
-  if (std::any_of(obs.begin(), obs.end(), [](const calib::MarkerObservation& x) { return x.covariance.size() > 0; })) {
+  if (calib::anyOwnCovariance(obs)) {
     return "Noise, as every fit here whitens with it: each sample's own pose covariance, and " + joints + ".";
   }
   const bool pos_given = o.sigma_position_m || data.noise_position_m, rot_given = o.sigma_rotation_rad || data.noise_rotation_rad;

@@ -455,8 +455,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   first.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
   const std::optional<double> joint = o.joint_noise_sigma_rad ? o.joint_noise_sigma_rad : data.noise_joint_rad;
   first.joint_noise_sigma_rad = joint.value_or(0.0);
-  first.estimate_joint_noise = !joint &&
-                               std::none_of(obs.begin(), obs.end(), [](const MarkerObservation& x) { return x.covariance.size() > 0; });
+  first.estimate_joint_noise = !joint && !anyOwnCovariance(obs);
   out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, first);
   d.setNoise(out.base_fit.noise);
 

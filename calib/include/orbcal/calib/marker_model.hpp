@@ -24,6 +24,15 @@ struct MarkerObservation {
   Eigen::MatrixXd covariance;
 };
 
+/// True when some observation carries its own covariance (image datasets): the noise is then not one
+/// set of sigmas to estimate.
+inline bool anyOwnCovariance(const std::vector<MarkerObservation>& obs) {
+  for (const MarkerObservation& o : obs) {
+    if (o.covariance.size() > 0) return true;
+  }
+  return false;
+}
+
 struct MarkerNoise {
   double sigma_position_m = 0.1e-3;                     ///< per axis
   double sigma_rotation_rad = 0.01 * sim::kDegToRad;   ///< per axis
