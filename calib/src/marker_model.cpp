@@ -55,10 +55,11 @@ Linearization MarkerPoseModel::linearize(int k, const Eigen::VectorXd& y) const 
   return lin;
 }
 
-Eigen::MatrixXd MarkerPoseModel::jointJacobian(int k, const Eigen::VectorXd& y) const {
+Eigen::MatrixXd MarkerPoseModel::jointJacobian(int k, const Eigen::VectorXd& y, Eigen::VectorXd* residual) const {
   const MarkerObservation& o = observations_.at(static_cast<std::size_t>(k));
   Eigen::MatrixXd J_e_p, J_e_q;
   const Eigen::Isometry3d predicted = sim::predictMarkerPose(model_, p0_ + y, o.sample, &J_e_p, &J_e_q);
+  if (residual) *residual = residualOf(o, predicted);
   return residualJointJacobian(o, predicted, J_e_q);
 }
 

@@ -169,11 +169,18 @@ Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o) {
 MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::VectorXd& y, const MarkerNoise& noise,
                                     const std::array<bool, 3>& free, double correction) {
   const int n = m.numSamples();
+  // Per sample: the residual and V_k1..3 (fixed over the iterations).
   std::vector<Eigen::VectorXd> r(static_cast<std::size_t>(n));
-  std::vector<Eigen::MatrixXd> Jq(static_cast<std::size_t>(n));
+  std::vector<std::array<Eigen::MatrixXd, 3>> V(static_cast<std::size_t>(n));
   for (int k = 0; k < n; ++k) {
-    r[static_cast<std::size_t>(k)] = m.linearize(k, y).innovation;
-    Jq[static_cast<std::size_t>(k)] = m.jointJacobian(k, y);
+    const auto i = static_cast<std::size_t>(k);
+    const Eigen::MatrixXd Jq = m.jointJacobian(k, y, &r[i]);
+    const Eigen::Index rows = r[i].size();
+    V[i][0] = Eigen::MatrixXd::Zero(rows, rows);
+    V[i][0].topLeftCorner(3, 3).setIdentity();
+    V[i][1] = Eigen::MatrixXd::Zero(rows, rows);
+    if (rows == 6) V[i][1].bottomRightCorner(3, 3).setIdentity();
+    V[i][2] = Jq * Jq.transpose();
   }
   Eigen::Vector3d theta(noise.sigma_position_m * noise.sigma_position_m, noise.sigma_rotation_rad * noise.sigma_rotation_rad,
                         noise.joint_noise_sigma_rad * noise.joint_noise_sigma_rad);
@@ -187,22 +194,16 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
     Eigen::VectorXd u = Eigen::VectorXd::Zero(nf);
     for (int k = 0; k < n; ++k) {
       const Eigen::VectorXd& rk = r[static_cast<std::size_t>(k)];
-      const Eigen::Index rows = rk.size();
-      std::array<Eigen::MatrixXd, 3> V;
-      V[0] = Eigen::MatrixXd::Zero(rows, rows);
-      V[0].topLeftCorner(3, 3).setIdentity();
-      V[1] = Eigen::MatrixXd::Zero(rows, rows);
-      if (rows == 6) V[1].bottomRightCorner(3, 3).setIdentity();
-      V[2] = Jq[static_cast<std::size_t>(k)] * Jq[static_cast<std::size_t>(k)].transpose();
-      Eigen::MatrixXd R = theta[0] * V[0] + theta[1] * V[1] + theta[2] * V[2];
+      const std::array<Eigen::MatrixXd, 3>& Vk = V[static_cast<std::size_t>(k)];
+      const Eigen::MatrixXd R = theta[0] * Vk[0] + theta[1] * Vk[1] + theta[2] * Vk[2];
       const Eigen::LDLT<Eigen::MatrixXd> W(R);
       const Eigen::VectorXd Wr = W.solve(rk);
       // W V_c, the fixed components' share moved to the right-hand side.
       std::array<Eigen::MatrixXd, 3> WV;
-      for (int c = 0; c < 3; ++c) WV[static_cast<std::size_t>(c)] = W.solve(V[static_cast<std::size_t>(c)]);
+      for (int c = 0; c < 3; ++c) WV[static_cast<std::size_t>(c)] = W.solve(Vk[static_cast<std::size_t>(c)]);
       for (Eigen::Index a = 0; a < nf; ++a) {
         const auto ca = static_cast<std::size_t>(f[static_cast<std::size_t>(a)]);
-        u[a] += Wr.dot(V[ca] * Wr);
+        u[a] += Wr.dot(Vk[ca] * Wr);
         for (int c = 0; c < 3; ++c) {
           if (!free[static_cast<std::size_t>(c)]) u[a] -= theta[c] * (WV[ca] * WV[static_cast<std::size_t>(c)]).trace();
         }

@@ -48,8 +48,9 @@ class MarkerPoseModel : public MeasurementModel {
   const sim::ParamLayout& layout() const override { return model_.layout; }
   Linearization linearize(int k, const Eigen::VectorXd& y) const override;
   /// d(residual k)/d(joint readings) at y (rows(k) x joints): how joint noise enters the residual,
-  /// R_k's term joint_noise_sigma^2 Jq Jq^T.
-  Eigen::MatrixXd jointJacobian(int k, const Eigen::VectorXd& y) const;
+  /// R_k's term joint_noise_sigma^2 Jq Jq^T. `residual` (if given) gets the residual at y, from the
+  /// same pose prediction.
+  Eigen::MatrixXd jointJacobian(int k, const Eigen::VectorXd& y, Eigen::VectorXd* residual = nullptr) const;
 
   const sim::KinematicModel& model() const { return model_; }
   const std::vector<MarkerObservation>& observations() const { return observations_; }
