@@ -65,6 +65,18 @@ std::string inputError(Fn fn) {
   return "";
 }
 
+/// A mass model read back from a robot file equals the one written: every link's mass and COM,
+/// gravity, and no payload (the robot files here have none).
+inline void checkSameMasses(const sim::MassModel& back, const sim::MassModel& written) {
+  REQUIRE(back.links.size() == written.links.size());
+  for (std::size_t i = 0; i < written.links.size(); ++i) {
+    CHECK(back.links[i].mass_kg == written.links[i].mass_kg);
+    CHECK(back.links[i].com_m == written.links[i].com_m);
+  }
+  CHECK(back.gravity_base == written.gravity_base);
+  CHECK(back.payload_kg == 0.0);
+}
+
 /// n configurations drawn uniformly within the joint limits (seeded).
 inline std::vector<Eigen::VectorXd> randomConfigs(const sim::Arm& arm, int n, std::uint64_t seed) {
   auto rng = sim::makeRng(seed);

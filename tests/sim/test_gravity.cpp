@@ -189,13 +189,7 @@ TEST_CASE("robot files: the masses section round-trips exactly", "[sim][gravity]
   CHECK(iiwa_text.find("masses:") != std::string::npos);
   write(dir + "/iiwa.yaml", iiwa_text);
   const Arm iiwa_back = loadArm(dir + "/iiwa.yaml");
-  REQUIRE(iiwa_back.masses.links.size() == iiwa.masses.links.size());
-  for (std::size_t i = 0; i < iiwa.masses.links.size(); ++i) {
-    CHECK(iiwa_back.masses.links[i].mass_kg == iiwa.masses.links[i].mass_kg);
-    CHECK(iiwa_back.masses.links[i].com_m == iiwa.masses.links[i].com_m);
-  }
-  CHECK(iiwa_back.masses.gravity_base == iiwa.masses.gravity_base);
-  CHECK(iiwa_back.masses.payload_kg == 0.0);
+  orbcal::test::checkSameMasses(iiwa_back.masses, iiwa.masses);
 
   // Numbers without a short decimal form, a payload and tilted gravity.
   Arm arm = testArm(DhConvention::kStandard);

@@ -346,13 +346,7 @@ TEST_CASE("a URDF arm's masses written as YAML read back the same", "[sim][urdf]
   const Arm arm = loadArm(kIiwaInertialUrdf);
   const std::string path = tempFile("iiwa7_inertial.yaml", formatArm(arm, "test"));
   const Arm back = loadArm(path);
-  REQUIRE(back.masses.links.size() == arm.masses.links.size());
-  for (std::size_t j = 0; j < arm.masses.links.size(); ++j) {
-    CHECK(back.masses.links[j].mass_kg == arm.masses.links[j].mass_kg);
-    CHECK(back.masses.links[j].com_m == arm.masses.links[j].com_m);
-  }
-  CHECK(back.masses.gravity_base == arm.masses.gravity_base);
-  CHECK(back.masses.payload_kg == 0.0);
+  orbcal::test::checkSameMasses(back.masses, arm.masses);
   for (const Eigen::VectorXd& q : orbcal::test::randomConfigs(arm, 20, 5)) {
     CHECK((gravityTorques(back, back.masses, q) - gravityTorques(arm, arm.masses, q)).cwiseAbs().maxCoeff() < 1e-12);
   }
