@@ -141,24 +141,27 @@ TEST_CASE("orbcal study run: every task, resumable, merged the same on one or tw
   // report.md rounds to the spread: the standard deviation to two significant digits, the mean and the
   // interval to its decimal place (within half a unit of it of the CSV's values).
   const std::string report = test::slurp(dir + "/a/merged/report.md");
-  const std::regex cell(R"((-?[0-9]+(?:\.([0-9]+))?) \+- ([0-9]+(?:\.([0-9]+))?) \[(-?[0-9.]+), (-?[0-9.]+)\])");
+  const std::regex cell(R"((-?[0-9.]+) \+- ([0-9.]+) \[(-?[0-9.]+), (-?[0-9.]+)\])");  // mean, sd, interval
+  const auto decimalsOf = [](const std::string& number) {
+    const std::size_t point = number.find('.');
+    return point == std::string::npos ? std::size_t{0} : number.size() - point - 1;
+  };
   int cells = 0;
   for (auto it = std::sregex_iterator(report.begin(), report.end(), cell); it != std::sregex_iterator(); ++it, ++cells) {
     const std::smatch& c = *it;
-    const std::size_t decimals = c[4].length();
-    CHECK(c[2].length() == decimals);
-    std::string digits = c[3].str();
+    const std::size_t decimals = decimalsOf(c[2].str());  // the standard deviation's
+    for (const int k : {1, 3, 4}) CHECK(decimalsOf(c[k].str()) == decimals);
+    std::string digits = c[2].str();
     digits.erase(std::remove(digits.begin(), digits.end(), '.'), digits.end());
     digits.erase(0, digits.find_first_not_of('0'));
     CHECK(digits.size() == 2);
-    for (const int k : {5, 6}) CHECK(c[k].str().size() - c[k].str().find('.') - 1 == decimals);
   }
   CHECK(cells >= 4);
   for (std::size_t c = 0; c < 4; ++c) {  // each cell's mean is shown, rounded
     const double mean = sum.number(c, sum.requireColumn("avg_position_mm_mean"));
     bool shown = false;
     for (auto it = std::sregex_iterator(report.begin(), report.end(), cell); it != std::sregex_iterator(); ++it) {
-      const double half_unit = 0.5 * std::pow(10.0, -static_cast<double>((*it)[2].length())) * (1 + 1e-9);
+      const double half_unit = 0.5 * std::pow(10.0, -static_cast<double>(decimalsOf((*it)[1].str()))) * (1 + 1e-9);
       shown = shown || std::abs(std::stod((*it)[1].str()) - mean) <= half_unit;
     }
     CHECK(shown);
