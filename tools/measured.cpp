@@ -91,8 +91,8 @@ std::string inconsistencyText(const MeasuredCalibrateResult& r) {
   return "chi-square " + formatNumber("%.1f", r.fit.chi2) + " for " + std::to_string(r.fit.dof) + " degrees of freedom (" +
          formatNumber("%.2f", r.fit.chi2 / r.fit.dof) + " per degree, p = " + formatNumber("%.2g", r.consistency_p) +
          "); the noise given is too small for these residuals (" +
-         (r.fit.noise.joint_noise_sigma_rad > 0.0 ? std::string("the joint readings' too?")
-                                                  : std::string("the joint readings' is not given: noise.joint_deg")) +
+         (r.fit.noise.joint_noise_sigma_rad > 0.0 ? std::string("the tracker's or the joint readings'")
+                                                  : std::string("or the joint readings have noise the description does not state: noise.joint_deg")) +
          "), or the model misses an effect (`orbcal diagnose` names it)";
 }
 

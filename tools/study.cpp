@@ -689,7 +689,7 @@ std::string prefixCells(const StudyTask& t) {
 /// interval to the same decimal place (a spread of 0 or a single seed: four significant digits).
 std::string markdownCell(double mean, double sd, double half, std::size_t n) {
   if (n == 0) return "-";
-  if (!(sd > 0.0) || !std::isfinite(sd)) return formatNumber("%.4g", mean) + (n > 1 ? " +- 0" : "");
+  if (!(sd > 0.0) || !std::isfinite(sd)) return formatNumber("%.4g", mean) + (sd == 0.0 && n > 1 ? " +- 0" : "");
   const int decimals = std::clamp(1 - static_cast<int>(std::floor(std::log10(sd))), 0, 12);
   const std::string f = "%." + std::to_string(decimals) + "f";
   return formatNumber(f.c_str(), mean) + " +- " + formatNumber(f.c_str(), sd) + " [" + formatNumber(f.c_str(), mean - half) +
