@@ -30,6 +30,7 @@ void addEvaluateCommand(CLI::App& app) {
     const calib::ResidualStats& s = r.fit.residuals;
     std::printf("%d samples: position mean %.4f mm, RMS %.4f mm, max %.4f mm; rotation RMS %.4f deg\n", s.samples,
                 s.position_mean_m * 1e3, s.position_rms_m * 1e3, s.position_max_m * 1e3, s.rotation_rms_rad * sim::kRadToDeg);
+    for (const std::string& w : r.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     std::printf("evaluation: %s\n", r.json_path.c_str());
   });
 }

@@ -71,19 +71,6 @@ std::vector<EffectParams> selectedParams(const calib::Diagnosis& d) {
   return out;
 }
 
-/// The variable that reveals an effect (a column of residuals.csv) and its label.
-std::pair<std::string, std::string> revealingVariable(const sim::Effect& e) {
-  const std::vector<int> j = sim::effectJoints(e);
-  const std::string n = j.empty() ? "" : std::to_string(j.front() + 1);
-  const std::string name = sim::effectName(e);
-  if (name == "compliance") return {"tau" + n + "_Nm", "joint " + n + " torque (N m)"};
-  if (name == "cyclic" || name == "scale") return {"q" + n + "_deg", "joint " + n + " angle (deg)"};
-  if (name == "backlash") return {"dir" + n, "joint " + n + " approach direction"};
-  if (name == "thermal") return {"temperature_C", "temperature (degC)"};
-  if (name == "drift") return {"time_s", "time (s)"};
-  return {"session", "session"};
-}
-
 }  // namespace
 
 std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& distortion) {
@@ -336,7 +323,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   std::string figures = drawFigure(plot, out, "residuals '" + out + "/residuals.csv' index 'sample'", "samples.png",
                                    "held-out position error per sample, before and after");
   for (const sim::Effect& e : dg.selected) {
-    const auto [column, label] = revealingVariable(e);
+    const auto [column, label] = e.kind().revealingVariable(e);
     const std::string png = "residuals_" + sim::effectName(e) + std::to_string(sim::effectJoints(e).empty() ? 0 : sim::effectJoints(e)[0] + 1) + ".png";
     figures += drawFigure(plot, out, "residuals '" + out + "/residuals.csv' " + column + " '" + label + "'", png,
                           "held-out position error against " + label);
@@ -409,6 +396,37 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   return r;
 }
 
+namespace {
+
+/// The study's injector: a cause of `kind` ("cyclic", "compliance/3": a kind and, optionally, its order)
+/// on a random one of the kind's candidates for a dataset with torques, masses, temperature, time,
+/// directions and two sessions; compliance only on the joints gravity loads (`loaded`).
+sim::Effect drawInjected(const std::string& kind, const sim::Arm& arm, const std::vector<int>& loaded, std::mt19937_64& rng) {
+  const auto slash = kind.find('/');
+  const sim::EffectKind* k = sim::findEffectKind(kind.substr(0, slash));
+  if (!k) throw sim::InputError("--effects: '" + kind + "': unknown effect");
+  const int order = slash == std::string::npos ? k->defaultOrder() : std::atoi(kind.c_str() + slash + 1);
+  sim::CandidateContext ctx;
+  ctx.arm = &arm;
+  ctx.joints = arm.numJoints();
+  ctx.torque = ctx.masses = !arm.masses.empty();
+  ctx.temperature = ctx.time = ctx.direction = true;
+  ctx.sessions = 2;
+  ctx.harmonics = k->defaultOrder();
+  std::vector<sim::Effect> pool;
+  for (const sim::Effect& e : k->candidates(ctx)) {
+    const bool unloaded = k->needs().torque && std::find(loaded.begin(), loaded.end(), e.joints().front()) == loaded.end();
+    if (e.order() == k->defaultOrder() && !unloaded) pool.emplace_back(*k, e.joints(), order);
+  }
+  if (pool.empty()) throw sim::InputError("--effects: '" + kind + "': this robot offers it no joint or link");
+  std::uniform_int_distribution<std::size_t> pick(0, pool.size() - 1);
+  const sim::Effect e = pool[pick(rng)];
+  e.kind().check(e, arm.numJoints(), "--effects: '" + kind + "'");
+  return e;
+}
+
+}  // namespace
+
 StudyResult runDiagnoseStudy(const StudyOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const sim::Arm arm = sim::loadArm(o.robotSource());
@@ -447,7 +465,6 @@ StudyResult runDiagnoseStudy(const StudyOptions& o) {
     const int n = kind == "clean" ? o.clean : o.per_effect;
     for (int t = 0; t < n; ++t) {
       std::mt19937_64 rng = sim::makeRng(o.seed, 1000 * ki + static_cast<std::uint64_t>(t));
-      std::uniform_int_distribution<int> joint(0, arm.numJoints() - 1);
       sim::SimulationSpec spec;
       spec.samples = o.samples;
       spec.sessions = 2;
@@ -457,13 +474,10 @@ StudyResult runDiagnoseStudy(const StudyOptions& o) {
       if (kind == "mount") spec.marker = sim::FrameSharing::kShared;  // a mount change is a change of a shared marker
       std::optional<sim::Effect> injected;
       if (kind != "clean") {
-        const bool joint_effect = kind == "compliance" || kind == "cyclic" || kind == "scale" || kind == "backlash";
-        std::uniform_int_distribution<std::size_t> pick(0, loaded.size() - 1);
-        const int j = kind == "compliance" ? loaded[pick(rng)] : joint(rng);
-        injected = sim::parseEffect(joint_effect ? kind + ":" + std::to_string(j + 1) : kind, arm.numJoints(), "study");
+        injected = drawInjected(kind, arm, loaded, rng);
         spec.effects = {*injected};
         Eigen::VectorXd values(0);
-        for (const sim::ParamBlock& b : sim::effectBlocks(*injected, spec.sessions)) {
+        for (const sim::ParamBlock& b : sim::effectBlocks(*injected, arm, spec.sessions)) {
           for (const sim::ParamInfo& p : b.params) {
             std::uniform_real_distribution<double> mag(0.5, 2.0);
             values.conservativeResize(values.size() + 1);
@@ -483,8 +497,11 @@ StudyResult runDiagnoseStudy(const StudyOptions& o) {
         ++row.clean_verdict;
         if (injected) row.misses.push_back(miss);
       } else if (injected) {
-        const auto same = [&](const sim::Effect& e) { return sim::formatEffect(e) == sim::formatEffect(*injected); };
-        const auto kindOnly = [&](const sim::Effect& e) { return sim::effectName(e) == kind; };
+        // The right cause on the right joints, whatever order diagnose chose (cyclic:2 or cyclic:2/3).
+        const auto same = [&](const sim::Effect& e) {
+          return &e.kind() == &injected->kind() && e.kind().keys(e) == injected->kind().keys(*injected);
+        };
+        const auto kindOnly = [&](const sim::Effect& e) { return &e.kind() == &injected->kind(); };
         if (std::any_of(d.selected.begin(), d.selected.end(), same)) {
           ++row.named;
           if (d.selected.size() > 1) ++row.extra;

@@ -51,7 +51,9 @@ struct StudyOptions {
   int clean = 20;
   int samples = 200;
   std::uint64_t seed = 1;
-  std::vector<std::string> effects{"compliance", "cyclic", "scale", "backlash", "thermal", "drift", "mount"};
+  /// Kinds drawn ("compliance/3": with that order).
+  std::vector<std::string> effects{"compliance", "compliance/3", "cyclic", "scale", "backlash", "thermal",
+                                   "drift",      "mount",        "coupling", "link_bending"};
   calib::DiagnoseOptions diagnose;
   bool quiet = false;
 };

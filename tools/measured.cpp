@@ -219,6 +219,7 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
   EvaluateResult r;
   r.fit = calib::predictWithModel({lm.model, lm.p}, data, obs, fo);
+  r.warnings = calib::outsideTrustedRange(lm.model, obs);
   sim::makeDirectories(out);
   r.json_path = out + "/evaluation.json";
   std::string json = residualJson(r.fit.residuals);
@@ -229,6 +230,7 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
      << "Every geometric and effect parameter is the model's; the per-session frames of the data were refitted ("
      << r.fit.model.layout.size() - static_cast<int>(r.fit.estimate.held.size()) << " parameters).\n\n"
      << kStatsHeader << statsRow("prediction", r.fit.residuals);
+  for (const std::string& w : r.warnings) md << "\n**Warning:** " << w << ".\n";
   r.report_path = out + "/evaluation.md";
   sim::writeFileAtomic(r.report_path, md.str());
   return r;

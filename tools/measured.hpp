@@ -45,6 +45,7 @@ calib::FitOptions::Method parseFitMethod(const std::string& name, const std::str
 
 struct EvaluateResult {
   calib::Fit fit;  ///< per-session frames refitted; residuals = prediction errors
+  std::vector<std::string> warnings;  ///< empirical corrections applied outside their fitted range
   std::string json_path, report_path;
 };
 EvaluateResult runEvaluate(const std::string& model_file, const std::string& description, const std::string& out);

@@ -125,20 +125,7 @@ std::vector<double> holmAdjust(const std::vector<double>& p) {
   return adj;
 }
 
-std::string describeEffect(const sim::Effect& e) {
-  const std::vector<int> joints = sim::effectJoints(e);
-  std::string js;
-  for (std::size_t i = 0; i < joints.size(); ++i) js += (i ? (i + 1 == joints.size() ? " and " : ", ") : "") + std::to_string(joints[i] + 1);
-  const std::string of = (joints.size() > 1 ? " of joints " : " of joint ") + js;
-  const std::string name = sim::effectName(e);
-  if (name == "compliance") return "compliance" + of + " (deflection under its torque)";
-  if (name == "cyclic") return "a cyclic transmission error" + of;
-  if (name == "scale") return "an encoder scale error" + of;
-  if (name == "backlash") return "backlash" + of;
-  if (name == "thermal") return "thermal expansion of the links";
-  if (name == "drift") return "a drift of the base with time";
-  return "a change of the marker mount between sessions";
-}
+std::string describeEffect(const sim::Effect& e) { return e.kind().words(e); }
 
 // ---- Diagnosis ----------------------------------------------------------------------------------
 
@@ -181,6 +168,19 @@ struct CvResult {
   double sse = 0.0;                           ///< held-out whitened SSE
   std::vector<Eigen::VectorXd> residual;      ///< held-out residual per observation
   bool ok = true;
+};
+
+/// Two effects that claim one cause (a key in common: cyclic:2 and cyclic:2/6, compliance:3 and
+/// compliance:3/3) cannot both be in a model.
+bool sharesCause(const Effect& a, const Effect& b) {
+  if (&a.kind() != &b.kind()) return false;
+  const std::vector<std::string> ka = a.kind().keys(a), kb = b.kind().keys(b);
+  return std::any_of(ka.begin(), ka.end(), [&](const std::string& k) { return std::find(kb.begin(), kb.end(), k) != kb.end(); });
+}
+
+struct OrderChoice {
+  Effect effect;
+  CvResult cv;
 };
 
 class Diagnoser {
@@ -252,16 +252,42 @@ class Diagnoser {
   std::vector<CandidateResult> scoreTests(const std::vector<Effect>& current, const Fit& fit,
                                           const std::vector<Effect>& candidates, int step,
                                           std::vector<Projection>* projections) const {
-    std::vector<Effect> all = current;
-    all.insert(all.end(), candidates.begin(), candidates.end());
-    const sim::KinematicModel ext = sim::makeKinematicModel(fit.model.arm, fit.model.sessions, fit.model.base, fit.model.marker,
-                                                            fit.model.world_T_base, fit.model.flange_T_marker, all);
-    Eigen::VectorXd p = Eigen::VectorXd::Zero(ext.layout.size());
-    p.head(fit.p.size()) = fit.p;
-    const MarkerPoseModel m(ext, obs_, noise_, p);
+    // Candidates that claim one cause (cyclic:2 and cyclic:2/6) cannot share a model: one extended model
+    // per layer of mutually compatible candidates, each giving its candidates' whitened columns.
+    std::vector<std::vector<std::size_t>> layers;
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+      auto fits = [&](const std::vector<std::size_t>& l) {
+        return std::none_of(l.begin(), l.end(), [&](std::size_t k) { return sharesCause(candidates[k], candidates[c]); });
+      };
+      auto it = std::find_if(layers.begin(), layers.end(), fits);
+      if (it == layers.end()) it = layers.insert(layers.end(), std::vector<std::size_t>{});
+      it->push_back(c);
+    }
     Eigen::MatrixXd A;
     Eigen::VectorXd b;
-    whitenedSystem(m, Eigen::VectorXd::Zero(ext.layout.size()), A, b);
+    std::vector<Eigen::MatrixXd> columns(candidates.size());  // each candidate's columns at typical magnitudes
+    for (const std::vector<std::size_t>& layer : layers) {
+      std::vector<Effect> all = current;
+      for (std::size_t c : layer) all.push_back(candidates[c]);
+      const sim::KinematicModel ext = sim::makeKinematicModel(fit.model.arm, fit.model.sessions, fit.model.base, fit.model.marker,
+                                                              fit.model.world_T_base, fit.model.flange_T_marker, all);
+      Eigen::VectorXd p = Eigen::VectorXd::Zero(ext.layout.size());
+      p.head(fit.p.size()) = fit.p;
+      const MarkerPoseModel m(ext, obs_, noise_, p);
+      whitenedSystem(m, Eigen::VectorXd::Zero(ext.layout.size()), A, b);
+      // The candidate's columns at its parameters' typical magnitudes: each column is then the whitened
+      // change a typical-size effect makes to the data.
+      const Eigen::VectorXd typical = ext.layout.typical();
+      for (std::size_t k = 0; k < layer.size(); ++k) {
+        Eigen::MatrixXd& B = columns[layer[k]];
+        B.resize(A.rows(), 0);
+        for (const int blk : ext.effect_blocks[current.size() + k]) {
+          const sim::ParamBlock& pb = ext.layout.block(blk);
+          B.conservativeResize(Eigen::NoChange, B.cols() + pb.size());
+          B.rightCols(pb.size()) = A.middleCols(pb.offset, pb.size()) * typical.segment(pb.offset, pb.size()).asDiagonal();
+        }
+      }
+    }
     // The current model's free columns and an orthonormal basis of their span.
     std::vector<int> free;
     for (int i = 0; i < fit.model.layout.size(); ++i) {
@@ -284,15 +310,7 @@ class Diagnoser {
       CandidateResult r;
       r.effect = candidates[c];
       r.step = step;
-      // The candidate's columns at its parameters' typical magnitudes: each column is then the whitened
-      // change a typical-size effect makes to the data.
-      const Eigen::VectorXd typical = ext.layout.typical();
-      Eigen::MatrixXd B(A.rows(), 0);
-      for (const int blk : ext.effect_blocks[current.size() + c]) {
-        const sim::ParamBlock& pb = ext.layout.block(blk);
-        B.conservativeResize(Eigen::NoChange, B.cols() + pb.size());
-        B.rightCols(pb.size()) = A.middleCols(pb.offset, pb.size()) * typical.segment(pb.offset, pb.size()).asDiagonal();
-      }
+      const Eigen::MatrixXd& B = columns[c];
       r.params = static_cast<int>(B.cols());
       const Eigen::MatrixXd Bp = B - Q * (Q.transpose() * B);
       Projection pr;
@@ -325,23 +343,56 @@ class Diagnoser {
     return out;
   }
 
+  /// Every cause of the catalog the data can express (compliance needs torques, thermal a temperature
+  /// that varies, ...), as each kind proposes them.
   std::vector<Effect> catalog() const {
+    sim::CandidateContext ctx;
+    ctx.arm = &data_.arm;
+    ctx.joints = data_.arm.numJoints();
+    ctx.torque = data_.has_torque || !data_.arm.masses.empty();
+    ctx.masses = !data_.arm.masses.empty();
+    for (const sim::MeasuredPose& p : data_.poses) ctx.direction |= p.sample.direction.size() > 0 && p.sample.direction.cwiseAbs().sum() > 0;
+    ctx.temperature = data_.has_temperature;
+    ctx.time = data_.has_time;
+    ctx.sessions = data_.numSessions();
+    ctx.shared_marker = data_.marker == sim::FrameSharing::kShared;
+    ctx.harmonics = o_.harmonics;
     std::vector<Effect> c;
-    const int n = data_.arm.numJoints();
-    const bool torque = data_.has_torque || !data_.arm.masses.empty();
-    bool moves_direction = false;
-    for (const sim::MeasuredPose& p : data_.poses) moves_direction |= p.sample.direction.size() > 0 && p.sample.direction.cwiseAbs().sum() > 0;
-    for (int j = 0; j < n; ++j) {
-      if (torque) c.push_back(sim::Compliance{{j}});
-      c.push_back(sim::Cyclic{{j}, o_.harmonics});
-      c.push_back(sim::Scale{{j}});
-      if (moves_direction) c.push_back(sim::Backlash{{j}});
+    for (const sim::EffectKind* k : sim::catalog()) {
+      for (Effect& e : k->candidates(ctx)) c.push_back(std::move(e));
     }
-    if (data_.has_temperature) c.push_back(sim::Thermal{});
-    if (data_.has_time) c.push_back(sim::Drift{});
-    if (data_.numSessions() > 1 && data_.marker == sim::FrameSharing::kShared) c.push_back(sim::Mount{});
     return c;
   }
+
+  /// The order of a chosen cause with orders (cyclic: harmonics 1..6; compliance: degree 1 or 3) that
+  /// earns the most cross-validated gain after its penalty per parameter; `cv` is the chosen order's.
+  OrderChoice refineOrder(const std::vector<Effect>& selected, const Effect& chosen, const CvResult& cv,
+                          const Fit& current_fit, double cv_current) const {
+    OrderChoice best{chosen, cv};
+    const sim::EffectKind& kind = chosen.kind();
+    if (kind.maxOrder() == 0) return best;
+    const auto params = [&](const Effect& e) {
+      int n = 0;
+      for (const sim::ParamBlock& b : sim::effectBlocks(e, data_.arm, data_.numSessions())) n += b.size();
+      return n;
+    };
+    const auto penalized = [&](const OrderChoice& c) { return cv_current - c.cv.sse - o_.penalty_per_param * params(c.effect); };
+    for (int k = 1; k <= std::min(kind.maxOrder(), kMaxSearchedOrder); ++k) {
+      if (k == chosen.order()) continue;
+      const Effect e(kind, chosen.joints(), k);
+      try {
+        kind.check(e, data_.arm.numJoints(), "order");
+      } catch (const sim::InputError&) {
+        continue;
+      }
+      std::vector<Effect> trial = selected;
+      trial.push_back(e);
+      OrderChoice c{e, crossValidate(trial, &current_fit)};
+      if (penalized(c) > penalized(best)) best = std::move(c);
+    }
+    return best;
+  }
+  static constexpr int kMaxSearchedOrder = 6;
 
   void setNoise(const MarkerNoise& n) { noise_ = n; }
 
@@ -353,19 +404,16 @@ class Diagnoser {
   MarkerNoise noise_;
 };
 
-std::string separationAdvice(const std::vector<Effect>& set, bool with_geometry) {
-  std::vector<std::string> kinds;
-  for (const Effect& e : set) kinds.push_back(sim::effectName(e));
-  const auto has = [&](const char* k) { return std::find(kinds.begin(), kinds.end(), k) != kinds.end(); };
-  if (has("compliance") && (set.size() > 1 || with_geometry)) {
-    return "measure with several payloads (or poses that load the joints differently), so that each joint's torque varies "
-           "independently of the others and of the pose";
+/// The measurement that separates a confounded set: that of its first cause in catalog order, except
+/// that thermal expansion and drift, both growing through a warm-up, part in a cool-down.
+std::string separationAdvice(const std::vector<Effect>& set) {
+  const auto has = [&](const char* k) { return std::any_of(set.begin(), set.end(), [&](const Effect& e) { return e.name() == k; }); };
+  if (has("thermal") && has("drift") && !has("compliance")) {
+    return "measure while the temperature also falls (a cool-down), so that temperature and time part";
   }
-  if (has("thermal") && has("drift")) return "measure while the temperature also falls (a cool-down), so that temperature and time part";
-  if (has("cyclic") || has("scale")) return "move the joints over a wider range, with more distinct angles per joint";
-  if (has("backlash")) return "approach the same configurations from both directions";
-  if (has("thermal")) return "measure over a wider temperature range";
-  if (has("drift")) return "repeat a reference configuration throughout the run";
+  for (const sim::EffectKind* k : sim::catalog()) {
+    if (std::any_of(set.begin(), set.end(), [&](const Effect& e) { return &e.kind() == k; })) return k->separateBy();
+  }
   return "add configurations that move the joints involved independently";
 }
 
@@ -442,57 +490,48 @@ std::vector<VariableTest> residualEvidence(const sim::MeasuredData& data, const 
   return out;
 }
 
-}  // namespace
+/// The model selected so far: its effects, their cross-validation and fit on all the data.
+struct ModelSelection {
+  std::vector<Effect> effects;
+  CvResult cv;
+  Fit fit;
+  int steps = 0;
+};
 
-Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o) {
-  const auto t0 = std::chrono::steady_clock::now();
-  Diagnoser d(data, obs, o);
-  Diagnosis out;
-
-  // The noise: given, or from the base model's fit (variance components).
-  FitOptions first;
-  first.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
-  first.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
-  const std::optional<double> joint = o.joint_noise_sigma_rad ? o.joint_noise_sigma_rad : data.noise_joint_rad;
-  first.joint_noise_sigma_rad = joint.value_or(0.0);
-  first.estimate_joint_noise = !joint && !anyOwnCovariance(obs);
-  out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, first);
-  d.setNoise(out.base_fit.noise);
-
-  CvResult cv_base = d.crossValidate({});
-  out.cv_base = cv_base.sse;
-  out.residual_base = cv_base.residual;
-  out.evidence = residualEvidence(data, obs, cv_base.residual, out.base_fit.noise, out.base_fit.model, out.base_fit.p);
-
-  // Forward selection.
-  std::vector<Effect> selected;
-  CvResult cv_current = cv_base;
-  Fit current_fit = out.base_fit;
-  const std::vector<Effect> catalog = d.catalog();
-  const auto sameCause = [](const Effect& a, const Effect& b) { return sim::formatEffect(a) == sim::formatEffect(b); };
-  for (int step = 1; step <= o.max_effects; ++step) {
+/// Forward selection from `pool`: at each step the significant candidates (score tests, Holm) are
+/// cross-validated and the best penalized gain is added while one is positive; the confounded sets
+/// and every step's tests go to `out`.
+void forwardSelect(const Diagnoser& d, const DiagnoseOptions& o, const std::vector<Effect>& pool, ModelSelection& sel, Diagnosis& out) {
+  for (; sel.steps < o.max_effects; ++sel.steps) {
+    const int step = sel.steps + 1;
     std::vector<Effect> remaining;
-    for (const Effect& c : catalog) {
-      if (std::none_of(selected.begin(), selected.end(), [&](const Effect& s) { return sameCause(s, c); })) remaining.push_back(c);
+    for (const Effect& c : pool) {
+      if (std::none_of(sel.effects.begin(), sel.effects.end(), [&](const Effect& s) { return sharesCause(s, c); })) remaining.push_back(c);
     }
     if (remaining.empty()) break;
     std::vector<Diagnoser::Projection> proj;
-    std::vector<CandidateResult> tests = d.scoreTests(selected, current_fit, remaining, step, &proj);
+    std::vector<CandidateResult> tests = d.scoreTests(sel.effects, sel.fit, remaining, step, &proj);
     // Fit the significant ones, most significant first (at most 5 per step: the time budget).
     std::vector<std::size_t> order;
     for (std::size_t i = 0; i < tests.size(); ++i) {
       if (tests[i].significant) order.push_back(i);
     }
     std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return tests[a].score / std::max(1, tests[a].rank) > tests[b].score / std::max(1, tests[b].rank); });
+    // One order of a cause (cyclic:2 or cyclic:2/6) competes; its order is chosen once it is selected.
+    std::vector<std::size_t> distinct;
+    for (std::size_t i : order) {
+      if (std::none_of(distinct.begin(), distinct.end(), [&](std::size_t k) { return sharesCause(tests[k].effect, tests[i].effect); })) distinct.push_back(i);
+    }
+    order = distinct;
     if (order.size() > 5) order.resize(5);
     std::optional<std::size_t> best;
     double best_gain = 0.0;
     std::map<std::size_t, CvResult> cvs;
     for (std::size_t i : order) {
-      std::vector<Effect> trial = selected;
+      std::vector<Effect> trial = sel.effects;
       trial.push_back(tests[i].effect);
-      cvs[i] = d.crossValidate(trial, &current_fit);
-      tests[i].cv_gain = cv_current.sse - cvs[i].sse;
+      cvs[i] = d.crossValidate(trial, &sel.fit);
+      tests[i].cv_gain = sel.cv.sse - cvs[i].sse;
     }
     // The largest penalized gain; then parsimony: among the candidates whose gain comes within the
     // confounding margin of it (the data cannot tell them apart), the one with the fewest parameters.
@@ -520,20 +559,83 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
       set.effects.push_back(tests[*best].effect);
       set.with_geometry = proj[*best].absorbed > 0.9;
       for (std::size_t i = 0; i < tests.size(); ++i) {
-        if (i == *best || !tests[i].significant || !tests[i].cv_gain) continue;
+        if (i == *best || !tests[i].significant || !tests[i].cv_gain || sharesCause(tests[i].effect, tests[*best].effect)) continue;
         if (*tests[i].cv_gain >= (1.0 - o.confounding_gain_margin) * best_gain) set.effects.push_back(tests[i].effect);
       }
       if (set.effects.size() > 1 || set.with_geometry) {
-        set.separate_by = separationAdvice(set.effects, set.with_geometry);
+        set.separate_by = separationAdvice(set.effects);
         out.confounded.push_back(set);
       }
     }
     out.candidates.insert(out.candidates.end(), tests.begin(), tests.end());
     if (!best) break;
-    selected.push_back(tests[*best].effect);
-    cv_current = std::move(cvs[*best]);
-    current_fit = d.fitAll(selected);
+    // The order of the chosen cause (cyclic harmonics, a compliance's degree) by its cross-validated gain.
+    const OrderChoice chosen = d.refineOrder(sel.effects, tests[*best].effect, cvs[*best], sel.fit, sel.cv.sse);
+    tests[*best].effect = chosen.effect;
+    cvs[*best] = chosen.cv;
+    sel.effects.push_back(tests[*best].effect);
+    sel.cv = std::move(cvs[*best]);
+    sel.fit = d.fitAll(sel.effects);
   }
+
+}
+
+/// Empirical corrections (sim/src/effects/empirical.cpp) the data can carry: each joint against its
+/// own angle and, with torques, its own torque, at degree 6 (the score test's reach; the degree is then
+/// chosen by cross-validation), over the data's range.
+std::vector<Effect> empiricalCandidates(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs) {
+  std::vector<Effect> out;
+  const bool torque = !obs.empty() && obs.front().sample.hasTorque();
+  for (int j = 0; j < data.arm.numJoints(); ++j) {
+    for (const char* name : {"empirical", "empirical_torque"}) {
+      const sim::EffectKind& kind = *sim::findEffectKind(name);
+      if (kind.needs().torque && !torque) continue;
+      const Effect e(kind, {j, j}, 6);
+      double lo = kind.variable(e, obs.front().sample), hi = lo;
+      for (const MarkerObservation& ob : obs) {
+        lo = std::min(lo, kind.variable(e, ob.sample));
+        hi = std::max(hi, kind.variable(e, ob.sample));
+      }
+      if (hi - lo > 1e-9 * std::max(1.0, std::abs(hi))) out.push_back(e.withRange(lo, hi));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Diagnoser d(data, obs, o);
+  Diagnosis out;
+
+  // The noise: given, or from the base model's fit (variance components).
+  FitOptions first;
+  first.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
+  first.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
+  const std::optional<double> joint = o.joint_noise_sigma_rad ? o.joint_noise_sigma_rad : data.noise_joint_rad;
+  first.joint_noise_sigma_rad = joint.value_or(0.0);
+  first.estimate_joint_noise = !joint && !anyOwnCovariance(obs);
+  out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, first);
+  d.setNoise(out.base_fit.noise);
+
+  CvResult cv_base = d.crossValidate({});
+  out.cv_base = cv_base.sse;
+  out.residual_base = cv_base.residual;
+  out.evidence = residualEvidence(data, obs, cv_base.residual, out.base_fit.noise, out.base_fit.model, out.base_fit.p);
+
+  // Forward selection: the catalog's causes; then, where structure is left that none of them explains,
+  // empirical corrections on the variables that structure lies along.
+  ModelSelection sel{{}, cv_base, out.base_fit, 0};
+  forwardSelect(d, o, d.catalog(), sel, out);
+  if (o.empirical && sel.steps < o.max_effects) {
+    const std::vector<Effect> pool = empiricalCandidates(data, obs);
+    forwardSelect(d, o, pool, sel, out);
+  }
+  std::vector<Effect>& selected = sel.effects;
+  CvResult& cv_current = sel.cv;
+  Fit& current_fit = sel.fit;
+  const auto sameCause = [](const Effect& a, const Effect& b) { return sharesCause(a, b); };
 
   // Backward: every selected effect must keep earning its place.
   for (bool removed = true; removed && !selected.empty();) {
@@ -543,7 +645,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
       without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
       CvResult cv = d.crossValidate(without);
       int params = 0;
-      for (const sim::ParamBlock& b : sim::effectBlocks(selected[i], data.numSessions())) params += b.size();
+      for (const sim::ParamBlock& b : sim::effectBlocks(selected[i], data.arm, data.numSessions())) params += b.size();
       if (cv.sse - cv_current.sse < o.penalty_per_param * params) {
         selected = without;
         cv_current = std::move(cv);

@@ -10,6 +10,7 @@
 
 #include "orbcal/calib/registration.hpp"
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/gravity.hpp"
 #include "orbcal/sim/se3.hpp"
 
@@ -17,7 +18,7 @@ namespace orbcal::calib {
 
 bool needsTorque(const std::vector<sim::Effect>& effects) {
   for (const sim::Effect& e : effects) {
-    if (std::holds_alternative<sim::Compliance>(e)) return true;
+    if (e.kind().needs().torque) return true;
   }
   return false;
 }
@@ -391,6 +392,27 @@ Fit predictWithModel(const CalibratedModel& c, const sim::MeasuredData& data, co
     throw sim::InputError(data.description + ": registration: the samples cannot fix the per-session frames (" + e.what() + ")");
   }
   return fitMarkerModel(m, obs, o, p0);
+}
+
+std::vector<std::string> outsideTrustedRange(const sim::KinematicModel& model, const std::vector<MarkerObservation>& observations) {
+  std::vector<std::string> out;
+  for (const sim::Effect& e : model.effects) {
+    if (!e.kind().empirical()) continue;
+    int outside = 0;
+    for (const MarkerObservation& o : observations) {
+      const double x = e.kind().variable(e, o.sample);
+      outside += x < e.lo() || x > e.hi();
+    }
+    if (outside == 0) continue;
+    const auto [column, label] = e.kind().revealingVariable(e);
+    const bool angle = column.rfind("q", 0) == 0;
+    const double scale = angle ? sim::kRadToDeg : 1.0;
+    out.push_back(sim::formatEffect(e) + ": " + std::to_string(outside) + " of " + std::to_string(observations.size()) +
+                  " samples lie outside the range of " + label + ", " + sim::formatNumber("%.1f", e.lo() * scale) + ".." +
+                  sim::formatNumber("%.1f", e.hi() * scale) + (angle ? " deg" : " N m") +
+                  ", it was fitted on: this empirical correction is not to be trusted there");
+  }
+  return out;
 }
 
 }  // namespace orbcal::calib

@@ -23,11 +23,16 @@ Vector6d translationTwist(const Eigen::Vector3d& v) {
 
 void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,
                             Eigen::Ref<Matrix6Xd> J_e_y) {
+  identificationJacobian(arm, q, frame, J_e_y, {});
+}
+
+void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,
+                            Eigen::Ref<Matrix6Xd> J_e_y, const LinkInserts& inserts) {
   if (J_e_y.cols() != arm.numParams()) {
     throw std::invalid_argument("identificationJacobian: expected " + std::to_string(arm.numParams()) +
                                 " columns, got " + std::to_string(J_e_y.cols()));
   }
-  const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, q);
+  const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, q, inserts);
   const Eigen::Isometry3d& base_T_flange = frames.back();
   const Eigen::Vector3d p_f = base_T_flange.translation();
   const Eigen::Matrix3d Rt = base_T_flange.linear().transpose();
@@ -36,8 +41,9 @@ void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame
   const int per_joint = arm.paramsPerJoint();
 
   for (int j = 0; j < arm.numJoints(); ++j) {
-    const Eigen::Isometry3d& prev = frames[j];      // base_T_{j-1}
-    const Eigen::Isometry3d& cur = frames[j + 1];   // base_T_{j}
+    const Eigen::Isometry3d& prev = frames[j];      // base_T_{j-1} (its link's insert included)
+    // base_T_{j} before link j's insert: the frame its parameters act in.
+    const Eigen::Isometry3d cur = inserts.empty() ? frames[j + 1] : frames[j + 1] * inserts[static_cast<std::size_t>(j)].inverse();
     const Eigen::Isometry3d& z_frame = modified ? cur : prev;  // frame whose z carries theta and d
     const Eigen::Isometry3d& x_frame = modified ? prev : cur;  // frame whose x carries alpha and a
     Vector6d xi[7];

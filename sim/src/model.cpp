@@ -46,14 +46,14 @@ Eigen::VectorXd ParamLayout::typical() const {
   return t;
 }
 
-namespace {
-
 ParamInfo angleParam(std::string name, double typical_rad) {
   return {std::move(name), "rad", "deg", kRadToDeg, typical_rad, Quantity::kAngle};
 }
 ParamInfo lengthParam(std::string name, double typical_m) {
   return {std::move(name), "m", "mm", 1e3, typical_m, Quantity::kLength};
 }
+
+namespace {
 
 /// Typical magnitudes: the EKF prior and the column scale. DH errors as orbcal's default EKF prior
 /// (1 deg, 5 mm); registration frames as the closed-form guess's error on a few-mm nominal model
@@ -62,6 +62,8 @@ constexpr double kTypicalAngle = 1.0 * kDegToRad;
 constexpr double kTypicalLength = 5e-3;
 constexpr double kTypicalFrameAngle = 1.0 * kDegToRad;
 constexpr double kTypicalFrameLength = 10e-3;
+
+}  // namespace
 
 ParamBlock frameBlock(const std::string& effect, int session) {
   ParamBlock b;
@@ -73,21 +75,7 @@ ParamBlock frameBlock(const std::string& effect, int session) {
   return b;
 }
 
-void requireJoints(const std::vector<int>& joints, int n, const std::string& what, const std::string& effect) {
-  if (joints.empty()) throw InputError(what + ": " + effect + " needs joints, e.g. " + effect + ":2,4");
-  for (int j : joints) {
-    if (j < 0 || j >= n) {
-      throw InputError(what + ": " + effect + ": joint " + std::to_string(j + 1) + " is out of range 1.." + std::to_string(n));
-    }
-  }
-}
-
-template <class... Ts>
-struct Overloaded : Ts... {
-  using Ts::operator()...;
-};
-template <class... Ts>
-Overloaded(Ts...) -> Overloaded<Ts...>;
+namespace {
 
 }  // namespace
 
@@ -103,40 +91,70 @@ ParamBlock geometryBlock(const Arm& arm) {
 
 // ---- Effects ------------------------------------------------------------------------------------
 
-std::string effectName(const Effect& e) {
-  return std::visit(Overloaded{[](const Compliance&) { return "compliance"; }, [](const Cyclic&) { return "cyclic"; },
-                               [](const Scale&) { return "scale"; }, [](const Backlash&) { return "backlash"; },
-                               [](const Thermal&) { return "thermal"; }, [](const Drift&) { return "drift"; },
-                               [](const Mount&) { return "mount"; }},
-                    e);
-}
+Compliance::operator Effect() const { return Effect(*findEffectKind("compliance"), joints, degree); }
+Cyclic::operator Effect() const { return Effect(*findEffectKind("cyclic"), joints, harmonics); }
+Scale::operator Effect() const { return Effect(*findEffectKind("scale"), joints); }
+Backlash::operator Effect() const { return Effect(*findEffectKind("backlash"), joints); }
+Thermal::operator Effect() const { return Effect(*findEffectKind("thermal"), {}, 0, reference_C); }
+Drift::operator Effect() const { return Effect(*findEffectKind("drift"), {}, 0, reference_s); }
+Mount::operator Effect() const { return Effect(*findEffectKind("mount")); }
 
-std::vector<int> effectJoints(const Effect& e) {
-  return std::visit(Overloaded{[](const Compliance& x) { return x.joints; }, [](const Cyclic& x) { return x.joints; },
-                               [](const Scale& x) { return x.joints; }, [](const Backlash& x) { return x.joints; },
-                               [](const auto&) { return std::vector<int>{}; }},
-                    e);
-}
+std::string effectName(const Effect& e) { return e.name(); }
+std::vector<int> effectJoints(const Effect& e) { return e.joints(); }
 
 const std::vector<std::string>& effectNames() {
-  static const std::vector<std::string> names{"compliance", "cyclic", "scale",  "backlash",
-                                              "thermal",    "drift",  "mount",  "distortion"};
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const EffectKind* k : catalog()) n.push_back(k->name());
+    n.push_back("distortion");
+    return n;
+  }();
   return names;
 }
+
+namespace {
+
+std::string catalogList() {
+  std::string s;
+  const auto& kinds = catalog();
+  for (std::size_t i = 0; i < kinds.size(); ++i) s += (i ? (i + 1 == kinds.size() ? " or " : ", ") : "") + kinds[i]->name();
+  return s;
+}
+
+}  // namespace
 
 Effect parseEffect(const std::string& spec, int num_joints, const std::string& what) {
   const auto colon = spec.find(':');
   const std::string name = spec.substr(0, colon);
   std::string rest = colon == std::string::npos ? "" : spec.substr(colon + 1);
-  int harmonics = 2;
-  if (const auto slash = rest.find('/'); slash != std::string::npos) {
-    if (name != "cyclic") throw InputError(what + ": '" + spec + "': only cyclic takes /K (harmonics)");
-    try {
-      harmonics = std::stoi(rest.substr(slash + 1));
-    } catch (const std::exception&) {
-      harmonics = 0;
+  double lo = 0.0, hi = 0.0;
+  if (const auto at = rest.find('@'); at != std::string::npos) {
+    const std::string range = rest.substr(at + 1);
+    const auto dots = range.find("..");
+    char* end1 = nullptr;
+    char* end2 = nullptr;
+    if (dots != std::string::npos) {
+      const std::string a = range.substr(0, dots), b = range.substr(dots + 2);
+      lo = std::strtod(a.c_str(), &end1);
+      hi = std::strtod(b.c_str(), &end2);
+      if (a.empty() || b.empty() || *end1 != '\0' || *end2 != '\0') lo = hi = 0.0;
     }
-    if (harmonics < 1 || harmonics > 8) throw InputError(what + ": '" + spec + "': harmonics must be 1..8");
+    if (!(lo < hi)) throw InputError(what + ": '" + spec + "': expected @lo..hi with numbers lo < hi after '@'");
+    rest = rest.substr(0, at);
+  }
+  if (name == "distortion") {
+    throw InputError(what + ": '" + spec + "': distortion is a camera effect of image datasets (error-set files and "
+                     "orbcal calibrate DATASET_DIR --estimate-frames), not an effect of the arm's chain");
+  }
+  const EffectKind* kind = findEffectKind(name);
+  if (!kind) throw InputError(what + ": '" + spec + "': unknown effect (expected " + catalogList() + ")");
+  int order = 0;
+  if (const auto slash = rest.find('/'); slash != std::string::npos) {
+    if (kind->maxOrder() == 0) throw InputError(what + ": '" + spec + "': " + name + " takes no /K (order)");
+    char* end = nullptr;
+    const std::string tok = rest.substr(slash + 1);
+    order = static_cast<int>(std::strtol(tok.c_str(), &end, 10));
+    if (tok.empty() || *end != '\0') order = -1;
     rest = rest.substr(0, slash);
   }
   std::vector<int> joints;
@@ -147,23 +165,11 @@ Effect parseEffect(const std::string& spec, int num_joints, const std::string& w
     if (tok.empty() || *end != '\0') throw InputError(what + ": '" + spec + "': '" + tok + "' is not a joint number");
     joints.push_back(static_cast<int>(j) - 1);
   }
-  const bool global = name == "thermal" || name == "drift" || name == "mount";
-  if (global && !joints.empty()) throw InputError(what + ": '" + spec + "': " + name + " takes no joints");
-  if (name == "compliance" || name == "cyclic" || name == "scale" || name == "backlash") {
-    requireJoints(joints, num_joints, what, name);
-  }
-  if (name == "compliance") return Compliance{joints};
-  if (name == "cyclic") return Cyclic{joints, harmonics};
-  if (name == "scale") return Scale{joints};
-  if (name == "backlash") return Backlash{joints};
-  if (name == "thermal") return Thermal{};
-  if (name == "drift") return Drift{};
-  if (name == "mount") return Mount{};
-  if (name == "distortion") {
-    throw InputError(what + ": '" + spec + "': distortion is a camera effect of image datasets (error-set files and "
-                     "orbcal calibrate DATASET_DIR --estimate-frames), not an effect of the arm's chain");
-  }
-  throw InputError(what + ": '" + spec + "': unknown effect (expected compliance, cyclic, scale, backlash, thermal, drift or mount)");
+  if (!kind->takesJoints() && !joints.empty()) throw InputError(what + ": '" + spec + "': " + name + " takes no joints");
+  if (!kind->empirical() && lo != hi) throw InputError(what + ": '" + spec + "': " + name + " takes no @lo..hi (range)");
+  Effect e = Effect(*kind, joints, order).withRange(lo, hi);
+  kind->check(e, num_joints, what + ": '" + spec + "'");
+  return e;
 }
 
 bool isCameraEffect(const std::string& spec, const std::string& what) {
@@ -183,75 +189,9 @@ ParamBlock distortionBlock() {
   return b;
 }
 
-std::string formatEffect(const Effect& e) {
-  std::string s = effectName(e);
-  const std::vector<int> joints = effectJoints(e);
-  for (std::size_t i = 0; i < joints.size(); ++i) s += (i == 0 ? ":" : ",") + std::to_string(joints[i] + 1);
-  if (const auto* c = std::get_if<Cyclic>(&e); c && c->harmonics != 2) s += "/" + std::to_string(c->harmonics);
-  return s;
-}
+std::string formatEffect(const Effect& e) { return e.spec(); }
 
-std::vector<ParamBlock> effectBlocks(const Effect& e, int num_sessions) {
-  std::vector<ParamBlock> out;
-  const auto jointBlock = [&](const std::vector<int>& joints, auto makeParams) {
-    ParamBlock b;
-    b.effect = effectName(e);
-    b.joints = joints;
-    for (int j : joints) makeParams(b, std::to_string(j + 1));
-    out.push_back(std::move(b));
-  };
-  std::visit(
-      Overloaded{
-          [&](const Compliance& x) {
-            // 1e-4 rad/(N m): a harmonic drive of ~10^4 N m/rad (the iiwa's joints: Bischoff et al. 2010).
-            jointBlock(x.joints, [](ParamBlock& b, const std::string& j) {
-              b.params.push_back({"c" + j, "rad/(N*m)", "rad/(N*m)", 1.0, 1e-4, Quantity::kOther});
-            });
-          },
-          [&](const Cyclic& x) {
-            jointBlock(x.joints, [&](ParamBlock& b, const std::string& j) {
-              for (int k = 1; k <= x.harmonics; ++k) {
-                b.params.push_back(angleParam("cyclic" + j + "_sin" + std::to_string(k), 0.01 * kDegToRad));
-                b.params.push_back(angleParam("cyclic" + j + "_cos" + std::to_string(k), 0.01 * kDegToRad));
-              }
-            });
-          },
-          [&](const Scale& x) {
-            jointBlock(x.joints, [](ParamBlock& b, const std::string& j) {
-              // 2e-4 (200 ppm): the order of the joint-scale errors identified on industrial arms.
-              b.params.push_back({"s" + j, "1", "ppm", 1e6, 2e-4, Quantity::kOther});
-            });
-          },
-          [&](const Backlash& x) {
-            jointBlock(x.joints, [](ParamBlock& b, const std::string& j) {
-              b.params.push_back(angleParam("b" + j, 0.01 * kDegToRad));
-            });
-          },
-          [&](const Thermal&) {
-            ParamBlock b;
-            b.effect = "thermal";
-            // Aluminium 23e-6 /K, steel 12e-6 /K.
-            b.params.push_back({"alpha_thermal", "1/K", "ppm/K", 1e6, 2.3e-5, Quantity::kOther});
-            out.push_back(std::move(b));
-          },
-          [&](const Drift&) {
-            ParamBlock b;
-            b.effect = "drift";
-            for (const char* a : {"x", "y", "z"}) {
-              b.params.push_back({std::string("drift_v") + a, "m/s", "mm/h", 3.6e6, 1e-3 / 3600.0, Quantity::kOther});
-            }
-            for (const char* a : {"x", "y", "z"}) {
-              b.params.push_back({std::string("drift_w") + a, "rad/s", "deg/h", kRadToDeg * 3600.0, 0.01 * kDegToRad / 3600.0,
-                                  Quantity::kOther});
-            }
-            out.push_back(std::move(b));
-          },
-          [&](const Mount&) {
-            for (int s = 1; s < num_sessions; ++s) out.push_back(frameBlock("mount", s));
-          }},
-      e);
-  return out;
-}
+std::vector<ParamBlock> effectBlocks(const Effect& e, const Arm& arm, int num_sessions) { return e.kind().blocks(e, arm, num_sessions); }
 
 // ---- Model --------------------------------------------------------------------------------------
 
@@ -291,21 +231,17 @@ KinematicModel makeKinematicModel(Arm arm, int sessions, FrameSharing base, Fram
   if (geometry) m.layout.add(geometryBlock(m.arm));
   std::vector<std::string> seen;  // "compliance:2", "thermal", ... once each
   for (const Effect& e : m.effects) {
-    const std::vector<int> joints = effectJoints(e);
-    std::vector<std::string> keys;
-    if (joints.empty()) keys.push_back(effectName(e));
-    for (const int j : joints) {
+    for (const int j : e.joints()) {
       if (j < 0 || j >= m.arm.numJoints()) throw std::invalid_argument("makeKinematicModel: effect joint out of range");
-      keys.push_back(effectName(e) + ":" + std::to_string(j + 1));
     }
-    for (const std::string& k : keys) {
+    for (const std::string& k : e.kind().keys(e)) {
       if (std::find(seen.begin(), seen.end(), k) != seen.end()) {
         throw std::invalid_argument("the effect " + k + " is given twice");
       }
       seen.push_back(k);
     }
     std::vector<int>& mine = m.effect_blocks.emplace_back();
-    for (ParamBlock& b : effectBlocks(e, sessions)) mine.push_back(m.layout.add(std::move(b)));
+    for (ParamBlock& b : effectBlocks(e, m.arm, sessions)) mine.push_back(m.layout.add(std::move(b)));
   }
   return m;
 }
@@ -345,63 +281,6 @@ int frameBlockIndex(const KinematicModel& m, const std::string& name, FrameShari
   return m.layout.find(name, sharing == FrameSharing::kPerSession ? session : -1);
 }
 
-double deltaTemperature(const Thermal& t, const JointSample& s) {
-  if (!s.hasTemperature()) throw std::invalid_argument("the thermal effect needs a temperature for every sample");
-  return s.temperature_C - t.reference_C;
-}
-double deltaTime(const Drift& d, const JointSample& s) {
-  if (!s.hasTime()) throw std::invalid_argument("the drift effect needs a time for every sample");
-  return s.time_s - d.reference_s;
-}
-
-/// Adds the joint effects' dq (and, where J_dq_p is given, d dq / d p) of one block.
-void addJointEffect(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s,
-                    Eigen::VectorXd& dq, Eigen::MatrixXd* J_dq_p) {
-  std::visit(Overloaded{[&](const Compliance&) {
-                          if (!s.hasTorque()) {
-                            throw std::invalid_argument(
-                                "the compliance effect needs joint torques: measured, or from the robot file's masses");
-                          }
-                          for (std::size_t i = 0; i < b.joints.size(); ++i) {
-                            const int j = b.joints[i], col = b.offset + static_cast<int>(i);
-                            dq[j] += p[col] * s.tau_Nm[j];
-                            if (J_dq_p) (*J_dq_p)(j, col) += s.tau_Nm[j];
-                          }
-                        },
-                        [&](const Cyclic& c) {
-                          int col = b.offset;
-                          for (const int j : b.joints) {
-                            for (int k = 1; k <= c.harmonics; ++k, col += 2) {
-                              const double sn = std::sin(k * s.q_rad[j]), cs = std::cos(k * s.q_rad[j]);
-                              dq[j] += p[col] * sn + p[col + 1] * cs;
-                              if (J_dq_p) {
-                                (*J_dq_p)(j, col) += sn;
-                                (*J_dq_p)(j, col + 1) += cs;
-                              }
-                            }
-                          }
-                        },
-                        [&](const Scale&) {
-                          for (std::size_t i = 0; i < b.joints.size(); ++i) {
-                            const int j = b.joints[i], col = b.offset + static_cast<int>(i);
-                            dq[j] += p[col] * s.q_rad[j];
-                            if (J_dq_p) (*J_dq_p)(j, col) += s.q_rad[j];
-                          }
-                        },
-                        [&](const Backlash&) {
-                          if (s.direction.size() != s.q_rad.size()) {
-                            throw std::invalid_argument("the backlash effect needs the approach direction of every joint");
-                          }
-                          for (std::size_t i = 0; i < b.joints.size(); ++i) {
-                            const int j = b.joints[i], col = b.offset + static_cast<int>(i);
-                            dq[j] += p[col] * s.direction[j];
-                            if (J_dq_p) (*J_dq_p)(j, col) += s.direction[j];
-                          }
-                        },
-                        [](const auto&) {}},
-             e);
-}
-
 /// Walks the effects with their layout blocks (effects with several blocks, i.e. mount, visit each).
 template <class F>
 void forEachEffectBlock(const KinematicModel& m, F&& f) {
@@ -414,18 +293,27 @@ Eigen::VectorXd jointCorrectionsImpl(const KinematicModel& m, const Eigen::Vecto
                                      Eigen::MatrixXd* J_dq_p) {
   Eigen::VectorXd dq = Eigen::VectorXd::Zero(m.arm.numJoints());
   if (J_dq_p) *J_dq_p = Eigen::MatrixXd::Zero(m.arm.numJoints(), m.layout.size());
-  forEachEffectBlock(m, [&](const Effect& e, const ParamBlock& b) { addJointEffect(e, b, p, s, dq, J_dq_p); });
+  forEachEffectBlock(m, [&](const Effect& e, const ParamBlock& b) {
+    e.kind().requireCovariates(s, m.arm.numJoints());
+    e.kind().addJointCorrection(e, b, p, s, m.arm, dq, J_dq_p);
+  });
   return dq;
 }
 
-/// The model's effect of type T (the catalog's global effects occur at most once) and the offset of
-/// its parameters; {nullptr, -1} when absent.
-template <class T>
-std::pair<const T*, int> findEffect(const KinematicModel& m) {
-  for (std::size_t i = 0; i < m.effects.size(); ++i) {
-    if (const auto* e = std::get_if<T>(&m.effects[i])) return {e, m.layout.block(m.effect_blocks[i].front()).offset};
-  }
-  return {nullptr, -1};
+/// The product of the effects' length scales and the derivative of its log over each parameter.
+struct LengthScale {
+  double scale = 1.0;
+  std::vector<std::pair<int, double>> dlog;  ///< (parameter, d log(scale) / dp)
+};
+LengthScale lengthScaleOf(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s) {
+  LengthScale out;
+  forEachEffectBlock(m, [&](const Effect& e, const ParamBlock& b) {
+    const auto [scale, derivative] = e.kind().lengthScale(e, b, p, s);
+    if (scale == 1.0 && derivative == 0.0) return;
+    out.scale *= scale;
+    out.dlog.emplace_back(b.offset, derivative / scale);
+  });
+  return out;
 }
 
 void checkSizes(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s) {
@@ -446,26 +334,82 @@ Eigen::VectorXd jointCorrections(const KinematicModel& m, const Eigen::VectorXd&
   return jointCorrectionsImpl(m, p, s, nullptr);
 }
 
-Arm effectiveArm(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s) {
+namespace {
+
+Arm scaledArm(const KinematicModel& m, const Eigen::VectorXd& p, double length_scale) {
   Arm arm = m.arm;
   if (m.geometry) {
     const ParamBlock& g = m.layout.block(m.layout.find("geometry"));
     arm = withErrors(m.arm, p.segment(g.offset, g.size()));
   }
-  if (const auto [t, t_off] = findEffect<Thermal>(m); t) {
-    const double scale = 1.0 + p[t_off] * deltaTemperature(*t, s);
+  if (length_scale != 1.0) {
     for (DhRow& r : arm.joints) {
-      r.a_m *= scale;
-      r.d_m *= scale;
-      r.xyz_m *= scale;  // the URDF convention's lengths (zero in the DH conventions)
+      r.a_m *= length_scale;
+      r.d_m *= length_scale;
+      r.xyz_m *= length_scale;  // the URDF convention's lengths (zero in the DH conventions)
     }
   }
   return arm;
 }
 
+/// The effects' chain inserts at p for sample s. Each is evaluated on the nominal arm at the joint
+/// readings (a link's load direction, say): what geometry errors and joint corrections change in an
+/// insert is second order, and so the inserts' columns are exact.
+struct Inserts {
+  std::vector<ChainInsert> all;
+  LinkInserts links;  ///< one per link where any effect bends a link, else empty
+};
+Inserts chainInserts(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s) {
+  Inserts out;
+  forEachEffectBlock(m, [&](const Effect& e, const ParamBlock& b) { e.kind().addChainInserts(e, b, p, s, m.arm, s.q_rad, out.all); });
+  for (const ChainInsert& c : out.all) {
+    if (c.place != ChainInsert::Place::kLink) continue;
+    if (out.links.empty()) out.links.assign(static_cast<std::size_t>(m.arm.numJoints()), Eigen::Isometry3d::Identity());
+    out.links[static_cast<std::size_t>(c.link)] = out.links[static_cast<std::size_t>(c.link)] * frameDelta(c.xi);
+  }
+  return out;
+}
+
+/// The product of the inserts at `place` in their order.
+Eigen::Isometry3d insertsAt(const Inserts& in, ChainInsert::Place place) {
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  for (const ChainInsert& c : in.all) {
+    if (c.place == place) X = X * frameDelta(c.xi);
+  }
+  return X;
+}
+
+/// Adds the columns of the chain inserts: each insert's right perturbation carried to the marker frame
+/// through what follows it (`after`: the chain from just after the insert to the marker).
+void addInsertColumns(const Inserts& in, const std::vector<Eigen::Isometry3d>& frames, const Eigen::Isometry3d& F,
+                      const Eigen::Isometry3d& MY, Eigen::MatrixXd& J) {
+  const auto after = [&](std::size_t k) {
+    const ChainInsert& c = in.all[k];
+    Eigen::Isometry3d rest = Eigen::Isometry3d::Identity();  // the later inserts at the same place (links: in the link's product)
+    for (std::size_t l = k + 1; l < in.all.size(); ++l) {
+      if (in.all[l].place == c.place && in.all[l].link == c.link) rest = rest * frameDelta(in.all[l].xi);
+    }
+    if (c.place == ChainInsert::Place::kBase) return Eigen::Isometry3d(rest * F * MY);
+    if (c.place == ChainInsert::Place::kMarker) return rest;
+    return Eigen::Isometry3d(rest * frames[static_cast<std::size_t>(c.link) + 1].inverse() * F * MY);
+  };
+  for (std::size_t k = 0; k < in.all.size(); ++k) {
+    const ChainInsert& c = in.all[k];
+    J.middleCols(c.offset, c.J_xi_p.cols()) += adjoint(after(k).inverse()) * frameDeltaJacobian(c.xi) * c.J_xi_p;
+  }
+}
+
+}  // namespace
+
+Arm effectiveArm(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s) {
+  return scaledArm(m, p, lengthScaleOf(m, p, s).scale);
+}
+
 Eigen::Isometry3d flangePose(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s) {
   checkSizes(m, p, s);
-  return forwardKinematics(effectiveArm(m, p, s), s.q_rad + jointCorrections(m, p, s));
+  const Eigen::VectorXd q = s.q_rad + jointCorrections(m, p, s);
+  const Arm arm = effectiveArm(m, p, s);
+  return forwardKinematics(arm, q, chainInserts(m, p, s).links);
 }
 
 Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s,
@@ -474,27 +418,20 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   const int n = m.arm.numJoints();
   Eigen::MatrixXd J_dq_p;
   const Eigen::VectorXd q = s.q_rad + jointCorrectionsImpl(m, p, s, J_e_p ? &J_dq_p : nullptr);
-  const Arm arm = effectiveArm(m, p, s);
+  const LengthScale lengths = lengthScaleOf(m, p, s);
+  const Arm arm = scaledArm(m, p, lengths.scale);
+  const Inserts inserts = chainInserts(m, p, s);
 
-  // The chain's factors: world_T_base = W0 X_b; D; F; flange_T_marker = M0 X_m; Y (mount).
+  // The chain's factors: world_T_base = W0 X_b; D (base inserts); F; flange_T_marker = M0 X_m; Y (marker inserts).
   const int b_blk = frameBlockIndex(m, "base", m.base, s.session);
   const int m_blk = frameBlockIndex(m, "marker", m.marker, s.session);
-  const int y_blk = s.session > 0 ? m.layout.find("mount", s.session) : -1;
-  const auto [drift, d_off] = findEffect<Drift>(m);
   const auto seg = [&](int blk) { return p.segment(m.layout.block(blk).offset, 6); };
-
   const Eigen::Isometry3d W = b_blk >= 0 ? m.baseStart(s.session) * frameDelta(seg(b_blk)) : m.baseStart(s.session);
-  Eigen::Isometry3d D = Eigen::Isometry3d::Identity();
-  Eigen::VectorXd d_tw(6);
-  double dt = 0.0;
-  if (drift) {
-    dt = deltaTime(*drift, s);
-    d_tw << dt * p.segment<3>(d_off), dt * p.segment<3>(d_off + 3);
-    D = frameDelta(d_tw);
-  }
-  const Eigen::Isometry3d F = forwardKinematics(arm, q);
+  const Eigen::Isometry3d D = insertsAt(inserts, ChainInsert::Place::kBase);
+  const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, q, inserts.links);
+  const Eigen::Isometry3d& F = frames.back();
   const Eigen::Isometry3d M = m_blk >= 0 ? m.markerStart(s.session) * frameDelta(seg(m_blk)) : m.markerStart(s.session);
-  const Eigen::Isometry3d Y = y_blk >= 0 ? frameDelta(seg(y_blk)) : Eigen::Isometry3d::Identity();
+  const Eigen::Isometry3d Y = insertsAt(inserts, ChainInsert::Place::kMarker);
   const Eigen::Isometry3d MY = M * Y;
   const Eigen::Isometry3d world_T_marker = W * D * F * MY;
   if (!J_e_p && !J_e_q) return world_T_marker;
@@ -502,7 +439,9 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   // Flange-frame columns of every DH parameter (theta columns double as the joints' columns), moved
   // to the marker frame.
   const Matrix6d Ad_marker_flange = adjoint(MY.inverse());
-  const Matrix6Xd J_geo = Ad_marker_flange * identificationJacobian(arm, q, ErrorFrame::kTool);
+  Matrix6Xd J_flange(6, arm.numParams());
+  identificationJacobian(arm, q, ErrorFrame::kTool, J_flange, inserts.links);
+  const Matrix6Xd J_geo = Ad_marker_flange * J_flange;
   Matrix6Xd J_q(6, n);
   for (int j = 0; j < n; ++j) J_q.col(j) = J_geo.col(paramIndex(arm, j, kTheta));
   if (J_e_q) *J_e_q = J_q;
@@ -514,28 +453,22 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
     J.middleCols(m.layout.block(b_blk).offset, 6) += adjoint((D * F * MY).inverse()) * frameDeltaJacobian(seg(b_blk));
   }
   if (m_blk >= 0) J.middleCols(m.layout.block(m_blk).offset, 6) += adjoint(Y.inverse()) * frameDeltaJacobian(seg(m_blk));
-  if (y_blk >= 0) J.middleCols(m.layout.block(y_blk).offset, 6) += frameDeltaJacobian(seg(y_blk));
-  if (drift) J.middleCols(d_off, 6) += adjoint((F * MY).inverse()) * frameDeltaJacobian(d_tw) * dt;
+  addInsertColumns(inserts, frames, F, MY, J);
 
-  // Geometry: lengths enter as (nominal + error) (1 + alpha dT).
-  const auto [thermal, t_off] = findEffect<Thermal>(m);
-  const double dT = thermal ? deltaTemperature(*thermal, s) : 0.0;
-  const double expansion = thermal ? 1.0 + p[t_off] * dT : 1.0;
+  // Geometry: lengths enter as (nominal + error) * scale.
   if (m.geometry) {
     const int g = m.layout.block(m.layout.find("geometry")).offset;
     for (int i = 0; i < m.arm.numParams(); ++i) {
-      J.col(g + i) += isAngleParam(m.arm, i) ? J_geo.col(i) : Matrix6Xd(expansion * J_geo.col(i));
+      J.col(g + i) += isAngleParam(m.arm, i) ? J_geo.col(i) : Matrix6Xd(lengths.scale * J_geo.col(i));
     }
   }
-  if (thermal) {
-    // d/d alpha of the scaled lengths: dT (a + da) and dT (d + dd) along their own columns; the
-    // unscaled lengths are the effective ones divided by the expansion.
-    auto col = J.col(t_off);
+  // d/dp of the scaled lengths L_eff = L scale: L_eff d log(scale)/dp along each length's own column.
+  for (const auto& [col, dlog] : lengths.dlog) {
     for (int j = 0; j < n; ++j) {
       if (arm.convention == DhConvention::kUrdf) {
-        for (int a = 0; a < 3; ++a) col += (dT / expansion) * arm.joints[j].xyz_m[a] * J_geo.col(paramIndex(arm, j, ParamKind(kOx + a)));
+        for (int a = 0; a < 3; ++a) J.col(col) += dlog * arm.joints[j].xyz_m[a] * J_geo.col(paramIndex(arm, j, ParamKind(kOx + a)));
       } else {
-        col += (dT / expansion) * (arm.joints[j].a_m * J_geo.col(paramIndex(arm, j, kA)) + arm.joints[j].d_m * J_geo.col(paramIndex(arm, j, kD)));
+        J.col(col) += dlog * (arm.joints[j].a_m * J_geo.col(paramIndex(arm, j, kA)) + arm.joints[j].d_m * J_geo.col(paramIndex(arm, j, kD)));
       }
     }
   }

@@ -15,13 +15,7 @@ namespace {
 
 bool readsTorque(const KinematicModel& m) {
   for (const Effect& e : m.effects) {
-    if (std::holds_alternative<Compliance>(e)) return true;
-  }
-  return false;
-}
-bool hasDrift(const KinematicModel& m) {
-  for (const Effect& e : m.effects) {
-    if (std::holds_alternative<Drift>(e)) return true;
+    if (e.kind().needs().torque) return true;
   }
   return false;
 }
@@ -112,9 +106,9 @@ JointSample TrueArm::sample(int k, const Eigen::VectorXd& q, const Eigen::Vector
 }
 
 Eigen::Isometry3d TrueArm::flangePose(const JointSample& s) const {
-  // The frames are known (identity), so world_T_marker is D(t) base_T_flange; without drift that is
-  // sim::flangePose, which without effects is forwardKinematics(withErrors(nominal, y), q) exactly.
-  return hasDrift(model) ? predictMarkerPose(model, p, s) : sim::flangePose(model, p, s);
+  // The frames are known (identity), so world_T_marker is D(t) base_T_flange (the effects' inserts at
+  // the base included); without effects that is forwardKinematics(withErrors(nominal, y), q) exactly.
+  return model.effects.empty() ? sim::flangePose(model, p, s) : predictMarkerPose(model, p, s);
 }
 
 Camera TrueArm::camera(const Camera& scene_camera) const {
@@ -200,18 +194,18 @@ TrueArm parseTrueArm(const Arm& nominal, const std::string& text, const std::str
     if (!seen.insert(name).second) {
       spec.fail("a second " + name + " effect: list every joint in one spec (e.g. " + name + ":2,4)");
     }
-    if (std::holds_alternative<Mount>(effect)) {
-      spec.fail("mount (the marker re-mounted between sessions) has no meaning in a simulated plant: a dataset is one "
+    if (effect.kind().needs().sessions) {
+      spec.fail(name + " (the marker re-mounted between sessions) has no meaning in a simulated plant: a dataset is one "
                 "session");
     }
-    if (std::holds_alternative<Compliance>(effect) && arm.masses.empty()) {
+    if ((effect.kind().needs().torque || effect.kind().needs().masses) && arm.masses.empty()) {
       const bool urdf = !nominal.urdf.empty() && nominal.urdf.file == nominal.source;  // read from the URDF itself
-      spec.fail("compliance deflects the joints under the gravity torques of the robot file's masses, and " + nominal.source +
+      spec.fail(name + " reads the gravity loads of the robot file's masses, and " + nominal.source +
                 (urdf ? " has no <inertial> on a link the chain moves" : " has no masses: section") +
                 " and covariates.payload_kg is 0");
     }
-    if (std::holds_alternative<Thermal>(effect) && !temp.defined()) {
-      spec.fail("thermal reads the temperature: give covariates.temperature ({start_C, rise_C, tau_s}); at the "
+    if (effect.kind().needs().temperature && !temp.defined()) {
+      spec.fail(name + " reads the temperature: give covariates.temperature ({start_C, rise_C, tau_s}); at the "
                 "reference 20 degC it would do nothing");
     }
     effects.push_back(std::move(effect));
@@ -276,10 +270,11 @@ std::string formatEffects(const TrueArm& t) {
       }
     }
     s << "\n";
-    time |= std::holds_alternative<Drift>(e) || std::holds_alternative<Thermal>(e);
-    temperature |= std::holds_alternative<Thermal>(e);
-    torque |= std::holds_alternative<Compliance>(e);
-    direction |= std::holds_alternative<Backlash>(e);
+    const EffectNeeds needs = e.kind().needs();
+    time |= needs.time || needs.temperature;
+    temperature |= needs.temperature;
+    torque |= needs.torque;
+    direction |= needs.direction;
   }
   const CovariateProfile& c = t.covariates;
   if (time) s << "  sample k at t = k * " << formatNumber("%.6g", c.sample_period_s) << " s\n";

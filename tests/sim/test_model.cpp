@@ -88,7 +88,9 @@ KinematicModel modelWith(const Arm& arm, std::vector<Effect> effects, FrameShari
 }
 
 std::vector<Effect> everyEffect(int n) {
-  return {Compliance{{1, 3}}, Cyclic{{0, n - 1}, 2}, Scale{{2}}, Backlash{{1, 4}}, Thermal{}, Drift{}, Mount{}};
+  return {Compliance{{1, 3}}, Cyclic{{0, n - 1}, 2}, Scale{{2}}, Backlash{{1, 4}}, Thermal{}, Drift{}, Mount{},
+          Compliance{{5}, 3}, Cyclic{{4}, 6}, parseEffect("coupling:4,2,7,6", n, "test"),
+          parseEffect("link_bending:2,4", n, "test")};
 }
 
 }  // namespace
@@ -189,7 +191,8 @@ TEST_CASE("folding parameters into the model keeps its predictions", "[model]") 
 }
 
 TEST_CASE("effect specifications parse and print back; bad ones are errors naming the option", "[model]") {
-  for (const char* spec : {"compliance:2,4", "cyclic:2", "cyclic:1,7/3", "scale:3", "backlash:1", "thermal", "drift", "mount"}) {
+  for (const char* spec : {"compliance:2,4", "compliance:3/3", "cyclic:2", "cyclic:1,7/3", "scale:3", "backlash:1", "thermal",
+                           "drift", "mount", "coupling:3,2", "coupling:3,2,6,5", "link_bending:2,4"}) {
     CHECK(formatEffect(parseEffect(spec, 7, "--effects")) == spec);
   }
   const auto message = [](const std::string& spec) {
@@ -204,5 +207,67 @@ TEST_CASE("effect specifications parse and print back; bad ones are errors namin
   CHECK_THAT(message("compliance"), Catch::Contains("needs joints"));
   CHECK_THAT(message("thermal:2"), Catch::Contains("takes no joints"));
   CHECK_THAT(message("bend:2"), Catch::Contains("unknown effect"));
-  CHECK_THAT(message("cyclic:2/0"), Catch::Contains("harmonics"));
+  CHECK_THAT(message("cyclic:2/0"), Catch::Contains("order"));
+  CHECK_THAT(message("compliance:2/2"), Catch::Contains("1 (linear) or 3"));
+  CHECK_THAT(message("coupling:3"), Catch::Contains("pairs"));
+  CHECK_THAT(message("coupling:3,3"), Catch::Contains("scale:3"));
+  CHECK_THAT(message("scale:3/2"), Catch::Contains("takes no /K"));
+}
+
+TEST_CASE("coupling and a stiffening compliance follow their defining formulas", "[model]") {
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/iiwa7.yaml"));
+  const KinematicModel m = modelWith(arm, {parseEffect("coupling:3,2", 7, "test"), Compliance{{4}, 3}});
+  std::mt19937_64 rng(17);
+  const JointSample s = randomSample(arm, 0, rng);
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(m.layout.size());
+  const auto at = [&](const std::string& name) {
+    for (int i = 0; i < m.layout.size(); ++i) {
+      if (m.layout.param(i).name == name) return i;
+    }
+    FAIL("no parameter " << name);
+    return -1;
+  };
+  p[at("k3_2")] = 4e-4;
+  p[at("c5")] = 1e-4;
+  p[at("c5_cubic")] = -2e-8;
+  const Eigen::VectorXd dq = jointCorrections(m, p, s);
+  CHECK(dq[2] == Approx(4e-4 * s.q_rad[1]).epsilon(1e-14));
+  CHECK(dq[1] == 0.0);
+  const double t = s.tau_Nm[4];
+  CHECK(dq[4] == Approx(1e-4 * t - 2e-8 * t * t * t).epsilon(1e-14));
+  CHECK((dq.array() != 0.0).count() == 2);
+}
+
+TEST_CASE("a bending link deflects its far end by F L^3 / 3EI and tilts it by F L^2 / 2EI", "[model]") {
+  // Two joints about vertical axes (standard DH): link 1 is a horizontal beam of L = 0.8 m along x of
+  // frame 1; link 2 has no length, so the flange sits at the beam's far end. 3 kg sit there (link 2's
+  // mass) and 2 kg of payload: F = 5 kg x 9.80665 m/s^2, straight down, across the beam; link 1's own
+  // 1 kg sits at its middle (a = 0.4 m): P a^2 (3L - a) / 6EI at the far end, P a^2 / 2EI of tilt.
+  Arm arm;
+  arm.name = "beam";
+  arm.convention = DhConvention::kStandard;
+  arm.joints.resize(2);
+  arm.joints[0].a_m = 0.8;
+  arm.lower_rad = Eigen::Vector2d::Constant(-3.0);
+  arm.upper_rad = Eigen::Vector2d::Constant(3.0);
+  arm.masses.links = {LinkMass{1.0, Eigen::Vector3d(-0.4, 0, 0)}, LinkMass{3.0, Eigen::Vector3d::Zero()}};
+  arm.masses.payload_kg = 2.0;
+  const KinematicModel m =
+      makeKinematicModel(arm, 1, FrameSharing::kKnown, FrameSharing::kKnown, {Eigen::Isometry3d::Identity()},
+                         {Eigen::Isometry3d::Identity()}, {parseEffect("link_bending:1", 2, "test")}, false);
+  const double EI = 2.0e5, L = 0.8, F = 5.0 * 9.80665, P = 1.0 * 9.80665, a = 0.4;
+  Eigen::VectorXd p(1);
+  p << 1.0 / EI;
+  JointSample s;
+  s.q_rad = Eigen::Vector2d(0.7, -1.1);
+  const Eigen::Isometry3d bent = flangePose(m, p, s), straight = forwardKinematics(arm, s.q_rad);
+  const Eigen::Vector3d drop = bent.translation() - straight.translation();
+  CHECK(drop.z() == Approx(-(F * L * L * L / 3.0 + P * a * a * (3.0 * L - a) / 6.0) / EI).epsilon(1e-12));
+  CHECK(drop.head<2>().norm() < 1e-15);
+  // The tilt: about the horizontal axis across the beam, u x F (the far end dips).
+  const Eigen::Vector3d tilt = logSO3(straight.linear().transpose() * bent.linear());
+  CHECK(tilt.norm() == Approx((F * L * L + P * a * a) / (2.0 * EI)).epsilon(1e-12));
+  const Eigen::Vector3d u(std::cos(0.7), std::sin(0.7), 0.0);
+  CHECK((straight.linear() * tilt).normalized().dot(u.cross(Eigen::Vector3d(0, 0, -1))) == Approx(1.0).epsilon(1e-12));
+  checkJacobian(m, s, p);
 }

@@ -31,7 +31,10 @@ struct DiagnoseOptions {
   double alpha = 0.01;              ///< family-wise error rate of each step's candidate tests (Holm)
   double penalty_per_param = 2.0;   ///< cross-validated gain (whitened SSE) an added parameter must earn
   int max_effects = 4;
-  int harmonics = 2;                ///< of the cyclic candidates
+  int harmonics = 2;                ///< of the cyclic candidates (the search also tries up to 6, then picks by CV)
+  /// Where structure is left that no cause of the catalog explains, also try empirical corrections
+  /// (sim/src/effects/empirical.cpp), selected by cross-validation like the causes, reported as empirical.
+  bool empirical = true;
   /// Two significant causes are one set when either, fitted alone, reaches the other's cross-validated
   /// gain to within this fraction: the data cannot tell which it is.
   double confounding_gain_margin = 0.1;

@@ -88,6 +88,11 @@ CalibratedModel calibratedModel(const Fit& fit);
 /// is every frame the data's description calls shared or known (the model's); the frames it calls
 /// per_session (e.g. a marker re-mounted for this run) and mount changes are refitted (closed-form
 /// start, then LM). Returns the fit of those frames; its `residuals` are the prediction errors.
+/// One warning per empirical effect of `model` (sim/src/effects/empirical.cpp) whose variable leaves the
+/// range it was fitted on in some of `observations`: "empirical:3,3/4@...: 12 of 200 samples lie outside
+/// joint 3's angle range -10.0..85.0 deg it was fitted on; its correction is not to be trusted there".
+std::vector<std::string> outsideTrustedRange(const sim::KinematicModel& model, const std::vector<MarkerObservation>& observations);
+
 Fit predictWithModel(const CalibratedModel& calibrated, const sim::MeasuredData& data,
                      const std::vector<MarkerObservation>& observations, const FitOptions& options);
 

@@ -130,6 +130,13 @@ Eigen::Isometry3d forwardKinematics(const Arm& arm, const Eigen::VectorXd& q);
 /// frames[n + 1] = base_T_flange.
 std::vector<Eigen::Isometry3d> chainFrames(const Arm& arm, const Eigen::VectorXd& q);
 
+/// Rigid motions inserted in the chain, one per link (or none): X_j is right-multiplied onto link j's
+/// transform, so frame j+1 (0-based j) becomes base_T_j linkTransform(j) X_j: a link that bends, say.
+using LinkInserts = std::vector<Eigen::Isometry3d>;
+/// forwardKinematics and chainFrames with inserts (empty `inserts`: the plain chain).
+Eigen::Isometry3d forwardKinematics(const Arm& arm, const Eigen::VectorXd& q, const LinkInserts& inserts);
+std::vector<Eigen::Isometry3d> chainFrames(const Arm& arm, const Eigen::VectorXd& q, const LinkInserts& inserts);
+
 bool withinLimits(const Arm& arm, const Eigen::VectorXd& q);
 
 /// Characteristic length of the arm (m): sum of |a| and |d| over all rows and the fixed transforms.

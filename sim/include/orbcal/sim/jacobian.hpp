@@ -29,6 +29,10 @@ Matrix6Xd identificationJacobian(const Arm& arm, const Eigen::VectorXd& q,
 /// Same, written into caller-owned storage of size 6 x arm.numParams() (no allocation for the result).
 void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,
                             Eigen::Ref<Matrix6Xd> J_e_y);
+/// Same, for the chain with link inserts (arm.hpp's LinkInserts; empty: none): every parameter of
+/// link j acts on the chain before X_j, and X_j moves with it.
+void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,
+                            Eigen::Ref<Matrix6Xd> J_e_y, const LinkInserts& inserts);
 
 /// Geometric manipulator Jacobian J_twist_q (6 x n) in the base frame: [v of the flange origin; w].
 Matrix6Xd manipulatorJacobian(const Arm& arm, const Eigen::VectorXd& q);

@@ -29,10 +29,10 @@
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
-#include <variant>
 #include <vector>
 
 #include "orbcal/sim/arm.hpp"
+#include "orbcal/sim/effect.hpp"
 #include "orbcal/sim/jacobian.hpp"
 #include "orbcal/sim/measured.hpp"
 #include "orbcal/sim/sample.hpp"
@@ -86,37 +86,38 @@ class ParamLayout {
 ParamBlock geometryBlock(const Arm& arm);
 
 // ---- The effect catalog -------------------------------------------------------------------------
-// Joints are numbered from 0 inside the code and from 1 wherever people read or write them.
+// Each cause is one EffectKind (sim/effect.hpp) in one file of sim/src/effects/. The structs below
+// make the catalog's first causes by name (sim::Compliance{{1}} converts to an Effect) for code and
+// tests that build models directly; parseEffect makes any of them from its spec.
 
-/// Joint i deflects by c_i tau_i (rad per N m), tau_i the measured (or gravity-model) joint torque.
-struct Compliance { std::vector<int> joints; };
+/// Joint i deflects by c1_i tau_i (+ c3_i tau_i^3 with degree 3: a stiffening joint), rad per N m.
+struct Compliance { std::vector<int> joints; int degree = 1; operator Effect() const; };
 /// Transmission error of joint i: sum_{k=1..K} a_ik sin(k q_i) + b_ik cos(k q_i) (rad).
-struct Cyclic { std::vector<int> joints; int harmonics = 2; };
+struct Cyclic { std::vector<int> joints; int harmonics = 2; operator Effect() const; };
 /// Encoder scale error of joint i: dq_i = s_i q_i (s dimensionless).
-struct Scale { std::vector<int> joints; };
+struct Scale { std::vector<int> joints; operator Effect() const; };
 /// Lost motion of joint i: dq_i = b_i d_i, d_i = +1/-1 the direction it approached from (0: did not move).
-struct Backlash { std::vector<int> joints; };
+struct Backlash { std::vector<int> joints; operator Effect() const; };
 /// Every DH length (a and d) expands by alpha (T - reference_C); alpha in 1/K.
-struct Thermal { double reference_C = 20.0; };
+struct Thermal { double reference_C = 20.0; operator Effect() const; };
 /// The base frame moves linearly with time: D(t) = (Exp((t - reference_s) w), (t - reference_s) v),
 /// parameters [v (m/s); w (rad/s)] in the base frame.
-struct Drift { double reference_s = 0.0; };
+struct Drift { double reference_s = 0.0; operator Effect() const; };
 /// The marker changes between sessions: sessions 2.. get a rigid change Y_s of the marker frame.
-struct Mount {};
+struct Mount { operator Effect() const; };
 
-using Effect = std::variant<Compliance, Cyclic, Scale, Backlash, Thermal, Drift, Mount>;
-
-/// The catalog's names: "compliance", "cyclic", "scale", "backlash", "thermal", "drift", "mount".
+/// The catalog's names: "compliance", "cyclic", "scale", "backlash", "thermal", "drift", "mount", ...
 std::string effectName(const Effect& e);
 /// Joints the effect acts on (from 0); empty for global effects.
 std::vector<int> effectJoints(const Effect& e);
 /// Every name of the catalog, in order (and "distortion", which is a camera effect, not a chain effect).
 const std::vector<std::string>& effectNames();
-/// Parses "compliance:2,4", "cyclic:2" (K = 2 harmonics), "cyclic:2,3/3" (K = 3), "thermal",
-/// "drift", "mount" (joints from 1). Throws InputError naming `what` (e.g. "--effects") for an
-/// unknown name, a joint out of range or a joint effect without joints, and for "distortion": a camera
-/// effect, which the callers that have a camera (error-set files, the corner model of image datasets)
-/// take out with isCameraEffect before parsing the chain effects.
+/// Parses "compliance:2,4", "cyclic:2" (the kind's default order), "cyclic:2,3/3" (order 3),
+/// "coupling:3,2" (joint 3's error from joint 2's angle), "thermal", "drift", "mount" (joints from 1).
+/// Throws InputError naming `what` (e.g. "--effects") for an unknown name, a joint out of range or a
+/// joint effect without joints, and for "distortion": a camera effect, which the callers that have a
+/// camera (error-set files, the corner model of image datasets) take out with isCameraEffect before
+/// parsing the chain effects.
 Effect parseEffect(const std::string& spec, int num_joints, const std::string& what);
 /// True for the camera effects of the catalog: "distortion" (takes no joints; throws InputError naming
 /// `what` for "distortion:..." with anything after the name).
@@ -132,7 +133,14 @@ ParamBlock distortionBlock();
 /// The inverse of parseEffect: "compliance:2,4".
 std::string formatEffect(const Effect& e);
 /// Parameter blocks of an effect for an arm and a number of sessions.
-std::vector<ParamBlock> effectBlocks(const Effect& e, int num_sessions);
+std::vector<ParamBlock> effectBlocks(const Effect& e, const Arm& arm, int num_sessions);
+
+/// Parameter makers for effect kinds (sim/src/effects/): an angle (rad, read in deg) and a length (m,
+/// read in mm) of a typical magnitude.
+ParamInfo angleParam(std::string name, double typical_rad);
+ParamInfo lengthParam(std::string name, double typical_m);
+/// The six parameters of a frame change [x, y, z (m); rx, ry, rz (rad)] named `effect`[session]_x ...
+ParamBlock frameBlock(const std::string& effect, int session);
 
 // ---- The model ----------------------------------------------------------------------------------
 

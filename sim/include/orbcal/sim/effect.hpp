@@ -1,0 +1,160 @@
+#pragma once
+// The effect catalog: one type per physical cause, each in one file of sim/src/effects/ and one line
+// of the list in sim/src/effects/catalog.cpp. A kind carries everything orbcal knows of its cause:
+// its name and people's words, its parameters with units and typical sizes (ParamBlock), its forward
+// model and analytic Jacobian, what it reads (torques, temperature, time, approach directions, masses,
+// sessions), the variable that reveals it in residuals, the measurement that tells it from its
+// look-alikes, and the candidates diagnose tests on a given dataset. Estimators, diagnose, reports and
+// files read these; none of them switches on an effect's name.
+//
+// A cause enters the model's chain (sim/model.hpp) in one or more of three ways:
+//  1. a joint-angle correction dq(p, s) and d dq / dp (compliance, cyclic, scale, backlash, coupling);
+//  2. a rigid perturbation X = frameDelta(xi(p, s)) inserted at a place of the chain: after the base
+//     frame (drift), after link j's far end (link bending), after the marker frame (mount);
+//  3. a scale of the arm's lengths (thermal).
+#include <Eigen/Core>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "orbcal/sim/arm.hpp"
+#include "orbcal/sim/sample.hpp"
+
+namespace orbcal::sim {
+
+struct ParamBlock;
+struct ParamInfo;
+class EffectKind;
+
+/// One cause of the catalog on given joints: a kind plus what it is applied to. Joints are numbered
+/// from 0 inside the code and from 1 wherever people read or write them.
+class Effect {
+ public:
+  /// `order`: the kind's order (cyclic: number of harmonics; compliance: polynomial degree 1 or 3;
+  /// 0: the kind's default). `reference`: the covariate value at which the effect is zero (thermal:
+  /// degC; drift: s); NaN: the kind's default.
+  Effect(const EffectKind& kind, std::vector<int> joints = {}, int order = 0,
+         double reference = std::numeric_limits<double>::quiet_NaN());
+  /// No effect yet (a placeholder to assign to; kind() must not be called on it).
+  Effect() = default;
+  /// An empirical effect's variable range [lo, hi] (SI): the data it was fitted on, its basis's domain
+  /// and the range outside which it must not be trusted.
+  Effect withRange(double lo, double hi) const;
+  const EffectKind& kind() const { return *kind_; }
+  const std::string& name() const;
+  const std::vector<int>& joints() const { return joints_; }
+  int order() const { return order_; }
+  double reference() const { return reference_; }
+  double lo() const { return lo_; }
+  double hi() const { return hi_; }
+  /// "compliance:2,4", "cyclic:3/4", "coupling:3,2" (parseEffect's syntax).
+  std::string spec() const;
+
+ private:
+  const EffectKind* kind_ = nullptr;
+  std::vector<int> joints_;
+  int order_ = 0;
+  double reference_ = 0.0;
+  double lo_ = 0.0, hi_ = 0.0;
+};
+
+/// What an effect reads besides the joint readings.
+struct EffectNeeds {
+  bool torque = false;       ///< joint torques (measured, or from the robot's masses)
+  bool masses = false;       ///< the robot's mass model itself (loads of the links)
+  bool temperature = false;
+  bool time = false;
+  bool direction = false;    ///< the approach direction of every joint
+  bool sessions = false;     ///< more than one session
+};
+
+/// What a dataset offers the candidates of diagnose.
+struct CandidateContext {
+  const Arm* arm = nullptr;   ///< the nominal arm (geometry and masses)
+  int joints = 0;
+  bool torque = false, masses = false, temperature = false, time = false, direction = false;
+  int sessions = 1;
+  bool shared_marker = true;  ///< the marker frame is shared between sessions (else mount is absorbed)
+  int harmonics = 2;          ///< orders of the cyclic candidates (diagnose's option)
+};
+
+/// A rigid perturbation an effect inserts in the chain: X = frameDelta(xi), xi = [t; w] in the frame
+/// at `place`, and d xi / d p over the effect's block (6 x block size).
+struct ChainInsert {
+  enum class Place { kBase, kLink, kMarker };
+  Place place = Place::kBase;
+  int link = -1;  ///< kLink: X is right-multiplied onto base_T_{link+1} (the far end of link `link`, 0-based)
+  Eigen::Matrix<double, 6, 1> xi = Eigen::Matrix<double, 6, 1>::Zero();
+  Eigen::MatrixXd J_xi_p;  ///< 6 x block size
+  int offset = 0;          ///< the block's first parameter in p
+};
+
+/// The catalog's interface. Kinds are stateless singletons (catalog()).
+class EffectKind {
+ public:
+  virtual ~EffectKind() = default;
+  virtual std::string name() const = 0;
+  /// People's words: "compliance of joint 2 (deflection under its torque)"; `of` is " of joint 2".
+  virtual std::string words(const Effect& e) const = 0;
+  /// The physical reason, one or two sentences for the manual and --help.
+  virtual std::string physics() const = 0;
+  /// Empirical, not a physical cause: a smooth function fitted where no cause of the catalog explains
+  /// the structure. Its spec carries the variable's range ("@lo..hi", SI).
+  virtual bool empirical() const { return false; }
+  /// For an empirical kind: the value of its variable at sample s (rad, N m), and its label.
+  virtual double variable(const Effect&, const JointSample&) const { return 0.0; }
+  /// Whether the effect takes joints ("compliance:2"), and how many at least.
+  virtual bool takesJoints() const { return true; }
+  /// Its default order (Effect::order() 0 means this) and the orders it accepts ("/K"); 0 0: none.
+  virtual int defaultOrder() const { return 0; }
+  /// The covariate value at which the effect is zero, where it reads one (thermal: 20 degC).
+  virtual double defaultReference() const { return 0.0; }
+  virtual int maxOrder() const { return 0; }
+  /// Throws InputError (prefixed by `what`) when the joints or order do not fit the kind.
+  virtual void check(const Effect& e, int num_joints, const std::string& what) const;
+  /// What may occur once in a model ("compliance:2"; a global effect: its name). Default: one key per joint.
+  virtual std::vector<std::string> keys(const Effect& e) const;
+  virtual EffectNeeds needs() const { return {}; }
+  /// Parameter blocks (one per effect; mount: one per session after the first).
+  virtual std::vector<ParamBlock> blocks(const Effect& e, const Arm& arm, int num_sessions) const = 0;
+
+  // The forward model (zero by default) and its Jacobian, per block.
+  virtual void addJointCorrection(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s,
+                                  const Arm& arm, Eigen::VectorXd& dq, Eigen::MatrixXd* J_dq_p) const;
+  /// Rigid inserts (appended to `out`), evaluated on the model's nominal `arm` at the joint readings `q`
+  /// (what the fitted geometry and joint corrections would change in them is second order), so that
+  /// their Jacobian columns are exact.
+  virtual void addChainInserts(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s,
+                               const Arm& arm, const Eigen::VectorXd& q, std::vector<ChainInsert>& out) const;
+  /// Length scale (1 + ...) and its derivative over the block's first parameter; {1, 0} by default.
+  virtual std::pair<double, double> lengthScale(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p,
+                                                const JointSample& s) const;
+
+  // Diagnosis.
+  /// The effects of this kind diagnose tests on a dataset (one per joint, pair, link ...).
+  virtual std::vector<Effect> candidates(const CandidateContext& c) const = 0;
+  /// The variable that reveals it: {residuals.csv column, axis label}, e.g. {"tau2_Nm", "joint 2 torque (N m)"}.
+  virtual std::pair<std::string, std::string> revealingVariable(const Effect& e) const = 0;
+  /// The measurement that separates it from its look-alikes.
+  virtual std::string separateBy() const = 0;
+  /// Checks that a sample carries what the effect reads; throws std::invalid_argument otherwise.
+  virtual void requireCovariates(const JointSample& s, int num_joints) const;
+
+ protected:
+  /// One effect per joint (the usual candidates of a joint effect).
+  std::vector<Effect> perJointCandidates(int joints) const;
+  /// One block over the effect's joints, `params` adding each joint's parameters (joint as "2").
+  ParamBlock jointBlock(const Effect& e, const std::function<void(ParamBlock&, const std::string&)>& params) const;
+};
+
+/// Every kind of the catalog, in its order.
+const std::vector<const EffectKind*>& catalog();
+/// The kind named `name`, or null.
+const EffectKind* findEffectKind(const std::string& name);
+
+/// " of joint 2", " of joints 2 and 4" (people's words for joints numbered from 0).
+std::string ofJoints(const std::vector<int>& joints);
+
+}  // namespace orbcal::sim

@@ -1,0 +1,54 @@
+// backlash: lost motion in a transmission; the joint settles on one side of the play or the other
+// depending on the direction it approached from.
+#include <stdexcept>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/se3.hpp"
+#include "orbcal/sim/model.hpp"
+
+namespace orbcal::sim {
+namespace {
+
+class BacklashKind final : public EffectKind {
+ public:
+  std::string name() const override { return "backlash"; }
+  std::string words(const Effect& e) const override { return "backlash" + ofJoints(e.joints()); }
+  std::string physics() const override {
+    return "play between gear teeth: the output stops short by b in the direction the joint came from, dq = b d with "
+           "d = +1/-1 the approach direction";
+  }
+  EffectNeeds needs() const override { return {.direction = true}; }
+  std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
+    return {jointBlock(e, [](ParamBlock& b, const std::string& j) { b.params.push_back(angleParam("b" + j, 0.01 * kDegToRad)); })};
+  }
+  void addJointCorrection(const Effect&, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
+                          Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {
+    for (std::size_t i = 0; i < b.joints.size(); ++i) {
+      const int j = b.joints[i], col = b.offset + static_cast<int>(i);
+      dq[j] += p[col] * s.direction[j];
+      if (J) (*J)(j, col) += s.direction[j];
+    }
+  }
+  void requireCovariates(const JointSample& s, int) const override {
+    if (s.direction.size() != s.q_rad.size()) {
+      throw std::invalid_argument("the backlash effect needs the approach direction of every joint");
+    }
+  }
+  std::vector<Effect> candidates(const CandidateContext& c) const override {
+    return c.direction ? perJointCandidates(c.joints) : std::vector<Effect>{};
+  }
+  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
+    const std::string n = std::to_string(e.joints().front() + 1);
+    return {"dir" + n, "joint " + n + " approach direction"};
+  }
+  std::string separateBy() const override { return "approach the same configurations from both directions"; }
+};
+
+}  // namespace
+
+const EffectKind& backlashKind() {
+  static const BacklashKind k;
+  return k;
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,81 @@
+// compliance: a joint that deflects under the torque it carries (harmonic drives, belts, gearboxes),
+// linearly, or stiffening with load (degree 3: harmonic drives are softer near zero torque).
+#include <cmath>
+#include <stdexcept>
+
+#include "orbcal/sim/config.hpp"
+
+#include "orbcal/sim/model.hpp"
+
+namespace orbcal::sim {
+namespace {
+
+class ComplianceKind final : public EffectKind {
+ public:
+  std::string name() const override { return "compliance"; }
+  std::string words(const Effect& e) const override {
+    return (e.order() == 3 ? "stiffening compliance" : "compliance") + ofJoints(e.joints()) +
+           (e.order() == 3 ? " (deflection c1 tau + c3 tau^3 under its torque)" : " (deflection under its torque)");
+  }
+  std::string physics() const override {
+    return "a joint's transmission (harmonic drive, gearbox, belt) twists under the torque it carries: dq = c tau; harmonic "
+           "drives stiffen with load, dq = c1 tau + c3 tau^3 (compliance:J/3)";
+  }
+  int defaultOrder() const override { return 1; }
+  int maxOrder() const override { return 3; }
+  void check(const Effect& e, int num_joints, const std::string& what) const override {
+    EffectKind::check(e, num_joints, what);
+    if (e.order() == 2) throw InputError(what + ": compliance's degree (/K) is 1 (linear) or 3 (c1 tau + c3 tau^3)");
+  }
+  EffectNeeds needs() const override { return {.torque = true}; }
+  std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
+    // 1e-4 rad/(N m): a harmonic drive of ~10^4 N m/rad (the iiwa's joints: Bischoff et al. 2010); the
+    // cubic term at the size that doubles that deflection at 50 N m.
+    return {jointBlock(e, [&](ParamBlock& b, const std::string& j) {
+      b.params.push_back({"c" + j, "rad/(N*m)", "rad/(N*m)", 1.0, 1e-4, Quantity::kOther});
+      if (e.order() == 3) b.params.push_back({"c" + j + "_cubic", "rad/(N*m)^3", "rad/(N*m)^3", 1.0, 4e-8, Quantity::kOther});
+    })};
+  }
+  void addJointCorrection(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
+                          Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {
+    const int per = e.order() == 3 ? 2 : 1;
+    for (std::size_t i = 0; i < b.joints.size(); ++i) {
+      const int j = b.joints[i], col = b.offset + per * static_cast<int>(i);
+      const double tau = s.tau_Nm[j];
+      dq[j] += p[col] * tau;
+      if (J) (*J)(j, col) += tau;
+      if (per == 2) {
+        dq[j] += p[col + 1] * tau * tau * tau;
+        if (J) (*J)(j, col + 1) += tau * tau * tau;
+      }
+    }
+  }
+  void requireCovariates(const JointSample& s, int) const override {
+    if (!s.hasTorque()) {
+      throw std::invalid_argument("the compliance effect needs joint torques: measured, or from the robot file's masses");
+    }
+  }
+  std::vector<Effect> candidates(const CandidateContext& c) const override {
+    if (!c.torque) return {};
+    std::vector<Effect> out = perJointCandidates(c.joints);
+    for (int j = 0; j < c.joints; ++j) out.emplace_back(*this, std::vector<int>{j}, 3);
+    return out;
+  }
+  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
+    const std::string n = std::to_string(e.joints().front() + 1);
+    return {"tau" + n + "_Nm", "joint " + n + " torque (N m)"};
+  }
+  std::string separateBy() const override {
+    return "measure with several payloads (or poses that load the joints differently), so that each joint's torque varies "
+           "independently of the others and of the pose";
+  }
+};
+
+}  // namespace
+
+const EffectKind& complianceKind() {
+  static const ComplianceKind k;
+  return k;
+}
+
+}  // namespace orbcal::sim

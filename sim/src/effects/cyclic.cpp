@@ -1,0 +1,74 @@
+// cyclic: a transmission error periodic in the joint angle (gear eccentricity, the harmonic drive's
+// wave generator: first and second harmonics; tooth and bearing patterns: higher ones).
+#include <cmath>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/se3.hpp"
+#include "orbcal/sim/model.hpp"
+
+namespace orbcal::sim {
+namespace {
+
+class CyclicKind final : public EffectKind {
+ public:
+  std::string name() const override { return "cyclic"; }
+  std::string words(const Effect& e) const override {
+    return "a cyclic transmission error" + ofJoints(e.joints()) +
+           (e.order() != 2 ? " (harmonics 1-" + std::to_string(e.order()) + ")" : "");
+  }
+  std::string physics() const override {
+    return "a transmission whose output lags its input by a periodic function of the angle: gear eccentricity (harmonic 1), "
+           "the harmonic drive's elliptical wave generator (harmonic 2), tooth and bearing patterns (higher)";
+  }
+  int defaultOrder() const override { return 2; }
+  int maxOrder() const override { return 8; }
+  std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
+    return {jointBlock(e, [&](ParamBlock& b, const std::string& j) {
+      for (int k = 1; k <= e.order(); ++k) {
+        b.params.push_back(angleParam("cyclic" + j + "_sin" + std::to_string(k), 0.01 * kDegToRad));
+        b.params.push_back(angleParam("cyclic" + j + "_cos" + std::to_string(k), 0.01 * kDegToRad));
+      }
+    })};
+  }
+  void addJointCorrection(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
+                          Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {
+    int col = b.offset;
+    for (const int j : b.joints) {
+      for (int k = 1; k <= e.order(); ++k, col += 2) {
+        const double sn = std::sin(k * s.q_rad[j]), cs = std::cos(k * s.q_rad[j]);
+        dq[j] += p[col] * sn + p[col + 1] * cs;
+        if (J) {
+          (*J)(j, col) += sn;
+          (*J)(j, col + 1) += cs;
+        }
+      }
+    }
+  }
+  /// Harmonics 1..c.harmonics on every joint, and 1..6 where that reaches further: the score test of
+  /// the longer series sees a higher harmonic; diagnose then picks the order by cross-validation.
+  std::vector<Effect> candidates(const CandidateContext& c) const override {
+    std::vector<Effect> out;
+    for (int j = 0; j < c.joints; ++j) out.emplace_back(*this, std::vector<int>{j}, c.harmonics);
+    if (c.harmonics < kSearchOrder) {
+      for (int j = 0; j < c.joints; ++j) out.emplace_back(*this, std::vector<int>{j}, kSearchOrder);
+    }
+    return out;
+  }
+  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
+    const std::string n = std::to_string(e.joints().front() + 1);
+    return {"q" + n + "_deg", "joint " + n + " angle (deg)"};
+  }
+  std::string separateBy() const override {
+    return "move the joints over a wider range, with more distinct angles per joint";
+  }
+  static constexpr int kSearchOrder = 6;
+};
+
+}  // namespace
+
+const EffectKind& cyclicKind() {
+  static const CyclicKind k;
+  return k;
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,134 @@
+// The Effect value type, the EffectKind defaults and the catalog's list.
+#include "orbcal/sim/effect.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/model.hpp"
+
+namespace orbcal::sim {
+
+// The catalog: one line per kind, each defined in its own file (sim/src/effects/NAME.cpp) as
+// `const EffectKind& NAMEKind()`. The order is the order of diagnose's candidates and of listings.
+#define ORBCAL_EFFECT_KINDS(X) \
+  X(compliance) X(cyclic) X(scale) X(backlash) X(thermal) X(drift) X(mount) X(coupling) X(link_bending) X(empirical) X(empirical_torque)
+
+#define ORBCAL_DECLARE_KIND(name) const EffectKind& name##Kind();
+ORBCAL_EFFECT_KINDS(ORBCAL_DECLARE_KIND)
+#undef ORBCAL_DECLARE_KIND
+
+const std::vector<const EffectKind*>& catalog() {
+#define ORBCAL_LIST_KIND(name) &name##Kind(),
+  static const std::vector<const EffectKind*> kinds{ORBCAL_EFFECT_KINDS(ORBCAL_LIST_KIND)};
+#undef ORBCAL_LIST_KIND
+  return kinds;
+}
+
+const EffectKind* findEffectKind(const std::string& name) {
+  for (const EffectKind* k : catalog()) {
+    if (k->name() == name) return k;
+  }
+  return nullptr;
+}
+
+std::string ofJoints(const std::vector<int>& joints) {
+  std::string js;
+  for (std::size_t i = 0; i < joints.size(); ++i) {
+    js += (i ? (i + 1 == joints.size() ? " and " : ", ") : "") + std::to_string(joints[i] + 1);
+  }
+  return (joints.size() > 1 ? " of joints " : " of joint ") + js;
+}
+
+// ---- Effect -------------------------------------------------------------------------------------
+
+Effect::Effect(const EffectKind& kind, std::vector<int> joints, int order, double reference)
+    : kind_(&kind),
+      joints_(std::move(joints)),
+      order_(order == 0 ? kind.defaultOrder() : order),
+      reference_(std::isnan(reference) ? kind.defaultReference() : reference) {}
+
+Effect Effect::withRange(double lo, double hi) const {
+  Effect e = *this;
+  e.lo_ = lo;
+  e.hi_ = hi;
+  return e;
+}
+
+const std::string& Effect::name() const {
+  // Kinds are singletons: their names are computed once.
+  static std::vector<std::pair<const EffectKind*, std::string>> names = [] {
+    std::vector<std::pair<const EffectKind*, std::string>> n;
+    for (const EffectKind* k : catalog()) n.emplace_back(k, k->name());
+    return n;
+  }();
+  for (const auto& [k, n] : names) {
+    if (k == kind_) return n;
+  }
+  throw std::logic_error("Effect: a kind outside the catalog");
+}
+
+std::string Effect::spec() const {
+  std::string s = name();
+  for (std::size_t i = 0; i < joints_.size(); ++i) s += (i == 0 ? ":" : ",") + std::to_string(joints_[i] + 1);
+  if (kind_->maxOrder() > 0 && order_ != kind_->defaultOrder()) s += "/" + std::to_string(order_);
+  if (kind_->empirical()) s += "@" + exactNumber(lo_) + ".." + exactNumber(hi_);
+  return s;
+}
+
+// ---- EffectKind defaults ------------------------------------------------------------------------
+
+void EffectKind::check(const Effect& e, int num_joints, const std::string& what) const {
+  if (takesJoints() && e.joints().empty()) {
+    throw InputError(what + ": " + name() + " needs joints, e.g. " + name() + ":2,4");
+  }
+  for (int j : e.joints()) {
+    if (j < 0 || j >= num_joints) {
+      throw InputError(what + ": " + name() + ": joint " + std::to_string(j + 1) + " is out of range 1.." + std::to_string(num_joints));
+    }
+  }
+  if (maxOrder() > 0 && (e.order() < 1 || e.order() > maxOrder())) {
+    throw InputError(what + ": " + name() + "'s order (/K) must be 1.." + std::to_string(maxOrder()));
+  }
+  if (empirical() && !(e.lo() < e.hi() && std::isfinite(e.lo()) && std::isfinite(e.hi()))) {
+    throw InputError(what + ": " + name() + " needs its variable's range, @lo..hi with lo < hi (SI units)");
+  }
+}
+
+std::vector<std::string> EffectKind::keys(const Effect& e) const {
+  if (e.joints().empty()) return {name()};
+  std::vector<std::string> k;
+  for (int j : e.joints()) k.push_back(name() + ":" + std::to_string(j + 1));
+  return k;
+}
+
+void EffectKind::addJointCorrection(const Effect&, const ParamBlock&, const Eigen::VectorXd&, const JointSample&, const Arm&,
+                                    Eigen::VectorXd&, Eigen::MatrixXd*) const {}
+
+void EffectKind::addChainInserts(const Effect&, const ParamBlock&, const Eigen::VectorXd&, const JointSample&, const Arm&,
+                                 const Eigen::VectorXd&, std::vector<ChainInsert>&) const {}
+
+std::pair<double, double> EffectKind::lengthScale(const Effect&, const ParamBlock&, const Eigen::VectorXd&,
+                                                  const JointSample&) const {
+  return {1.0, 0.0};
+}
+
+void EffectKind::requireCovariates(const JointSample&, int) const {}
+
+std::vector<Effect> EffectKind::perJointCandidates(int joints) const {
+  std::vector<Effect> c;
+  for (int j = 0; j < joints; ++j) c.emplace_back(*this, std::vector<int>{j});
+  return c;
+}
+
+ParamBlock EffectKind::jointBlock(const Effect& e, const std::function<void(ParamBlock&, const std::string&)>& params) const {
+  ParamBlock b;
+  b.effect = name();
+  b.joints = e.joints();
+  for (int j : e.joints()) params(b, std::to_string(j + 1));
+  return b;
+}
+
+}  // namespace orbcal::sim

@@ -1,0 +1,134 @@
+// link_bending: a link that bends under the gravity load it carries. A cantilever of length L and
+// bending stiffness EI, clamped at its near joint and loaded at its far end by the force F (the
+// weight of everything beyond it, its component across the link) deflects there by F L^3 / (3 EI)
+// along F and tilts by F L^2 / (2 EI) about u x F (u along the link): a translation and a rotation
+// together, which no rotation about a joint axis reproduces. The parameter is the compliance
+// 1 / EI (1/(N m^2)); the loads come from the robot's mass model (a load inside the link, at a from
+// its near end, moves the far end by P a^2 (3L - a) / 6EI and tilts it by P a^2 / 2EI).
+#include <algorithm>
+#include <cmath>
+
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/model.hpp"
+
+namespace orbcal::sim {
+namespace {
+
+/// Link `l` (from 1) is the segment of the chain from frame l-1 to frame l (chainFrames' indices: its
+/// far end is chainFrames()[l]); the insert sits at its far end.
+class LinkBendingKind final : public EffectKind {
+ public:
+  std::string name() const override { return "link_bending"; }
+  std::string words(const Effect& e) const override {
+    std::string s = e.joints().size() > 1 ? "bending of links " : "bending of link ";
+    for (std::size_t i = 0; i < e.joints().size(); ++i) {
+      s += (i ? (i + 1 == e.joints().size() ? " and " : ", ") : "") + std::to_string(e.joints()[i] + 1);
+    }
+    return s + " under its gravity load";
+  }
+  std::string physics() const override {
+    return "a link bends under the weight it carries like a cantilever: its far end moves by F L^3 / 3EI and tilts by "
+           "F L^2 / 2EI, a translation with a tilt that no joint-angle error reproduces; the parameter is 1/EI";
+  }
+  EffectNeeds needs() const override { return {.masses = true}; }
+  std::vector<ParamBlock> blocks(const Effect& e, const Arm& arm, int) const override {
+    ParamBlock b;
+    b.effect = name();
+    b.joints = e.joints();
+    for (int l : e.joints()) {
+      b.params.push_back({"bend" + std::to_string(l + 1), "1/(N*m^2)", "1/(N*m^2)", 1.0, typicalCompliance(arm, l),
+                          Quantity::kOther});
+    }
+    return {b};
+  }
+  void addChainInserts(const Effect&, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample&, const Arm& arm,
+                       const Eigen::VectorXd& q, std::vector<ChainInsert>& out) const override {
+    const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, q);
+    for (std::size_t i = 0; i < b.joints.size(); ++i) {
+      const int l = b.joints[i];
+      ChainInsert c;
+      c.place = ChainInsert::Place::kLink;
+      c.link = l;
+      c.offset = b.offset;
+      c.J_xi_p = Eigen::MatrixXd::Zero(6, b.size());
+      c.J_xi_p.col(static_cast<Eigen::Index>(i)) = unitDeflection(arm, frames, l);
+      c.xi = c.J_xi_p * p.segment(b.offset, b.size());
+      out.push_back(std::move(c));
+    }
+  }
+  /// Links long enough to bend (at least 5 % of the arm's reach) and loaded (masses given).
+  std::vector<Effect> candidates(const CandidateContext& c) const override {
+    if (!c.masses || !c.arm) return {};
+    std::vector<Effect> out;
+    const std::vector<Eigen::Isometry3d> frames = chainFrames(*c.arm, Eigen::VectorXd::Zero(c.arm->numJoints()));
+    const double reach = characteristicLength(*c.arm);
+    for (int l = 0; l < c.joints; ++l) {
+      const double L = (frames[static_cast<std::size_t>(l) + 1].translation() - frames[static_cast<std::size_t>(l)].translation()).norm();
+      if (L >= 0.05 * reach && carriedMass(*c.arm, l) > 0.0) out.emplace_back(*this, std::vector<int>{l});
+    }
+    return out;
+  }
+  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
+    // The torque of the joint at the link's near end grows with the load the link carries.
+    const std::string n = std::to_string(e.joints().front() + 1);
+    return {"tau" + n + "_Nm", "joint " + n + " torque (N m), which link " + n + "'s load drives"};
+  }
+  std::string separateBy() const override {
+    return "measure with several payloads, so that the links' loads vary independently of the joints' torques";
+  }
+
+  /// xi per unit 1/EI at the far end of link l, in the far-end frame. Every mass the link carries (the
+  /// links from l on and the payload, as point masses at their centres) loads it where it projects
+  /// onto the link, at a = clamp(t, 0, L) from the near end: the far end moves by P_perp a^2 (3L - a) / 6
+  /// along the load and tilts by P_perp a^2 / 2 about u x P_perp (a = L: F L^3 / 3, F L^2 / 2). Moments
+  /// of masses beyond the far end, and the axial load, are left out (a slender link's bending is the
+  /// transverse load's).
+  static Eigen::Matrix<double, 6, 1> unitDeflection(const Arm& arm, const std::vector<Eigen::Isometry3d>& frames, int l) {
+    Eigen::Matrix<double, 6, 1> xi = Eigen::Matrix<double, 6, 1>::Zero();
+    const Eigen::Vector3d o = frames[static_cast<std::size_t>(l)].translation();
+    const Eigen::Vector3d span = frames[static_cast<std::size_t>(l) + 1].translation() - o;
+    const double L = span.norm();
+    if (L < 1e-9) return xi;
+    const Eigen::Vector3d u = span / L;
+    Eigen::Vector3d d = Eigen::Vector3d::Zero(), w = Eigen::Vector3d::Zero();
+    const auto load = [&](double mass, const Eigen::Vector3d& at) {
+      const Eigen::Vector3d P = mass * arm.masses.gravity_base;
+      const Eigen::Vector3d P_perp = P - P.dot(u) * u;
+      const double a = std::clamp((at - o).dot(u), 0.0, L);
+      d += a * a * (3.0 * L - a) / 6.0 * P_perp;
+      w += a * a / 2.0 * u.cross(P_perp);
+    };
+    for (std::size_t i = static_cast<std::size_t>(l); i < arm.masses.links.size(); ++i) {
+      load(arm.masses.links[i].mass_kg, frames[i + 1] * arm.masses.links[i].com_m);
+    }
+    load(arm.masses.payload_kg, frames.back() * arm.masses.payload_com_flange_m);
+    const Eigen::Matrix3d Rt = frames[static_cast<std::size_t>(l) + 1].linear().transpose();
+    xi.head<3>() = Rt * d;
+    xi.tail<3>() = Rt * w;
+    return xi;
+  }
+  /// The mass the link carries: links l.. and the payload.
+  static double carriedMass(const Arm& arm, int l) {
+    double m = arm.masses.payload_kg;
+    for (std::size_t i = static_cast<std::size_t>(l); i < arm.masses.links.size(); ++i) m += arm.masses.links[i].mass_kg;
+    return m;
+  }
+  /// 1/EI that moves the far end by 0.1 mm with the link horizontal under its full load, at the arm's
+  /// nominal zero pose: a stiff aluminium tube of a light arm bends by tens of micrometres.
+  static double typicalCompliance(const Arm& arm, int l) {
+    const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, Eigen::VectorXd::Zero(arm.numJoints()));
+    const double L = (frames[static_cast<std::size_t>(l) + 1].translation() - frames[static_cast<std::size_t>(l)].translation()).norm();
+    const double F = carriedMass(arm, l) * arm.masses.gravity_base.norm();
+    if (L < 1e-9 || F <= 0.0) return 1.0;
+    return 3.0 * 1e-4 / (F * L * L * L);
+  }
+};
+
+}  // namespace
+
+const EffectKind& link_bendingKind() {
+  static const LinkBendingKind k;
+  return k;
+}
+
+}  // namespace orbcal::sim

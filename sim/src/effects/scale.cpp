@@ -1,0 +1,45 @@
+// scale: an encoder or gear-ratio error, the joint's reading off by a fixed fraction of its angle.
+#include "orbcal/sim/model.hpp"
+
+namespace orbcal::sim {
+namespace {
+
+class ScaleKind final : public EffectKind {
+ public:
+  std::string name() const override { return "scale"; }
+  std::string words(const Effect& e) const override { return "an encoder scale error" + ofJoints(e.joints()); }
+  std::string physics() const override {
+    return "the gear ratio or encoder resolution the controller assumes differs from the real one: dq = s q";
+  }
+  std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
+    // 2e-4 (200 ppm): the order of the joint-scale errors identified on industrial arms.
+    return {jointBlock(e, [](ParamBlock& b, const std::string& j) {
+      b.params.push_back({"s" + j, "1", "ppm", 1e6, 2e-4, Quantity::kOther});
+    })};
+  }
+  void addJointCorrection(const Effect&, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
+                          Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {
+    for (std::size_t i = 0; i < b.joints.size(); ++i) {
+      const int j = b.joints[i], col = b.offset + static_cast<int>(i);
+      dq[j] += p[col] * s.q_rad[j];
+      if (J) (*J)(j, col) += s.q_rad[j];
+    }
+  }
+  std::vector<Effect> candidates(const CandidateContext& c) const override { return perJointCandidates(c.joints); }
+  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
+    const std::string n = std::to_string(e.joints().front() + 1);
+    return {"q" + n + "_deg", "joint " + n + " angle (deg)"};
+  }
+  std::string separateBy() const override {
+    return "move the joints over a wider range, with more distinct angles per joint";
+  }
+};
+
+}  // namespace
+
+const EffectKind& scaleKind() {
+  static const ScaleKind k;
+  return k;
+}
+
+}  // namespace orbcal::sim
