@@ -35,4 +35,11 @@ inline void printFigure(const std::string& name, const std::vector<double>& s, c
 int registerBench(const char* name, void (*fn)());
 #define ORBCAL_BENCH(name, fn) static const int orbcal_bench_##fn [[maybe_unused]] = ::orbcal::tools::registerBench(name, fn)
 
+/// Sections with options (`orbcal-bench open-world --seeds 1`): run only when named as the first
+/// argument, which gets the rest (argv[0] is the section's name); returns the exit code.
+///   ORBCAL_BENCH_WITH_OPTIONS("open-world", benchOpenWorld);
+int registerBenchWithOptions(const char* name, int (*fn)(int argc, char** argv));
+#define ORBCAL_BENCH_WITH_OPTIONS(name, fn) \
+  static const int orbcal_bench_##fn [[maybe_unused]] = ::orbcal::tools::registerBenchWithOptions(name, fn)
+
 }  // namespace orbcal::tools
