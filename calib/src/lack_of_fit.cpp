@@ -27,12 +27,25 @@ bool varies(const Eigen::VectorXd& v) { return v.size() > 0 && (v.array() - v.me
 }  // namespace
 
 std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
-                                                const sim::KinematicModel& model, const Eigen::VectorXd& p, bool extended) {
+                                                const sim::KinematicModel& model, const Eigen::VectorXd& p, bool extended,
+                                                const MarkerNoise& noise) {
   const int n = static_cast<int>(obs.size());
   std::vector<EvidenceVariable> vars;
   const auto add = [&](std::string name, Eigen::MatrixXd X, std::string label, Eigen::VectorXd axis) {
-    vars.push_back({std::move(name), std::move(X), std::move(label), std::move(axis)});
+    vars.push_back({std::move(name), std::move(X), Eigen::MatrixXd(), std::move(label), std::move(axis)});
   };
+  // The joint Jacobian of each residual (extended family), components scaled as scaledResiduals.
+  std::vector<Eigen::MatrixXd> Jq;
+  const int m = obs.empty() ? 0 : (obs.front().has_rotation ? 6 : 3);
+  if (extended && n > 0) {
+    const MarkerPoseModel pose(model, obs, noise, p);
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(pose.numParams());
+    for (int i = 0; i < n; ++i) {
+      Jq.push_back(pose.jointJacobian(i, zero).topRows(m));
+      Jq.back().topRows(3) /= noise.sigma_position_m;
+      if (m == 6) Jq.back().bottomRows(3) /= noise.sigma_rotation_rad;
+    }
+  }
   const auto column = [&](auto get) {
     Eigen::VectorXd v(n);
     for (int i = 0; i < n; ++i) v[i] = get(obs[static_cast<std::size_t>(i)], i);
@@ -47,7 +60,13 @@ std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, c
     moving.push_back(j);
     const Eigen::VectorXd q_deg = q * sim::kRadToDeg;
     add(joint + " angle (harmonics 1, 2)", harmonics(q, 1, 2), joint + " angle (deg)", q_deg);
-    if (extended) add(joint + " angle (harmonics 3-6)", harmonics(q, 3, 6), joint + " angle (deg)", q_deg);
+    if (extended) {
+      const Eigen::MatrixXd H = harmonics(q, 3, 6);
+      Eigen::MatrixXd S(n * m, H.cols());
+      for (int i = 0; i < n; ++i) S.middleRows(i * m, m) = Jq[static_cast<std::size_t>(i)].col(j) * H.row(i);
+      add(joint + " angle (harmonics 3-6)", H, joint + " angle (deg)", q_deg);
+      vars.back().stacked = S;
+    }
     if (obs.front().sample.hasTorque()) {
       const Eigen::VectorXd t = column([&](const MarkerObservation& o, int) { return o.sample.tau_Nm[j]; });
       if (varies(t)) {
@@ -114,7 +133,32 @@ std::vector<VariableTest> variableTests(const Eigen::MatrixXd& Y, const std::vec
   std::vector<VariableTest> out;
   const Eigen::MatrixXd Yc = Y.rowwise() - Y.colwise().mean();
   const double total = Yc.squaredNorm();
+  // Stacked: y = the components one after another per sample, centred per component (as Yc).
+  Eigen::VectorXd y(n * m);
+  for (int i = 0; i < n; ++i) y.segment(i * m, m) = Yc.row(i).transpose();
   for (const EvidenceVariable& v : vars) {
+    if (v.stacked.size() > 0) {
+      if (v.stacked.rows() != n * m) continue;
+      Eigen::MatrixXd Xs = v.stacked;
+      for (int c = 0; c < m; ++c) {  // centred per component, as y
+        Eigen::RowVectorXd mean = Eigen::RowVectorXd::Zero(Xs.cols());
+        for (int i = 0; i < n; ++i) mean += Xs.row(i * m + c);
+        mean /= n;
+        for (int i = 0; i < n; ++i) Xs.row(i * m + c) -= mean;
+      }
+      const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Xs);
+      const int d = static_cast<int>(qr.rank());
+      const int dof2 = n * m - d - m;
+      if (d == 0 || dof2 <= 0) continue;
+      const double explained = (Xs * qr.solve(y)).squaredNorm();
+      VariableTest t;
+      t.variable = v.name;
+      t.dof = d;
+      t.statistic = (explained / d) / (std::max(1e-300, total - explained) / dof2);
+      t.p_value = fSurvival(t.statistic, d, dof2);
+      out.push_back(t);
+      continue;
+    }
     const Eigen::MatrixXd Xc = v.X.rowwise() - v.X.colwise().mean();
     const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Xc);
     const int d = static_cast<int>(qr.rank());
@@ -154,6 +198,18 @@ std::map<std::vector<long long>, std::vector<int>> configurationGroups(const std
     groups[key].push_back(static_cast<int>(i));
   }
   return groups;
+}
+
+Eigen::MatrixXd groupMeans(const Eigen::MatrixXd& A, const std::vector<MarkerObservation>& obs, int rows_per) {
+  const auto groups = configurationGroups(obs);
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(groups.size()) * rows_per, A.cols());
+  Eigen::Index g = 0;
+  for (const auto& [key, members] : groups) {
+    for (int i : members) out.middleRows(g * rows_per, rows_per) += A.middleRows(static_cast<Eigen::Index>(i) * rows_per, rows_per);
+    out.middleRows(g * rows_per, rows_per) /= static_cast<double>(members.size());
+    ++g;
+  }
+  return out;
 }
 
 PureError pureError(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& residual) {
@@ -264,8 +320,19 @@ LackOfFit lackOfFit(const sim::MeasuredData& data, const std::vector<MarkerObser
   lof.level = lof.tested ? 0.5 * alpha : alpha;
   lof.significant = lof.tested && lof.p_value < lof.level;
 
-  const std::vector<EvidenceVariable> vars = evidenceVariables(data, obs, fit.model, fit.p, true);
-  lof.evidence = variableTests(scaledResiduals(residual, noise), vars);
+  const std::vector<EvidenceVariable> vars = evidenceVariables(data, obs, fit.model, fit.p, true, noise);
+  if (lof.pure.replicated > 0) {
+    // One row per configuration: its copies share the held-out prediction (and its estimation error).
+    std::vector<EvidenceVariable> means = vars;
+    const int m = static_cast<int>(residual.front().size());
+    for (EvidenceVariable& v : means) {
+      v.X = groupMeans(v.X, obs);
+      if (v.stacked.size() > 0) v.stacked = groupMeans(v.stacked, obs, m);
+    }
+    lof.evidence = variableTests(groupMeans(scaledResiduals(residual, noise), obs), means);
+  } else {
+    lof.evidence = variableTests(scaledResiduals(residual, noise), vars);
+  }
   for (const VariableTest& t : lof.evidence) {
     if (t.p_adjusted < lof.level) lof.unexplained.push_back(t);
   }

@@ -198,7 +198,7 @@ TEST_CASE("lack of fit: pure error splits the held-out residuals into group mean
   CHECK(pe.groups == 3);
   CHECK(pe.replicated == 1);
   CHECK(pe.dof == 6);
-  // Group {0,1,2}: mean (2, 1, 0); scatter 1+1 + 0+1 + 0+4 = 7; n |mean|^2 = 3 * 5 = 15.
-  CHECK(pe.ss == Approx(7.0));
+  // Group {0,1,2}: mean (2, 1, 0); scatter (1+1) + (1+1) + (0+4) = 8; n |mean|^2 = 3 * 5 = 15.
+  CHECK(pe.ss == Approx(8.0));
   CHECK(pe.ss_group_means == Approx(15.0 + 16.0 + 1.0));
 }

@@ -38,19 +38,27 @@ struct VariableTest {
 /// shows it (e.g. the joint angle in deg for its harmonics).
 struct EvidenceVariable {
   std::string name;
-  Eigen::MatrixXd X;
+  Eigen::MatrixXd X;            ///< n x d, one regression per residual component (pooled)
+  /// (n m) x d, row i m + c for sample i, component c (scaled as Y): regressors that differ per
+  /// component (an angle error carried by the arm's lever arms); used instead of X when not empty.
+  Eigen::MatrixXd stacked;
   std::string axis_label;       ///< "joint 2 angle (deg)"
   Eigen::VectorXd axis_values;  ///< display units, one per sample
 };
 
 /// The family of variables the held-out residuals are tested against. `extended` adds harmonics 3-6,
 /// joint-angle pair products, torque powers and quadratic workspace terms. model, p: where the workspace
-/// position is predicted.
+/// position is predicted. The harmonics 3-6 of a joint are an error of that joint's angle as the
+/// residual sees it: d(residual)/d(q_j) sin(h q_j), ... (the joint Jacobian at model, p), each component
+/// scaled by `noise`'s sigma as scaledResiduals does: an angle error moves the marker along a direction
+/// that turns with the other joints, which no function of q_j alone follows.
 std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
-                                                const sim::KinematicModel& model, const Eigen::VectorXd& p, bool extended);
+                                                const sim::KinematicModel& model, const Eigen::VectorXd& p, bool extended,
+                                                const MarkerNoise& noise = {});
 
 /// F test of each variable's regression of Y (n x m: residual components, each scaled to its noise),
-/// pooled over the components; Holm-adjusted over the family. Empty with fewer than 10 rows.
+/// pooled over the components (or one regression of the stacked components); Holm-adjusted over the
+/// family. Empty with fewer than 10 rows.
 std::vector<VariableTest> variableTests(const Eigen::MatrixXd& Y, const std::vector<EvidenceVariable>& vars);
 
 /// Residual components (position, then rotation) scaled by the noise sigmas: the Y of variableTests.
@@ -59,6 +67,12 @@ Eigen::MatrixXd scaledResiduals(const std::vector<Eigen::VectorXd>& residual, co
 /// Replicate groups: observations with the same session and the same joint readings (to 1e-9 rad), keyed
 /// by (session, readings in nrad); makeFolds keeps each in one fold.
 std::map<std::vector<long long>, std::vector<int>> configurationGroups(const std::vector<MarkerObservation>& obs);
+
+/// Means over the replicate groups (configurationGroups, in its order) of each row block of `rows_per`
+/// rows: n x d -> G x d (rows_per 1), or stacked (n m) x d -> (G m) x d. With replicates the evidence is
+/// tested on the groups' means: copies of one configuration share its held-out prediction, so they are
+/// not independent rows.
+Eigen::MatrixXd groupMeans(const Eigen::MatrixXd& A, const std::vector<MarkerObservation>& obs, int rows_per = 1);
 
 /// Pure error of the position residuals: within-group scatter over replicate groups.
 struct PureError {
