@@ -268,9 +268,7 @@ std::string unexplainedSection(const calib::Diagnosis& d, double alpha) {
   const calib::LackOfFit& l = d.lack_of_fit;
   const auto mm = [](double m) { return sim::formatNumber("%.4f", m * 1e3); };
   std::ostringstream md;
-  md << "## What is left unexplained
-
-"
+  md << "## What is left unexplained\n\n"
      << (d.selected.empty() ? "Geometry + registration" : "The selected model") << ", held out: position RMS " << mm(l.position_rms_m)
      << " mm; the noise alone gives " << mm(l.noise_position_rms_m) << " mm (";
   if (l.source == calib::NoiseSource::kStated) {

@@ -28,24 +28,14 @@ bool varies(const Eigen::VectorXd& v) { return v.size() > 0 && (v.array() - v.me
 
 std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
                                                 const sim::KinematicModel& model, const Eigen::VectorXd& p, bool extended,
-                                                const MarkerNoise& noise) {
+                                                const std::vector<Eigen::MatrixXd>* whitened_jq) {
   const int n = static_cast<int>(obs.size());
   std::vector<EvidenceVariable> vars;
   const auto add = [&](std::string name, Eigen::MatrixXd X, std::string label, Eigen::VectorXd axis) {
     vars.push_back({std::move(name), std::move(X), Eigen::MatrixXd(), std::move(label), std::move(axis)});
   };
-  // The joint Jacobian of each residual (extended family), components scaled as scaledResiduals.
-  std::vector<Eigen::MatrixXd> Jq;
-  const int m = obs.empty() ? 0 : (obs.front().has_rotation ? 6 : 3);
-  if (extended && n > 0) {
-    const MarkerPoseModel pose(model, obs, noise, p);
-    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(pose.numParams());
-    for (int i = 0; i < n; ++i) {
-      Jq.push_back(pose.jointJacobian(i, zero).topRows(m));
-      Jq.back().topRows(3) /= noise.sigma_position_m;
-      if (m == 6) Jq.back().bottomRows(3) /= noise.sigma_rotation_rad;
-    }
-  }
+  const bool stack = whitened_jq && static_cast<int>(whitened_jq->size()) == n && n > 0;
+  const int m = stack ? static_cast<int>(whitened_jq->front().rows()) : 0;
   const auto column = [&](auto get) {
     Eigen::VectorXd v(n);
     for (int i = 0; i < n; ++i) v[i] = get(obs[static_cast<std::size_t>(i)], i);
@@ -62,10 +52,12 @@ std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, c
     add(joint + " angle (harmonics 1, 2)", harmonics(q, 1, 2), joint + " angle (deg)", q_deg);
     if (extended) {
       const Eigen::MatrixXd H = harmonics(q, 3, 6);
-      Eigen::MatrixXd S(n * m, H.cols());
-      for (int i = 0; i < n; ++i) S.middleRows(i * m, m) = Jq[static_cast<std::size_t>(i)].col(j) * H.row(i);
       add(joint + " angle (harmonics 3-6)", H, joint + " angle (deg)", q_deg);
-      vars.back().stacked = S;
+      if (stack) {
+        Eigen::MatrixXd S(n * m, H.cols());
+        for (int i = 0; i < n; ++i) S.middleRows(i * m, m) = (*whitened_jq)[static_cast<std::size_t>(i)].col(j) * H.row(i);
+        vars.back().stacked = S;
+      }
     }
     if (obs.front().sample.hasTorque()) {
       const Eigen::VectorXd t = column([&](const MarkerObservation& o, int) { return o.sample.tau_Nm[j]; });
@@ -212,6 +204,22 @@ Eigen::MatrixXd groupMeans(const Eigen::MatrixXd& A, const std::vector<MarkerObs
   return out;
 }
 
+Eigen::MatrixXd whitenedResiduals(const Fit& fit, const std::vector<MarkerObservation>& obs, const MarkerNoise& noise,
+                                  const std::vector<Eigen::VectorXd>& residual, std::vector<Eigen::MatrixXd>* whitened_jq) {
+  const MarkerPoseModel model(fit.model, obs, noise, fit.p);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
+  const Eigen::Index n = static_cast<Eigen::Index>(obs.size()), m = n ? residual.front().size() : 0;
+  Eigen::MatrixXd Y(n, m);
+  if (whitened_jq) whitened_jq->clear();
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const Eigen::LLT<Eigen::MatrixXd> llt(model.linearize(static_cast<int>(k), zero).R);
+    const Eigen::MatrixXd& r = residual[static_cast<std::size_t>(k)];
+    Y.row(k) = llt.matrixL().solve(r).transpose();
+    if (whitened_jq) whitened_jq->push_back(llt.matrixL().solve(model.jointJacobian(static_cast<int>(k), zero)));
+  }
+  return Y;
+}
+
 PureError pureError(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& residual) {
   PureError pe;
   for (const auto& [key, members] : configurationGroups(obs)) {
@@ -320,7 +328,9 @@ LackOfFit lackOfFit(const sim::MeasuredData& data, const std::vector<MarkerObser
   lof.level = lof.tested ? 0.5 * alpha : alpha;
   lof.significant = lof.tested && lof.p_value < lof.level;
 
-  const std::vector<EvidenceVariable> vars = evidenceVariables(data, obs, fit.model, fit.p, true, noise);
+  std::vector<Eigen::MatrixXd> whitened_jq;
+  const Eigen::MatrixXd Y = whitenedResiduals(fit, obs, noise, residual, &whitened_jq);
+  const std::vector<EvidenceVariable> vars = evidenceVariables(data, obs, fit.model, fit.p, true, &whitened_jq);
   if (lof.pure.replicated > 0) {
     // One row per configuration: its copies share the held-out prediction (and its estimation error).
     std::vector<EvidenceVariable> means = vars;
@@ -329,9 +339,9 @@ LackOfFit lackOfFit(const sim::MeasuredData& data, const std::vector<MarkerObser
       v.X = groupMeans(v.X, obs);
       if (v.stacked.size() > 0) v.stacked = groupMeans(v.stacked, obs, m);
     }
-    lof.evidence = variableTests(groupMeans(scaledResiduals(residual, noise), obs), means);
+    lof.evidence = variableTests(groupMeans(Y, obs), means);
   } else {
-    lof.evidence = variableTests(scaledResiduals(residual, noise), vars);
+    lof.evidence = variableTests(Y, vars);
   }
   for (const VariableTest& t : lof.evidence) {
     if (t.p_adjusted < lof.level) lof.unexplained.push_back(t);

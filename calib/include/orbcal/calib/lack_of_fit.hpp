@@ -48,13 +48,20 @@ struct EvidenceVariable {
 
 /// The family of variables the held-out residuals are tested against. `extended` adds harmonics 3-6,
 /// joint-angle pair products, torque powers and quadratic workspace terms. model, p: where the workspace
-/// position is predicted. The harmonics 3-6 of a joint are an error of that joint's angle as the
-/// residual sees it: d(residual)/d(q_j) sin(h q_j), ... (the joint Jacobian at model, p), each component
-/// scaled by `noise`'s sigma as scaledResiduals does: an angle error moves the marker along a direction
-/// that turns with the other joints, which no function of q_j alone follows.
+/// position is predicted. With `whitened_jq` (per sample, W_k d(residual)/d(q), W_k the residual's
+/// whitening), the harmonics 3-6 of a joint are an error of that joint's angle as the whitened residual
+/// sees it: W_k J_j sin(h q_j), ... (stacked): an angle error moves the marker along a direction that
+/// turns with the other joints, which no function of q_j alone follows; without it, plain harmonics.
 std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
                                                 const sim::KinematicModel& model, const Eigen::VectorXd& p, bool extended,
-                                                const MarkerNoise& noise = {});
+                                                const std::vector<Eigen::MatrixXd>* whitened_jq = nullptr);
+
+/// Whitened held-out residuals W_k r_k (n x m), W_k = L_k^-1 with R_k = L_k L_k^T as every fit whitens
+/// (tracker or own covariance, plus the joint noise through the joint Jacobian, at `fit`): joint noise
+/// lies along the joint Jacobian's columns, so only fully whitened residuals are i.i.d. against
+/// regressors built from them. `whitened_jq` gets W_k d(residual)/d(q).
+Eigen::MatrixXd whitenedResiduals(const Fit& fit, const std::vector<MarkerObservation>& obs, const MarkerNoise& noise,
+                                  const std::vector<Eigen::VectorXd>& residual, std::vector<Eigen::MatrixXd>* whitened_jq);
 
 /// F test of each variable's regression of Y (n x m: residual components, each scaled to its noise),
 /// pooled over the components (or one regression of the stacked components); Holm-adjusted over the
