@@ -313,7 +313,14 @@ LackOfFit lackOfFit(const sim::MeasuredData& data, const std::vector<MarkerObser
   const HeldoutNoise h = heldoutNoise(fit, obs, noise, residual, folds);
   lof.pure = pureError(obs, residual);
   lof.source = stated ? NoiseSource::kStated : lof.pure.dof > 0 ? NoiseSource::kPureError : NoiseSource::kResiduals;
-  const double noise_ms = lof.source == NoiseSource::kPureError ? 3.0 * lof.pure.ss / lof.pure.dof : h.position_ms_m2;
+  // (c): from the tested model's own fit on all the data (its position mean square, corrected for the
+  // parameters fitted: rows / dof), not from the base model's, whose residuals hold the very structure
+  // the effects explain.
+  const double rows = static_cast<double>(fit.dof) + static_cast<double>(fit.estimate.y.size() - static_cast<Eigen::Index>(fit.estimate.held.size()));
+  const double own_ms = std::pow(fit.residuals.position_rms_m, 2) * rows / std::max(1, fit.dof);
+  const double noise_ms = lof.source == NoiseSource::kPureError ? 3.0 * lof.pure.ss / lof.pure.dof
+                          : lof.source == NoiseSource::kStated  ? h.position_ms_m2
+                                                                : own_ms;
   lof.noise_position_rms_m = std::sqrt(noise_ms);
   lof.estimation_factor = 1.0 + h.estimation_ms_m2 / std::max(1e-300, noise_ms);
   double ms = 0.0;
@@ -387,6 +394,14 @@ std::string unexplainedSentence(const Diagnosis& d) {
                              (l.tested ? ", lack-of-fit p " + sim::formatNumber("%.2g", l.p_value) : std::string()) + ")";
   const std::string against = l.unexplained.empty() ? ", not structured against any variable tested"
                                                     : ", structured against " + describeUnexplained(l.unexplained);
+  if (l.source == NoiseSource::kResiduals) {
+    // Nothing independent to measure the excess against: only the structure is reported.
+    const std::string what = d.selected.empty() ? "The model leaves structure no cause of the catalog explains"
+                                                : "The explanation is partial";
+    return what + ": the held-out residuals (position RMS " + mm(l.position_rms_m) + ") are" + against.substr(1) +
+           "; with the noise only estimated from these residuals (" + mm(l.noise_position_rms_m) +
+           "), how far they stand above it is not measured: state the noise or repeat configurations.";
+  }
   if (d.selected.empty()) {
     return "The model leaves structure no cause of the catalog explains: held-out position RMS " + mm(l.position_rms_m) + "; " +
            remain + against + ". Do not take a calibration with this model as complete.";
