@@ -75,7 +75,10 @@ std::vector<EffectParams> selectedParams(const calib::Diagnosis& d) {
 
 std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& distortion) {
   std::ostringstream j;
-  j << "{\"verdict\": " << jsonString(d.clean ? "clean" : "effects") << ",\n \"sentence\": " << jsonString(d.verdict)
+  // clean: nothing selected, nothing left; effects: the selected model explains what there was;
+  // unexplained: its held-out residuals still exceed the noise or are structured (with or without
+  // effects selected: `selected` says which).
+  j << "{\"verdict\": " << jsonString(d.clean ? "clean" : d.unexplained ? "unexplained" : "effects") << ",\n \"sentence\": " << jsonString(d.verdict)
     << ",\n \"selected\": [";
   const std::vector<EffectParams> sel = selectedParams(d);
   for (std::size_t k = 0; k < sel.size(); ++k) {
@@ -106,7 +109,23 @@ std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& dist
   const calib::MarkerNoise& n = d.base_fit.noise;  // SI: m, rad
   j << "],\n \"noise\": {\"position_m\": " << sim::exactNumber(n.sigma_position_m) << ", \"rotation_rad\": "
     << sim::exactNumber(n.sigma_rotation_rad) << ", \"joint_rad\": " << sim::exactNumber(n.joint_noise_sigma_rad) << "}";
-  j << ",\n \"heldout\": {\"base\": " << residualJson(d.heldout.base) << ", \"selected\": " << residualJson(d.heldout.selected) << "},\n"
+  const calib::LackOfFit& l = d.lack_of_fit;
+  j << ",\n \"unexplained\": [";
+  for (std::size_t i = 0; i < l.unexplained.size(); ++i) {
+    j << (i ? ", " : "") << "{\"variable\": " << jsonString(l.unexplained[i].variable) << ", \"statistic\": "
+      << sim::exactNumber(l.unexplained[i].statistic) << ", \"dof\": " << l.unexplained[i].dof << ", \"p\": "
+      << sim::exactNumber(l.unexplained[i].p_adjusted) << "}";
+  }
+  j << "],\n \"lack_of_fit\": {\"noise_source\": " << jsonString(calib::noiseSourceName(l.source))
+    << ", \"tested\": " << (l.tested ? "true" : "false") << ", \"statistic\": " << sim::exactNumber(l.statistic)
+    << ", \"dof1\": " << sim::exactNumber(l.dof1) << ", \"dof2\": " << sim::exactNumber(l.dof2) << ", \"p\": " << sim::exactNumber(l.p_value)
+    << ", \"level\": " << sim::exactNumber(l.level) << ", \"excess_rms_mm\": " << sim::exactNumber(l.excess_rms_m * 1e3)
+    << ", \"excess_share\": " << sim::exactNumber(l.excess_share) << ", \"estimation_factor\": " << sim::exactNumber(l.estimation_factor)
+    << ", \"replicated_configurations\": " << l.pure.replicated << ", \"share_of_excess\": [";
+  for (std::size_t i = 0; i < d.share_of_excess.size(); ++i) j << (i ? ", " : "") << sim::exactNumber(d.share_of_excess[i]);
+  j << "]}";
+  j << ",\n \"heldout\": {\"base\": " << residualJson(d.heldout.base) << ", \"selected\": " << residualJson(d.heldout.selected)
+    << ", \"noise_position_rms_mm\": " << sim::exactNumber(d.heldout.noise_position_rms_m * 1e3) << "},\n"
     << " \"seconds\": " << sim::formatNumber("%.3f", d.seconds) << "}\n";
   return j.str();
 }
@@ -230,6 +249,50 @@ DistortionCheck checkDistortion(const sim::Dataset& d, const std::vector<vision:
   return c;
 }
 
+/// "What is left unexplained": the selected model's held-out residuals against the noise (the global
+/// test) and against the extended variable family.
+std::string unexplainedSection(const calib::Diagnosis& d, double alpha) {
+  const calib::LackOfFit& l = d.lack_of_fit;
+  const auto mm = [](double m) { return sim::formatNumber("%.4f", m * 1e3); };
+  std::ostringstream md;
+  md << "## What is left unexplained\n\n"
+     << (d.selected.empty() ? "Geometry + registration" : "The selected model") << ", held out: position RMS " << mm(l.position_rms_m)
+     << " mm; the noise alone gives " << mm(l.noise_position_rms_m) << " mm (";
+  if (l.source == calib::NoiseSource::kStated) {
+    md << "the stated noise, through the joint Jacobian where joint noise is given or estimated";
+  } else if (l.source == calib::NoiseSource::kPureError) {
+    md << "pure error of " << l.pure.replicated << " repeated configurations, " << l.pure.dof << " degrees of freedom";
+  } else {
+    md << "estimated from these residuals: no stated noise and no repeated configurations to test against";
+  }
+  md << "); above it: " << mm(l.excess_rms_m) << " mm RMS, " << sim::formatNumber("%.0f", 100.0 * l.excess_share)
+     << " % of the held-out mean square. Parameters estimated on the other folds add about "
+     << sim::formatNumber("%.1f", 100.0 * (l.estimation_factor - 1.0)) << " % to the mean square the noise gives; the test counts it.\n\n";
+  if (l.tested) {
+    md << "Lack-of-fit test (" << (l.source == calib::NoiseSource::kStated ? "chi-square of the whitened held-out position rows, " : "F against pure error, ")
+       << sim::formatNumber("%.0f", l.dof1) << (l.dof2 > 0 ? ", " + sim::formatNumber("%.0f", l.dof2) : std::string()) << " dof): statistic "
+       << sim::formatNumber("%.4g", l.statistic) << ", p " << sim::formatNumber("%.2g", l.p_value) << " (level " << sim::formatNumber("%.3g", l.level)
+       << ": alpha " << sim::formatNumber("%.3g", alpha) << " split between this test and the variable family). "
+       << (l.significant ? "**The residuals exceed the noise.**" : "Not above the noise.") << "\n\n";
+  }
+  md << "Held-out residuals of " << (d.selected.empty() ? "geometry + registration" : "the selected model")
+     << " against each variable of the extended family (harmonics 3-6, joint-angle products, torque powers, quadratic workspace terms), "
+     << "Holm-adjusted; * below the level " << sim::formatNumber("%.3g", l.level) << ".\n\n| variable | regressors | F | p (Holm) |\n|---|---|---|---|\n";
+  std::vector<calib::VariableTest> rows = l.evidence;
+  std::stable_sort(rows.begin(), rows.end(), [](const calib::VariableTest& a, const calib::VariableTest& b) { return a.p_value < b.p_value; });
+  int omitted = 0;
+  for (const calib::VariableTest& t : rows) {
+    if (t.p_adjusted > 0.5) {
+      ++omitted;
+      continue;
+    }
+    md << "| " << t.variable << " | " << t.dof << " | " << sim::formatNumber("%.2f", t.statistic) << " | "
+       << sim::formatNumber("%.2g", t.p_adjusted) << (t.p_adjusted < l.level ? " *" : "") << " |\n";
+  }
+  md << "\n(" << omitted << " variables with Holm-adjusted p above 0.5 not listed)\n";
+  return md.str();
+}
+
 /// "Noise (1 sigma per axis) of the base fit: ..." with where each number came from.
 std::string noiseSentence(const calib::Fit& base, const calib::DiagnoseOptions& o, const sim::MeasuredData& data,
                           const std::vector<calib::MarkerObservation>& obs) {
@@ -307,7 +370,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   for (int j = 1; j <= n; ++j) csv << ",q" << j << "_deg";
   for (int j = 1; j <= n; ++j) csv << ",tau" << j << "_Nm";
   for (int j = 1; j <= n; ++j) csv << ",dir" << j;
-  csv << ",temperature_C,time_s\n";
+  csv << ",temperature_C,time_s,selected_x_mm,selected_y_mm,selected_z_mm,unexplained_axis\n";
   for (std::size_t i = 0; i < obs.size(); ++i) {
     const sim::JointSample& s = obs[i].sample;
     csv << i << "," << s.session << "," << dg.residual_base[i].head<3>().norm() * 1e3 << ","
@@ -315,7 +378,13 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
     for (int j = 0; j < n; ++j) csv << "," << s.q_rad[j] * sim::kRadToDeg;
     for (int j = 0; j < n; ++j) csv << "," << (s.hasTorque() ? s.tau_Nm[j] : 0.0);
     for (int j = 0; j < n; ++j) csv << "," << (s.direction.size() == n ? s.direction[j] : 0.0);
-    csv << "," << (s.hasTemperature() ? s.temperature_C : 0.0) << "," << (s.hasTime() ? s.time_s : 0.0) << "\n";
+    csv << "," << (s.hasTemperature() ? s.temperature_C : 0.0) << "," << (s.hasTime() ? s.time_s : 0.0);
+    // The selected model's held-out position residual components (mm; the residual's frame: the
+    // marker's for full poses, the measuring system's for positions), and the most significant
+    // unexplained variable's axis (0 when nothing is left).
+    for (int c = 0; c < 3; ++c) csv << "," << dg.residual_selected[i][c] * 1e3;
+    const Eigen::VectorXd& axis = dg.lack_of_fit.axis_values;
+    csv << "," << (axis.size() == static_cast<Eigen::Index>(obs.size()) ? axis[static_cast<Eigen::Index>(i)] : 0.0) << "\n";
   }
   sim::writeFileAtomic(out + "/residuals.csv", csv.str());
   ExperimentOptions plot;
@@ -327,6 +396,12 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
     const std::string png = "residuals_" + sim::effectName(e) + std::to_string(sim::effectJoints(e).empty() ? 0 : sim::effectJoints(e)[0] + 1) + ".png";
     figures += drawFigure(plot, out, "residuals '" + out + "/residuals.csv' " + column + " '" + label + "'", png,
                           "held-out position error against " + label);
+  }
+
+  const calib::LackOfFit& lof = dg.lack_of_fit;
+  if (!lof.unexplained.empty()) {
+    figures += drawFigure(plot, out, "components '" + out + "/residuals.csv' unexplained_axis '" + lof.axis_label + "'", "unexplained.png",
+                          "held-out residual components of the selected model against " + lof.unexplained.front().variable);
   }
 
   std::ostringstream md;
@@ -360,6 +435,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
       }
     }
   }
+  md << "\n" << unexplainedSection(dg, o.diagnose.alpha);
   if (r.distortion.tested) {
     const DistortionCheck& c = r.distortion;
     md << "\n## The camera: lens distortion the scene does not model\n\n"

@@ -5,6 +5,7 @@
   plot_report.py curve    fig8.csv out.png [--x COL LABEL] [--y COL LABEL]   # seed 000 Fig. 8 style
                                                    # (default x: n, identification configurations; y: avg_position_mm)
   plot_report.py residuals residuals.csv COLUMN LABEL out.png          # orbcal diagnose: held-out errors vs a variable
+  plot_report.py components residuals.csv COLUMN LABEL out.png         # orbcal diagnose: what the selected model leaves
   plot_report.py samples samples.csv out.png          # orbcal calibrate: per-image errors before/after, outliers named
   plot_report.py parameters estimates.csv out.png     # orbcal calibrate: each parameter with its 1-sigma (and truth)
 """
@@ -86,6 +87,22 @@ def residuals(csv_path, column, label, png_path):
     fig.savefig(png_path, dpi=110)
 
 
+def components(csv_path, column, label, png_path):
+    """The selected model's held-out residual components (x, y, z, mm) against one variable."""
+    rows = read_rows(csv_path)
+    x = [float(r[column]) for r in rows]
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for c in ("x", "y", "z"):
+        ax.scatter(x, [float(r["selected_%s_mm" % c]) for r in rows], s=10, alpha=0.7, label=c)
+    ax.axhline(0.0, color="black", linewidth=0.8)
+    ax.set_xlabel(label)
+    ax.set_ylabel("held-out residual of the selected model (mm)")
+    ax.grid(True, alpha=0.3)
+    ax.legend(title="component")
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+
+
 def samples(csv_path, png_path):
     rows = read_rows(csv_path)
     fig, ax = plt.subplots(figsize=(10, 5))
@@ -145,8 +162,8 @@ def main(argv):
     if len(argv) >= 4 and argv[1] in ("samples", "parameters"):
         (samples if argv[1] == "samples" else parameters)(argv[2], argv[3])
         return
-    if len(argv) >= 6 and argv[1] == "residuals":
-        residuals(argv[2], argv[3], argv[4], argv[5])
+    if len(argv) >= 6 and argv[1] in ("residuals", "components"):
+        (residuals if argv[1] == "residuals" else components)(argv[2], argv[3], argv[4], argv[5])
         return
     if len(argv) < 4 or argv[1] not in ("boxplot", "curve"):
         sys.exit(__doc__)

@@ -140,12 +140,7 @@ struct Folds {
 
 /// Folds by configuration: observations with the same joint readings (to 1e-9 rad) stay together.
 Folds makeFolds(const std::vector<MarkerObservation>& obs, int k, std::uint64_t seed) {
-  std::map<std::vector<long long>, std::vector<int>> groups;
-  for (std::size_t i = 0; i < obs.size(); ++i) {
-    std::vector<long long> key{obs[i].sample.session};
-    for (Eigen::Index j = 0; j < obs[i].sample.q_rad.size(); ++j) key.push_back(std::llround(obs[i].sample.q_rad[j] * 1e9));
-    groups[key].push_back(static_cast<int>(i));
-  }
+  const std::map<std::vector<long long>, std::vector<int>> groups = configurationGroups(obs);
   // Per session, shuffled groups dealt round-robin: every fold's training set sees every session.
   std::map<int, std::vector<const std::vector<int>*>> by_session;
   for (const auto& [key, members] : groups) by_session[static_cast<int>(key[0])].push_back(&members);
@@ -418,76 +413,13 @@ std::string separationAdvice(const std::vector<Effect>& set) {
 }
 
 /// Evidence: held-out residuals against each variable (F test of a linear regression, pooled over the
-/// residual components), Holm-adjusted.
+/// residual components), Holm-adjusted. The base family (lack_of_fit.hpp's evidenceVariables, not
+/// extended).
 std::vector<VariableTest> residualEvidence(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
                                            const std::vector<Eigen::VectorXd>& residual, const MarkerNoise& noise,
                                            const sim::KinematicModel& model, const Eigen::VectorXd& p) {
-  const int n = static_cast<int>(obs.size());
-  if (n < 10) return {};
-  const int m = static_cast<int>(residual.front().size());
-  Eigen::MatrixXd Y(n, m);
-  for (int i = 0; i < n; ++i) {
-    for (int c = 0; c < m; ++c) Y(i, c) = residual[static_cast<std::size_t>(i)][c] / (c < 3 ? noise.sigma_position_m : noise.sigma_rotation_rad);
-  }
-  std::vector<std::pair<std::string, Eigen::MatrixXd>> vars;
-  const int J = data.arm.numJoints();
-  const auto column = [&](auto get) {
-    Eigen::VectorXd v(n);
-    for (int i = 0; i < n; ++i) v[i] = get(obs[static_cast<std::size_t>(i)], i);
-    return v;
-  };
-  const auto varies = [](const Eigen::VectorXd& v) { return (v.array() - v.mean()).abs().maxCoeff() > 1e-12; };
-  for (int j = 0; j < J; ++j) {
-    const Eigen::VectorXd q = column([&](const MarkerObservation& o, int) { return o.sample.q_rad[j]; });
-    if (!varies(q)) continue;
-    Eigen::MatrixXd X(n, 4);
-    X << q.array().sin().matrix(), q.array().cos().matrix(), (2.0 * q.array()).sin().matrix(), (2.0 * q.array()).cos().matrix();
-    vars.emplace_back("joint " + std::to_string(j + 1) + " angle (harmonics 1, 2)", X);
-    if (obs.front().sample.hasTorque()) {
-      const Eigen::VectorXd t = column([&](const MarkerObservation& o, int) { return o.sample.tau_Nm[j]; });
-      if (varies(t)) vars.emplace_back("joint " + std::to_string(j + 1) + " torque", t);
-    }
-    if (obs.front().sample.direction.size() == J) {
-      const Eigen::VectorXd d = column([&](const MarkerObservation& o, int) { return o.sample.direction[j]; });
-      if (varies(d)) vars.emplace_back("joint " + std::to_string(j + 1) + " approach direction", d);
-    }
-  }
-  if (data.has_temperature) vars.emplace_back("temperature", column([](const MarkerObservation& o, int) { return o.sample.temperature_C; }));
-  if (data.has_time) vars.emplace_back("time", column([](const MarkerObservation& o, int) { return o.sample.time_s; }));
-  vars.emplace_back("sample order", column([](const MarkerObservation&, int i) { return static_cast<double>(i); }));
-  Eigen::MatrixXd W(n, 3);
-  for (int i = 0; i < n; ++i) W.row(i) = sim::predictMarkerPose(model, p, obs[static_cast<std::size_t>(i)].sample).translation().transpose();
-  vars.emplace_back("workspace position", W);
-  if (data.numSessions() > 1) {
-    Eigen::MatrixXd S = Eigen::MatrixXd::Zero(n, data.numSessions() - 1);
-    for (int i = 0; i < n; ++i) {
-      if (obs[static_cast<std::size_t>(i)].sample.session > 0) S(i, obs[static_cast<std::size_t>(i)].sample.session - 1) = 1.0;
-    }
-    vars.emplace_back("session", S);
-  }
-  std::vector<VariableTest> out;
-  const Eigen::MatrixXd Yc = Y.rowwise() - Y.colwise().mean();
-  const double total = Yc.squaredNorm();
-  for (auto& [name, X] : vars) {
-    Eigen::MatrixXd Xc = X.rowwise() - X.colwise().mean();
-    const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Xc);
-    const int d = static_cast<int>(qr.rank());
-    if (d == 0 || n - d - 1 <= 0) continue;
-    const Eigen::MatrixXd fitted = Xc * qr.solve(Yc);
-    const double explained = fitted.squaredNorm();
-    const double resid = std::max(1e-300, total - explained);
-    VariableTest t;
-    t.variable = name;
-    t.dof = d;
-    t.statistic = (explained / (m * d)) / (resid / (m * (n - d - 1)));
-    t.p_value = fSurvival(t.statistic, m * d, m * (n - d - 1));
-    out.push_back(t);
-  }
-  std::vector<double> ps;
-  for (const VariableTest& t : out) ps.push_back(t.p_value);
-  const std::vector<double> adj = holmAdjust(ps);
-  for (std::size_t i = 0; i < out.size(); ++i) out[i].p_adjusted = adj[i];
-  return out;
+  if (obs.size() < 10) return {};
+  return variableTests(scaledResiduals(residual, noise), evidenceVariables(data, obs, model, p, false));
 }
 
 /// The model selected so far: its effects, their cross-validation and fit on all the data.
@@ -657,7 +589,6 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   }
 
   out.selected = selected;
-  out.clean = selected.empty();
   out.fit = current_fit;  // the fit of `selected` on all the data (kept current by both passes)
   out.cv_selected = cv_current.sse;
   out.residual_selected = cv_current.residual;
@@ -670,10 +601,44 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   }
   out.confounded = kept;
 
+  // Lack of fit of the selected model (the base model when nothing is selected): the noise is stated
+  // when the tracker's sigma (or each sample's covariance) is given, not estimated from these residuals.
+  const bool stated = first.sigma_position_m.has_value() || anyOwnCovariance(obs);
+  out.lack_of_fit = lackOfFit(data, obs, out.fit, out.base_fit.noise, out.residual_selected, stated, std::max(2, o.folds), o.alpha);
+  out.heldout.noise_position_rms_m = out.lack_of_fit.noise_position_rms_m;
+  out.unexplained = out.lack_of_fit.left();
+  out.clean = selected.empty() && !out.unexplained;
+  if (out.unexplained && !selected.empty()) {
+    // Each cause's held-out position mean-square gain over the model with the causes before it (the
+    // selection order), as a share of the base model's excess over the noise.
+    const auto ms = [](const std::vector<Eigen::VectorXd>& r) {
+      double s = 0.0;
+      for (const Eigen::VectorXd& x : r) s += x.head<3>().squaredNorm();
+      return r.empty() ? 0.0 : s / static_cast<double>(r.size());
+    };
+    double previous = ms(out.residual_base);
+    const double excess = previous - std::pow(out.lack_of_fit.noise_position_rms_m, 2);
+    for (std::size_t i = 0; i < selected.size(); ++i) {
+      const std::vector<Effect> prefix(selected.begin(), selected.begin() + static_cast<std::ptrdiff_t>(i + 1));
+      const double current = i + 1 == selected.size() ? ms(out.residual_selected) : ms(d.crossValidate(prefix).residual);
+      out.share_of_excess.push_back(excess > 0.0 ? (previous - current) / excess : 0.0);
+      previous = current;
+    }
+  }
+
   std::ostringstream v;
-  if (out.clean) {
+  if (out.clean && out.lack_of_fit.tested) {
     v << "No unmodelled effect: the geometry + registration model leaves no significant structure in its held-out residuals "
-      << "(held-out position RMS " << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " mm); calibrate it as it is.";
+      << "(held-out position RMS " << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " mm, the noise gives "
+      << sim::formatNumber("%.3f", out.heldout.noise_position_rms_m * 1e3) << " mm); calibrate it as it is.";
+  } else if (out.clean) {
+    v << "No unmodelled effect found, but only relative to noise estimated from these residuals, "
+      << sim::formatNumber("%.3f", out.heldout.noise_position_rms_m * 1e3) << " mm (held-out position RMS "
+      << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " mm): no structure found against any variable "
+      << "tested, but a misfit spread evenly over the samples cannot be told from noise without a stated noise or repeated "
+      << "configurations; calibrate it as it is, or state the noise to test it.";
+  } else if (selected.empty()) {
+    v << unexplainedSentence(out);
   } else {
     v << "The model misses ";
     for (std::size_t i = 0; i < selected.size(); ++i) {
@@ -693,6 +658,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
       << before << " to " << after << (cut ? "" : ")") << "; calibrate with --effects";
     for (const Effect& e : selected) v << " " << sim::formatEffect(e);
     v << (out.confounded.empty() ? "." : " (some causes are confounded in this data: see below).");
+    if (out.unexplained) v << " " << unexplainedSentence(out);
   }
   out.verdict = v.str();
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -51,11 +51,18 @@ TEST_CASE("diagnose writes its report, diagnosis.json and a model evaluate can r
   CHECK_FALSE(d.clean);
   CHECK(d.heldout.selected.position_rms_m < d.heldout.base.position_rms_m);
   const std::string json = test::slurp(r.json_path);
-  for (const char* key : {"\"verdict\": \"effects\"", "\"selected\"", "\"confounded\"", "\"heldout\"", "\"position_rms_mm\""}) {
+  // effects, or unexplained when the selected model's held-out residuals still show structure.
+  CHECK(json.find(d.unexplained ? "\"verdict\": \"unexplained\"" : "\"verdict\": \"effects\"") != std::string::npos);
+  for (const char* key : {"\"selected\"", "\"confounded\"", "\"heldout\"", "\"position_rms_mm\"", "\"unexplained\": [",
+                          "\"noise_position_rms_mm\"", "\"lack_of_fit\""}) {
     CHECK(json.find(key) != std::string::npos);
   }
+  for (const calib::VariableTest& t : d.lack_of_fit.unexplained) CHECK(json.find("{\"variable\": \"" + t.variable + "\"") != std::string::npos);
   const std::string report = test::slurp(r.report_path);
   CHECK(report.find(d.verdict) != std::string::npos);
+  CHECK(report.find("## What is left unexplained") != std::string::npos);
+  const std::string csv = test::slurp(r.json_path.substr(0, r.json_path.rfind('/')) + "/residuals.csv");
+  CHECK(csv.find("selected_x_mm,selected_y_mm,selected_z_mm,unexplained_axis") != std::string::npos);
   CHECK(std::filesystem::exists(r.model_path));
 }
 

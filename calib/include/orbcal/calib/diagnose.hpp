@@ -21,6 +21,7 @@
 #include <string>
 #include <vector>
 
+#include "orbcal/calib/lack_of_fit.hpp"
 #include "orbcal/calib/measured_fit.hpp"
 
 namespace orbcal::calib {
@@ -44,14 +45,6 @@ struct DiagnoseOptions {
   std::optional<double> joint_noise_sigma_rad;
 };
 
-/// One row of the evidence table: held-out residuals against one variable.
-struct VariableTest {
-  std::string variable;   ///< e.g. "q2 harmonics", "torque 4", "temperature"
-  double statistic = 0;   ///< F statistic
-  int dof = 0;            ///< regressors
-  double p_value = 1, p_adjusted = 1;  ///< Holm-adjusted over the family
-};
-
 /// One candidate at one forward step.
 struct CandidateResult {
   sim::Effect effect;
@@ -72,10 +65,15 @@ struct ConfoundedSet {
 
 struct HeldoutStats {
   ResidualStats base, selected;  ///< of the cross-validated held-out residuals
+  double noise_position_rms_m = 0;  ///< 3-D position RMS the noise alone gives (LackOfFit)
 };
 
 struct Diagnosis {
+  /// Nothing selected and nothing left: the base model's held-out residuals are noise.
   bool clean = true;
+  /// The selected model's held-out residuals exceed the noise or are structured (lack_of_fit.left()):
+  /// never clean, and with effects selected their explanation is partial.
+  bool unexplained = false;
   std::vector<sim::Effect> selected;
   Fit fit;                       ///< the selected model on all the data
   Fit base_fit;                  ///< geometry + registration on all the data
@@ -86,6 +84,12 @@ struct Diagnosis {
   double cv_base = 0, cv_selected = 0;      ///< held-out whitened SSE
   /// Held-out residuals (position, m) per sample of the base and the selected model, for figures.
   std::vector<Eigen::VectorXd> residual_base, residual_selected;
+  /// The selected model's (the base model's when nothing is selected) held-out residuals against the
+  /// noise and the extended variable family (lack_of_fit.hpp).
+  LackOfFit lack_of_fit;
+  /// Per selected effect (in order), its held-out position mean-square gain (over the model with the
+  /// effects before it) as a share of the base model's excess over the noise; filled when unexplained.
+  std::vector<double> share_of_excess;
   std::string verdict;                      ///< one sentence a user can act on
   double seconds = 0;
 };
@@ -95,6 +99,11 @@ struct Diagnosis {
 /// robot's masses allow it).
 Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObservation>& observations,
                    const DiagnoseOptions& options);
+
+/// The verdict's account of what the selected model leaves (lack_of_fit): how far its held-out position
+/// RMS stands above the noise, the share of each named cause in the base model's excess, and the
+/// variables the rest is structured against. Empty when nothing is left.
+std::string unexplainedSentence(const Diagnosis& d);
 
 /// The survival function of the chi-square distribution with k degrees of freedom: P(X > x).
 double chiSquareSurvival(double x, double k);
