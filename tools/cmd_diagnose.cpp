@@ -15,9 +15,11 @@ void addDiagnoseCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "diagnose",
       "From measured data (a measurement description, .yaml) or an image dataset (folder): does the geometry + "
-      "registration model leave structure in its cross-validated residuals, which effect of the catalog explains it "
-      "(compliance, cyclic, scale, backlash, thermal, drift, mount; on image datasets also the lens distortion), with which parameters, and how much better the "
-      "extended model predicts held-out data. Writes report.md (verdict first), diagnosis.json, model.yaml, figures.");
+      "registration model leave structure in its cross-validated residuals, which cause of the catalog explains it "
+      "(compliance and stiffening compliance, cyclic, scale, backlash, thermal, drift, mount, coupling, link_bending; on "
+      "image datasets also the lens distortion), with which parameters, how much better the extended model predicts "
+      "held-out data, and what is left above the noise (verdict clean, effects or unexplained; empirical corrections "
+      "where no cause fits). Writes report.md (verdict first), diagnosis.json, model.yaml, figures.");
   cmd->add_option("input", o->input, "measurement description (.yaml) or image dataset folder")->required();
   cmd->add_option("-o,--out", o->out, "output folder (default: diagnosis/ beside the input)");
   cmd->add_option("--folds", o->diagnose.folds, "cross-validation folds")->capture_default_str()->check(CLI::Range(2, 20));
@@ -30,6 +32,12 @@ void addDiagnoseCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, 100.0));
   cmd->add_option("--max-effects", o->diagnose.max_effects, "effects added at most")->capture_default_str()->check(CLI::Range(1, 10));
+  cmd->add_option("--max-order", o->diagnose.max_order,
+                  "highest order searched: cyclic harmonics, the degree of empirical corrections")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 8));
+  cmd->add_flag("--no-empirical", [o](std::int64_t) { o->diagnose.empirical = false; },
+                "name physical causes only: no empirical correction where none fits");
   cmd->add_option_function<double>(
          "--joint-noise-deg", [o](double d) { o->diagnose.joint_noise_sigma_rad = d * sim::kDegToRad; },
          "joint readings vs true angles, 1 sigma [deg] (images: default the manifest's, else 0.01; measured data: "

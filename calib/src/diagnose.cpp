@@ -352,6 +352,7 @@ class Diagnoser {
     ctx.sessions = data_.numSessions();
     ctx.shared_marker = data_.marker == sim::FrameSharing::kShared;
     ctx.harmonics = o_.harmonics;
+    ctx.max_order = o_.max_order;
     std::vector<Effect> c;
     for (const sim::EffectKind* k : sim::catalog()) {
       for (Effect& e : k->candidates(ctx)) c.push_back(std::move(e));
@@ -359,7 +360,7 @@ class Diagnoser {
     return c;
   }
 
-  /// The order of a chosen cause with orders (cyclic: harmonics 1..6; compliance: degree 1 or 3) that
+  /// The order of a chosen cause with orders (cyclic: harmonics 1..max_order; compliance: degree 1 or 3) that
   /// earns the most cross-validated gain after its penalty per parameter; `cv` is the chosen order's.
   OrderChoice refineOrder(const std::vector<Effect>& selected, const Effect& chosen, const CvResult& cv,
                           const Fit& current_fit, double cv_current) const {
@@ -372,7 +373,7 @@ class Diagnoser {
       return n;
     };
     const auto penalized = [&](const OrderChoice& c) { return cv_current - c.cv.sse - o_.penalty_per_param * params(c.effect); };
-    for (int k = 1; k <= std::min(kind.maxOrder(), kMaxSearchedOrder); ++k) {
+    for (int k = 1; k <= std::min(kind.maxOrder(), std::max(o_.max_order, chosen.order())); ++k) {
       if (k == chosen.order()) continue;
       const Effect e(kind, chosen.joints(), k);
       try {
@@ -387,7 +388,6 @@ class Diagnoser {
     }
     return best;
   }
-  static constexpr int kMaxSearchedOrder = 6;
 
   void setNoise(const MarkerNoise& n) { noise_ = n; }
 
@@ -513,16 +513,16 @@ void forwardSelect(const Diagnoser& d, const DiagnoseOptions& o, const std::vect
 }
 
 /// Empirical corrections (sim/src/effects/empirical.cpp) the data can carry: each joint against its
-/// own angle and, with torques, its own torque, at degree 6 (the score test's reach; the degree is then
-/// chosen by cross-validation), over the data's range.
-std::vector<Effect> empiricalCandidates(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs) {
+/// own angle and, with torques, its own torque, at degree `degree` (the score test's reach; the degree
+/// is then chosen by cross-validation), over the data's range.
+std::vector<Effect> empiricalCandidates(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, int degree) {
   std::vector<Effect> out;
   const bool torque = !obs.empty() && obs.front().sample.hasTorque();
   for (int j = 0; j < data.arm.numJoints(); ++j) {
     for (const char* name : {"empirical", "empirical_torque"}) {
       const sim::EffectKind& kind = *sim::findEffectKind(name);
       if (kind.needs().torque && !torque) continue;
-      const Effect e(kind, {j, j}, 6);
+      const Effect e(kind, {j, j}, std::clamp(degree, 1, kind.maxOrder()));
       double lo = kind.variable(e, obs.front().sample), hi = lo;
       for (const MarkerObservation& ob : obs) {
         lo = std::min(lo, kind.variable(e, ob.sample));
@@ -532,6 +532,100 @@ std::vector<Effect> empiricalCandidates(const sim::MeasuredData& data, const std
     }
   }
   return out;
+}
+
+/// Backward elimination: every selected effect must keep earning its place.
+void backwardEliminate(const Diagnoser& d, const sim::MeasuredData& data, const DiagnoseOptions& o, const Fit& base_fit,
+                       ModelSelection& sel) {
+  std::vector<Effect>& selected = sel.effects;
+  CvResult& cv_current = sel.cv;
+  Fit& current_fit = sel.fit;
+  for (bool removed = true; removed && !selected.empty();) {
+    removed = false;
+    for (std::size_t i = 0; i < selected.size(); ++i) {
+      std::vector<Effect> without = selected;
+      without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
+      CvResult cv = d.crossValidate(without);
+      int params = 0;
+      for (const sim::ParamBlock& b : sim::effectBlocks(selected[i], data.arm, data.numSessions())) params += b.size();
+      if (cv.sse - cv_current.sse < o.penalty_per_param * params) {
+        selected = without;
+        cv_current = std::move(cv);
+        current_fit = selected.empty() ? base_fit : d.fitAll(selected);
+        removed = true;
+        break;
+      }
+    }
+  }
+}
+
+/// Each selected cause's held-out position mean-square gain over the model with the causes before it
+/// (the selection order), as a share of the base model's excess over the noise.
+std::vector<double> sharesOfExcess(const Diagnoser& d, const Diagnosis& out) {
+  const auto ms = [](const std::vector<Eigen::VectorXd>& r) {
+    double s = 0.0;
+    for (const Eigen::VectorXd& x : r) s += x.head<3>().squaredNorm();
+    return r.empty() ? 0.0 : s / static_cast<double>(r.size());
+  };
+  std::vector<double> shares;
+  double previous = ms(out.residual_base);
+  const double excess = previous - std::pow(out.lack_of_fit.noise_position_rms_m, 2);
+  for (std::size_t i = 0; i < out.selected.size(); ++i) {
+    const std::vector<Effect> prefix(out.selected.begin(), out.selected.begin() + static_cast<std::ptrdiff_t>(i + 1));
+    const double current = i + 1 == out.selected.size() ? ms(out.residual_selected) : ms(d.crossValidate(prefix).residual);
+    shares.push_back(excess > 0.0 ? (previous - current) / excess : 0.0);
+    previous = current;
+  }
+  return shares;
+}
+
+/// The verdict: one paragraph a user can act on.
+std::string verdictText(const Diagnosis& out) {
+  const std::vector<Effect>& selected = out.selected;
+  std::ostringstream v;
+  if (out.clean && out.lack_of_fit.tested) {
+    v << "No unmodelled effect: the geometry + registration model leaves no significant structure in its held-out residuals "
+      << "(held-out position RMS " << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " mm, the noise gives "
+      << sim::formatNumber("%.3f", out.heldout.noise_position_rms_m * 1e3) << " mm); calibrate it as it is.";
+  } else if (out.clean) {
+    v << "No unmodelled effect found, but only relative to noise estimated from these residuals, "
+      << sim::formatNumber("%.3f", out.heldout.noise_position_rms_m * 1e3) << " mm (held-out position RMS "
+      << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " mm): no structure found against any variable "
+      << "tested, but a misfit spread evenly over the samples cannot be told from noise without a stated noise or repeated "
+      << "configurations; calibrate it as it is, or state the noise to test it.";
+  } else if (selected.empty()) {
+    v << unexplainedSentence(out);
+  } else {
+    // Physical causes are named as causes; empirical corrections as what they are.
+    std::vector<Effect> causes, empirical;
+    for (const Effect& e : selected) (e.kind().empirical() ? empirical : causes).push_back(e);
+    const auto list = [&](const std::vector<Effect>& es) {
+      std::string t;
+      for (std::size_t i = 0; i < es.size(); ++i) t += (i ? (i + 1 == es.size() ? " and " : ", ") : "") + describeEffect(es[i]);
+      return t;
+    };
+    if (!causes.empty()) v << "The model misses " << list(causes);
+    if (!empirical.empty()) {
+      v << (causes.empty() ? "No cause of the catalog explains the structure in the residuals; " : "; what they leave is taken up by ")
+        << list(empirical) << (causes.empty() ? " takes it up (empirical, not a physical cause)" : " (empirical, not a physical cause)");
+    }
+    // In micrometres where millimetres to 3 decimals would read the same ("from 0.091 to 0.091 mm").
+    std::string before = sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) + " mm";
+    std::string after = sim::formatNumber("%.3f", out.heldout.selected.position_rms_m * 1e3) + " mm";
+    if (before == after) {
+      before = sim::formatNumber("%.2f", out.heldout.base.position_rms_m * 1e6) + " um";
+      after = sim::formatNumber("%.2f", out.heldout.selected.position_rms_m * 1e6) + " um";
+    }
+    // Selection weighs the held-out errors by their noise; the plain position RMS can stay level.
+    const bool cut = out.heldout.selected.position_rms_m < out.heldout.base.position_rms_m;
+    v << ": adding " << (selected.size() > 1 ? "them" : "it")
+      << (cut ? " cuts the held-out position RMS from " : " lowers the held-out error weighed by the noise (the position RMS goes from ")
+      << before << " to " << after << (cut ? "" : ")") << "; calibrate with --effects";
+    for (const Effect& e : selected) v << " " << sim::formatEffect(e);
+    v << (out.confounded.empty() ? "." : " (some causes are confounded in this data: see below).");
+    if (out.unexplained) v << " " << unexplainedSentence(out);
+  }
+  return v.str();
 }
 
 }  // namespace
@@ -550,117 +644,48 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   first.estimate_joint_noise = !joint && !anyOwnCovariance(obs);
   out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, first);
   d.setNoise(out.base_fit.noise);
+  // The noise is stated when the tracker's sigma (or each sample's covariance) is given, not estimated
+  // from these residuals.
+  const bool stated = first.sigma_position_m.has_value() || anyOwnCovariance(obs);
+  const int folds = std::max(2, o.folds);
 
   CvResult cv_base = d.crossValidate({});
   out.cv_base = cv_base.sse;
   out.residual_base = cv_base.residual;
   out.evidence = residualEvidence(data, obs, cv_base.residual, out.base_fit.noise, out.base_fit.model, out.base_fit.p);
 
-  // Forward selection: the catalog's causes; then, where structure is left that none of them explains,
-  // empirical corrections on the variables that structure lies along.
+  // Forward selection: the catalog's causes; then, where their model still leaves significant structure
+  // (the lack-of-fit test), empirical corrections, selected the same way.
   ModelSelection sel{{}, cv_base, out.base_fit, 0};
   forwardSelect(d, o, d.catalog(), sel, out);
-  if (o.empirical && sel.steps < o.max_effects) {
-    const std::vector<Effect> pool = empiricalCandidates(data, obs);
-    forwardSelect(d, o, pool, sel, out);
+  if (o.empirical && sel.steps < o.max_effects &&
+      lackOfFit(data, obs, sel.fit, out.base_fit.noise, sel.cv.residual, stated, folds, o.alpha).left()) {
+    forwardSelect(d, o, empiricalCandidates(data, obs, o.max_order), sel, out);
   }
-  std::vector<Effect>& selected = sel.effects;
-  CvResult& cv_current = sel.cv;
-  Fit& current_fit = sel.fit;
-  const auto sameCause = [](const Effect& a, const Effect& b) { return sharesCause(a, b); };
+  backwardEliminate(d, data, o, out.base_fit, sel);
 
-  // Backward: every selected effect must keep earning its place.
-  for (bool removed = true; removed && !selected.empty();) {
-    removed = false;
-    for (std::size_t i = 0; i < selected.size(); ++i) {
-      std::vector<Effect> without = selected;
-      without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
-      CvResult cv = d.crossValidate(without);
-      int params = 0;
-      for (const sim::ParamBlock& b : sim::effectBlocks(selected[i], data.arm, data.numSessions())) params += b.size();
-      if (cv.sse - cv_current.sse < o.penalty_per_param * params) {
-        selected = without;
-        cv_current = std::move(cv);
-        current_fit = selected.empty() ? out.base_fit : d.fitAll(selected);
-        removed = true;
-        break;
-      }
-    }
-  }
-
-  out.selected = selected;
-  out.fit = current_fit;  // the fit of `selected` on all the data (kept current by both passes)
-  out.cv_selected = cv_current.sse;
-  out.residual_selected = cv_current.residual;
+  out.selected = sel.effects;
+  out.fit = sel.fit;  // the fit of `selected` on all the data (kept current by both passes)
+  out.cv_selected = sel.cv.sse;
+  out.residual_selected = sel.cv.residual;
   out.heldout.base = residualStats(out.residual_base);
   out.heldout.selected = residualStats(out.residual_selected);
   // Keep only the confounded sets of effects that stayed.
   std::vector<ConfoundedSet> kept;
   for (const ConfoundedSet& c : out.confounded) {
-    if (std::any_of(selected.begin(), selected.end(), [&](const Effect& e) { return sameCause(e, c.effects.front()); })) kept.push_back(c);
+    if (std::any_of(out.selected.begin(), out.selected.end(), [&](const Effect& e) { return sharesCause(e, c.effects.front()); })) {
+      kept.push_back(c);
+    }
   }
   out.confounded = kept;
 
-  // Lack of fit of the selected model (the base model when nothing is selected): the noise is stated
-  // when the tracker's sigma (or each sample's covariance) is given, not estimated from these residuals.
-  const bool stated = first.sigma_position_m.has_value() || anyOwnCovariance(obs);
-  out.lack_of_fit = lackOfFit(data, obs, out.fit, out.base_fit.noise, out.residual_selected, stated, std::max(2, o.folds), o.alpha);
+  // Lack of fit of the selected model (the base model when nothing is selected).
+  out.lack_of_fit = lackOfFit(data, obs, out.fit, out.base_fit.noise, out.residual_selected, stated, folds, o.alpha);
   out.heldout.noise_position_rms_m = out.lack_of_fit.noise_position_rms_m;
   out.unexplained = out.lack_of_fit.left();
-  out.clean = selected.empty() && !out.unexplained;
-  if (out.unexplained && !selected.empty()) {
-    // Each cause's held-out position mean-square gain over the model with the causes before it (the
-    // selection order), as a share of the base model's excess over the noise.
-    const auto ms = [](const std::vector<Eigen::VectorXd>& r) {
-      double s = 0.0;
-      for (const Eigen::VectorXd& x : r) s += x.head<3>().squaredNorm();
-      return r.empty() ? 0.0 : s / static_cast<double>(r.size());
-    };
-    double previous = ms(out.residual_base);
-    const double excess = previous - std::pow(out.lack_of_fit.noise_position_rms_m, 2);
-    for (std::size_t i = 0; i < selected.size(); ++i) {
-      const std::vector<Effect> prefix(selected.begin(), selected.begin() + static_cast<std::ptrdiff_t>(i + 1));
-      const double current = i + 1 == selected.size() ? ms(out.residual_selected) : ms(d.crossValidate(prefix).residual);
-      out.share_of_excess.push_back(excess > 0.0 ? (previous - current) / excess : 0.0);
-      previous = current;
-    }
-  }
-
-  std::ostringstream v;
-  if (out.clean && out.lack_of_fit.tested) {
-    v << "No unmodelled effect: the geometry + registration model leaves no significant structure in its held-out residuals "
-      << "(held-out position RMS " << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " mm, the noise gives "
-      << sim::formatNumber("%.3f", out.heldout.noise_position_rms_m * 1e3) << " mm); calibrate it as it is.";
-  } else if (out.clean) {
-    v << "No unmodelled effect found, but only relative to noise estimated from these residuals, "
-      << sim::formatNumber("%.3f", out.heldout.noise_position_rms_m * 1e3) << " mm (held-out position RMS "
-      << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " mm): no structure found against any variable "
-      << "tested, but a misfit spread evenly over the samples cannot be told from noise without a stated noise or repeated "
-      << "configurations; calibrate it as it is, or state the noise to test it.";
-  } else if (selected.empty()) {
-    v << unexplainedSentence(out);
-  } else {
-    v << "The model misses ";
-    for (std::size_t i = 0; i < selected.size(); ++i) {
-      v << (i ? (i + 1 == selected.size() ? " and " : ", ") : "") << describeEffect(selected[i]);
-    }
-    // In micrometres where millimetres to 3 decimals would read the same ("from 0.091 to 0.091 mm").
-    std::string before = sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) + " mm";
-    std::string after = sim::formatNumber("%.3f", out.heldout.selected.position_rms_m * 1e3) + " mm";
-    if (before == after) {
-      before = sim::formatNumber("%.2f", out.heldout.base.position_rms_m * 1e6) + " um";
-      after = sim::formatNumber("%.2f", out.heldout.selected.position_rms_m * 1e6) + " um";
-    }
-    // Selection weighs the held-out errors by their noise; the plain position RMS can stay level.
-    const bool cut = out.heldout.selected.position_rms_m < out.heldout.base.position_rms_m;
-    v << ": adding " << (selected.size() > 1 ? "them" : "it")
-      << (cut ? " cuts the held-out position RMS from " : " lowers the held-out error weighed by the noise (the position RMS goes from ")
-      << before << " to " << after << (cut ? "" : ")") << "; calibrate with --effects";
-    for (const Effect& e : selected) v << " " << sim::formatEffect(e);
-    v << (out.confounded.empty() ? "." : " (some causes are confounded in this data: see below).");
-    if (out.unexplained) v << " " << unexplainedSentence(out);
-  }
-  out.verdict = v.str();
+  out.clean = out.selected.empty() && !out.unexplained;
+  if (out.unexplained && !out.selected.empty()) out.share_of_excess = sharesOfExcess(d, out);
+  out.verdict = verdictText(out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

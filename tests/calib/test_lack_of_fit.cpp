@@ -38,7 +38,7 @@ sim::SimulatedData simulate(std::uint64_t seed, int samples = 200, int sessions 
   return s;
 }
 
-/// A cause the catalog has no term for: joint 2 turns by amplitude * sin(3 q2) beyond its reading,
+/// A cause the restricted catalog (diagnose below) has no term for: joint 2 turns by amplitude * sin(3 q2) beyond its reading,
 /// applied through the true arm's own kinematics (the measured pose moved by the change of the true
 /// prediction, so the tracker's noise stays as drawn).
 void hideThirdHarmonic(sim::SimulatedData& s, double amplitude_rad) {
@@ -55,8 +55,13 @@ bool names(const calib::LackOfFit& l, const std::string& variable) {
   return std::any_of(l.unexplained.begin(), l.unexplained.end(), [&](const calib::VariableTest& t) { return t.variable == variable; });
 }
 
+/// diagnose with a catalog that cannot express a 3rd harmonic: cyclic errors searched to harmonic 2 and
+/// no empirical corrections (with its full search, diagnose names cyclic:2/3 on this data).
 calib::Diagnosis diagnose(const sim::SimulatedData& s) {
-  return calib::diagnose(s.data, calib::observationsFrom(s.data, true), {});
+  calib::DiagnoseOptions o;
+  o.max_order = 2;
+  o.empirical = false;
+  return calib::diagnose(s.data, calib::observationsFrom(s.data, true), o);
 }
 
 double heldoutPositionRms(const std::vector<Eigen::VectorXd>& residual) {
@@ -201,4 +206,17 @@ TEST_CASE("lack of fit: pure error splits the held-out residuals into group mean
   // Group {0,1,2}: mean (2, 1, 0); scatter (1+1) + (1+1) + (0+4) = 8; n |mean|^2 = 3 * 5 = 15.
   CHECK(pe.ss == Approx(8.0));
   CHECK(pe.ss_group_means == Approx(15.0 + 16.0 + 1.0));
+}
+
+TEST_CASE("diagnose: with its full search, a 3rd harmonic is named as a cyclic error of order 3 and nothing is left",
+          "[calib][diagnose][lack_of_fit]") {
+  sim::SimulatedData s = simulate(5);
+  hideThirdHarmonic(s, 0.05 * sim::kDegToRad);
+  const calib::Diagnosis d = calib::diagnose(s.data, calib::observationsFrom(s.data, true), {});
+  CAPTURE(d.verdict);
+  REQUIRE(d.selected.size() >= 1);
+  CHECK(d.selected.front().name() == "cyclic");
+  CHECK(d.selected.front().joints() == std::vector<int>{1});
+  CHECK(d.selected.front().order() >= 3);
+  CHECK_FALSE(d.unexplained);
 }

@@ -17,7 +17,11 @@ class BacklashKind final : public EffectKind {
     return "play between gear teeth: the output stops short by b in the direction the joint came from, dq = b d with "
            "d = +1/-1 the approach direction";
   }
-  EffectNeeds needs() const override { return {.direction = true}; }
+  EffectNeeds needs() const override {
+    EffectNeeds n;
+    n.direction = true;
+    return n;
+  }
   std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
     return {jointBlock(e, [](ParamBlock& b, const std::string& j) { b.params.push_back(angleParam("b" + j, 0.01 * kDegToRad)); })};
   }

@@ -27,7 +27,11 @@ class ComplianceKind final : public EffectKind {
     EffectKind::check(e, num_joints, what);
     if (e.order() == 2) throw InputError(what + ": compliance's degree (/K) is 1 (linear) or 3 (c1 tau + c3 tau^3)");
   }
-  EffectNeeds needs() const override { return {.torque = true}; }
+  EffectNeeds needs() const override {
+    EffectNeeds n;
+    n.torque = true;
+    return n;
+  }
   std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
     // 1e-4 rad/(N m): a harmonic drive of ~10^4 N m/rad (the iiwa's joints: Bischoff et al. 2010); the
     // cubic term at the size that doubles that deflection at 50 N m.

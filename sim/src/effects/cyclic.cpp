@@ -1,5 +1,6 @@
 // cyclic: a transmission error periodic in the joint angle (gear eccentricity, the harmonic drive's
 // wave generator: first and second harmonics; tooth and bearing patterns: higher ones).
+#include <algorithm>
 #include <cmath>
 
 #include "orbcal/sim/config.hpp"
@@ -44,13 +45,13 @@ class CyclicKind final : public EffectKind {
       }
     }
   }
-  /// Harmonics 1..c.harmonics on every joint, and 1..6 where that reaches further: the score test of
-  /// the longer series sees a higher harmonic; diagnose then picks the order by cross-validation.
+  /// Harmonics 1..c.harmonics on every joint, and 1..c.max_order where that reaches further: the score
+  /// test of the longer series sees a higher harmonic; diagnose then picks the order by cross-validation.
   std::vector<Effect> candidates(const CandidateContext& c) const override {
     std::vector<Effect> out;
     for (int j = 0; j < c.joints; ++j) out.emplace_back(*this, std::vector<int>{j}, c.harmonics);
-    if (c.harmonics < kSearchOrder) {
-      for (int j = 0; j < c.joints; ++j) out.emplace_back(*this, std::vector<int>{j}, kSearchOrder);
+    if (c.harmonics < c.max_order) {
+      for (int j = 0; j < c.joints; ++j) out.emplace_back(*this, std::vector<int>{j}, std::min(c.max_order, maxOrder()));
     }
     return out;
   }
@@ -61,7 +62,6 @@ class CyclicKind final : public EffectKind {
   std::string separateBy() const override {
     return "move the joints over a wider range, with more distinct angles per joint";
   }
-  static constexpr int kSearchOrder = 6;
 };
 
 }  // namespace

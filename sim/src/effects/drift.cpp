@@ -17,7 +17,11 @@ class DriftKind final : public EffectKind {
            "D(t) = (Exp((t - t0) w), (t - t0) v)";
   }
   bool takesJoints() const override { return false; }
-  EffectNeeds needs() const override { return {.time = true}; }
+  EffectNeeds needs() const override {
+    EffectNeeds n;
+    n.time = true;
+    return n;
+  }
   std::vector<ParamBlock> blocks(const Effect&, const Arm&, int) const override {
     ParamBlock b;
     b.effect = name();

@@ -48,7 +48,11 @@ class EmpiricalKind : public EffectKind {
   }
   int defaultOrder() const override { return 3; }
   int maxOrder() const override { return 8; }
-  EffectNeeds needs() const override { return {.torque = torque_}; }
+  EffectNeeds needs() const override {
+    EffectNeeds n;
+    n.torque = torque_;
+    return n;
+  }
   void check(const Effect& e, int num_joints, const std::string& what) const override {
     EffectKind::check(e, num_joints, what);
     if (e.joints().size() != 2) throw InputError(what + ": " + name() + " takes two joints i,j (joint i corrected from joint j)");

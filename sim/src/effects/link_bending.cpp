@@ -30,7 +30,11 @@ class LinkBendingKind final : public EffectKind {
     return "a link bends under the weight it carries like a cantilever: its far end moves by F L^3 / 3EI and tilts by "
            "F L^2 / 2EI, a translation with a tilt that no joint-angle error reproduces; the parameter is 1/EI";
   }
-  EffectNeeds needs() const override { return {.masses = true}; }
+  EffectNeeds needs() const override {
+    EffectNeeds n;
+    n.masses = true;
+    return n;
+  }
   std::vector<ParamBlock> blocks(const Effect& e, const Arm& arm, int) const override {
     ParamBlock b;
     b.effect = name();

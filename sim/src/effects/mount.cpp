@@ -14,7 +14,11 @@ class MountKind final : public EffectKind {
            "through a rigid change Y_s";
   }
   bool takesJoints() const override { return false; }
-  EffectNeeds needs() const override { return {.sessions = true}; }
+  EffectNeeds needs() const override {
+    EffectNeeds n;
+    n.sessions = true;
+    return n;
+  }
   std::vector<ParamBlock> blocks(const Effect&, const Arm&, int num_sessions) const override {
     std::vector<ParamBlock> out;
     for (int s = 1; s < num_sessions; ++s) out.push_back(frameBlock("mount", s));

@@ -16,7 +16,11 @@ class ThermalKind final : public EffectKind {
   }
   bool takesJoints() const override { return false; }
   double defaultReference() const override { return 20.0; }
-  EffectNeeds needs() const override { return {.temperature = true}; }
+  EffectNeeds needs() const override {
+    EffectNeeds n;
+    n.temperature = true;
+    return n;
+  }
   std::vector<ParamBlock> blocks(const Effect&, const Arm&, int) const override {
     ParamBlock b;
     b.effect = name();

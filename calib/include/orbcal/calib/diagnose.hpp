@@ -32,7 +32,10 @@ struct DiagnoseOptions {
   double alpha = 0.01;              ///< family-wise error rate of each step's candidate tests (Holm)
   double penalty_per_param = 2.0;   ///< cross-validated gain (whitened SSE) an added parameter must earn
   int max_effects = 4;
-  int harmonics = 2;                ///< of the cyclic candidates (the search also tries up to 6, then picks by CV)
+  int harmonics = 2;                ///< of the cyclic candidates (the search also tries up to max_order, then picks by CV)
+  /// The highest order searched for causes with orders (cyclic harmonics; compliance's degree 1 or 3)
+  /// and for the empirical corrections' degree.
+  int max_order = 6;
   /// Where structure is left that no cause of the catalog explains, also try empirical corrections
   /// (sim/src/effects/empirical.cpp), selected by cross-validation like the causes, reported as empirical.
   bool empirical = true;

@@ -78,6 +78,7 @@ struct CandidateContext {
   int sessions = 1;
   bool shared_marker = true;  ///< the marker frame is shared between sessions (else mount is absorbed)
   int harmonics = 2;          ///< orders of the cyclic candidates (diagnose's option)
+  int max_order = 6;          ///< the highest order a candidate may search (cyclic: harmonics)
 };
 
 /// A rigid perturbation an effect inserts in the chain: X = frameDelta(xi), xi = [t; w] in the frame
