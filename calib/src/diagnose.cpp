@@ -353,9 +353,11 @@ class Diagnoser {
     ctx.shared_marker = data_.marker == sim::FrameSharing::kShared;
     ctx.harmonics = o_.harmonics;
     ctx.max_order = o_.max_order;
+    std::vector<sim::JointSample> samples;
+    for (const MarkerObservation& ob : obs_) samples.push_back(ob.sample);
     std::vector<Effect> c;
     for (const sim::EffectKind* k : sim::catalog()) {
-      for (Effect& e : k->candidates(ctx)) c.push_back(std::move(e));
+      for (const Effect& e : k->candidates(ctx)) c.push_back(k->adaptTo(e, samples));
     }
     return c;
   }
@@ -375,7 +377,7 @@ class Diagnoser {
     const auto penalized = [&](const OrderChoice& c) { return cv_current - c.cv.sse - o_.penalty_per_param * params(c.effect); };
     for (int k = 1; k <= std::min(kind.maxOrder(), std::max(o_.max_order, chosen.order())); ++k) {
       if (k == chosen.order()) continue;
-      const Effect e(kind, chosen.joints(), k);
+      const Effect e = Effect(kind, chosen.joints(), k, chosen.reference()).withRange(chosen.lo(), chosen.hi());
       try {
         kind.check(e, data_.arm.numJoints(), "order");
       } catch (const sim::InputError&) {

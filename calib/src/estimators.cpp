@@ -307,6 +307,7 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   so.gradient_tolerance = 1e-14;
   so.parameter_tolerance = 1e-14;
   so.num_threads = 1;
+  so.logging_type = ceres::SILENT;  // no solver log lines on the terminal; the summary is read below
   ceres::Solver::Summary summary;
   ceres::Solve(so, &problem, &summary);
   e.iterations = static_cast<int>(summary.iterations.size()) - 1;

@@ -234,6 +234,9 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
 sim::KinematicModel startingModel(const sim::MeasuredData& data, const std::vector<MarkerObservation>& observations,
                                   std::vector<sim::Effect> effects) {
   const int S = data.numSessions();
+  std::vector<sim::JointSample> samples;
+  for (const MarkerObservation& o : observations) samples.push_back(o.sample);
+  for (sim::Effect& e : effects) e = e.kind().adaptTo(e, samples);
   sim::KinematicModel shape = sim::makeKinematicModel(data.arm, S, data.base, data.marker, framesFor(data.base, S, data.world_T_base),
                                                       framesFor(data.marker, S, data.flange_T_marker), std::move(effects));
   std::vector<Eigen::Isometry3d> F;

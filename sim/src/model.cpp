@@ -391,6 +391,7 @@ void addInsertColumns(const Inserts& in, const std::vector<Eigen::Isometry3d>& f
     }
     if (c.place == ChainInsert::Place::kBase) return Eigen::Isometry3d(rest * F * MY);
     if (c.place == ChainInsert::Place::kMarker) return rest;
+    if (c.place == ChainInsert::Place::kFlange) return Eigen::Isometry3d(rest * MY);
     return Eigen::Isometry3d(rest * frames[static_cast<std::size_t>(c.link) + 1].inverse() * F * MY);
   };
   for (std::size_t k = 0; k < in.all.size(); ++k) {
@@ -409,7 +410,8 @@ Eigen::Isometry3d flangePose(const KinematicModel& m, const Eigen::VectorXd& p, 
   checkSizes(m, p, s);
   const Eigen::VectorXd q = s.q_rad + jointCorrections(m, p, s);
   const Arm arm = effectiveArm(m, p, s);
-  return forwardKinematics(arm, q, chainInserts(m, p, s).links);
+  const Inserts inserts = chainInserts(m, p, s);
+  return forwardKinematics(arm, q, inserts.links) * insertsAt(inserts, ChainInsert::Place::kFlange);
 }
 
 Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s,
@@ -429,7 +431,8 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   const Eigen::Isometry3d W = b_blk >= 0 ? m.baseStart(s.session) * frameDelta(seg(b_blk)) : m.baseStart(s.session);
   const Eigen::Isometry3d D = insertsAt(inserts, ChainInsert::Place::kBase);
   const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, q, inserts.links);
-  const Eigen::Isometry3d& F = frames.back();
+  const Eigen::Isometry3d Xf = insertsAt(inserts, ChainInsert::Place::kFlange);
+  const Eigen::Isometry3d F = frames.back() * Xf;
   const Eigen::Isometry3d M = m_blk >= 0 ? m.markerStart(s.session) * frameDelta(seg(m_blk)) : m.markerStart(s.session);
   const Eigen::Isometry3d Y = insertsAt(inserts, ChainInsert::Place::kMarker);
   const Eigen::Isometry3d MY = M * Y;
@@ -438,7 +441,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
 
   // Flange-frame columns of every DH parameter (theta columns double as the joints' columns), moved
   // to the marker frame.
-  const Matrix6d Ad_marker_flange = adjoint(MY.inverse());
+  const Matrix6d Ad_marker_flange = adjoint((Xf * MY).inverse());
   Matrix6Xd J_flange(6, arm.numParams());
   identificationJacobian(arm, q, ErrorFrame::kTool, J_flange, inserts.links);
   const Matrix6Xd J_geo = Ad_marker_flange * J_flange;

@@ -90,7 +90,7 @@ KinematicModel modelWith(const Arm& arm, std::vector<Effect> effects, FrameShari
 std::vector<Effect> everyEffect(int n) {
   return {Compliance{{1, 3}}, Cyclic{{0, n - 1}, 2}, Scale{{2}}, Backlash{{1, 4}}, Thermal{}, Drift{}, Mount{},
           Compliance{{5}, 3}, Cyclic{{4}, 6}, parseEffect("coupling:4,2,7,6", n, "test"),
-          parseEffect("link_bending:2,4", n, "test")};
+          parseEffect("link_bending:2," + std::to_string(n), n, "test")};  // the last: its far end is the flange
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // compliance: a joint that deflects under the torque it carries (harmonic drives, belts, gearboxes),
 // linearly, or stiffening with load (degree 3: harmonic drives are softer near zero torque).
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -22,6 +23,25 @@ class ComplianceKind final : public EffectKind {
            "drives stiffen with load, dq = c1 tau + c3 tau^3 (compliance:J/3)";
   }
   int defaultOrder() const override { return 1; }
+  /// Effect::reference() of a compliance is the torque scale tau_s (N m) its typical magnitudes follow
+  /// (not a zero point: the predictions do not depend on it). 50 N m: the gravity torques of a 7 kg,
+  /// 1 m arm's shoulder.
+  double defaultReference() const override { return 50.0; }
+  /// tau_s from the data: the RMS of its joints' torques (the largest of them).
+  Effect adaptTo(const Effect& e, const std::vector<JointSample>& samples) const override {
+    double tau_s = 0.0;
+    for (const int j : e.joints()) {
+      double ss = 0.0;
+      int n = 0;
+      for (const JointSample& s : samples) {
+        if (!s.hasTorque()) continue;
+        ss += s.tau_Nm[j] * s.tau_Nm[j];
+        ++n;
+      }
+      if (n > 0) tau_s = std::max(tau_s, std::sqrt(ss / n));
+    }
+    return tau_s > 0.0 ? Effect(*this, e.joints(), e.order(), tau_s).withRange(e.lo(), e.hi()) : e;
+  }
   int maxOrder() const override { return 3; }
   void check(const Effect& e, int num_joints, const std::string& what) const override {
     EffectKind::check(e, num_joints, what);
@@ -33,11 +53,15 @@ class ComplianceKind final : public EffectKind {
     return n;
   }
   std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
-    // 1e-4 rad/(N m): a harmonic drive of ~10^4 N m/rad (the iiwa's joints: Bischoff et al. 2010); the
-    // cubic term at the size that doubles that deflection at 50 N m.
+    // 1e-4 rad/(N m): a harmonic drive of ~10^4 N m/rad (the iiwa's joints: Bischoff et al. 2010), or,
+    // at torque scales above 50 N m, what deflects by 0.29 deg (5e-3 rad) at the scale; the cubic term
+    // at the size that doubles that deflection at the scale. Typical magnitudes set the fit's column
+    // scales: a cubic term of a 10^5 N m joint is 10^12 times a 10 N m one's.
+    const double tau_s = e.reference() > 0.0 ? e.reference() : defaultReference();
+    const double c1 = std::min(1e-4, 5e-3 / tau_s), c3 = c1 / (tau_s * tau_s);
     return {jointBlock(e, [&](ParamBlock& b, const std::string& j) {
-      b.params.push_back({"c" + j, "rad/(N*m)", "rad/(N*m)", 1.0, 1e-4, Quantity::kOther});
-      if (e.order() == 3) b.params.push_back({"c" + j + "_cubic", "rad/(N*m)^3", "rad/(N*m)^3", 1.0, 4e-8, Quantity::kOther});
+      b.params.push_back({"c" + j, "rad/(N*m)", "rad/(N*m)", 1.0, c1, Quantity::kOther});
+      if (e.order() == 3) b.params.push_back({"c" + j + "_cubic", "rad/(N*m)^3", "rad/(N*m)^3", 1.0, c3, Quantity::kOther});
     })};
   }
   void addJointCorrection(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,

@@ -14,17 +14,24 @@
 namespace orbcal::sim {
 namespace {
 
-/// Link `l` (from 1) is the segment of the chain from frame l-1 to frame l (chainFrames' indices: its
-/// far end is chainFrames()[l]); the insert sits at its far end.
+/// "link_bending:J" bends the link joint J moves: from joint J's frame to the next joint's (or the
+/// flange for the last joint). In chainFrames' indices that is frames[j] -> frames[j+1] in standard DH
+/// and Hayati (joint j turns about z of frame j), frames[j+1] -> frames[j+2] in modified DH and the
+/// URDF convention (frames[n+1] is the flange); the insert sits at its far end.
+std::pair<int, int> segment(const Arm& arm, int j) {
+  const bool at_own_frame = arm.convention == DhConvention::kModified || arm.convention == DhConvention::kUrdf;
+  return at_own_frame ? std::make_pair(j + 1, j + 2) : std::make_pair(j, j + 1);
+}
+
 class LinkBendingKind final : public EffectKind {
  public:
   std::string name() const override { return "link_bending"; }
   std::string words(const Effect& e) const override {
-    std::string s = e.joints().size() > 1 ? "bending of links " : "bending of link ";
+    std::string s = e.joints().size() > 1 ? "bending of the links joints " : "bending of the link joint ";
     for (std::size_t i = 0; i < e.joints().size(); ++i) {
       s += (i ? (i + 1 == e.joints().size() ? " and " : ", ") : "") + std::to_string(e.joints()[i] + 1);
     }
-    return s + " under its gravity load";
+    return s + (e.joints().size() > 1 ? " move" : " moves") + " under the gravity load it carries";
   }
   std::string physics() const override {
     return "a link bends under the weight it carries like a cantilever: its far end moves by F L^3 / 3EI and tilts by "
@@ -51,8 +58,9 @@ class LinkBendingKind final : public EffectKind {
     for (std::size_t i = 0; i < b.joints.size(); ++i) {
       const int l = b.joints[i];
       ChainInsert c;
-      c.place = ChainInsert::Place::kLink;
-      c.link = l;
+      const int far = segment(arm, l).second;
+      c.place = far == arm.numJoints() + 1 ? ChainInsert::Place::kFlange : ChainInsert::Place::kLink;
+      c.link = far - 1;
       c.offset = b.offset;
       c.J_xi_p = Eigen::MatrixXd::Zero(6, b.size());
       c.J_xi_p.col(static_cast<Eigen::Index>(i)) = unitDeflection(arm, frames, l);
@@ -67,7 +75,8 @@ class LinkBendingKind final : public EffectKind {
     const std::vector<Eigen::Isometry3d> frames = chainFrames(*c.arm, Eigen::VectorXd::Zero(c.arm->numJoints()));
     const double reach = characteristicLength(*c.arm);
     for (int l = 0; l < c.joints; ++l) {
-      const double L = (frames[static_cast<std::size_t>(l) + 1].translation() - frames[static_cast<std::size_t>(l)].translation()).norm();
+      const auto [near, far] = segment(*c.arm, l);
+      const double L = (frames[static_cast<std::size_t>(far)].translation() - frames[static_cast<std::size_t>(near)].translation()).norm();
       if (L >= 0.05 * reach && carriedMass(*c.arm, l) > 0.0) out.emplace_back(*this, std::vector<int>{l});
     }
     return out;
@@ -81,16 +90,17 @@ class LinkBendingKind final : public EffectKind {
     return "measure with several payloads, so that the links' loads vary independently of the joints' torques";
   }
 
-  /// xi per unit 1/EI at the far end of link l, in the far-end frame. Every mass the link carries (the
-  /// links from l on and the payload, as point masses at their centres) loads it where it projects
+  /// xi per unit 1/EI at the far end of the link joint l moves, in the far-end frame. Every mass the
+  /// link carries (its own and the later links', links[i] in frames[i+1], and the payload, as point masses at their centres) loads it where it projects
   /// onto the link, at a = clamp(t, 0, L) from the near end: the far end moves by P_perp a^2 (3L - a) / 6
   /// along the load and tilts by P_perp a^2 / 2 about u x P_perp (a = L: F L^3 / 3, F L^2 / 2). Moments
   /// of masses beyond the far end, and the axial load, are left out (a slender link's bending is the
   /// transverse load's).
   static Eigen::Matrix<double, 6, 1> unitDeflection(const Arm& arm, const std::vector<Eigen::Isometry3d>& frames, int l) {
     Eigen::Matrix<double, 6, 1> xi = Eigen::Matrix<double, 6, 1>::Zero();
-    const Eigen::Vector3d o = frames[static_cast<std::size_t>(l)].translation();
-    const Eigen::Vector3d span = frames[static_cast<std::size_t>(l) + 1].translation() - o;
+    const auto [near, far] = segment(arm, l);
+    const Eigen::Vector3d o = frames[static_cast<std::size_t>(near)].translation();
+    const Eigen::Vector3d span = frames[static_cast<std::size_t>(far)].translation() - o;
     const double L = span.norm();
     if (L < 1e-9) return xi;
     const Eigen::Vector3d u = span / L;
@@ -106,12 +116,12 @@ class LinkBendingKind final : public EffectKind {
       load(arm.masses.links[i].mass_kg, frames[i + 1] * arm.masses.links[i].com_m);
     }
     load(arm.masses.payload_kg, frames.back() * arm.masses.payload_com_flange_m);
-    const Eigen::Matrix3d Rt = frames[static_cast<std::size_t>(l) + 1].linear().transpose();
+    const Eigen::Matrix3d Rt = frames[static_cast<std::size_t>(far)].linear().transpose();
     xi.head<3>() = Rt * d;
     xi.tail<3>() = Rt * w;
     return xi;
   }
-  /// The mass the link carries: links l.. and the payload.
+  /// The mass the link joint l moves carries: its own (links[l], in frames[l+1]), the later links' and the payload.
   static double carriedMass(const Arm& arm, int l) {
     double m = arm.masses.payload_kg;
     for (std::size_t i = static_cast<std::size_t>(l); i < arm.masses.links.size(); ++i) m += arm.masses.links[i].mass_kg;
@@ -121,7 +131,8 @@ class LinkBendingKind final : public EffectKind {
   /// nominal zero pose: a stiff aluminium tube of a light arm bends by tens of micrometres.
   static double typicalCompliance(const Arm& arm, int l) {
     const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, Eigen::VectorXd::Zero(arm.numJoints()));
-    const double L = (frames[static_cast<std::size_t>(l) + 1].translation() - frames[static_cast<std::size_t>(l)].translation()).norm();
+    const auto [near, far] = segment(arm, l);
+    const double L = (frames[static_cast<std::size_t>(far)].translation() - frames[static_cast<std::size_t>(near)].translation()).norm();
     const double F = carriedMass(arm, l) * arm.masses.gravity_base.norm();
     if (L < 1e-9 || F <= 0.0) return 1.0;
     return 3.0 * 1e-4 / (F * L * L * L);

@@ -10,7 +10,7 @@
 // A cause enters the model's chain (sim/model.hpp) in one or more of three ways:
 //  1. a joint-angle correction dq(p, s) and d dq / dp (compliance, cyclic, scale, backlash, coupling);
 //  2. a rigid perturbation X = frameDelta(xi(p, s)) inserted at a place of the chain: after the base
-//     frame (drift), after link j's far end (link bending), after the marker frame (mount);
+//     frame (drift), at a link's far end or the flange (link bending), after the marker frame (mount);
 //  3. a scale of the arm's lengths (thermal).
 #include <Eigen/Core>
 #include <functional>
@@ -84,9 +84,9 @@ struct CandidateContext {
 /// A rigid perturbation an effect inserts in the chain: X = frameDelta(xi), xi = [t; w] in the frame
 /// at `place`, and d xi / d p over the effect's block (6 x block size).
 struct ChainInsert {
-  enum class Place { kBase, kLink, kMarker };
+  enum class Place { kBase, kLink, kFlange, kMarker };
   Place place = Place::kBase;
-  int link = -1;  ///< kLink: X is right-multiplied onto base_T_{link+1} (the far end of link `link`, 0-based)
+  int link = -1;  ///< kLink: X is right-multiplied onto chainFrames()[link + 1], after link `link`'s transform (0-based)
   Eigen::Matrix<double, 6, 1> xi = Eigen::Matrix<double, 6, 1>::Zero();
   Eigen::MatrixXd J_xi_p;  ///< 6 x block size
   int offset = 0;          ///< the block's first parameter in p
@@ -140,6 +140,9 @@ class EffectKind {
   virtual std::pair<std::string, std::string> revealingVariable(const Effect& e) const = 0;
   /// The measurement that separates it from its look-alikes.
   virtual std::string separateBy() const = 0;
+  /// The effect with what it takes from the data it will be fitted to (compliance: the torque scale its
+  /// parameters' typical magnitudes follow), predictions unchanged; the effect itself by default.
+  virtual Effect adaptTo(const Effect& e, const std::vector<JointSample>& samples) const { return e; }
   /// Checks that a sample carries what the effect reads; throws std::invalid_argument otherwise.
   virtual void requireCovariates(const JointSample& s, int num_joints) const;
 
