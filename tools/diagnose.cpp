@@ -311,6 +311,75 @@ std::string noiseSentence(const calib::Fit& base, const calib::DiagnoseOptions& 
 
 }  // namespace
 
+namespace {
+
+/// residuals.csv (per-sample held-out errors with the variables) and the figures drawn from it; returns
+/// the figures' Markdown.
+std::string writeResiduals(const calib::Diagnosis& dg, const sim::MeasuredData& data,
+                           const std::vector<calib::MarkerObservation>& obs, const std::string& out, bool plots) {
+  // Per-sample held-out errors with the variables, for the figures.
+  std::ostringstream csv;
+  const int n = data.arm.numJoints();
+  csv << "index,session,base_mm,selected_mm";
+  for (int j = 1; j <= n; ++j) csv << ",q" << j << "_deg";
+  for (int j = 1; j <= n; ++j) csv << ",tau" << j << "_Nm";
+  for (int j = 1; j <= n; ++j) csv << ",dir" << j;
+  csv << ",temperature_C,time_s,selected_x_mm,selected_y_mm,selected_z_mm,unexplained_axis\n";
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    const sim::JointSample& s = obs[i].sample;
+    csv << i << "," << s.session << "," << dg.residual_base[i].head<3>().norm() * 1e3 << ","
+        << dg.residual_selected[i].head<3>().norm() * 1e3;
+    for (int j = 0; j < n; ++j) csv << "," << s.q_rad[j] * sim::kRadToDeg;
+    for (int j = 0; j < n; ++j) csv << "," << (s.hasTorque() ? s.tau_Nm[j] : 0.0);
+    for (int j = 0; j < n; ++j) csv << "," << (s.direction.size() == n ? s.direction[j] : 0.0);
+    csv << "," << (s.hasTemperature() ? s.temperature_C : 0.0) << "," << (s.hasTime() ? s.time_s : 0.0);
+    // The selected model's held-out position residual components (mm; the residual's frame: the
+    // marker's for full poses, the measuring system's for positions), and the most significant
+    // unexplained variable's axis (0 when nothing is left).
+    for (int c = 0; c < 3; ++c) csv << "," << dg.residual_selected[i][c] * 1e3;
+    const Eigen::VectorXd& axis = dg.lack_of_fit.axis_values;
+    csv << "," << (axis.size() == static_cast<Eigen::Index>(obs.size()) ? axis[static_cast<Eigen::Index>(i)] : 0.0) << "\n";
+  }
+  sim::writeFileAtomic(out + "/residuals.csv", csv.str());
+  ExperimentOptions plot;
+  plot.plots = plots;
+  std::string figures = drawFigure(plot, out, "residuals '" + out + "/residuals.csv' index 'sample'", "samples.png",
+                                   "held-out position error per sample, before and after");
+  for (const sim::Effect& e : dg.selected) {
+    const auto [column, label] = e.kind().revealingVariable(e);
+    const std::string png = "residuals_" + sim::effectName(e) + std::to_string(sim::effectJoints(e).empty() ? 0 : sim::effectJoints(e)[0] + 1) + ".png";
+    figures += drawFigure(plot, out, "residuals '" + out + "/residuals.csv' " + column + " '" + label + "'", png,
+                          "held-out position error against " + label);
+  }
+
+  const calib::LackOfFit& lof = dg.lack_of_fit;
+  if (!lof.unexplained.empty()) {
+    figures += drawFigure(plot, out, "components '" + out + "/residuals.csv' unexplained_axis '" + lof.axis_label + "'", "unexplained.png",
+                          "held-out residual components of the selected model against " + lof.unexplained.front().variable);
+  }
+
+  return figures;
+}
+
+/// The report's section on the camera's lens distortion (image datasets).
+std::string distortionSection(const DistortionCheck& c, const calib::DiagnoseOptions& o) {
+  std::ostringstream md;
+  md << "\n## The camera: lens distortion the scene does not model\n\n"
+     << "Each image's own pose (solvePnP) under the scene's camera, and under the scene's camera plus dk1, dk2, dp1, dp2 "
+     << "fitted with every image's pose free (focal lengths, principal point and k3 held; "
+     << o.folds << " folds by image): held-out corner RMS " << sim::formatNumber("%.4f", c.heldout_rms_without_px) << " -> "
+     << sim::formatNumber("%.4f", c.heldout_rms_with_px) << " px, held-out gain " << sim::formatNumber("%.1f", c.cv_gain)
+     << " (must exceed " << sim::formatNumber("%.0f", 4 * o.penalty_per_param) << "), likelihood ratio "
+     << sim::formatNumber("%.1f", c.lr) << " (F test p " << sim::formatNumber("%.2g", c.p_value) << "). "
+     << (c.selected ? "**Named.**" : "Not named.") << " Fitted on all images: dk1 " << sim::formatNumber("%+.4g", c.dk[0]) << " +- "
+     << sim::formatNumber("%.2g", c.dk_sigma[0]) << ", dk2 " << sim::formatNumber("%+.4g", c.dk[1]) << " +- "
+     << sim::formatNumber("%.2g", c.dk_sigma[1]) << ", dp1 " << sim::formatNumber("%+.3g", c.dk[2]) << ", dp2 "
+     << sim::formatNumber("%+.3g", c.dk[3]) << ".\n";
+  return md.str();
+}
+
+}  // namespace
+
 DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   DiagnoseRunResult r;
   sim::MeasuredData data;
@@ -363,46 +432,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(dg.fit), out,
                                      "Selected by orbcal " ORBCAL_VERSION " (orbcal diagnose) from " + o.input);
 
-  // Per-sample held-out errors with the variables, for the figures.
-  std::ostringstream csv;
-  const int n = data.arm.numJoints();
-  csv << "index,session,base_mm,selected_mm";
-  for (int j = 1; j <= n; ++j) csv << ",q" << j << "_deg";
-  for (int j = 1; j <= n; ++j) csv << ",tau" << j << "_Nm";
-  for (int j = 1; j <= n; ++j) csv << ",dir" << j;
-  csv << ",temperature_C,time_s,selected_x_mm,selected_y_mm,selected_z_mm,unexplained_axis\n";
-  for (std::size_t i = 0; i < obs.size(); ++i) {
-    const sim::JointSample& s = obs[i].sample;
-    csv << i << "," << s.session << "," << dg.residual_base[i].head<3>().norm() * 1e3 << ","
-        << dg.residual_selected[i].head<3>().norm() * 1e3;
-    for (int j = 0; j < n; ++j) csv << "," << s.q_rad[j] * sim::kRadToDeg;
-    for (int j = 0; j < n; ++j) csv << "," << (s.hasTorque() ? s.tau_Nm[j] : 0.0);
-    for (int j = 0; j < n; ++j) csv << "," << (s.direction.size() == n ? s.direction[j] : 0.0);
-    csv << "," << (s.hasTemperature() ? s.temperature_C : 0.0) << "," << (s.hasTime() ? s.time_s : 0.0);
-    // The selected model's held-out position residual components (mm; the residual's frame: the
-    // marker's for full poses, the measuring system's for positions), and the most significant
-    // unexplained variable's axis (0 when nothing is left).
-    for (int c = 0; c < 3; ++c) csv << "," << dg.residual_selected[i][c] * 1e3;
-    const Eigen::VectorXd& axis = dg.lack_of_fit.axis_values;
-    csv << "," << (axis.size() == static_cast<Eigen::Index>(obs.size()) ? axis[static_cast<Eigen::Index>(i)] : 0.0) << "\n";
-  }
-  sim::writeFileAtomic(out + "/residuals.csv", csv.str());
-  ExperimentOptions plot;
-  plot.plots = o.plots;
-  std::string figures = drawFigure(plot, out, "residuals '" + out + "/residuals.csv' index 'sample'", "samples.png",
-                                   "held-out position error per sample, before and after");
-  for (const sim::Effect& e : dg.selected) {
-    const auto [column, label] = e.kind().revealingVariable(e);
-    const std::string png = "residuals_" + sim::effectName(e) + std::to_string(sim::effectJoints(e).empty() ? 0 : sim::effectJoints(e)[0] + 1) + ".png";
-    figures += drawFigure(plot, out, "residuals '" + out + "/residuals.csv' " + column + " '" + label + "'", png,
-                          "held-out position error against " + label);
-  }
-
-  const calib::LackOfFit& lof = dg.lack_of_fit;
-  if (!lof.unexplained.empty()) {
-    figures += drawFigure(plot, out, "components '" + out + "/residuals.csv' unexplained_axis '" + lof.axis_label + "'", "unexplained.png",
-                          "held-out residual components of the selected model against " + lof.unexplained.front().variable);
-  }
+  const std::string figures = writeResiduals(dg, data, obs, out, o.plots);
 
   std::ostringstream md;
   md << "# Diagnosis of " << data.arm.name << "\n\n**" << dg.verdict << "**\n\n";
@@ -436,20 +466,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
     }
   }
   md << "\n" << unexplainedSection(dg, o.diagnose.alpha);
-  if (r.distortion.tested) {
-    const DistortionCheck& c = r.distortion;
-    md << "\n## The camera: lens distortion the scene does not model\n\n"
-       << "Each image's own pose (solvePnP) under the scene's camera, and under the scene's camera plus dk1, dk2, dp1, dp2 "
-       << "fitted with every image's pose free (focal lengths, principal point and k3 held; "
-       << o.diagnose.folds << " folds by image): held-out corner RMS " << sim::formatNumber("%.4f", c.heldout_rms_without_px) << " -> "
-       << sim::formatNumber("%.4f", c.heldout_rms_with_px) << " px, held-out gain " << sim::formatNumber("%.1f", c.cv_gain)
-       << " (must exceed " << sim::formatNumber("%.0f", 4 * o.diagnose.penalty_per_param) << "), likelihood ratio "
-       << sim::formatNumber("%.1f", c.lr) << " (F test p " << sim::formatNumber("%.2g", c.p_value) << "). "
-       << (c.selected ? "**Named.**" : "Not named.") << " Fitted on all images: dk1 " << sim::formatNumber("%+.4g", c.dk[0]) << " +- "
-       << sim::formatNumber("%.2g", c.dk_sigma[0]) << ", dk2 " << sim::formatNumber("%+.4g", c.dk[1]) << " +- "
-       << sim::formatNumber("%.2g", c.dk_sigma[1]) << ", dp1 " << sim::formatNumber("%+.3g", c.dk[2]) << ", dp2 "
-       << sim::formatNumber("%+.3g", c.dk[3]) << ".\n";
-  }
+  if (r.distortion.tested) md << distortionSection(r.distortion, o.diagnose);
   md << "\n## Candidates\n\nScore test of each candidate's columns beyond the current model (rank: what the model cannot "
         "absorb); the significant ones fitted and cross-validated.\n\n| step | candidate | params | rank | score | p (Holm) | CV gain |\n|---|---|---|---|---|---|---|\n";
   for (const calib::CandidateResult& c : dg.candidates) {

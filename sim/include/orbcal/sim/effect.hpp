@@ -142,7 +142,7 @@ class EffectKind {
   virtual std::string separateBy() const = 0;
   /// The effect with what it takes from the data it will be fitted to (compliance: the torque scale its
   /// parameters' typical magnitudes follow), predictions unchanged; the effect itself by default.
-  virtual Effect adaptTo(const Effect& e, const std::vector<JointSample>& samples) const { return e; }
+  virtual Effect adaptTo(const Effect& e, const std::vector<JointSample>& /*samples*/) const { return e; }
   /// Checks that a sample carries what the effect reads; throws std::invalid_argument otherwise.
   virtual void requireCovariates(const JointSample& s, int num_joints) const;
 
