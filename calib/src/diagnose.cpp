@@ -222,7 +222,10 @@ class Diagnoser {
           }
         }
         const sim::KinematicModel start = warm_model ? *warm_model : startingModel(data_, train, effects);
-        const Fit fit = fitMarkerModel(start, train, fitOptions(), warm_model ? warm_p : Eigen::VectorXd());
+        // A fold's fit is wanted for its parameters alone (its held-out residuals): no analyses.
+        FitOptions fold_options = fitOptions();
+        fold_options.analyze = !o_.lean_fits;
+        const Fit fit = fitMarkerModel(start, train, fold_options, warm_model ? warm_p : Eigen::VectorXd());
         const MarkerPoseModel held(start, test, noise_, fit.p);
         std::vector<std::pair<int, Eigen::VectorXd>> residuals;
         for (std::size_t t = 0; t < test.size(); ++t) residuals.emplace_back(test_index[t], markerResidual(start, fit.p, test[t]));

@@ -61,9 +61,8 @@ TruncatedSolve truncatedSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b
 }
 
 /// Stacked system, whitened when `weighted`.
-void stackedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, bool weighted, Eigen::MatrixXd& A,
+void stackedSystem(const MeasurementModel& m, const StackedLinearization& s, bool weighted, Eigen::MatrixXd& A,
                    Eigen::VectorXd& b) {
-  const StackedLinearization s = linearizeAll(m, y);
   A = s.H;
   b = s.innovation;
   if (!weighted) return;
@@ -74,6 +73,11 @@ void stackedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, bool wei
     b.segment(row, r) = W * b.segment(row, r);
     row += r;
   }
+}
+
+void stackedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, bool weighted, Eigen::MatrixXd& A,
+                   Eigen::VectorXd& b) {
+  stackedSystem(m, linearizeAll(m, y), weighted, A, b);
 }
 
 }  // namespace
@@ -236,9 +240,14 @@ std::vector<int> unidentifiableToFix(const Eigen::MatrixXd& A_all, double cut, c
 
 std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::VectorXd& y, double cut,
                                      const std::vector<int>& held) {
+  return unidentifiableToFix(m, linearizeAll(m, y), cut, held);
+}
+
+std::vector<int> unidentifiableToFix(const MeasurementModel& m, const StackedLinearization& at, double cut,
+                                     const std::vector<int>& held) {
   Eigen::MatrixXd A;
   Eigen::VectorXd b;
-  stackedSystem(m, y, true, A, b);
+  stackedSystem(m, at, true, A, b);
   // Ineffective parameters first: a column that is zero up to round-off (a rigid motion of the whole
   // chain seen by a frame-invariant measurement) would be scaled to unit norm by the SVD and look
   // independent.
@@ -257,13 +266,16 @@ class SampleCost : public ceres::CostFunction {
     mutable_parameter_block_sizes()->push_back(m.numParams());
   }
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
-    const Eigen::Map<const Eigen::VectorXd> y(params[0], m_.numParams());
+    const Eigen::VectorXd y = Eigen::Map<const Eigen::VectorXd>(params[0], m_.numParams());
+    // Ceres asks for the residual alone at every trial step: the prediction without its Jacobian.
+    if (!jacobians || !jacobians[0]) {
+      Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = W_ * m_.innovation(k_, y);
+      return true;
+    }
     const Linearization lin = m_.linearize(k_, y);
     Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = W_ * lin.innovation;
-    if (jacobians && jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], m_.rows(k_),
-                                                                                          m_.numParams()) = -W_ * lin.H;
-    }
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], m_.rows(k_), m_.numParams()) =
+        -W_ * lin.H;
     return true;
   }
 
@@ -287,13 +299,16 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem problem(po);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+  // One linearization at the start gives both the whiteners and the system the unidentifiable
+  // parameters are found from (each linearization costs a Jacobian per sample).
+  const StackedLinearization start = linearizeAll(m, zero);
   for (int k = 0; k < m.numSamples(); ++k) {
     ceres::LossFunction* loss = nullptr;
     if (o.loss == LmOptions::Loss::kHuber) loss = new ceres::HuberLoss(o.loss_scale);
     if (o.loss == LmOptions::Loss::kCauchy) loss = new ceres::CauchyLoss(o.loss_scale);
-    problem.AddResidualBlock(new SampleCost(m, k, whitener(m.linearize(k, zero).R)), loss, e.y.data());
+    problem.AddResidualBlock(new SampleCost(m, k, whitener(start.R[static_cast<std::size_t>(k)])), loss, e.y.data());
   }
-  e.held = o.fix_unidentifiable ? unidentifiableToFix(m, zero, o.svd_cut, o.hold) : sortedUnique(o.hold);
+  e.held = o.fix_unidentifiable ? unidentifiableToFix(m, start, o.svd_cut, o.hold) : sortedUnique(o.hold);
   const std::vector<int>& fixed = e.held;
   if (static_cast<int>(fixed.size()) == n) {
     problem.SetParameterBlockConstant(e.y.data());
@@ -311,14 +326,18 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   ceres::Solve(so, &problem, &summary);
   e.iterations = static_cast<int>(summary.iterations.size()) - 1;
   e.converged = summary.termination_type == ceres::CONVERGENCE;
-  // Covariance from the whitened Jacobian at the solution, on the free parameters.
-  Eigen::MatrixXd A;
-  Eigen::VectorXd b;
-  stackedSystem(m, e.y, true, A, b);
-  for (int p : fixed) A.col(p).setZero();
-  const TruncatedSolve ts = truncatedSolve(A, b, o.svd_cut);
-  e.rank = ts.rank;
-  e.covariance = ts.covariance;
+  if (o.covariance) {
+    // Covariance from the whitened Jacobian at the solution, on the free parameters.
+    Eigen::MatrixXd A;
+    Eigen::VectorXd b;
+    stackedSystem(m, e.y, true, A, b);
+    for (int p : fixed) A.col(p).setZero();
+    const TruncatedSolve ts = truncatedSolve(A, b, o.svd_cut);
+    e.rank = ts.rank;
+    e.covariance = ts.covariance;
+  } else {
+    e.rank = n - static_cast<int>(fixed.size());
+  }
   e.seconds = since(t0);
   e.cost = weightedCost(m, e.y);
   return e;
