@@ -188,6 +188,7 @@ class Diagnoser {
     f.sigma_position_m = noise_.sigma_position_m;
     f.sigma_rotation_rad = noise_.sigma_rotation_rad;
     f.joint_noise_sigma_rad = noise_.joint_noise_sigma_rad;
+    f.normal_equations = o_.lean_fits;
     return f;
   }
 
@@ -645,6 +646,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   const std::optional<double> joint = o.joint_noise_sigma_rad ? o.joint_noise_sigma_rad : data.noise_joint_rad;
   first.joint_noise_sigma_rad = joint.value_or(0.0);
   first.estimate_joint_noise = !joint && !anyOwnCovariance(obs);
+  first.normal_equations = o.lean_fits;
   out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, first);
   d.setNoise(out.base_fit.noise);
   // The noise is stated when the tracker's sigma (or each sample's covariance) is given, not estimated

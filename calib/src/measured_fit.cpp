@@ -155,6 +155,7 @@ Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o) {
       lo.hold = o.hold;
       lo.fix_unidentifiable = o.fix_unidentifiable;
       lo.covariance = o.analyze;
+      lo.normal_equations = o.normal_equations;
       return runLm(m, lo);
     }
   }

@@ -57,6 +57,7 @@ struct FitOptions {
   /// estimate's covariance. A fit whose parameters alone are wanted (a cross-validation fold) skips
   /// them: the estimate is the same.
   bool analyze = true;
+  bool normal_equations = false;  ///< LM steps from the normal equations (LmOptions::normal_equations)
 };
 
 struct Fit {
