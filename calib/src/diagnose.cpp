@@ -201,6 +201,20 @@ class Diagnoser {
   /// and parameters (the added effects at zero) instead of the closed-form start: the same optimum,
   /// fewer iterations.
   CvResult crossValidate(const std::vector<Effect>& effects, const Fit* warm = nullptr) const {
+    // A cold start depends on the effects alone: backward elimination and the shares of the excess
+    // ask again for models already cross-validated (the base model, a prefix of the selection).
+    std::string key;
+    for (const Effect& e : effects) key += sim::formatEffect(e) + " ";
+    if (!warm) {
+      const auto hit = cold_cvs_.find(key);
+      if (hit != cold_cvs_.end()) return hit->second;
+    }
+    CvResult r = crossValidateFolds(effects, warm);
+    if (!warm) cold_cvs_.emplace(key, r);
+    return r;
+  }
+
+  CvResult crossValidateFolds(const std::vector<Effect>& effects, const Fit* warm) const {
     std::optional<sim::KinematicModel> warm_model;
     Eigen::VectorXd warm_p;
     if (warm) {
@@ -393,7 +407,10 @@ class Diagnoser {
     return best;
   }
 
-  void setNoise(const MarkerNoise& n) { noise_ = n; }
+  void setNoise(const MarkerNoise& n) {
+    noise_ = n;
+    cold_cvs_.clear();  // the folds' fits whiten with the noise
+  }
 
  private:
   const sim::MeasuredData& data_;
@@ -401,6 +418,7 @@ class Diagnoser {
   DiagnoseOptions o_;
   Folds folds_;
   MarkerNoise noise_;
+  mutable std::map<std::string, CvResult> cold_cvs_;  ///< cross-validations from the closed-form start, by effects
 };
 
 /// The measurement that separates a confounded set: that of its first cause in catalog order, except
