@@ -188,6 +188,7 @@ class Diagnoser {
     f.sigma_position_m = noise_.sigma_position_m;
     f.sigma_rotation_rad = noise_.sigma_rotation_rad;
     f.joint_noise_sigma_rad = noise_.joint_noise_sigma_rad;
+    f.normal_equations = o_.lean_fits;
     return f;
   }
 
@@ -200,6 +201,20 @@ class Diagnoser {
   /// and parameters (the added effects at zero) instead of the closed-form start: the same optimum,
   /// fewer iterations.
   CvResult crossValidate(const std::vector<Effect>& effects, const Fit* warm = nullptr) const {
+    // A cold start depends on the effects alone: backward elimination and the shares of the excess
+    // ask again for models already cross-validated (the base model, a prefix of the selection).
+    std::string key;
+    for (const Effect& e : effects) key += sim::formatEffect(e) + " ";
+    if (!warm) {
+      const auto hit = cold_cvs_.find(key);
+      if (hit != cold_cvs_.end()) return hit->second;
+    }
+    CvResult r = crossValidateFolds(effects, warm);
+    if (!warm) cold_cvs_.emplace(key, r);
+    return r;
+  }
+
+  CvResult crossValidateFolds(const std::vector<Effect>& effects, const Fit* warm) const {
     std::optional<sim::KinematicModel> warm_model;
     Eigen::VectorXd warm_p;
     if (warm) {
@@ -222,7 +237,10 @@ class Diagnoser {
           }
         }
         const sim::KinematicModel start = warm_model ? *warm_model : startingModel(data_, train, effects);
-        const Fit fit = fitMarkerModel(start, train, fitOptions(), warm_model ? warm_p : Eigen::VectorXd());
+        // A fold's fit is wanted for its parameters alone (its held-out residuals): no analyses.
+        FitOptions fold_options = fitOptions();
+        fold_options.analyze = !o_.lean_fits;
+        const Fit fit = fitMarkerModel(start, train, fold_options, warm_model ? warm_p : Eigen::VectorXd());
         const MarkerPoseModel held(start, test, noise_, fit.p);
         std::vector<std::pair<int, Eigen::VectorXd>> residuals;
         for (std::size_t t = 0; t < test.size(); ++t) residuals.emplace_back(test_index[t], markerResidual(start, fit.p, test[t]));
@@ -391,7 +409,10 @@ class Diagnoser {
     return best;
   }
 
-  void setNoise(const MarkerNoise& n) { noise_ = n; }
+  void setNoise(const MarkerNoise& n) {
+    noise_ = n;
+    cold_cvs_.clear();  // the folds' fits whiten with the noise
+  }
 
  private:
   const sim::MeasuredData& data_;
@@ -399,6 +420,7 @@ class Diagnoser {
   DiagnoseOptions o_;
   Folds folds_;
   MarkerNoise noise_;
+  mutable std::map<std::string, CvResult> cold_cvs_;  ///< cross-validations from the closed-form start, by effects
 };
 
 /// The measurement that separates a confounded set: that of its first cause in catalog order, except
@@ -644,6 +666,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   const std::optional<double> joint = o.joint_noise_sigma_rad ? o.joint_noise_sigma_rad : data.noise_joint_rad;
   first.joint_noise_sigma_rad = joint.value_or(0.0);
   first.estimate_joint_noise = !joint && !anyOwnCovariance(obs);
+  first.normal_equations = o.lean_fits;
   out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, first);
   d.setNoise(out.base_fit.noise);
   // The noise is stated when the tracker's sigma (or each sample's covariance) is given, not estimated

@@ -61,9 +61,8 @@ TruncatedSolve truncatedSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b
 }
 
 /// Stacked system, whitened when `weighted`.
-void stackedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, bool weighted, Eigen::MatrixXd& A,
+void stackedSystem(const MeasurementModel& m, const StackedLinearization& s, bool weighted, Eigen::MatrixXd& A,
                    Eigen::VectorXd& b) {
-  const StackedLinearization s = linearizeAll(m, y);
   A = s.H;
   b = s.innovation;
   if (!weighted) return;
@@ -74,6 +73,11 @@ void stackedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, bool wei
     b.segment(row, r) = W * b.segment(row, r);
     row += r;
   }
+}
+
+void stackedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, bool weighted, Eigen::MatrixXd& A,
+                   Eigen::VectorXd& b) {
+  stackedSystem(m, linearizeAll(m, y), weighted, A, b);
 }
 
 }  // namespace
@@ -236,9 +240,14 @@ std::vector<int> unidentifiableToFix(const Eigen::MatrixXd& A_all, double cut, c
 
 std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::VectorXd& y, double cut,
                                      const std::vector<int>& held) {
+  return unidentifiableToFix(m, linearizeAll(m, y), cut, held);
+}
+
+std::vector<int> unidentifiableToFix(const MeasurementModel& m, const StackedLinearization& at, double cut,
+                                     const std::vector<int>& held) {
   Eigen::MatrixXd A;
   Eigen::VectorXd b;
-  stackedSystem(m, y, true, A, b);
+  stackedSystem(m, at, true, A, b);
   // Ineffective parameters first: a column that is zero up to round-off (a rigid motion of the whole
   // chain seen by a frame-invariant measurement) would be scaled to unit norm by the SVD and look
   // independent.
@@ -249,21 +258,30 @@ std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::Vec
 
 namespace {
 
-/// One sample's whitened residual W nu_k(y) and Jacobian -W H_k for Ceres (W fixed at the start).
+/// One sample's whitened residual W nu_k(y) and Jacobian -W H_k for Ceres (W fixed at the start), over
+/// the free parameters alone (`free`; the held ones stay at zero): Ceres then solves the same problem
+/// as with a SubsetManifold on all of y, without multiplying every Jacobian by the manifold's.
 class SampleCost : public ceres::CostFunction {
  public:
-  SampleCost(const MeasurementModel& m, int k, Eigen::MatrixXd W) : m_(m), k_(k), W_(std::move(W)) {
+  SampleCost(const MeasurementModel& m, int k, Eigen::MatrixXd W, const std::vector<int>& free)
+      : m_(m), k_(k), W_(std::move(W)), free_(free) {
     set_num_residuals(m.rows(k));
-    mutable_parameter_block_sizes()->push_back(m.numParams());
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(free.size()));
   }
   bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
-    const Eigen::Map<const Eigen::VectorXd> y(params[0], m_.numParams());
+    Eigen::VectorXd y = Eigen::VectorXd::Zero(m_.numParams());
+    for (std::size_t c = 0; c < free_.size(); ++c) y[free_[c]] = params[0][c];
+    // Ceres asks for the residual alone at every trial step: the prediction without its Jacobian.
+    if (!jacobians || !jacobians[0]) {
+      Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = W_ * m_.innovation(k_, y);
+      return true;
+    }
     const Linearization lin = m_.linearize(k_, y);
     Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = W_ * lin.innovation;
-    if (jacobians && jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], m_.rows(k_),
-                                                                                          m_.numParams()) = -W_ * lin.H;
-    }
+    const Eigen::MatrixXd WH = W_ * lin.H;
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jacobians[0], m_.rows(k_),
+                                                                                         static_cast<Eigen::Index>(free_.size()));
+    for (std::size_t c = 0; c < free_.size(); ++c) J.col(static_cast<Eigen::Index>(c)) = -WH.col(free_[c]);
     return true;
   }
 
@@ -271,6 +289,7 @@ class SampleCost : public ceres::CostFunction {
   const MeasurementModel& m_;
   int k_;
   Eigen::MatrixXd W_;
+  const std::vector<int>& free_;
 };
 
 }  // namespace
@@ -287,21 +306,25 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem problem(po);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
-  for (int k = 0; k < m.numSamples(); ++k) {
+  // One linearization at the start gives both the whiteners and the system the unidentifiable
+  // parameters are found from (each linearization costs a Jacobian per sample).
+  const StackedLinearization start = linearizeAll(m, zero);
+  e.held = o.fix_unidentifiable ? unidentifiableToFix(m, start, o.svd_cut, o.hold) : sortedUnique(o.hold);
+  const std::vector<int>& fixed = e.held;
+  std::vector<int> free;
+  for (int p = 0; p < n; ++p) {
+    if (!std::binary_search(fixed.begin(), fixed.end(), p)) free.push_back(p);
+  }
+  // Ceres works on the free parameters alone (x; y = x on them, 0 elsewhere).
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(free.size()));
+  for (int k = 0; k < m.numSamples() && !free.empty(); ++k) {
     ceres::LossFunction* loss = nullptr;
     if (o.loss == LmOptions::Loss::kHuber) loss = new ceres::HuberLoss(o.loss_scale);
     if (o.loss == LmOptions::Loss::kCauchy) loss = new ceres::CauchyLoss(o.loss_scale);
-    problem.AddResidualBlock(new SampleCost(m, k, whitener(m.linearize(k, zero).R)), loss, e.y.data());
-  }
-  e.held = o.fix_unidentifiable ? unidentifiableToFix(m, zero, o.svd_cut, o.hold) : sortedUnique(o.hold);
-  const std::vector<int>& fixed = e.held;
-  if (static_cast<int>(fixed.size()) == n) {
-    problem.SetParameterBlockConstant(e.y.data());
-  } else if (!fixed.empty()) {
-    problem.SetManifold(e.y.data(), new ceres::SubsetManifold(n, fixed));
+    problem.AddResidualBlock(new SampleCost(m, k, whitener(start.R[static_cast<std::size_t>(k)]), free), loss, x.data());
   }
   ceres::Solver::Options so;
-  so.linear_solver_type = ceres::DENSE_QR;
+  so.linear_solver_type = o.normal_equations ? ceres::DENSE_NORMAL_CHOLESKY : ceres::DENSE_QR;
   so.max_num_iterations = o.max_iterations;
   so.function_tolerance = 1e-14;
   so.gradient_tolerance = 1e-14;
@@ -309,17 +332,25 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   so.num_threads = 1;
   so.logging_type = ceres::SILENT;  // no solver log lines on the terminal; the summary is read below
   ceres::Solver::Summary summary;
-  ceres::Solve(so, &problem, &summary);
-  e.iterations = static_cast<int>(summary.iterations.size()) - 1;
-  e.converged = summary.termination_type == ceres::CONVERGENCE;
-  // Covariance from the whitened Jacobian at the solution, on the free parameters.
-  Eigen::MatrixXd A;
-  Eigen::VectorXd b;
-  stackedSystem(m, e.y, true, A, b);
-  for (int p : fixed) A.col(p).setZero();
-  const TruncatedSolve ts = truncatedSolve(A, b, o.svd_cut);
-  e.rank = ts.rank;
-  e.covariance = ts.covariance;
+  if (!free.empty()) {
+    ceres::Solve(so, &problem, &summary);
+    for (std::size_t c = 0; c < free.size(); ++c) e.y[free[c]] = x[static_cast<Eigen::Index>(c)];
+  }
+  // Nothing free: converged where it started (as Ceres says of a problem with no free parameter).
+  e.iterations = free.empty() ? 0 : static_cast<int>(summary.iterations.size()) - 1;
+  e.converged = free.empty() || summary.termination_type == ceres::CONVERGENCE;
+  if (o.covariance) {
+    // Covariance from the whitened Jacobian at the solution, on the free parameters.
+    Eigen::MatrixXd A;
+    Eigen::VectorXd b;
+    stackedSystem(m, e.y, true, A, b);
+    for (int p : fixed) A.col(p).setZero();
+    const TruncatedSolve ts = truncatedSolve(A, b, o.svd_cut);
+    e.rank = ts.rank;
+    e.covariance = ts.covariance;
+  } else {
+    e.rank = n - static_cast<int>(fixed.size());
+  }
   e.seconds = since(t0);
   e.cost = weightedCost(m, e.y);
   return e;

@@ -55,6 +55,10 @@ Linearization MarkerPoseModel::linearize(int k, const Eigen::VectorXd& y) const 
   return lin;
 }
 
+Eigen::VectorXd MarkerPoseModel::innovation(int k, const Eigen::VectorXd& y) const {
+  return markerResidual(model_, p0_ + y, observations_.at(static_cast<std::size_t>(k)));
+}
+
 Eigen::MatrixXd MarkerPoseModel::jointJacobian(int k, const Eigen::VectorXd& y, Eigen::VectorXd* residual) const {
   const MarkerObservation& o = observations_.at(static_cast<std::size_t>(k));
   Eigen::MatrixXd J_e_p, J_e_q;

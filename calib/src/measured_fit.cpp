@@ -154,6 +154,8 @@ Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o) {
       LmOptions lo;
       lo.hold = o.hold;
       lo.fix_unidentifiable = o.fix_unidentifiable;
+      lo.covariance = o.analyze;
+      lo.normal_equations = o.normal_equations;
       return runLm(m, lo);
     }
   }
@@ -294,7 +296,7 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
   for (const MarkerObservation& x : obs) rows += x.has_rotation ? 6 : 3;
   for (int round = 0; round < rounds; ++round) {
     const MarkerPoseModel m(start, obs, fit.noise, fit.p0);
-    if (round == 0) {
+    if (round == 0 && o.analyze) {
       std::vector<std::string> names;
       for (int i = 0; i < m.numParams(); ++i) names.push_back(m.paramName(i));
       fit.identifiability = sim::analyzeJacobian(whitenedJacobian(m, Eigen::VectorXd::Zero(m.numParams())), names,
@@ -306,7 +308,7 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     const int free = m.numParams() - static_cast<int>(fit.estimate.held.size());
     fit.dof = std::max(1, rows - free);
     if (round + 1 == rounds) {
-      fit.observability = observability(m, Eigen::VectorXd::Zero(m.numParams()), fit.estimate.held);
+      if (o.analyze) fit.observability = observability(m, Eigen::VectorXd::Zero(m.numParams()), fit.estimate.held);
       break;
     }
     const double correction = static_cast<double>(rows) / fit.dof;
@@ -333,6 +335,7 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     if (!o.sigma_rotation_rad && nrot) fit.noise.sigma_rotation_rad = std::max(1e-9, std::sqrt(rot2 / nrot * correction));
   }
   fit.residuals = residualStats(start, fit.p, obs);
+  if (!o.analyze) return fit;
   const Eigen::VectorXd typical = start.layout.typical();
   for (int i = 0; i < start.layout.size(); ++i) {
     if (std::binary_search(fit.estimate.held.begin(), fit.estimate.held.end(), i)) continue;

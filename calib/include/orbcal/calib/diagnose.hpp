@@ -46,6 +46,9 @@ struct DiagnoseOptions {
   /// Joint readings vs true angles, carried into every R; else (measured data without a covariance
   /// per sample) estimated from the base fit as a third variance component beside the tracker's.
   std::optional<double> joint_noise_sigma_rad;
+  /// Cross-validation folds fitted for their parameters alone (FitOptions::analyze off) and every fit's
+  /// LM steps from the normal equations: the same decisions, faster. Off only to time the full path (orbcal-bench diagnose --baseline).
+  bool lean_fits = true;
 };
 
 /// One candidate at one forward step.

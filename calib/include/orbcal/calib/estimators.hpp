@@ -65,6 +65,13 @@ struct LmOptions {
   bool fix_unidentifiable = true;
   double svd_cut = 1e-6;
   std::vector<int> hold;        ///< parameters held at zero whatever the data says
+  /// The covariance of the estimate (an SVD of the whitened Jacobian at the solution); without it
+  /// Estimate::covariance stays empty and Estimate::rank is that of the start's.
+  bool covariance = true;
+  /// Solve each step from the normal equations (Cholesky of J^T J) instead of a QR of the tall J:
+  /// several times cheaper; the condition number is squared, which the Jacobi scaling of the columns
+  /// and the held unidentifiable parameters keep well below round-off for the marker fits.
+  bool normal_equations = false;
 };
 
 Estimate runEkf(const MeasurementModel& model, const EkfOptions& options);
@@ -88,6 +95,9 @@ std::vector<int> unidentifiableToFix(const MeasurementModel& model, const Eigen:
                                      const std::vector<int>& held = {});
 /// The same on a stacked (whitened) Jacobian A, without the ineffective-column step.
 std::vector<int> unidentifiableToFix(const Eigen::MatrixXd& A, double svd_cut, const std::vector<int>& held = {});
+/// The same from a linearization of `model` already at hand (linearizeAll), saving its Jacobians.
+std::vector<int> unidentifiableToFix(const MeasurementModel& model, const StackedLinearization& at, double svd_cut,
+                                     const std::vector<int>& held = {});
 
 /// Columns of A that are zero up to round-off: |A_c| typical_c <= zero_tolerance max_c' |A_c'| typical_c'
 /// (typical empty: 1). With A whitened and `typical` the layout's, |A_c| typical_c is the measurement

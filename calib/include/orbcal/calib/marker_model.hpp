@@ -47,6 +47,7 @@ class MarkerPoseModel : public MeasurementModel {
   int rows(int k) const override { return observations_[static_cast<std::size_t>(k)].has_rotation ? 6 : 3; }
   const sim::ParamLayout& layout() const override { return model_.layout; }
   Linearization linearize(int k, const Eigen::VectorXd& y) const override;
+  Eigen::VectorXd innovation(int k, const Eigen::VectorXd& y) const override;
   /// d(residual k)/d(joint readings) at y (rows(k) x joints): how joint noise enters the residual,
   /// R_k's term joint_noise_sigma^2 Jq Jq^T. `residual` (if given) gets the residual at y, from the
   /// same pose prediction.

@@ -53,6 +53,11 @@ struct FitOptions {
   bool estimate_joint_noise = false;
   std::vector<int> hold;  ///< parameters held at their start whatever the data says
   bool fix_unidentifiable = true;
+  /// The analyses beside the estimate: Fit::identifiability, Fit::observability, Fit::weak and the
+  /// estimate's covariance. A fit whose parameters alone are wanted (a cross-validation fold) skips
+  /// them: the estimate is the same.
+  bool analyze = true;
+  bool normal_equations = false;  ///< LM steps from the normal equations (LmOptions::normal_equations)
 };
 
 struct Fit {

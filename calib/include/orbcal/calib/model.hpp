@@ -31,6 +31,9 @@ class MeasurementModel {
   /// What every parameter means: name, unit, typical magnitude (sim/model.hpp).
   virtual const sim::ParamLayout& layout() const = 0;
   virtual Linearization linearize(int k, const Eigen::VectorXd& y) const = 0;
+  /// The innovation alone (what linearize gives as `innovation`): models override it where the
+  /// Jacobian costs more than the prediction (the LM's trial steps need only the residual).
+  virtual Eigen::VectorXd innovation(int k, const Eigen::VectorXd& y) const { return linearize(k, y).innovation; }
 
   int numParams() const { return layout().size(); }
   const std::string& paramName(int i) const { return layout().param(i).name; }
