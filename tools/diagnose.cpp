@@ -585,7 +585,8 @@ StudyResult runDiagnoseStudy(const StudyOptions& o) {
       ++row.datasets;
       std::string named;
       for (const sim::Effect& e : d.selected) named += (named.empty() ? "" : " ") + sim::formatEffect(e);
-      const std::string miss = (injected ? sim::formatEffect(*injected) : std::string("clean")) + " -> " + (d.clean ? "clean" : named);
+      const std::string miss = (injected ? sim::formatEffect(*injected) : std::string("clean")) + " -> " +
+                               (d.clean ? "clean" : named.empty() ? "unexplained (no cause named)" : named);
       if (d.clean) {
         ++row.clean_verdict;
         if (injected) row.misses.push_back(miss);

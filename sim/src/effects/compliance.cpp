@@ -90,8 +90,7 @@ class ComplianceKind final : public EffectKind {
     return out;
   }
   std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
-    const std::string n = std::to_string(e.joints().front() + 1);
-    return {"tau" + n + "_Nm", "joint " + n + " torque (N m)"};
+    return torqueVariable(e.joints().front());
   }
   std::string separateBy() const override {
     return "measure with several payloads (or poses that load the joints differently), so that each joint's torque varies "

@@ -66,10 +66,7 @@ class CouplingKind final : public EffectKind {
     }
     return out;
   }
-  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
-    const std::string n = std::to_string(e.joints()[1] + 1);
-    return {"q" + n + "_deg", "joint " + n + " angle (deg)"};
-  }
+  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override { return angleVariable(e.joints()[1]); }
   std::string separateBy() const override {
     return "move each joint alone from a reference configuration, so that every joint's angle varies independently";
   }

@@ -56,12 +56,9 @@ class CyclicKind final : public EffectKind {
     return out;
   }
   std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
-    const std::string n = std::to_string(e.joints().front() + 1);
-    return {"q" + n + "_deg", "joint " + n + " angle (deg)"};
+    return angleVariable(e.joints().front());
   }
-  std::string separateBy() const override {
-    return "move the joints over a wider range, with more distinct angles per joint";
-  }
+  std::string separateBy() const override { return widerRangeAdvice(); }
 };
 
 }  // namespace

@@ -117,6 +117,18 @@ std::pair<double, double> EffectKind::lengthScale(const Effect&, const ParamBloc
 
 void EffectKind::requireCovariates(const JointSample&, int) const {}
 
+std::pair<std::string, std::string> EffectKind::angleVariable(int j) {
+  const std::string n = std::to_string(j + 1);
+  return {"q" + n + "_deg", "joint " + n + " angle (deg)"};
+}
+
+std::pair<std::string, std::string> EffectKind::torqueVariable(int j) {
+  const std::string n = std::to_string(j + 1);
+  return {"tau" + n + "_Nm", "joint " + n + " torque (N m)"};
+}
+
+std::string EffectKind::widerRangeAdvice() { return "move the joints over a wider range, with more distinct angles per joint"; }
+
 std::vector<Effect> EffectKind::perJointCandidates(int joints) const {
   std::vector<Effect> c;
   for (int j = 0; j < joints; ++j) c.emplace_back(*this, std::vector<int>{j});

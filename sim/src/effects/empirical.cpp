@@ -86,9 +86,7 @@ class EmpiricalKind : public EffectKind {
   /// None of its own: diagnose proposes empirical corrections on the variables its evidence names.
   std::vector<Effect> candidates(const CandidateContext&) const override { return {}; }
   std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
-    const std::string n = std::to_string(e.joints()[1] + 1);
-    return torque_ ? std::make_pair("tau" + n + "_Nm", "joint " + n + " torque (N m)")
-                   : std::make_pair("q" + n + "_deg", "joint " + n + " angle (deg)");
+    return torque_ ? torqueVariable(e.joints()[1]) : angleVariable(e.joints()[1]);
   }
   std::string separateBy() const override {
     return "measure more configurations across the variable's range; an empirical term names no cause to separate";

@@ -68,18 +68,40 @@ class LinkBendingKind final : public EffectKind {
       out.push_back(std::move(c));
     }
   }
-  /// Links long enough to bend (at least 5 % of the arm's reach) and loaded (masses given).
+  /// Links long enough to bend (at least 5 % of the arm's reach), loaded (masses given), and loaded
+  /// across their length somewhere in the joint box: a column that stays along gravity (the iiwa's
+  /// base link about its vertical first joint) never bends, whatever its stiffness.
   std::vector<Effect> candidates(const CandidateContext& c) const override {
     if (!c.masses || !c.arm) return {};
+    const Arm& arm = *c.arm;
     std::vector<Effect> out;
-    const std::vector<Eigen::Isometry3d> frames = chainFrames(*c.arm, Eigen::VectorXd::Zero(c.arm->numJoints()));
-    const double reach = characteristicLength(*c.arm);
+    const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, Eigen::VectorXd::Zero(arm.numJoints()));
+    const double reach = characteristicLength(arm);
     for (int l = 0; l < c.joints; ++l) {
-      const auto [near, far] = segment(*c.arm, l);
+      const auto [near, far] = segment(arm, l);
       const double L = (frames[static_cast<std::size_t>(far)].translation() - frames[static_cast<std::size_t>(near)].translation()).norm();
-      if (L >= 0.05 * reach && carriedMass(*c.arm, l) > 0.0) out.emplace_back(*this, std::vector<int>{l});
+      if (L >= 0.05 * reach && carriedMass(arm, l) > 0.0 && bendsSomewhere(arm, l)) out.emplace_back(*this, std::vector<int>{l});
     }
     return out;
+  }
+  /// Whether the far end moves at some of 64 configurations spread over the joint box (a deterministic
+  /// lattice: joint k at the fraction frac(m (k + 1) phi) of its range, phi the golden ratio) by more
+  /// than 1 % of the deflection of the typical stiffness under the full load across the link.
+  static bool bendsSomewhere(const Arm& arm, int l) {
+    const double phi = 0.6180339887498949, typical = typicalCompliance(arm, l);
+    const auto [near, far] = segment(arm, l);
+    const std::vector<Eigen::Isometry3d> zero = chainFrames(arm, Eigen::VectorXd::Zero(arm.numJoints()));
+    const double L = (zero[static_cast<std::size_t>(far)].translation() - zero[static_cast<std::size_t>(near)].translation()).norm();
+    const double full = typical * carriedMass(arm, l) * arm.masses.gravity_base.norm() * L * L * L / 3.0;
+    for (int m = 1; m <= 64; ++m) {
+      Eigen::VectorXd q(arm.numJoints());
+      for (int k = 0; k < arm.numJoints(); ++k) {
+        const double f = std::fmod(m * (k + 1) * phi, 1.0);
+        q[k] = arm.lower_rad[k] + f * (arm.upper_rad[k] - arm.lower_rad[k]);
+      }
+      if (typical * unitDeflection(arm, chainFrames(arm, q), l).head<3>().norm() > 0.01 * full) return true;
+    }
+    return false;
   }
   std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
     // The torque of the joint at the link's near end grows with the load the link carries.

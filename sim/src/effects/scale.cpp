@@ -27,12 +27,9 @@ class ScaleKind final : public EffectKind {
   }
   std::vector<Effect> candidates(const CandidateContext& c) const override { return perJointCandidates(c.joints); }
   std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
-    const std::string n = std::to_string(e.joints().front() + 1);
-    return {"q" + n + "_deg", "joint " + n + " angle (deg)"};
+    return angleVariable(e.joints().front());
   }
-  std::string separateBy() const override {
-    return "move the joints over a wider range, with more distinct angles per joint";
-  }
+  std::string separateBy() const override { return widerRangeAdvice(); }
 };
 
 }  // namespace

@@ -147,6 +147,12 @@ class EffectKind {
   virtual void requireCovariates(const JointSample& s, int num_joints) const;
 
  protected:
+  /// The revealing variables of residuals.csv: joint j's angle {"q3_deg", "joint 3 angle (deg)"} and
+  /// torque {"tau3_Nm", "joint 3 torque (N m)"} (j from 0).
+  static std::pair<std::string, std::string> angleVariable(int j);
+  static std::pair<std::string, std::string> torqueVariable(int j);
+  /// What separates causes that follow a joint's angle (cyclic, scale, coupling).
+  static std::string widerRangeAdvice();
   /// One effect per joint (the usual candidates of a joint effect).
   std::vector<Effect> perJointCandidates(int joints) const;
   /// One block over the effect's joints, `params` adding each joint's parameters (joint as "2").
