@@ -87,6 +87,15 @@ KinematicModel modelWith(const Arm& arm, std::vector<Effect> effects, FrameShari
   return makeKinematicModel(arm, sessions, base, marker, frames(base, W), frames(marker, M), std::move(effects));
 }
 
+/// The index of the parameter called `name` in m's layout (fails the test when there is none).
+int paramIndexOf(const KinematicModel& m, const std::string& name) {
+  for (int i = 0; i < m.layout.size(); ++i) {
+    if (m.layout.param(i).name == name) return i;
+  }
+  FAIL("no parameter " << name);
+  return -1;
+}
+
 std::vector<Effect> everyEffect(int n) {
   return {Compliance{{1, 3}}, Cyclic{{0, n - 1}, 2}, Scale{{2}}, Backlash{{1, 4}}, Thermal{}, Drift{}, Mount{},
           Compliance{{5}, 3}, Cyclic{{4}, 6}, parseEffect("coupling:4,2,7,6", n, "test"),
@@ -138,13 +147,7 @@ TEST_CASE("joint effects follow their defining formulas", "[model]") {
   std::mt19937_64 rng(7);
   const JointSample s = randomSample(arm, 0, rng);
   Eigen::VectorXd p = Eigen::VectorXd::Zero(m.layout.size());
-  const auto at = [&](const std::string& name) {
-    for (int i = 0; i < m.layout.size(); ++i) {
-      if (m.layout.param(i).name == name) return i;
-    }
-    FAIL("no parameter " << name);
-    return -1;
-  };
+  const auto at = [&](const std::string& name) { return paramIndexOf(m, name); };
   p[at("c2")] = 2e-5;
   p[at("cyclic3_sin1")] = 3e-4;
   p[at("cyclic3_cos1")] = -1e-4;
@@ -220,13 +223,7 @@ TEST_CASE("coupling and a stiffening compliance follow their defining formulas",
   std::mt19937_64 rng(17);
   const JointSample s = randomSample(arm, 0, rng);
   Eigen::VectorXd p = Eigen::VectorXd::Zero(m.layout.size());
-  const auto at = [&](const std::string& name) {
-    for (int i = 0; i < m.layout.size(); ++i) {
-      if (m.layout.param(i).name == name) return i;
-    }
-    FAIL("no parameter " << name);
-    return -1;
-  };
+  const auto at = [&](const std::string& name) { return paramIndexOf(m, name); };
   p[at("k3_2")] = 4e-4;
   p[at("c5")] = 1e-4;
   p[at("c5_cubic")] = -2e-8;

@@ -23,6 +23,12 @@ std::pair<int, int> segment(const Arm& arm, int j) {
   return at_own_frame ? std::make_pair(j + 1, j + 2) : std::make_pair(j, j + 1);
 }
 
+/// The length L of the link joint j moves, in `frames` (chainFrames).
+double segmentLength(const Arm& arm, const std::vector<Eigen::Isometry3d>& frames, int j) {
+  const auto [near, far] = segment(arm, j);
+  return (frames[static_cast<std::size_t>(far)].translation() - frames[static_cast<std::size_t>(near)].translation()).norm();
+}
+
 class LinkBendingKind final : public EffectKind {
  public:
   std::string name() const override { return "link_bending"; }
@@ -78,9 +84,7 @@ class LinkBendingKind final : public EffectKind {
     const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, Eigen::VectorXd::Zero(arm.numJoints()));
     const double reach = characteristicLength(arm);
     for (int l = 0; l < c.joints; ++l) {
-      const auto [near, far] = segment(arm, l);
-      const double L = (frames[static_cast<std::size_t>(far)].translation() - frames[static_cast<std::size_t>(near)].translation()).norm();
-      if (L >= 0.05 * reach && carriedMass(arm, l) > 0.0 && bendsSomewhere(arm, l)) out.emplace_back(*this, std::vector<int>{l});
+      if (segmentLength(arm, frames, l) >= 0.05 * reach && carriedMass(arm, l) > 0.0 && bendsSomewhere(arm, l)) out.emplace_back(*this, std::vector<int>{l});
     }
     return out;
   }
@@ -89,9 +93,7 @@ class LinkBendingKind final : public EffectKind {
   /// than 1 % of the deflection of the typical stiffness under the full load across the link.
   static bool bendsSomewhere(const Arm& arm, int l) {
     const double phi = 0.6180339887498949, typical = typicalCompliance(arm, l);
-    const auto [near, far] = segment(arm, l);
-    const std::vector<Eigen::Isometry3d> zero = chainFrames(arm, Eigen::VectorXd::Zero(arm.numJoints()));
-    const double L = (zero[static_cast<std::size_t>(far)].translation() - zero[static_cast<std::size_t>(near)].translation()).norm();
+    const double L = segmentLength(arm, chainFrames(arm, Eigen::VectorXd::Zero(arm.numJoints())), l);
     const double full = typical * carriedMass(arm, l) * arm.masses.gravity_base.norm() * L * L * L / 3.0;
     for (int m = 1; m <= 64; ++m) {
       Eigen::VectorXd q(arm.numJoints());
@@ -153,8 +155,7 @@ class LinkBendingKind final : public EffectKind {
   /// nominal zero pose: a stiff aluminium tube of a light arm bends by tens of micrometres.
   static double typicalCompliance(const Arm& arm, int l) {
     const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, Eigen::VectorXd::Zero(arm.numJoints()));
-    const auto [near, far] = segment(arm, l);
-    const double L = (frames[static_cast<std::size_t>(far)].translation() - frames[static_cast<std::size_t>(near)].translation()).norm();
+    const double L = segmentLength(arm, frames, l);
     const double F = carriedMass(arm, l) * arm.masses.gravity_base.norm();
     if (L < 1e-9 || F <= 0.0) return 1.0;
     return 3.0 * 1e-4 / (F * L * L * L);
