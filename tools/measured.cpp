@@ -187,7 +187,11 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << (data.noise_joint_rad ? " (given)" : " (not given: not modelled)") << ". chi-square " << formatNumber("%.1f", r.fit.chi2)
      << " for " << r.fit.dof << " degrees of freedom.\n\n"
      << "## Held-out prediction\n\n" << kStatsHeader << statsRow("nominal arm, registration fitted", r.heldout_before)
-     << statsRow("calibrated", r.heldout_after) << "\n## Fit residuals\n\n" << kStatsHeader << statsRow("calibrated (fitted samples)", r.fit.residuals)
+     << statsRow("calibrated", r.heldout_after) << "\n" << r.gain.configurations
+     << " held-out configurations; the gain over the nominal arm, one-sided paired test of their squared position errors "
+        "(calib/heldout.hpp): t = " << formatNumber("%.2f", r.gain.t) << ", p = " << formatNumber("%.2g", r.gain.p_value)
+     << " (accepted at p < " << formatNumber("%g", calib::kHeldoutGainAlpha) << " with at least "
+     << calib::kMinHeldoutConfigurations << " configurations).\n\n## Fit residuals\n\n" << kStatsHeader << statsRow("calibrated (fitted samples)", r.fit.residuals)
      << "\n## What this data cannot identify\n\n```\n" << sim::formatIdentifiability(r.fit.identifiability) << "```\n\n"
      << "Held parameters stay at their nominal value; the rest carry their observable combinations.\n\n"
      << "Observability indices of the fitted samples (Borm & Menq 1991 O1 to Sun & Hollerbach 2008 O5; whitened rows, "

@@ -71,6 +71,15 @@ std::string residualText(const ResidualStats& s) {
   return mm(s.position_rms_m) + " RMS" + (s.rotation_rms_rad > 0.0 ? " (" + deg(s.rotation_rms_rad) + ")" : "");
 }
 
+/// "; the effects fitted with it (compliance:2 ...) may take the geometry's place ..." when there are any.
+std::string confoundedEffects(const std::vector<sim::Effect>& effects) {
+  if (effects.empty()) return "";
+  std::string names;
+  for (const sim::Effect& e : effects) names += (names.empty() ? "" : " ") + sim::formatEffect(e);
+  return "; the effects fitted with it (" + names + ") may stand in for the geometry where the data cannot tell them apart "
+         "(fit fewer --effects; orbcal diagnose names confounded causes)";
+}
+
 }  // namespace
 
 double PlausibilityBounds::lengthMove(const sim::Arm& arm, int param) const {
@@ -158,7 +167,7 @@ void requirePlausibleGeometry(const sim::MeasuredData& data, const Fit& fit) {
     throw sim::InputError(data.description + ": the calibrated geometry moves " + block.params[static_cast<std::size_t>(i)].name + " by " +
                           in(move) + " (1-sigma " + in(sigma) + "), more than a real arm is built off its drawing (" +
                           (angle ? in(bound) + " for an angle" : in(bound) + ": 5 % of the link, at least 1 % of the reach") + ")" +
-                          likelyCauses(data));
+                          confoundedEffects(fit.model.effects) + likelyCauses(data));
   }
 }
 
