@@ -90,8 +90,9 @@ void addCalibrateCommand(CLI::App& app) {
                   "measured data: tracker rotation noise, 1 sigma per axis [deg] (default: the description's, else estimated)")
       ->check(CLI::Range(1e-7, 10.0));
   cmd->add_option("--holdout", o->holdout,
-                  "fraction kept out for validation: of the usable images; measured data: of the configurations (at least 10 "
-                  "held out, and a gain significant at 1 %, for a model to be accepted)")
+                  "fraction kept out for validation: of the usable images; measured data: of the configurations (at least " +
+                      std::to_string(calib::kMinHeldoutConfigurations) + " held out, and a gain significant at p < " +
+                      sim::formatNumber("%g", calib::kHeldoutGainAlpha) + ", for a model to be accepted)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 0.9));
   cmd->add_option("--seed", o->seed, "seed of the hold-out draw")->capture_default_str();
