@@ -3,11 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <random>
 #include <sstream>
 
 #include "orbcal/calib/consistency.hpp"
 #include "orbcal/calib/diagnose.hpp"
+#include "orbcal/calib/heldout.hpp"
+#include "orbcal/calib/plausibility.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
@@ -105,20 +106,11 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   const std::vector<calib::MarkerObservation> all = calib::observationsFrom(data, calib::needsTorque(effects));
   r.samples = static_cast<int>(all.size());
 
-  // Seeded hold-out, stratified by session so that every session's frames stay identifiable.
+  // Seeded hold-out by configuration (repeated rows of one configuration on one side), stratified by session.
   std::vector<calib::MarkerObservation> ident, held;
-  std::mt19937_64 rng = sim::makeRng(o.seed, 0x686f6c646f7574ULL);
-  for (int s = 0; s < data.numSessions(); ++s) {
-    std::vector<std::size_t> idx;
-    for (std::size_t k = 0; k < all.size(); ++k) {
-      if (all[k].sample.session == s) idx.push_back(k);
-    }
-    std::shuffle(idx.begin(), idx.end(), rng);
-    const std::size_t n_hold = static_cast<std::size_t>(std::floor(o.holdout * static_cast<double>(idx.size())));
-    std::sort(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(n_hold));
-    std::sort(idx.begin() + static_cast<std::ptrdiff_t>(n_hold), idx.end());
-    for (std::size_t i = 0; i < idx.size(); ++i) (i < n_hold ? held : ident).push_back(all[idx[i]]);
-  }
+  const std::vector<int> part = o.holdout > 0.0 ? calib::splitByConfiguration(all, {1.0 - o.holdout, o.holdout}, o.seed)
+                                                : std::vector<int>(all.size(), 0);
+  for (std::size_t k = 0; k < all.size(); ++k) (part[k] == 1 ? held : ident).push_back(all[k]);
   r.identification = static_cast<int>(ident.size());
   r.held_out = static_cast<int>(held.size());
 
@@ -133,21 +125,22 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   } catch (const std::invalid_argument& e) {
     throw sim::InputError(std::string("--effects: ") + e.what());
   }
+  // The reference: the nominal arm with only the registration fitted; a physically impossible one (or
+  // calibrated geometry) is refused before anything is written.
+  const calib::Fit reference = calib::fitRegistration(start, ident, fo);
+  calib::requirePlausibleResidual(data, reference.residuals, "the nominal arm's registration residual");
   r.fit = calib::fitMarkerModel(start, ident, fo);
-
-  // The reference: the nominal arm with only the registration fitted.
-  calib::FitOptions ref = fo;
-  ref.method = calib::FitOptions::Method::kLm;
-  for (const sim::ParamBlock& b : start.layout.blocks()) {
-    if (b.effect == "base" || b.effect == "marker" || b.effect == "mount") continue;
-    for (int i = 0; i < b.size(); ++i) ref.hold.push_back(b.offset + i);
+  calib::requirePlausibleGeometry(data, r.fit);
+  std::vector<Eigen::VectorXd> before, after;
+  for (const calib::MarkerObservation& x : held) {
+    before.push_back(calib::markerResidual(start, reference.p, x));
+    after.push_back(calib::markerResidual(start, r.fit.p, x));
   }
-  const calib::Fit reference = calib::fitMarkerModel(start, ident, ref);
-  if (!held.empty()) {
-    r.heldout_before = calib::residualStats(start, reference.p, held);
-    r.heldout_after = calib::residualStats(start, r.fit.p, held);
-    r.worse = r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
-  }
+  r.heldout_before = calib::residualStats(before);
+  r.heldout_after = calib::residualStats(after);
+  r.worse = !held.empty() && r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
+  r.gain = calib::heldoutGain(held, before, after);
+  r.refusal = calib::heldoutRefusal(r.gain, o.holdout, calib::countConfigurations(all));
 
   const std::string out = o.out.empty() ? folderOf(o.description) + "/calibration" : o.out;
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit);
@@ -159,7 +152,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
     r.consistency_p = calib::chiSquareSurvival(r.fit.chi2, r.fit.dof);
     r.inconsistent = r.consistency_p < calib::Consistency{}.alpha;
   }
-  const bool write_model = (!r.worse && !r.inconsistent) || o.accept_worse;
+  const bool write_model = (!r.worse && !r.inconsistent && r.refusal.empty()) || o.accept_worse;
   sim::makeDirectories(out);
   if (write_model) {
     r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(r.fit), out, header.str());
@@ -173,12 +166,16 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
        << " mm).** " << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.")
        << "\n\n";
   }
+  if ((!r.worse || !r.gain.enough) && !r.refusal.empty()) {
+    md << "**The calibration is not accepted: " << r.refusal << ".** "
+       << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.") << "\n\n";
+  }
   if (r.inconsistent) {
     md << "**The fit is inconsistent with the given measurement noise: " << inconsistencyText(r) << ".** "
        << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.") << "\n\n";
   }
   md << "Description `" << o.description << "`: " << r.samples << " samples in " << data.numSessions() << " session(s); "
-     << r.identification << " fitted, " << r.held_out << " held out (seed " << o.seed << ", per session).\n\n"
+     << r.identification << " fitted, " << r.held_out << " held out (" << r.gain.configurations << " configurations; seed " << o.seed << ", per session).\n\n"
      << "Model: geometry (" << data.arm.numParams() << " DH errors) + registration (base " << sim::frameSharingName(data.base)
      << ", marker " << sim::frameSharingName(data.marker) << ")";
   for (const std::string& e : o.effects) md << " + " << e;
@@ -190,7 +187,11 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << (data.noise_joint_rad ? " (given)" : " (not given: not modelled)") << ". chi-square " << formatNumber("%.1f", r.fit.chi2)
      << " for " << r.fit.dof << " degrees of freedom.\n\n"
      << "## Held-out prediction\n\n" << kStatsHeader << statsRow("nominal arm, registration fitted", r.heldout_before)
-     << statsRow("calibrated", r.heldout_after) << "\n## Fit residuals\n\n" << kStatsHeader << statsRow("calibrated (fitted samples)", r.fit.residuals)
+     << statsRow("calibrated", r.heldout_after) << "\n" << r.gain.configurations
+     << " held-out configurations; the gain over the nominal arm, one-sided paired test of their squared position errors "
+        "(calib/heldout.hpp): t = " << formatNumber("%.2f", r.gain.t) << ", p = " << formatNumber("%.2g", r.gain.p_value)
+     << " (accepted at p < " << formatNumber("%g", calib::kHeldoutGainAlpha) << " with at least "
+     << calib::kMinHeldoutConfigurations << " configurations).\n\n## Fit residuals\n\n" << kStatsHeader << statsRow("calibrated (fitted samples)", r.fit.residuals)
      << "\n## What this data cannot identify\n\n```\n" << sim::formatIdentifiability(r.fit.identifiability) << "```\n\n"
      << "Held parameters stay at their nominal value; the rest carry their observable combinations.\n\n"
      << "Observability indices of the fitted samples (Borm & Menq 1991 O1 to Sun & Hollerbach 2008 O5; whitened rows, "
@@ -219,6 +220,7 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
   EvaluateResult r;
   r.fit = calib::predictWithModel({lm.model, lm.p}, data, obs, fo);
+  calib::requirePlausibleResidual(data, r.fit.residuals, "the prediction residual of " + model_file);
   r.warnings = calib::outsideTrustedRange(lm.model, obs);
   sim::makeDirectories(out);
   r.json_path = out + "/evaluation.json";

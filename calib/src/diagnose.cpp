@@ -13,6 +13,7 @@
 #include <sstream>
 #include <thread>
 
+#include "orbcal/calib/plausibility.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
@@ -139,24 +140,12 @@ struct Folds {
   int k = 0;
 };
 
-/// Folds by configuration: observations with the same joint readings (to 1e-9 rad) stay together.
+/// Folds by configuration (splitByConfiguration, equal shares): repeated measurements of one
+/// configuration stay in one fold, and every fold's training set sees every session.
 Folds makeFolds(const std::vector<MarkerObservation>& obs, int k, std::uint64_t seed) {
-  const std::map<std::vector<long long>, std::vector<int>> groups = configurationGroups(obs);
-  // Per session, shuffled groups dealt round-robin: every fold's training set sees every session.
-  std::map<int, std::vector<const std::vector<int>*>> by_session;
-  for (const auto& [key, members] : groups) by_session[static_cast<int>(key[0])].push_back(&members);
-  std::mt19937_64 rng = sim::makeRng(seed, 0x666f6c6473ULL);
   Folds f;
   f.k = k;
-  f.fold.assign(obs.size(), 0);
-  int next = 0;
-  for (auto& [session, list] : by_session) {
-    std::shuffle(list.begin(), list.end(), rng);
-    for (const std::vector<int>* g : list) {
-      for (int i : *g) f.fold[static_cast<std::size_t>(i)] = next % k;
-      ++next;
-    }
-  }
+  f.fold = splitByConfiguration(obs, std::vector<double>(static_cast<std::size_t>(k), 1.0), seed);
   return f;
 }
 
@@ -748,7 +737,14 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   first.joint_noise_sigma_rad = joint.value_or(0.0);
   first.estimate_joint_noise = !joint && !anyOwnCovariance(obs);
   first.normal_equations = o.lean_fits;
+  // Data no real arm and instrument can give (a wrong unit or convention) are refused, not diagnosed.
+  FitOptions registration = first;
+  registration.analyze = false;
+  registration.estimate_joint_noise = false;  // the frames alone: no joint noise to tell from the rest
+  requirePlausibleResidual(data, fitRegistration(startingModel(data, obs, {}), obs, registration).residuals,
+                           "the nominal arm's registration residual");
   out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, first);
+  requirePlausibleGeometry(data, out.base_fit);
   d.setNoise(out.base_fit.noise);
   // The noise is stated when the tracker's sigma (or each sample's covariance) is given, not estimated
   // from these residuals.
@@ -772,6 +768,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
 
   out.selected = sel.effects;
   out.fit = sel.fit;  // the fit of `selected` on all the data (kept current by both passes)
+  requirePlausibleGeometry(data, out.fit);
   out.cv_selected = sel.cv.sse;
   out.residual_selected = sel.cv.residual;
   out.heldout.base = residualStats(out.residual_base);

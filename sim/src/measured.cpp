@@ -494,6 +494,9 @@ MeasuredData loadMeasuredData(const std::string& description_path) {
   d.has_temperature = layout.temperature.given();
   d.has_time = layout.time.given();
   d.has_direction = layout.direction.given();
+  d.length_unit = layout.length.name;
+  d.angle_unit = layout.joints.unit.name;
+  d.quaternion = layout.quaternion.given();
   if (!d.has_direction) fillApproachDirections(d.poses);
   return d;
 }

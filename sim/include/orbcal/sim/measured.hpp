@@ -87,6 +87,11 @@ struct MeasuredData {
   /// Which covariates the files give (then every sample has them). has_direction is false when the
   /// directions were filled from the sample order (fillApproachDirections) rather than read.
   bool has_torque = false, has_temperature = false, has_time = false, has_direction = false;
+  /// As the description declares them (the values are SI above): pose.length_unit ("m", "mm"),
+  /// joints.unit ("rad", "deg"), and whether the rotations came from quaternion_wxyz columns. For
+  /// messages that name which other reading would fit.
+  std::string length_unit = "m", angle_unit = "rad";
+  bool quaternion = false;
 
   int numSessions() const { return static_cast<int>(files.size()); }
 };
