@@ -133,6 +133,9 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   } catch (const std::invalid_argument& e) {
     throw sim::InputError(std::string("--effects: ") + e.what());
   }
+  // The inputs are read and checked: the output folder now holds this run's outcome only (sim::OutputFolder).
+  sim::OutputFolder folder(o.out.empty() ? folderOf(o.description) + "/calibration" : o.out, "orbcal calibrate");
+  const std::string& out = folder.path();
   r.fit = calib::fitMarkerModel(start, ident, fo);
 
   // The reference: the nominal arm with only the registration fitted.
@@ -149,7 +152,6 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
     r.worse = r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
   }
 
-  const std::string out = o.out.empty() ? folderOf(o.description) + "/calibration" : o.out;
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit);
   std::ostringstream header;
   header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate) from " << o.description << "\n"
@@ -160,9 +162,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
     r.inconsistent = r.consistency_p < calib::Consistency{}.alpha;
   }
   const bool write_model = (!r.worse && !r.inconsistent) || o.accept_worse;
-  sim::makeDirectories(out);
   if (write_model) {
-    r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(r.fit), out, header.str());
+    r.model_path = folder.published(sim::writeModelFile(cm.model, cm.p, parameterRows(r.fit), out, header.str()));
   }
 
   std::ostringstream md;
@@ -199,8 +200,9 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << "Determined no better than their typical magnitude (1-sigma above it; the data barely informs them): "
      << weakList(r.fit) << ".\n\n"
      << "## Parameters\n\n" << parameterTable(r.fit) << "\n";
-  r.report_path = out + "/report.md";
-  sim::writeFileAtomic(r.report_path, md.str());
+  sim::writeFileAtomic(out + "/report.md", md.str());
+  folder.commit();
+  r.report_path = folder.finalPath() + "/report.md";
   return r;
 }
 
@@ -217,30 +219,32 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   fo.sigma_position_m = data.noise_position_m;
   fo.sigma_rotation_rad = data.noise_rotation_rad;
   fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
+  sim::OutputFolder folder(out, "orbcal evaluate");  // the inputs are read
   EvaluateResult r;
   r.fit = calib::predictWithModel({lm.model, lm.p}, data, obs, fo);
   r.warnings = calib::outsideTrustedRange(lm.model, obs);
-  sim::makeDirectories(out);
-  r.json_path = out + "/evaluation.json";
   std::string json = residualJson(r.fit.residuals);
   json.insert(json.size() - 1, ", \"model\": \"" + model_file + "\", \"data\": \"" + description + "\"");
-  sim::writeFileAtomic(r.json_path, json + "\n");
+  sim::writeFileAtomic(folder.path() + "/evaluation.json", json + "\n");
   std::ostringstream md;
   md << "# Evaluation of `" << model_file << "` on `" << description << "`\n\n"
      << "Every geometric and effect parameter is the model's; the per-session frames of the data were refitted ("
      << r.fit.model.layout.size() - static_cast<int>(r.fit.estimate.held.size()) << " parameters).\n\n"
      << kStatsHeader << statsRow("prediction", r.fit.residuals);
   for (const std::string& w : r.warnings) md << "\n**Warning:** " << w << ".\n";
+  sim::writeFileAtomic(folder.path() + "/evaluation.md", md.str());
+  folder.commit();
+  r.json_path = out + "/evaluation.json";
   r.report_path = out + "/evaluation.md";
-  sim::writeFileAtomic(r.report_path, md.str());
   return r;
 }
 
-sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& spec, const std::string& out) {
+sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& spec, const std::string& final_out) {
   sim::SimulatedData s = sim::simulateMeasured(arm, spec);
-  sim::makeDirectories(out);
+  sim::OutputFolder folder(final_out, "orbcal simulate");
+  const std::string& out = folder.path();
   sim::writeFileAtomic(out + "/robot.yaml", sim::formatArm(arm, "Nominal robot of a dataset simulated by orbcal simulate from " + arm.source));
-  s.data.description = sim::writeMeasuredData(s.data, out, "robot.yaml");
+  s.data.description = folder.published(sim::writeMeasuredData(s.data, out, "robot.yaml"));
   const sim::FoldedModel truth = sim::foldParameters(s.truth, s.p_true);
   std::vector<sim::ParameterRow> rows;
   for (int i = 0; i < s.truth.layout.size(); ++i) {
@@ -249,6 +253,7 @@ sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& s
   }
   sim::writeModelFile(truth.model, truth.p, rows, out + "/truth", "The truth of the dataset simulated by orbcal simulate (seed " +
                                                                         std::to_string(spec.seed) + ")");
+  folder.commit();
   return s;
 }
 
