@@ -1,5 +1,5 @@
-// Details of the command line: a study file in another folder with a relative -o, and the built-in
-// iiwa7's joint limits against KUKA's data sheet.
+// Details of the command line: a study file in another folder with a relative -o, the built-in
+// iiwa7's joint limits against KUKA's data sheet, and simulate's --quiet.
 #include <sys/wait.h>
 
 #include <catch2/catch.hpp>
@@ -65,4 +65,13 @@ TEST_CASE("the built-in iiwa7's joint limits are KUKA's data sheet's for the LBR
   CHECK(sim::loadMeasuredData(data(173.0)).poses[0].sample.q_rad[6] == Approx(173.0 * sim::kDegToRad));
   CHECK_THAT(test::inputError([&] { sim::loadMeasuredData(data(176.0)); }),
              Contains(dir + "/a7.csv: line 2: q7: 176 deg") && Contains("[-175, 175] deg"));
+}
+
+TEST_CASE("orbcal simulate --quiet: as the other commands take it; the same data", "[e2e][measured]") {
+  const std::string dir = test::tempDir("simulate-quiet");
+  REQUIRE(runOrbcal(dir, "simulate -o loud -n 20 --sessions 1 --seed 2") == 0);
+  REQUIRE(runOrbcal(dir, "simulate -o quiet -n 20 --sessions 1 --seed 2 --quiet") == 0);
+  CHECK(test::slurp(dir + "/stderr.txt").empty());
+  CHECK(test::slurp(dir + "/quiet/session_0.csv") == test::slurp(dir + "/loud/session_0.csv"));
+  CHECK(test::slurp(dir + "/quiet/truth/model.yaml") == test::slurp(dir + "/loud/truth/model.yaml"));
 }
