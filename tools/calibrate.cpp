@@ -155,7 +155,7 @@ std::string cornerSection(const CornerEstimate& c) {
            << " |\n";
       }
     }
-    md << "\n";
+    md << "\n" << sim::signConventions(c.effects);
   }
   return md.str();
 }

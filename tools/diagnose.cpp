@@ -465,6 +465,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
            << " | " << sim::formatNumber("%.2g", sigma * info->display_scale) << " | " << info->display_unit << " |\n";
       }
     }
+    md << "\n" << sim::signConventions(dg.selected);
   }
   md << "\n" << unexplainedSection(dg, o.diagnose.alpha);
   if (r.distortion.tested) md << distortionSection(r.distortion, o.diagnose);

@@ -199,7 +199,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << calib::formatIndices(r.fit.observability) << ".\n\n"
      << "Determined no better than their typical magnitude (1-sigma above it; the data barely informs them): "
      << weakList(r.fit) << ".\n\n"
-     << "## Parameters\n\n" << parameterTable(r.fit) << "\n";
+     << "## Parameters\n\n" << parameterTable(r.fit) << "\n" << sim::signConventions(effects);
   sim::writeFileAtomic(out + "/report.md", md.str());
   folder.commit();
   r.report_path = folder.finalPath() + "/report.md";
