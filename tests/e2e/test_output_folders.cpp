@@ -210,6 +210,10 @@ TEST_CASE("no stale result: a diagnose that hits a full disk leaves no diagnosis
     WARN("skipped: cannot mount a small tmpfs at " << disk << " (needs root)");
     return;
   }
+  struct Unmount {  // also when a REQUIRE below ends the test
+    std::string path;
+    ~Unmount() { std::system(("umount '" + path + "'").c_str()); }
+  } unmount{disk};
   REQUIRE(runOrbcal(dir, "simulate -o data -n 120 --sessions 1 --seed 5 --quiet").status == 0);
   // Sizes from too small for anything to enough for everything: diagnosis.json (~1.3 kB) is written
   // first, then model.yaml and robot.yaml (~7 kB), residuals.csv (~26 kB), report.md (~4 kB).
@@ -232,7 +236,6 @@ TEST_CASE("no stale result: a diagnose that hits a full disk leaves no diagnosis
     // Nothing that looks like a result: no folder (this run created it) and no staging folder.
     CHECK(filesOf(disk).empty());
   }
-  std::system(("umount '" + disk + "'").c_str());
   CHECK(failed >= 2);
   CHECK(failed_after_json >= 1);  // diagnosis.json was written before the disk filled: it went with the rest
 }
