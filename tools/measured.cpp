@@ -131,6 +131,9 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   calib::requirePlausibleResidual(data, reference.residuals, "the nominal arm's registration residual");
   r.fit = calib::fitMarkerModel(start, ident, fo);
   calib::requirePlausibleGeometry(data, r.fit);
+  // The inputs are read and checked: the output folder now holds this run's outcome only (sim::OutputFolder).
+  sim::OutputFolder folder(o.out.empty() ? folderOf(o.description) + "/calibration" : o.out, "orbcal calibrate");
+  const std::string& out = folder.path();
   std::vector<Eigen::VectorXd> before, after;
   for (const calib::MarkerObservation& x : held) {
     before.push_back(calib::markerResidual(start, reference.p, x));
@@ -142,7 +145,6 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   r.gain = calib::heldoutGain(held, before, after);
   r.refusal = calib::heldoutRefusal(r.gain, o.holdout, calib::countConfigurations(all));
 
-  const std::string out = o.out.empty() ? folderOf(o.description) + "/calibration" : o.out;
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit);
   std::ostringstream header;
   header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate) from " << o.description << "\n"
@@ -153,9 +155,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
     r.inconsistent = r.consistency_p < calib::Consistency{}.alpha;
   }
   const bool write_model = (!r.worse && !r.inconsistent && r.refusal.empty()) || o.accept_worse;
-  sim::makeDirectories(out);
   if (write_model) {
-    r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(r.fit), out, header.str());
+    r.model_path = folder.published(sim::writeModelFile(cm.model, cm.p, parameterRows(r.fit), out, header.str()));
   }
 
   std::ostringstream md;
@@ -199,9 +200,10 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << calib::formatIndices(r.fit.observability) << ".\n\n"
      << "Determined no better than their typical magnitude (1-sigma above it; the data barely informs them): "
      << weakList(r.fit) << ".\n\n"
-     << "## Parameters\n\n" << parameterTable(r.fit) << "\n";
-  r.report_path = out + "/report.md";
-  sim::writeFileAtomic(r.report_path, md.str());
+     << "## Parameters\n\n" << parameterTable(r.fit) << "\n" << sim::signConventions(effects);
+  sim::writeFileAtomic(out + "/report.md", md.str());
+  folder.commit();
+  r.report_path = folder.finalPath() + "/report.md";
   return r;
 }
 
@@ -221,28 +223,30 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   EvaluateResult r;
   r.fit = calib::predictWithModel({lm.model, lm.p}, data, obs, fo);
   calib::requirePlausibleResidual(data, r.fit.residuals, "the prediction residual of " + model_file);
+  sim::OutputFolder folder(out, "orbcal evaluate");  // the inputs are read and plausible
   r.warnings = calib::outsideTrustedRange(lm.model, obs);
-  sim::makeDirectories(out);
-  r.json_path = out + "/evaluation.json";
   std::string json = residualJson(r.fit.residuals);
   json.insert(json.size() - 1, ", \"model\": \"" + model_file + "\", \"data\": \"" + description + "\"");
-  sim::writeFileAtomic(r.json_path, json + "\n");
+  sim::writeFileAtomic(folder.path() + "/evaluation.json", json + "\n");
   std::ostringstream md;
   md << "# Evaluation of `" << model_file << "` on `" << description << "`\n\n"
      << "Every geometric and effect parameter is the model's; the per-session frames of the data were refitted ("
      << r.fit.model.layout.size() - static_cast<int>(r.fit.estimate.held.size()) << " parameters).\n\n"
      << kStatsHeader << statsRow("prediction", r.fit.residuals);
   for (const std::string& w : r.warnings) md << "\n**Warning:** " << w << ".\n";
+  sim::writeFileAtomic(folder.path() + "/evaluation.md", md.str());
+  folder.commit();
+  r.json_path = out + "/evaluation.json";
   r.report_path = out + "/evaluation.md";
-  sim::writeFileAtomic(r.report_path, md.str());
   return r;
 }
 
-sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& spec, const std::string& out) {
+sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& spec, const std::string& final_out) {
   sim::SimulatedData s = sim::simulateMeasured(arm, spec);
-  sim::makeDirectories(out);
+  sim::OutputFolder folder(final_out, "orbcal simulate");
+  const std::string& out = folder.path();
   sim::writeFileAtomic(out + "/robot.yaml", sim::formatArm(arm, "Nominal robot of a dataset simulated by orbcal simulate from " + arm.source));
-  s.data.description = sim::writeMeasuredData(s.data, out, "robot.yaml");
+  s.data.description = folder.published(sim::writeMeasuredData(s.data, out, "robot.yaml"));
   const sim::FoldedModel truth = sim::foldParameters(s.truth, s.p_true);
   std::vector<sim::ParameterRow> rows;
   for (int i = 0; i < s.truth.layout.size(); ++i) {
@@ -251,6 +255,7 @@ sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& s
   }
   sim::writeModelFile(truth.model, truth.p, rows, out + "/truth", "The truth of the dataset simulated by orbcal simulate (seed " +
                                                                         std::to_string(spec.seed) + ")");
+  folder.commit();
   return s;
 }
 

@@ -141,9 +141,28 @@ void readPoseLayout(const ConfigNode& pose, Layout& l) {
   if (quaternion) l.quaternion.names = readNames(*quaternion, 4, "w, x, y, z");
 }
 
+/// {columns: [...], unit: U, sense: S}: the files' torques in orbcal's sense (sense: actuator, the
+/// default: the torque the joint's actuator applies, sim/gravity.hpp) or negated (sense: load: the
+/// torque the load exerts on the joint), read into the actuator's sense either way.
+ColumnGroup readTorqueColumns(const ConfigNode& node, std::size_t joints, const std::string& per_joint) {
+  node.requireOnlyKeys({"columns", "unit", "sense"});
+  ColumnGroup g;
+  g.unit = readUnit(valueOf(node, "unit"), kTorqueUnits);
+  g.names = readNames(valueOf(node, "columns"), joints, per_joint);
+  if (const auto sense = optionalValueOf(node, "sense")) {
+    const std::string v = sense->asString();
+    if (v != "actuator" && v != "load") {
+      sense->fail("expected actuator (the torque the joint's actuator applies, orbcal's sense) or load (the load's "
+                  "torque on the joint, the negative), got " + quoteInput(v));
+    }
+    if (v == "load") g.unit.multiply = -g.unit.multiply;
+  }
+  return g;
+}
+
 void readCovariateLayout(const ConfigNode& cov, std::size_t joints, const std::string& per_joint, Layout& l) {
   cov.requireOnlyKeys({"torque", "temperature", "time", "direction"});
-  if (const auto n = optionalValueOf(cov, "torque")) l.torque = readColumns(*n, joints, per_joint, kTorqueUnits);
+  if (const auto n = optionalValueOf(cov, "torque")) l.torque = readTorqueColumns(*n, joints, per_joint);
   if (const auto n = optionalValueOf(cov, "temperature")) l.temperature = readColumn(*n, kTemperatureUnits);
   if (const auto n = optionalValueOf(cov, "time")) l.time = readColumn(*n, kTimeUnits);
   if (const auto n = optionalValueOf(cov, "direction")) l.direction = readColumns(*n, joints, per_joint, {});
