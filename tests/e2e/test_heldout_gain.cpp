@@ -65,9 +65,9 @@ TEST_CASE("calibrate DESC.yaml: rows repeated three times do not turn a refused 
   s.geometry.name = "zero";  // the nominal arm is the truth: every parameter fitted beyond the frames fits noise
   const sim::SimulatedData d = tools::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
   const std::string effects = "cyclic:1,2,3,4,5,6/3 backlash:1,2,3,4,5,6";
-  checkRefused(dir, d.data.description, effects, "once", "");
+  checkRefused(dir, d.data.description, effects, "cal-once", "");
   const std::string thrice = repeatedRows(d.data, 3, dir + "/thrice", dir + "/data/robot.yaml");
-  checkRefused(dir, thrice, effects, "thrice", "");
+  checkRefused(dir, thrice, effects, "cal-thrice", "");
   // The same configurations are held out with the rows once and thrice, and the copies add nothing: the
   // held-out errors agree (the nominal arm's exactly, the calibrated model's to the fits' convergence).
   tools::MeasuredCalibrateOptions once;

@@ -78,7 +78,7 @@ TEST_CASE("no stale result: a refused calibrate leaves its report and no model.y
   // The same data with a stated tracker noise 50 times too small: the fit is inconsistent and refused.
   const Run refused = runOrbcal(dir, "calibrate data/measurements.yaml -o cal --noise-position-mm 0.001");
   CHECK(refused.status == 1);
-  CHECK_THAT(oneLine(refused.err), StartsWith("orbcal: calibrate: the fit is inconsistent with the given measurement noise: ") &&
+  CHECK_THAT(oneLine(refused.err), StartsWith("orbcal: calibrate: data/measurements.yaml: the fit is inconsistent with the given measurement noise: ") &&
                                        Contains("; model.yaml not written (--accept-worse writes it)"));
   // The folder holds the refused run alone: its report (saying why), no model of this run or the last.
   CHECK(filesOf(dir + "/cal") == std::set<std::string>{".orbcal-output", "report.md"});
@@ -142,10 +142,10 @@ TEST_CASE("no stale result: a run refused at its input leaves the earlier run wh
 TEST_CASE("no stale result: a folder holding a file the command did not write is refused and left as it was",
           "[e2e][stale][badinput]") {
   const std::string dir = test::tempDir("stale-foreign");
-  REQUIRE(runOrbcal(dir, "simulate -o data -n 40 --sessions 1 --seed 6 --quiet").status == 0);
+  REQUIRE(runOrbcal(dir, "simulate -o data -n 80 --sessions 1 --seed 6 --quiet").status == 0);
   test::write(dir + "/data/notes.txt", "mine\n");
   const std::set<std::string> before = filesOf(dir + "/data");
-  const Run again = runOrbcal(dir, "simulate -o data -n 40 --sessions 1 --seed 7 --quiet");
+  const Run again = runOrbcal(dir, "simulate -o data -n 80 --sessions 1 --seed 7 --quiet");
   CHECK(again.status == 1);
   CHECK(oneLine(again.err) == "orbcal: data: holds 'notes.txt', which orbcal simulate did not write; orbcal simulate replaces its "
                               "output folder as a whole: move that away, or use a new or empty folder");
@@ -166,7 +166,7 @@ TEST_CASE("no stale result: a folder holding a file the command did not write is
   test::write(dir + "/data/.orbcal.lock", "process 1 (orbcal simulate)\n");
   fs::create_directories(dir + "/.data.tmp-999999/truth");
   test::write(dir + "/.data.tmp-999999/session_0.csv", "half written\n");
-  REQUIRE(runOrbcal(dir, "simulate -o data -n 40 --sessions 1 --seed 7 --quiet").status == 0);
+  REQUIRE(runOrbcal(dir, "simulate -o data -n 80 --sessions 1 --seed 7 --quiet").status == 0);
   CHECK(stagedBeside(dir + "/data").empty());
   CHECK(filesOf(dir + "/data").count("session_0.csv") == 1);
 }
