@@ -767,8 +767,10 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   backwardEliminate(d, data, o, out.base_fit, sel);
 
   out.selected = sel.effects;
-  out.fit = sel.fit;  // the fit of `selected` on all the data (kept current by both passes)
-  requirePlausibleGeometry(data, out.fit);
+  // The fit of `selected` on all the data (kept current by both passes). Its geometry is not held to
+  // the plausibility bounds: a selected cause may share columns with a length (thermal expansion
+  // scales them all), and what the data say of the causes is the report's to give, not a refusal's.
+  out.fit = sel.fit;
   out.cv_selected = sel.cv.sse;
   out.residual_selected = sel.cv.residual;
   out.heldout.base = residualStats(out.residual_base);

@@ -12,6 +12,12 @@ namespace orbcal::calib {
 
 namespace {
 
+/// The description the data came from, for a message; data made in memory (a simulation study) has none.
+std::string dataName(const sim::MeasuredData& data) {
+  return data.description.empty() ? "the measured data (made in memory)" : data.description;
+}
+
+
 using sim::formatNumber;
 
 constexpr double kPositionShareOfReach = 0.05;  ///< registration residual bound: 5 % of the reach
@@ -145,7 +151,7 @@ std::string likelyCauses(const sim::MeasuredData& data) {
 void requirePlausibleResidual(const sim::MeasuredData& data, const ResidualStats& residuals, const std::string& what) {
   const PlausibilityBounds b = plausibilityBounds(data.arm);
   if (excess(residuals, b) <= 1.0) return;
-  throw sim::InputError(data.description + ": " + what + " is " + residualText(residuals) + ", beyond what any real arm and instrument give (" +
+  throw sim::InputError(dataName(data) + ": " + what + " is " + residualText(residuals) + ", beyond what any real arm and instrument give (" +
                         mm(b.position_rms_m) + ", 5 % of the arm's reach of " + formatNumber("%.3g", b.reach_m) + " m, and " +
                         deg(b.rotation_rms_rad) + ")" + likelyCauses(data));
 }
@@ -164,7 +170,7 @@ void requirePlausibleGeometry(const sim::MeasuredData& data, const Fit& fit) {
     const double bound = angle ? b.angle_move_rad : b.lengthMove(arm, i);
     if (std::abs(move) <= bound + kMoveSigmas * sigma) continue;
     const auto in = [angle](double v) { return angle ? deg(v) : mm(v); };
-    throw sim::InputError(data.description + ": the calibrated geometry moves " + block.params[static_cast<std::size_t>(i)].name + " by " +
+    throw sim::InputError(dataName(data) + ": the calibrated geometry moves " + block.params[static_cast<std::size_t>(i)].name + " by " +
                           in(move) + " (1-sigma " + in(sigma) + "), more than a real arm is built off its drawing (" +
                           (angle ? in(bound) + " for an angle" : in(bound) + ": 5 % of the link, at least 1 % of the reach") + ")" +
                           confoundedEffects(fit.model.effects) + likelyCauses(data));

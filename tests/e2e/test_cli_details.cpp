@@ -9,6 +9,7 @@
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/measured.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "run_orbcal.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
@@ -16,12 +17,7 @@ using Catch::Matchers::Contains;
 namespace fs = std::filesystem;
 
 namespace {
-/// `orbcal args` run in `dir`; stdout and stderr into dir/stdout.txt and dir/stderr.txt.
-int runOrbcal(const std::string& dir, const std::string& args) {
-  const int rc = std::system(("cd '" + dir + "' && '" + std::string(ORBCAL_BINARY) + "' " + args + " >'" + dir +
-                              "/stdout.txt' 2>'" + dir + "/stderr.txt'").c_str());
-  return WIFEXITED(rc) ? WEXITSTATUS(rc) : -1;
-}
+int runOrbcal(const std::string& dir, const std::string& args) { return test::runOrbcal(dir, args).status; }
 }  // namespace
 
 TEST_CASE("orbcal study run sub/study.yaml -o out: a relative -o with the study file in another folder", "[study]") {

@@ -11,22 +11,15 @@
 #include "measured.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/measured.hpp"
+#include "run_orbcal.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
 
 namespace {
 
-struct Run {
-  int status = -1;
-  std::string out, err;
-};
-
-Run runOrbcal(const std::string& dir, const std::string& args) {
-  const int rc = std::system(("cd '" + dir + "' && " + std::string(ORBCAL_BINARY) + " " + args + " >'" + dir + "/out.txt' 2>'" +
-                              dir + "/err.txt'").c_str());
-  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, test::slurp(dir + "/out.txt"), test::slurp(dir + "/err.txt")};
-}
+using Run = test::OrbcalRun;
+using test::runOrbcal;
 
 /// `calibrate DESC --effects EFFECTS -o OUT` is refused: exit 1, a line naming the description and
 /// containing `says`, no model.yaml in OUT.

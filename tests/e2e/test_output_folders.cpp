@@ -17,6 +17,7 @@
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/render/dataset_writer.hpp"
+#include "run_orbcal.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
@@ -26,17 +27,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Run {
-  int status;
-  std::string out, err;  ///< stdout, stderr
-};
-
-/// `orbcal args` run in `dir` (relative paths are from there).
-Run runOrbcal(const std::string& dir, const std::string& args) {
-  const std::string out = dir + "/stdout.txt", err = dir + "/stderr.txt";
-  const int rc = std::system(("cd '" + dir + "' && '" + std::string(ORBCAL_BINARY) + "' " + args + " >'" + out + "' 2>'" + err + "'").c_str());
-  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, test::slurp(out), test::slurp(err)};
-}
+using Run = test::OrbcalRun;
+using test::runOrbcal;
 
 /// Every file under `folder`, hidden ones too, relative to it; empty when the folder is absent.
 std::set<std::string> filesOf(const std::string& folder) {

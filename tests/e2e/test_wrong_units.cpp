@@ -12,23 +12,15 @@
 #include "orbcal/calib/plausibility.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/measured.hpp"
+#include "run_orbcal.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
 
 namespace {
 
-struct Run {
-  int status = -1;
-  std::string out, err;
-};
-
-/// `orbcal ARGS` from `dir`, its stdout and stderr apart.
-Run runOrbcal(const std::string& dir, const std::string& args) {
-  const int rc = std::system(("cd '" + dir + "' && " + std::string(ORBCAL_BINARY) + " " + args + " >'" + dir + "/out.txt' 2>'" +
-                              dir + "/err.txt'").c_str());
-  return {WIFEXITED(rc) ? WEXITSTATUS(rc) : -1, test::slurp(dir + "/out.txt"), test::slurp(dir + "/err.txt")};
-}
+using Run = test::OrbcalRun;
+using test::runOrbcal;
 
 /// `text` with `from` replaced by `to` (present exactly where expected).
 std::string replaced(std::string text, const std::string& from, const std::string& to) {
@@ -147,6 +139,6 @@ TEST_CASE("a wrong robot file whose calibration would move a link beyond its tol
     REQUIRE(data.noise_position_m.has_value() == stated);
     CHECK(calib::nominalRegistration(data).position_rms_m < bounds.position_rms_m);
     checkRefused(dir, desc, {"long", "moves d3 by", ""}, "");
-    CHECK(test::slurp(dir + "/err.txt").find("robot: " + dir + "/data/robot_long.yaml") != std::string::npos);
+    CHECK(test::slurp(dir + "/stderr.txt").find("robot: " + dir + "/data/robot_long.yaml") != std::string::npos);
   }
 }
