@@ -212,7 +212,7 @@ std::vector<int> unidentifiableToFix(const Eigen::MatrixXd& A_all, double cut, c
   }
   Eigen::MatrixXd A(A_all.rows(), static_cast<Eigen::Index>(free.size()));
   for (std::size_t c = 0; c < free.size(); ++c) A.col(static_cast<Eigen::Index>(c)) = A_all.col(free[c]);
-  const sim::ScaledSvd svd = sim::scaledSvd(A, cut);
+  const sim::ScaledSvd svd = sim::scaledSvd(A, cut, false);
   const int lost = static_cast<int>(A.cols()) - svd.rank;
   std::vector<int> fixed = fixed_already;
   if (lost == 0) return fixed;

@@ -68,7 +68,7 @@ ObservabilityIndices observabilityIndices(const Eigen::MatrixXd& A, int num_samp
   Eigen::VectorXd sigma = Eigen::VectorXd::Zero(A.cols());  // a wide A has zero singular values too
   sigma.head(svd.singularValues().size()) = svd.singularValues();
   ObservabilityIndices r = indicesFromSingularValues(sigma, num_samples);
-  r.rank = A.size() == 0 ? 0 : sim::scaledSvd(A, rank_tolerance).rank;
+  r.rank = A.size() == 0 ? 0 : sim::scaledSvd(A, rank_tolerance, false).rank;
   return r;
 }
 

@@ -1,5 +1,6 @@
 #include "orbcal/sim/identifiability.hpp"
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <cmath>
 #include <cstdio>
@@ -15,17 +16,27 @@ Eigen::MatrixXd stackedJacobian(const Arm& arm, const std::vector<Eigen::VectorX
   return J;
 }
 
-ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance) {
+ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance, bool with_u) {
   ScaledSvd out;
   out.scale.resize(J.cols());
   for (Eigen::Index c = 0; c < J.cols(); ++c) {
     const double n = J.col(c).norm();
     out.scale[c] = n > 0.0 ? 1.0 / n : 1.0;
   }
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(J * out.scale.asDiagonal(), Eigen::ComputeThinU | Eigen::ComputeFullV);
-  out.singular_values = svd.singularValues();
-  out.U = svd.matrixU();
-  out.V = svd.matrixV();
+  if (J.cols() == 0) return out;  // nothing to decompose: rank 0, no directions
+  const Eigen::MatrixXd JD = J * out.scale.asDiagonal();
+  if (with_u || J.rows() <= J.cols()) {
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(JD, (with_u ? Eigen::ComputeThinU : 0) | Eigen::ComputeFullV);
+    out.singular_values = svd.singularValues();
+    if (with_u) out.U = svd.matrixU();
+    out.V = svd.matrixV();
+  } else {
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(JD);  // JD = Q R: R has JD's singular values and V
+    const Eigen::MatrixXd R = qr.matrixQR().topRows(J.cols()).triangularView<Eigen::Upper>();
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(R, Eigen::ComputeFullV);
+    out.singular_values = svd.singularValues();
+    out.V = svd.matrixV();
+  }
   const double smax = out.singular_values.size() ? out.singular_values[0] : 0.0;
   for (Eigen::Index i = 0; i < out.singular_values.size(); ++i) out.rank += out.singular_values[i] > rank_tolerance * smax;
   return out;
@@ -93,7 +104,7 @@ IdentifiabilityReport analyzeJacobian(const Eigen::MatrixXd& J, const std::vecto
   r.num_configs = num_configs;
   r.num_rows = static_cast<int>(J.rows());
   r.rank_tolerance = rank_tolerance;
-  const ScaledSvd svd = scaledSvd(J, rank_tolerance);
+  const ScaledSvd svd = scaledSvd(J, rank_tolerance, false);
   r.singular_values = svd.singular_values;
   r.rank = svd.rank;
   r.condition_number = r.rank > 0 ? r.singular_values[0] / r.singular_values[r.rank - 1] : 0.0;
