@@ -39,14 +39,12 @@ std::vector<sim::ParameterRow> parameterRows(const calib::Fit& fit) {
   return rows;
 }
 
-std::string residualJson(const calib::ResidualStats& s) {
-  std::ostringstream j;
-  j << "{\"samples\": " << s.samples << ", \"position_mean_mm\": " << sim::exactNumber(s.position_mean_m * 1e3)
-    << ", \"position_rms_mm\": " << sim::exactNumber(s.position_rms_m * 1e3)
-    << ", \"position_max_mm\": " << sim::exactNumber(s.position_max_m * 1e3)
-    << ", \"rotation_rms_deg\": " << sim::exactNumber(s.rotation_rms_rad * sim::kRadToDeg)
-    << ", \"rotation_max_deg\": " << sim::exactNumber(s.rotation_max_rad * sim::kRadToDeg) << "}";
-  return j.str();
+std::string residualJson(const calib::ResidualStats& s, const std::string& key) {
+  const auto number = [&key](const char* name, double v) { return "\"" + std::string(name) + "\": " + sim::jsonNumber(v, key + "." + name); };
+  return "{\"samples\": " + std::to_string(s.samples) + ", " + number("position_mean_mm", s.position_mean_m * 1e3) + ", " +
+         number("position_rms_mm", s.position_rms_m * 1e3) + ", " + number("position_max_mm", s.position_max_m * 1e3) + ", " +
+         number("rotation_rms_deg", s.rotation_rms_rad * sim::kRadToDeg) + ", " +
+         number("rotation_max_deg", s.rotation_max_rad * sim::kRadToDeg) + "}";
 }
 
 namespace {
@@ -220,10 +218,10 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   EvaluateResult r;
   r.fit = calib::predictWithModel({lm.model, lm.p}, data, obs, fo);
   r.warnings = calib::outsideTrustedRange(lm.model, obs);
-  sim::makeDirectories(out);
   r.json_path = out + "/evaluation.json";
-  std::string json = residualJson(r.fit.residuals);
-  json.insert(json.size() - 1, ", \"model\": \"" + model_file + "\", \"data\": \"" + description + "\"");
+  std::string json = residualJson(r.fit.residuals, r.json_path);  // before any file: a non-finite number writes none
+  json.insert(json.size() - 1, ", \"model\": " + sim::jsonString(model_file) + ", \"data\": " + sim::jsonString(description));
+  sim::makeDirectories(out);
   sim::writeFileAtomic(r.json_path, json + "\n");
   std::ostringstream md;
   md << "# Evaluation of `" << model_file << "` on `" << description << "`\n\n"
