@@ -50,10 +50,8 @@ StudyOptionCheck programOptions() {
     if (flag && o->get_expected_max() != 0) return "--" + option + " takes a value, not true";
     if (!flag && o->get_expected_max() == 0) return "--" + option + " is a flag: give true or false";
     if (values.empty()) return "";
-    const std::string why = optionValueError(*o, values);
-    std::string given;
-    for (const std::string& v : values) given += " " + v;
-    return why.empty() ? "" : "--" + option + given + ": " + why + " (orbcal " + job + " would refuse it)";
+    const std::string why = optionValueError(*o, values);  // CLI11's message names the option and the value
+    return why.empty() ? "" : why + " (orbcal " + job + " would refuse it)";
   };
 }
 

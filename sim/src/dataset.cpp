@@ -364,10 +364,11 @@ Dataset loadDataset(const std::string& folder) {
   d.folder = folder;
   const std::string manifest_path = folder + "/manifest.yaml";
   d.manifest = parseManifest(readTextSource(manifest_path), manifest_path);
-  d.arm = loadArm(d.path(d.manifest.robot_file));
+  d.arm = loadArm(RobotSource{d.path(d.manifest.robot_file), "", ""}, manifest_path + ": robot");
+  (void)readTextNamedBy(d.path(d.manifest.scene_file), manifest_path + ": scene");
   d.scene = loadScene(d.path(d.manifest.scene_file));
   const std::string samples_path = d.path(d.manifest.samples_file);
-  d.samples = parseSamplesCsv(readTextSource(samples_path), samples_path, d.arm.numJoints(), &d.arm);
+  d.samples = parseSamplesCsv(readTextNamedBy(samples_path, manifest_path + ": samples"), samples_path, d.arm.numJoints(), &d.arm);
   if (static_cast<int>(d.samples.size()) != d.manifest.num_samples) {
     throw InputError(manifest_path + ": num_samples: " + std::to_string(d.manifest.num_samples) + ", but " +
                      d.manifest.samples_file + " has " + std::to_string(d.samples.size()) + " rows");

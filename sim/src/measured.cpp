@@ -213,12 +213,12 @@ void readSources(const ConfigNode& root, MeasuredData& d) {
     if (const auto base = optionalValueOf(robot, "base_link")) source.base_link = base->asString();
     if (const auto tip = optionalValueOf(robot, "tip_link")) source.tip_link = tip->asString();
     const bool links = !source.base_link.empty() || !source.tip_link.empty();
-    if (links && !looksLikeXml(readTextSource(source.path))) robot.fail("base_link and tip_link choose a chain in a URDF; " + source.path + " is not one");
+    if (links && !looksLikeXml(readTextNamedBy(source.path, robot.source() + ": robot.file"))) robot.fail("base_link and tip_link choose a chain in a URDF; " + source.path + " is not one");
   } else {
     source.path = resolvePath(folder, robot.asString());
   }
   d.robot_file = source.path;
-  d.arm = loadArm(source);
+  d.arm = loadArm(source, robot.source() + ": robot" + (robot.isMap() ? ".file" : ""));
   const ConfigNode files = valueOf(root, "files");
   if (files.size() == 0) files.fail("expected at least one CSV file");
   for (std::size_t i = 0; i < files.size(); ++i) d.files.push_back(resolvePath(folder, files[i].asString()));
@@ -398,7 +398,8 @@ void checkTimeOrder(const CsvTable& t, std::size_t r, const ColumnGroup& time, d
 }
 
 void readSession(const std::string& path, int session, const Layout& layout, MeasuredData& d) {
-  const CsvTable t = CsvTable::parse(readTextSource(path), path);
+  const std::string named_by = d.description + ": files[" + std::to_string(session) + "]";
+  const CsvTable t = CsvTable::parse(readTextNamedBy(path, named_by), path);
   if (t.rows() == 0) throw InputError(path + ": no data rows (expected one sample per line after the header)");
   const Layout bound = bindColumns(layout, t);
   for (std::size_t r = 0; r < t.rows(); ++r) {

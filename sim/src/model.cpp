@@ -54,13 +54,18 @@ double physicalBound(const ParamInfo& info) {
   return kTypicalMultiple * info.typical;
 }
 
-double readParameterValue(const ConfigNode& node, const ParamInfo& info) {
+std::string physicalRangeText(const ParamInfo& info) {
   const double b = physicalBound(info);
   const std::string why = info.quantity == Quantity::kAngle    ? "half a turn"
                           : info.quantity == Quantity::kLength ? "10 m"
                                                                : "1e4 times its typical magnitude, " +
                                                                      formatNumber("%.3g", info.typical) + " " + info.unit;
-  return node.asDoubleWithin(-b, b, formatNumber("%.6g", -b) + " to " + formatNumber("%.6g", b) + " " + info.unit + " (" + why + ")");
+  return formatNumber("%.6g", -b) + " to " + formatNumber("%.6g", b) + " " + info.unit + " (" + why + ")";
+}
+
+double readParameterValue(const ConfigNode& node, const ParamInfo& info) {
+  const double b = physicalBound(info);
+  return node.asDoubleWithin(-b, b, physicalRangeText(info));
 }
 
 ParamInfo angleParam(std::string name, double typical_rad) {

@@ -129,9 +129,9 @@ LoadedModel loadModelFile(const std::string& path) {
   if (root["format"].asString() != "orbcal-model-1") root["format"].fail("expected orbcal-model-1");
   const std::string robot = root["robot"].asString();
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  const Arm arm = loadArm(robot.rfind("builtin:", 0) == 0 || std::filesystem::path(robot).is_absolute()
-                              ? robot
-                              : (dir / robot).string());
+  const std::string robot_path =
+      robot.rfind("builtin:", 0) == 0 || std::filesystem::path(robot).is_absolute() ? robot : (dir / robot).string();
+  const Arm arm = loadArm(RobotSource{robot_path, "", ""}, path + ": robot");
   const int sessions = root["sessions"].asInt();
   if (sessions < 1 || sessions > 10000) root["sessions"].fail("must be within 1 to 10000");
   const ConfigNode reg = root["registration"];

@@ -114,9 +114,11 @@ std::string lowerExtension(const std::string& path) {
 
 Arm loadArm(const std::string& path) { return loadArm(RobotSource{path, "", ""}); }
 
-Arm loadArm(const RobotSource& robot) {
+Arm loadArm(const RobotSource& robot) { return loadArm(robot, ""); }
+
+Arm loadArm(const RobotSource& robot, const std::string& named_by) {
   const std::string& path = robot.path;
-  const std::string text = readTextSource(path);
+  const std::string text = readTextNamedBy(path, named_by);
   const std::string ext = lowerExtension(path);
   const bool xml = looksLikeXml(text);
   if ((ext == ".urdf" || ext == ".xml") && !xml) {

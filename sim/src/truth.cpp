@@ -259,7 +259,7 @@ std::optional<TrueArm> datasetTrueArm(const Dataset& d) {
   if (!m.true_errors) return std::nullopt;
   if (m.error_set_file.empty()) return geometricTrueArm(d.arm, *m.true_errors, m.error_set);
   const std::string path = d.path(m.error_set_file);
-  TrueArm t = parseTrueArm(d.arm, readTextSource(path), path);
+  TrueArm t = parseTrueArm(d.arm, readTextNamedBy(path, d.folder + "/manifest.yaml: true_errors.file"), path);
   // The manifest prints the errors in deg and mm with 12 significant digits.
   const Eigen::VectorXd y = t.geometryErrors();
   for (Eigen::Index i = 0; i < y.size(); ++i) {

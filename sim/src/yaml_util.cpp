@@ -28,6 +28,15 @@ std::string readTextSource(const std::string& path) {
   return ss.str();
 }
 
+std::string readTextNamedBy(const std::string& path, const std::string& named_by) {
+  try {
+    return readTextSource(path);
+  } catch (const InputError& e) {
+    if (named_by.empty()) throw;
+    throw InputError(named_by + ": " + e.what());
+  }
+}
+
 std::string builtinFileNames() {
   std::string names;
   for (const auto& [name, text] : builtin::files()) names += (names.empty() ? "" : ", ") + ("builtin:" + name);

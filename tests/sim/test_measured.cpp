@@ -272,11 +272,11 @@ TEST_CASE("measured data: a bad description names the file and the key", "[sim][
         desc + ": flange_T_marker: given, but registration.marker is not 'known'");
   CHECK(error("files: [data.csv]", "files: []") == desc + ": files: expected at least one CSV file");
   CHECK(error("files: [data.csv]", "files: [nothing.csv]") ==
-        folderOf("desc") + "/nothing.csv: cannot read: no such file or not readable");
+        desc + ": files[0]: " + folderOf("desc") + "/nothing.csv: cannot read: no such file or not readable");
   CHECK_THAT(error("{matrix:", "{position: [x, y, z], matrix:"), Catch::StartsWith(desc + ": pose: expected either 'matrix'"));
   CHECK(error("registration: {base: shared, marker: per_session}\n",
               "registration: {base: shared, marker: per_session}\nnoise: {position_mm: 0}\n") ==
-        desc + ": noise.position_mm: must be positive");
+        desc + ": noise.position_mm: '0' is outside 1e-06 mm to 100 mm (1 sigma per axis)");
   CHECK_THAT(error("registration: {base: shared, marker: per_session}\n",
                    "registration: {base: shared, marker: per_session}\nnoise: {joint_deg: -0.01}\n"),
              Catch::StartsWith(desc + ": noise.joint_deg:") && Catch::Contains("0 to 10 deg"));

@@ -34,6 +34,10 @@ struct InputError : std::runtime_error {
 /// Text of a file, or of a built-in file when `path` is "builtin:NAME" (see builtinFileNames()).
 /// Throws InputError("<path>: cannot read: <reason>").
 std::string readTextSource(const std::string& path);
+/// readTextSource(path) for a path that another file named at a key (`named_by`: "<file>: <key>", e.g.
+/// "desc.yaml: files[1]"): the "cannot read" message starts with it, so it says which file and key named
+/// the one missing. An empty `named_by` adds nothing.
+std::string readTextNamedBy(const std::string& path, const std::string& named_by);
 /// Names of the built-in files (the YAML files under scenes/ compiled into the program).
 std::string builtinFileNames();
 

@@ -140,6 +140,8 @@ std::vector<ParamBlock> effectBlocks(const Effect& e, const Arm& arm, int num_se
 /// 1e4 times its typical magnitude (typical magnitudes are at the upper end of what the catalog's
 /// sources report, so no real arm comes near: a compliance of 1 rad/(N m), a scale error of 200%).
 double physicalBound(const ParamInfo& info);
+/// "-B to B <unit> (why)": the range physicalBound gives, for messages.
+std::string physicalRangeText(const ParamInfo& info);
 /// The value at `node` of parameter `info` (SI): a finite number within +-physicalBound(info), else an
 /// InputError "<file>: <key>: '<value>' is outside -B to B <unit> (...)".
 double readParameterValue(const ConfigNode& node, const ParamInfo& info);
