@@ -223,8 +223,9 @@ TEST_CASE("measured data: every bad cell is named by file, line and column", "[s
     CHECK_THAT(loadError(f.description), Catch::StartsWith(f.csv + ": no data rows"));
   }
   SECTION("an approach direction other than -1, 0, 1") {
+    // t1, t2 read as directions (a column holds one quantity: not as torques as well).
     const std::string description =
-        with(kMatrixDescription, "unit: Nm}}", "unit: Nm}, direction: {columns: [t1, t2]}}");
+        with(kMatrixDescription, "torque: {columns: [t1, t2], unit: Nm}", "direction: {columns: [t1, t2]}");
     const Files f = writeFiles("direction", description, kHeader + "\n" + with(kRowA, "0.5,-0.25", "1,-0.25") + "\n");
     CHECK(loadError(f.description) == f.csv + ": line 2: t2: expected an approach direction of -1, 0 or 1, got -0.25");
   }
