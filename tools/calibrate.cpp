@@ -155,7 +155,7 @@ std::string cornerSection(const CornerEstimate& c) {
            << " |\n";
       }
     }
-    md << "\n";
+    md << "\n" << sim::signConventions(c.effects);
   }
   return md.str();
 }
@@ -302,7 +302,6 @@ std::string formatKeptAndHeld(const calib::ParameterClasses& classes) {
 
 CalibrateResult runCalibrate(const CalibrateOptions& o) {
   CalibrateResult r;
-  const std::string out = o.out.empty() ? o.dataset + "/calibration" : o.out;
   if (!(o.holdout >= 0.0 && o.holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
   if (!o.effects.empty() && !o.estimate_frames) {
     throw sim::InputError("--effects: an image dataset's effects are fitted with its frames: add --estimate-frames");
@@ -312,12 +311,10 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   }
   const sim::Dataset d = sim::loadDataset(o.dataset);
   // With -o nothing is written into the dataset folder (it may be read-only, or hold a measurements.csv
-  // of `orbcal measure` with other settings): measurements.csv goes to OUT too. The folder written is
-  // locked meanwhile, so that two runs never mix their files.
-  const std::string written_folder = o.out.empty() ? o.dataset : out;
-  const std::string measurements_path = written_folder + "/measurements.csv";
-  sim::makeDirectories(written_folder);
-  const sim::FolderLock lock(written_folder, "orbcal calibrate");
+  // of `orbcal measure` with other settings): measurements.csv goes to OUT too. Without -o it goes into
+  // the dataset folder, locked meanwhile, so that two runs never mix their files.
+  std::optional<sim::FolderLock> dataset_lock;
+  if (o.out.empty()) dataset_lock.emplace(o.dataset, "orbcal calibrate");
   for (const std::string& e : o.effects) {
     if (!sim::isCameraEffect(e, "--effects")) sim::parseEffect(e, d.arm.numJoints(), "--effects");
   }
@@ -332,13 +329,17 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   if (o.pairs != "reference" && o.pairs != "consecutive") {
     throw sim::InputError("--pairs: '" + o.pairs + "' is not reference or consecutive");
   }
+  // The inputs are read: the output folder now holds this run's outcome only (sim::OutputFolder).
+  sim::OutputFolder folder(o.out.empty() ? o.dataset + "/calibration" : o.out, "orbcal calibrate");
+  const std::string& out = folder.path();
+  const std::string measurements_path = (o.out.empty() ? o.dataset : folder.finalPath()) + "/measurements.csv";
 
   std::vector<vision::Measurement> meas;
   {
     Progress bar(o.quiet ? "" : "measure", o.quiet ? 0 : static_cast<int>(d.samples.size()));
     meas = vision::measureDataset(d, {}, [&](int done, int) { bar.update(done); });
   }
-  sim::writeFileAtomic(measurements_path, vision::formatMeasurementsCsv(meas));
+  sim::writeFileAtomic(o.out.empty() ? measurements_path : out + "/measurements.csv", vision::formatMeasurementsCsv(meas));
   r.images = static_cast<int>(meas.size());
 
   // Usable samples, then a seeded hold-out draw.
@@ -447,7 +448,6 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   r.written = r.refusals.empty() || o.accept_worse;
 
   // Outputs.
-  sim::makeDirectories(out);
   std::ostringstream header;
   header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate) from " << o.dataset << "\n"
          << "method " << method.name << "; " << r.identification << " identification images of " << r.images << "; nominal: "
@@ -472,6 +472,8 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
     }
     sim::writeFileAtomic(r.robot_path, sim::formatArm(named, header.str()));
     sim::writeFileAtomic(out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true));
+    r.robot_path = folder.published(r.robot_path);
+    r.urdf_path = folder.published(r.urdf_path);
   }
 
   // Per-image errors against the measured poses, nominal and calibrated, with the inconsistent images marked.
@@ -596,8 +598,9 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   md << (r.written ? "Files: `robot_calibrated.yaml` (load it with `--robot`), `estimates.csv`, `samples.csv` (per-image errors); measurements in `"
                    : "No calibrated files were written (see the top). `samples.csv` (per-image errors); measurements in `")
      << measurements_path << "`.\n";
-  r.report_path = out + "/report.md";
-  sim::writeFileAtomic(r.report_path, md.str());
+  sim::writeFileAtomic(out + "/report.md", md.str());
+  folder.commit();
+  r.report_path = folder.finalPath() + "/report.md";
   return r;
 }
 

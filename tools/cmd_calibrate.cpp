@@ -14,16 +14,22 @@ namespace orbcal::tools {
 
 namespace {
 
-void printMeasured(const MeasuredCalibrateResult& r) {
+void printMeasured(const MeasuredCalibrateResult& r, const std::string& description) {
   if (r.inconsistent) {
-    std::fprintf(stderr, "orbcal: calibrate: the fit is inconsistent with the given measurement noise: %s%s\n",
-                 inconsistencyText(r).c_str(), r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "");
+    std::fprintf(stderr, "orbcal: calibrate: %s: the fit is inconsistent with the given measurement noise: %s%s\n",
+                 description.c_str(), inconsistencyText(r).c_str(), r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "");
   }
-  if (r.worse) {
+  // Too few held-out configurations say nothing either way: that alone is said then.
+  const bool worse = r.worse && r.gain.enough;
+  if (worse) {
     std::fprintf(stderr,
-                 "orbcal: calibrate: the calibrated model predicts the %d held-out samples worse than the nominal arm "
+                 "orbcal: calibrate: %s: the calibrated model predicts the %d held-out samples worse than the nominal arm "
                  "(position RMS %.4f -> %.4f mm)%s\n",
-                 r.held_out, r.heldout_before.position_rms_m * 1e3, r.heldout_after.position_rms_m * 1e3,
+                 description.c_str(), r.held_out, r.heldout_before.position_rms_m * 1e3, r.heldout_after.position_rms_m * 1e3,
+                 r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "");
+  }
+  if (!worse && !r.refusal.empty()) {
+    std::fprintf(stderr, "orbcal: calibrate: %s: %s%s\n", description.c_str(), r.refusal.c_str(),
                  r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "");
   }
   std::printf("%d samples: %d fitted, %d held out; %d parameters, %zu held as unidentifiable\n", r.samples, r.identification,
@@ -61,9 +67,11 @@ void addCalibrateCommand(CLI::App& app) {
       "calibrate",
       "Calibrate an arm. From an image dataset (folder): the DH errors, written as a calibrated robot file. From "
       "measured data (a measurement description, .yaml): geometry + the unknown registration frames + the chosen "
-      "effects (--effects), written as model.yaml. The gain is measured on held-out samples; a model that predicts "
-      "them worse than the nominal arm, or a fit inconsistent with its noise (chi-square test; measured data: when the noise is "
-      "given), is refused (exit 1, no calibrated file) unless --accept-worse.");
+      "effects (--effects), written as model.yaml. The gain is measured on held-out samples (measured data: held-out "
+      "configurations); a model that predicts them worse than the nominal arm, a fit inconsistent with its noise (chi-square "
+      "test; measured data: when the noise is given), or (measured data) a gain not significant against the held-out noise, "
+      "is refused (exit 1, no calibrated file) unless --accept-worse. Measured data whose registration or calibrated "
+      "geometry no real arm can show (wrong units or quaternion order) are refused at once.");
   cmd->add_option("dataset", o->images.dataset, "image dataset folder, or measurement description (.yaml)")->required();
   cmd->add_option("--method", o->method,
                   "estimator. Images: " + imageMethodNames() + " (default EKF). Measured data: LM (default), LSE, EKF");
@@ -81,12 +89,16 @@ void addCalibrateCommand(CLI::App& app) {
   cmd->add_option("--noise-rotation-deg", o->noise_rotation_deg,
                   "measured data: tracker rotation noise, 1 sigma per axis [deg] (default: the description's, else estimated)")
       ->check(CLI::Range(sim::kMinNoiseRotationDeg, sim::kMaxNoiseRotationDeg));
-  cmd->add_option("--holdout", o->holdout, "fraction of the usable samples kept out for validation")
+  cmd->add_option("--holdout", o->holdout,
+                  "fraction kept out for validation: of the usable images; measured data: of the configurations (at least " +
+                      std::to_string(calib::kMinHeldoutConfigurations) + " held out, and a gain significant at p < " +
+                      sim::formatNumber("%g", calib::kHeldoutGainAlpha) + ", for a model to be accepted)")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 0.9));
   cmd->add_option("--seed", o->seed, "seed of the hold-out draw")->capture_default_str();
   cmd->add_flag("--accept-worse", o->measured.accept_worse,
-                "write the calibrated files even if the fit is inconsistent with its noise or predicts the held-out samples worse (the report and the terminal say so first)");
+                "write the calibrated files even if the fit is inconsistent with its noise, predicts the held-out samples worse, or "
+                "(measured data) its held-out gain is not significant (the report and the terminal say so first)");
   cmd->add_option("-o,--out", o->out, "output folder (default: calibration/ beside the dataset or description, with an image dataset's "
                  "measurements.csv in the dataset folder); with -o, everything (measurements.csv too) goes to OUT and "
                  "the dataset folder is only read");
@@ -118,8 +130,8 @@ void addCalibrateCommand(CLI::App& app) {
       if (o->noise_position_mm > 0) m.noise_position_m = o->noise_position_mm * 1e-3;
       if (o->noise_rotation_deg > 0) m.noise_rotation_rad = o->noise_rotation_deg * sim::kDegToRad;
       const MeasuredCalibrateResult r = runMeasuredCalibrate(m);
-      printMeasured(r);
-      if ((r.worse || r.inconsistent) && !m.accept_worse) throw CLI::RuntimeError(1);
+      printMeasured(r, m.description);
+      if ((r.worse || r.inconsistent || !r.refusal.empty()) && !m.accept_worse) throw CLI::RuntimeError(1);
       return;
     }
     CalibrateOptions c = o->images;

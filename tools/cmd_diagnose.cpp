@@ -1,5 +1,6 @@
 // `orbcal diagnose`: what the model gets wrong, the physical cause, the extended model and its gain.
 #include <cstdio>
+#include <optional>
 
 #include "cli.hpp"
 #include "diagnose.hpp"
@@ -75,11 +76,13 @@ void addStudyCommand(CLI::App& app) {
   auto out = std::make_shared<std::string>();
   cmd->add_option("-o,--out", *out, "also write the confusion table to DIR/diagnose_study.csv and DIR/report.md");
   cmd->callback([o, out] {
+    std::optional<sim::OutputFolder> folder;  // claimed before the study runs: no earlier table stays beside a failed run
+    if (!out->empty()) folder.emplace(*out, "orbcal diagnose-study");
     const StudyResult r = runDiagnoseStudy(*o);
-    if (!out->empty()) {
-      sim::makeDirectories(*out);
-      sim::writeFileAtomic(*out + "/diagnose_study.csv", formatStudyCsv(r));
-      sim::writeFileAtomic(*out + "/report.md", "# orbcal diagnose-study: what the detector names\n\n" + formatStudy(r));
+    if (folder) {
+      sim::writeFileAtomic(folder->path() + "/diagnose_study.csv", formatStudyCsv(r));
+      sim::writeFileAtomic(folder->path() + "/report.md", "# orbcal diagnose-study: what the detector names\n\n" + formatStudy(r));
+      folder->commit();
     }
     std::printf("%s\n%.1f s\n", formatStudy(r).c_str(), r.seconds);
   });

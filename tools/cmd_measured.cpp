@@ -44,7 +44,7 @@ void addSimulateCommand(CLI::App& app) {
     std::string geometry = "random";
     double error_angle_deg = 0.05, error_length_mm = 0.5, noise_position_mm = 0.05, noise_rotation_deg = 0.01;
     double joint_noise_deg = 0.0;
-    bool position_only = false;
+    bool position_only = false, quiet = false;
     std::string base = "shared", marker = "per_session";
   };
   auto o = std::make_shared<Opts>();
@@ -78,6 +78,7 @@ void addSimulateCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, sim::kMaxNoiseJointDeg));
   cmd->add_flag("--position-only", o->position_only, "the tracker measures positions only");
+  cmd->add_flag("--quiet", o->quiet, "no progress output (simulate shows none; taken as the other commands take it)");
   cmd->add_option("--base", o->base, "tracker frame: shared, per_session or known")->capture_default_str()
       ->check(CLI::IsMember({"shared", "per_session", "known"}));
   cmd->add_option("--marker", o->marker, "marker frame: shared, per_session or known")->capture_default_str()

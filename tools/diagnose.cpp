@@ -404,6 +404,10 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
           dataset->manifest.joint_noise_sigma_rad > 0.0 ? dataset->manifest.joint_noise_sigma_rad : 0.01 * sim::kDegToRad;
     }
   }
+  // The inputs are read: the output folder now holds this run's outcome only (sim::OutputFolder).
+  const std::string input_folder = measured ? std::filesystem::path(o.input).parent_path().string() : o.input;
+  sim::OutputFolder folder(o.out.empty() ? (input_folder.empty() ? "." : input_folder) + "/diagnosis" : o.out, "orbcal diagnose");
+  const std::string& out = folder.path();
   r.diagnosis = calib::diagnose(data, obs, options);
   if (dataset) {
     r.distortion = checkDistortion(*dataset, meas, usable, options);
@@ -418,12 +422,9 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   }
   const calib::Diagnosis& dg = r.diagnosis;
 
-  const std::string out = o.out.empty() ? (measured ? std::filesystem::path(o.input).parent_path().string() : o.input) + "/diagnosis" : o.out;
-  sim::makeDirectories(out);
-  r.json_path = out + "/diagnosis.json";
-  sim::writeFileAtomic(r.json_path, diagnosisJson(dg, r.distortion));
+  sim::writeFileAtomic(out + "/diagnosis.json", diagnosisJson(dg, r.distortion));
   const calib::CalibratedModel cm = calib::calibratedModel(dg.fit);
-  r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(dg.fit), out,
+  sim::writeModelFile(cm.model, cm.p, parameterRows(dg.fit), out,
                                      "Selected by orbcal " ORBCAL_VERSION " (orbcal diagnose) from " + o.input);
 
   const std::string figures = writeResiduals(dg, data, obs, out, o.plots);
@@ -458,6 +459,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
            << " | " << sim::formatNumber("%.2g", sigma * info->display_scale) << " | " << info->display_unit << " |\n";
       }
     }
+    md << "\n" << sim::signConventions(dg.selected);
   }
   md << "\n" << unexplainedSection(dg, o.diagnose.alpha);
   if (r.distortion.tested) md << distortionSection(r.distortion, o.diagnose);
@@ -478,8 +480,11 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   }
   md << "\n## Figures\n\n" << figures << "\nFiles: `diagnosis.json`, `model.yaml` (the selected model, for `orbcal evaluate`), "
      << "`residuals.csv`.\n";
-  r.report_path = out + "/report.md";
-  sim::writeFileAtomic(r.report_path, md.str());
+  sim::writeFileAtomic(out + "/report.md", md.str());
+  folder.commit();
+  r.json_path = folder.finalPath() + "/diagnosis.json";
+  r.model_path = folder.finalPath() + "/model.yaml";
+  r.report_path = folder.finalPath() + "/report.md";
   return r;
 }
 

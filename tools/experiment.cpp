@@ -107,8 +107,7 @@ std::string drawFigure(const ExperimentOptions& o, const std::string& folder, co
     return "(figure " + png + " not drawn: python3 with matplotlib is needed)\n";
   }
   // Anything else (a full disk, an unwritable folder, a plotting error): the run is not complete.
-  throw std::runtime_error(folder + "/" + png + ": figure not drawn: " + (last.empty() ? "the plot script failed" : last) +
-                           " (" + script + ")");
+  throw std::runtime_error("figure " + png + " not drawn: " + (last.empty() ? "the plot script failed" : last) + " (" + script + ")");
 }
 
 std::vector<calib::MethodSpec> chosenMethods(const ExperimentOptions& o, std::vector<calib::MethodSpec> preset) {
@@ -213,8 +212,8 @@ MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& pref
 Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_name) {
   const auto t0 = Clock::now();
   Table4Result r;
-  const std::string folder = o.out + "/" + folder_name;
-  sim::makeDirectories(folder);
+  sim::OutputFolder output(o.out + "/" + folder_name, "orbcal experiment");  // written as a whole
+  const std::string& folder = output.path();
   r.identification = renderAndMeasure(o, folder_name + "-ident", o.identification, o.seed);
   r.validation = renderAndMeasure(o, folder_name + "-valid", o.validation, o.seed + kValidationSeedOffset);
   const sim::Arm& nominal = r.identification.dataset.arm;
@@ -288,8 +287,9 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
         "`validation_errors_measured.csv`, `estimates.csv` (per method and "
      << "parameter: estimate, 1-sigma, truth, held), datasets under `" << o.out << "/datasets/`.\n\n"
      << "## Headline\n\n```\n" << table4Headline(r) << "```\n";
-  r.report_path = folder + "/report.md";
-  sim::writeFileAtomic(r.report_path, md.str());
+  sim::writeFileAtomic(folder + "/report.md", md.str());
+  output.commit();
+  r.report_path = output.finalPath() + "/report.md";
   r.seconds = since(t0);
   return r;
 }

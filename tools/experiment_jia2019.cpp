@@ -136,8 +136,8 @@ void runJia2019(const ExperimentOptions& o) {
   Eigen::VectorXd q_ref(7);
   for (int j = 0; j < 7; ++j) q_ref[j] = kReferenceDeg[j] * sim::kDegToRad;
   if (!sim::withinLimits(nominal, q_ref)) throw sim::InputError(o.robot + ": joint limits exclude the jia2019 reference configuration");
-  const std::string folder = o.out + "/jia2019";
-  sim::makeDirectories(folder);
+  sim::OutputFolder output(o.out + "/jia2019", "orbcal experiment");  // written as a whole
+  const std::string& folder = output.path();
 
   // The paper's configurations: the reference and 51 on the 0.5 m hemisphere, pointing at the board centre.
   sim::HemisphereSettings hs;
@@ -465,6 +465,7 @@ void runJia2019(const ExperimentOptions& o) {
   for (std::size_t mi = 0; mi < n_models; ++mi) md << (mi ? "," : "") << " " << models()[mi].name << " " << fmt("%.1f", seconds[mi].mean() * 1e3) << " ms";
   md << ").\n";
   sim::writeFileAtomic(folder + "/report.md", md.str());
+  output.commit();
   std::cout << md.str();
 }
 

@@ -74,8 +74,8 @@ void runLiu2012(const ExperimentOptions& o) {
   if (nominal.numJoints() != 6 || nominal.convention != sim::DhConvention::kHayati) {
     throw sim::InputError(o.robot + ": convention: the liu2012 preset needs a 6-joint arm in the hayati convention");
   }
-  const std::string folder = o.out + "/liu2012";
-  sim::makeDirectories(folder);
+  sim::OutputFolder output(o.out + "/liu2012", "orbcal experiment");  // written as a whole
+  const std::string& folder = output.path();
   calib::RangeExperimentSettings settings;
   settings.plane = calib::Plane::seed004(kNominalC, -0.69);
   settings.validation = o.validation;
@@ -202,6 +202,7 @@ void runLiu2012(const ExperimentOptions& o) {
      << "\nFiles: `liu2012_runs.csv` (every repetition: O3, dc, residuals, per-axis errors), `validation_errors.csv` "
      << "(every validation configuration). One repetition took " << fmt("%.2f", seconds.mean()) << " s on average.\n";
   sim::writeFileAtomic(folder + "/report.md", md.str());
+  output.commit();
   std::cout << md.str();
 }
 

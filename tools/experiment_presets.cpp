@@ -56,8 +56,8 @@ std::vector<calib::MethodSpec> mainMethods(double joint_sigma) {
 
 void runTable5(const ExperimentOptions& o) {
   const Setup s = setup(o);
-  const std::string folder = o.out + "/table5";
-  sim::makeDirectories(folder);
+  sim::OutputFolder output(o.out + "/table5", "orbcal experiment");  // written as a whole
+  const std::string& folder = output.path();
   struct Column {
     std::string name;
     double sp_m, so_rad;  // synthetic pose noise; images when sp < 0
@@ -136,13 +136,14 @@ void runTable5(const ExperimentOptions& o) {
                    "validation errors")
      << "\nFiles: `table5.csv` (every repetition), `validation_errors.csv` (pooled validation errors).\n";
   sim::writeFileAtomic(folder + "/report.md", md.str());
+  output.commit();
   std::cout << md.str();
 }
 
 void runFig8(const ExperimentOptions& o) {
   const Setup s = setup(o);
-  const std::string folder = o.out + "/fig8";
-  sim::makeDirectories(folder);
+  sim::OutputFolder output(o.out + "/fig8", "orbcal experiment");  // written as a whole
+  const std::string& folder = output.path();
   const int n_max = std::max(10, o.identification);
   const auto methods = chosenMethods(o, mainMethods(o.joint_noise_sigma_rad));
   std::ostringstream rows;
@@ -196,13 +197,14 @@ void runFig8(const ExperimentOptions& o) {
   md << "\n" << drawFigure(o, folder, "curve '" + folder + "/fig8.csv'", "fig8.png", "validation error against set size")
      << "\nFile: `fig8.csv` (every run).\n";
   sim::writeFileAtomic(folder + "/report.md", md.str());
+  output.commit();
   std::cout << md.str();
 }
 
 void runFloor(const ExperimentOptions& o) {
   const Setup s = setup(o);
-  const std::string folder = o.out + "/floor";
-  sim::makeDirectories(folder);
+  sim::OutputFolder output(o.out + "/floor", "orbcal experiment");  // written as a whole
+  const std::string& folder = output.path();
   std::ostringstream rows, md;
   rows << "repetition,avg_position_mm,max_position_mm,avg_x_deg,avg_y_deg,avg_z_deg\n";
   double mean = 0, worst = 0;
@@ -222,6 +224,7 @@ void runFloor(const ExperimentOptions& o) {
      << "- mean of the average position error: **" << fmt("%.4f", mean * 1e3) << " mm**\n"
      << "- largest position error seen: " << fmt("%.4f", worst * 1e3) << " mm\n\nFile: `floor.csv`.\n";
   sim::writeFileAtomic(folder + "/report.md", md.str());
+  output.commit();
   std::cout << md.str();
 }
 

@@ -247,8 +247,8 @@ std::vector<RenderedRow> renderedPart(const ExperimentOptions& o, const sim::Arm
 }  // namespace
 
 void runSelection(const ExperimentOptions& o) {
-  const std::string folder = o.out + "/selection";
-  sim::makeDirectories(folder);
+  sim::OutputFolder output(o.out + "/selection", "orbcal experiment");  // written as a whole
+  const std::string& folder = output.path();
   const sim::Arm nominal = sim::loadArm(o.robotSource());
   const sim::Scene scene = sim::loadScene(o.scene);
   const sim::TrueArm truth = sim::makeTrueArm(nominal, o.errors, "--errors");
@@ -358,6 +358,7 @@ void runSelection(const ExperimentOptions& o) {
   }
   md << "\nFiles: `synthetic.csv`, `synthetic_curve.csv`, `rendered.csv` (every trial).\n";
   sim::writeFileAtomic(folder + "/report.md", md.str());
+  output.commit();
   std::cout << md.str();
 }
 

@@ -3,11 +3,12 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <random>
 #include <sstream>
 
 #include "orbcal/calib/consistency.hpp"
 #include "orbcal/calib/diagnose.hpp"
+#include "orbcal/calib/heldout.hpp"
+#include "orbcal/calib/plausibility.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
@@ -103,20 +104,11 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   const std::vector<calib::MarkerObservation> all = calib::observationsFrom(data, calib::needsTorque(effects));
   r.samples = static_cast<int>(all.size());
 
-  // Seeded hold-out, stratified by session so that every session's frames stay identifiable.
+  // Seeded hold-out by configuration (repeated rows of one configuration on one side), stratified by session.
   std::vector<calib::MarkerObservation> ident, held;
-  std::mt19937_64 rng = sim::makeRng(o.seed, 0x686f6c646f7574ULL);
-  for (int s = 0; s < data.numSessions(); ++s) {
-    std::vector<std::size_t> idx;
-    for (std::size_t k = 0; k < all.size(); ++k) {
-      if (all[k].sample.session == s) idx.push_back(k);
-    }
-    std::shuffle(idx.begin(), idx.end(), rng);
-    const std::size_t n_hold = static_cast<std::size_t>(std::floor(o.holdout * static_cast<double>(idx.size())));
-    std::sort(idx.begin(), idx.begin() + static_cast<std::ptrdiff_t>(n_hold));
-    std::sort(idx.begin() + static_cast<std::ptrdiff_t>(n_hold), idx.end());
-    for (std::size_t i = 0; i < idx.size(); ++i) (i < n_hold ? held : ident).push_back(all[idx[i]]);
-  }
+  const std::vector<int> part = o.holdout > 0.0 ? calib::splitByConfiguration(all, {1.0 - o.holdout, o.holdout}, o.seed)
+                                                : std::vector<int>(all.size(), 0);
+  for (std::size_t k = 0; k < all.size(); ++k) (part[k] == 1 ? held : ident).push_back(all[k]);
   r.identification = static_cast<int>(ident.size());
   r.held_out = static_cast<int>(held.size());
 
@@ -131,23 +123,26 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   } catch (const std::invalid_argument& e) {
     throw sim::InputError(std::string("--effects: ") + e.what());
   }
+  // The reference: the nominal arm with only the registration fitted; a physically impossible one (or
+  // calibrated geometry) is refused before anything is written.
+  const calib::Fit reference = calib::fitRegistration(start, ident, fo);
+  calib::requirePlausibleResidual(data, reference.residuals, "the nominal arm's registration residual");
   r.fit = calib::fitMarkerModel(start, ident, fo);
-
-  // The reference: the nominal arm with only the registration fitted.
-  calib::FitOptions ref = fo;
-  ref.method = calib::FitOptions::Method::kLm;
-  for (const sim::ParamBlock& b : start.layout.blocks()) {
-    if (b.effect == "base" || b.effect == "marker" || b.effect == "mount") continue;
-    for (int i = 0; i < b.size(); ++i) ref.hold.push_back(b.offset + i);
+  calib::requirePlausibleGeometry(data, r.fit);
+  // The inputs are read and checked: the output folder now holds this run's outcome only (sim::OutputFolder).
+  sim::OutputFolder folder(o.out.empty() ? folderOf(o.description) + "/calibration" : o.out, "orbcal calibrate");
+  const std::string& out = folder.path();
+  std::vector<Eigen::VectorXd> before, after;
+  for (const calib::MarkerObservation& x : held) {
+    before.push_back(calib::markerResidual(start, reference.p, x));
+    after.push_back(calib::markerResidual(start, r.fit.p, x));
   }
-  const calib::Fit reference = calib::fitMarkerModel(start, ident, ref);
-  if (!held.empty()) {
-    r.heldout_before = calib::residualStats(start, reference.p, held);
-    r.heldout_after = calib::residualStats(start, r.fit.p, held);
-    r.worse = r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
-  }
+  r.heldout_before = calib::residualStats(before);
+  r.heldout_after = calib::residualStats(after);
+  r.worse = !held.empty() && r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
+  r.gain = calib::heldoutGain(held, before, after);
+  r.refusal = calib::heldoutRefusal(r.gain, o.holdout, calib::countConfigurations(all));
 
-  const std::string out = o.out.empty() ? folderOf(o.description) + "/calibration" : o.out;
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit);
   std::ostringstream header;
   header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate) from " << o.description << "\n"
@@ -157,10 +152,9 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
     r.consistency_p = calib::chiSquareSurvival(r.fit.chi2, r.fit.dof);
     r.inconsistent = r.consistency_p < calib::Consistency{}.alpha;
   }
-  const bool write_model = (!r.worse && !r.inconsistent) || o.accept_worse;
-  sim::makeDirectories(out);
+  const bool write_model = (!r.worse && !r.inconsistent && r.refusal.empty()) || o.accept_worse;
   if (write_model) {
-    r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(r.fit), out, header.str());
+    r.model_path = folder.published(sim::writeModelFile(cm.model, cm.p, parameterRows(r.fit), out, header.str()));
   }
 
   std::ostringstream md;
@@ -171,12 +165,16 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
        << " mm).** " << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.")
        << "\n\n";
   }
+  if ((!r.worse || !r.gain.enough) && !r.refusal.empty()) {
+    md << "**The calibration is not accepted: " << r.refusal << ".** "
+       << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.") << "\n\n";
+  }
   if (r.inconsistent) {
     md << "**The fit is inconsistent with the given measurement noise: " << inconsistencyText(r) << ".** "
        << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.") << "\n\n";
   }
   md << "Description `" << o.description << "`: " << r.samples << " samples in " << data.numSessions() << " session(s); "
-     << r.identification << " fitted, " << r.held_out << " held out (seed " << o.seed << ", per session).\n\n"
+     << r.identification << " fitted, " << r.held_out << " held out (" << r.gain.configurations << " configurations; seed " << o.seed << ", per session).\n\n"
      << "Model: geometry (" << data.arm.numParams() << " DH errors) + registration (base " << sim::frameSharingName(data.base)
      << ", marker " << sim::frameSharingName(data.marker) << ")";
   for (const std::string& e : o.effects) md << " + " << e;
@@ -188,7 +186,11 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << (data.noise_joint_rad ? " (given)" : " (not given: not modelled)") << ". chi-square " << formatNumber("%.1f", r.fit.chi2)
      << " for " << r.fit.dof << " degrees of freedom.\n\n"
      << "## Held-out prediction\n\n" << kStatsHeader << statsRow("nominal arm, registration fitted", r.heldout_before)
-     << statsRow("calibrated", r.heldout_after) << "\n## Fit residuals\n\n" << kStatsHeader << statsRow("calibrated (fitted samples)", r.fit.residuals)
+     << statsRow("calibrated", r.heldout_after) << "\n" << r.gain.configurations
+     << " held-out configurations; the gain over the nominal arm, one-sided paired test of their squared position errors "
+        "(calib/heldout.hpp): t = " << formatNumber("%.2f", r.gain.t) << ", p = " << formatNumber("%.2g", r.gain.p_value)
+     << " (accepted at p < " << formatNumber("%g", calib::kHeldoutGainAlpha) << " with at least "
+     << calib::kMinHeldoutConfigurations << " configurations).\n\n## Fit residuals\n\n" << kStatsHeader << statsRow("calibrated (fitted samples)", r.fit.residuals)
      << "\n## What this data cannot identify\n\n```\n" << sim::formatIdentifiability(r.fit.identifiability) << "```\n\n"
      << "Held parameters stay at their nominal value; the rest carry their observable combinations.\n\n"
      << "Observability indices of the fitted samples (Borm & Menq 1991 O1 to Sun & Hollerbach 2008 O5; whitened rows, "
@@ -196,9 +198,10 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << calib::formatIndices(r.fit.observability) << ".\n\n"
      << "Determined no better than their typical magnitude (1-sigma above it; the data barely informs them): "
      << weakList(r.fit) << ".\n\n"
-     << "## Parameters\n\n" << parameterTable(r.fit) << "\n";
-  r.report_path = out + "/report.md";
-  sim::writeFileAtomic(r.report_path, md.str());
+     << "## Parameters\n\n" << parameterTable(r.fit) << "\n" << sim::signConventions(effects);
+  sim::writeFileAtomic(out + "/report.md", md.str());
+  folder.commit();
+  r.report_path = folder.finalPath() + "/report.md";
   return r;
 }
 
@@ -217,28 +220,31 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
   EvaluateResult r;
   r.fit = calib::predictWithModel({lm.model, lm.p}, data, obs, fo);
+  calib::requirePlausibleResidual(data, r.fit.residuals, "the prediction residual of " + model_file);
+  sim::OutputFolder folder(out, "orbcal evaluate");  // the inputs are read and plausible
   r.warnings = calib::outsideTrustedRange(lm.model, obs);
-  r.json_path = out + "/evaluation.json";
-  std::string json = residualJson(r.fit.residuals, r.json_path);  // before any file: a non-finite number writes none
+  std::string json = residualJson(r.fit.residuals, out + "/evaluation.json");
   json.insert(json.size() - 1, ", \"model\": " + sim::jsonString(model_file) + ", \"data\": " + sim::jsonString(description));
-  sim::makeDirectories(out);
-  sim::writeFileAtomic(r.json_path, json + "\n");
+  sim::writeFileAtomic(folder.path() + "/evaluation.json", json + "\n");
   std::ostringstream md;
   md << "# Evaluation of `" << model_file << "` on `" << description << "`\n\n"
      << "Every geometric and effect parameter is the model's; the per-session frames of the data were refitted ("
      << r.fit.model.layout.size() - static_cast<int>(r.fit.estimate.held.size()) << " parameters).\n\n"
      << kStatsHeader << statsRow("prediction", r.fit.residuals);
   for (const std::string& w : r.warnings) md << "\n**Warning:** " << w << ".\n";
+  sim::writeFileAtomic(folder.path() + "/evaluation.md", md.str());
+  folder.commit();
+  r.json_path = out + "/evaluation.json";
   r.report_path = out + "/evaluation.md";
-  sim::writeFileAtomic(r.report_path, md.str());
   return r;
 }
 
-sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& spec, const std::string& out) {
+sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& spec, const std::string& final_out) {
   sim::SimulatedData s = sim::simulateMeasured(arm, spec);
-  sim::makeDirectories(out);
+  sim::OutputFolder folder(final_out, "orbcal simulate");
+  const std::string& out = folder.path();
   sim::writeFileAtomic(out + "/robot.yaml", sim::formatArm(arm, "Nominal robot of a dataset simulated by orbcal simulate from " + arm.source));
-  s.data.description = sim::writeMeasuredData(s.data, out, "robot.yaml");
+  s.data.description = folder.published(sim::writeMeasuredData(s.data, out, "robot.yaml"));
   const sim::FoldedModel truth = sim::foldParameters(s.truth, s.p_true);
   std::vector<sim::ParameterRow> rows;
   for (int i = 0; i < s.truth.layout.size(); ++i) {
@@ -247,6 +253,7 @@ sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& s
   }
   sim::writeModelFile(truth.model, truth.p, rows, out + "/truth", "The truth of the dataset simulated by orbcal simulate (seed " +
                                                                         std::to_string(spec.seed) + ")");
+  folder.commit();
   return s;
 }
 

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "orbcal/calib/heldout.hpp"
 #include "orbcal/calib/measured_fit.hpp"
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/simulate.hpp"
@@ -17,7 +18,7 @@ struct MeasuredCalibrateOptions {
   std::string out;                       ///< default: <description's folder>/calibration
   std::vector<std::string> effects;      ///< "compliance:2,4", ...
   calib::FitOptions::Method method = calib::FitOptions::Method::kLm;
-  double holdout = 0.2;                  ///< fraction of the samples kept out (seeded)
+  double holdout = 0.2;                  ///< share of the configurations kept out (seeded; calib/heldout.hpp)
   std::uint64_t seed = 1;
   std::optional<double> noise_position_m, noise_rotation_rad;  ///< override the description's
   bool accept_worse = false;
@@ -29,6 +30,8 @@ struct MeasuredCalibrateResult {
   calib::ResidualStats heldout_after;    ///< the calibrated model
   int samples = 0, identification = 0, held_out = 0;
   bool worse = false;                    ///< held-out position RMS grew
+  calib::HeldoutGain gain;               ///< the held-out gain and its test (calib/heldout.hpp)
+  std::string refusal;                   ///< why the gain is not accepted (calib::heldoutRefusal); empty: accepted
   /// With the noise given (not estimated): the fit's chi-square against chi-square(dof) at the alpha of
   /// calib::Consistency; inconsistent when P(chi-square(dof) > chi2) < alpha.
   bool inconsistent = false;

@@ -396,13 +396,14 @@ int spawnProcess(const std::string& program, const std::vector<std::string>& arg
   std::vector<char*> argv;
   for (std::string& a : argv_s) argv.push_back(a.data());
   argv.push_back(nullptr);
+  const std::string no_cwd = "orbcal: cannot enter the task's working folder " + cwd + "\n";  // built before the fork
   const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
   if (pid < 0) throw InputError(program + ": cannot start: fork failed");
   if (pid == 0) {
     ::prctl(PR_SET_PDEATHSIG, SIGKILL);  // a killed task takes its job with it
     if (::getppid() != parent) ::_exit(137);
-    if (!cwd.empty() && ::chdir(cwd.c_str()) != 0) ::_exit(126);
+    // The log first: a relative `log` names a file from the caller's folder, not from `cwd`.
     if (!log.empty()) {
       const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
       if (fd < 0) ::_exit(126);
@@ -411,6 +412,10 @@ int spawnProcess(const std::string& program, const std::vector<std::string>& arg
       ::close(fd);
       const int in = ::open("/dev/null", O_RDONLY);
       if (in >= 0) ::dup2(in, 0);
+    }
+    if (!cwd.empty() && ::chdir(cwd.c_str()) != 0) {
+      [[maybe_unused]] const ssize_t w = ::write(2, no_cwd.data(), no_cwd.size());
+      ::_exit(126);
     }
     ::execv(program.c_str(), argv.data());
     const char msg[] = "orbcal: cannot execute the task's program\n";

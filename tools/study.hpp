@@ -106,7 +106,8 @@ TaskState taskStateOnDisk(const std::string& dir, int index);
 int runStudyTask(const std::string& dir, int index, const std::string& program);
 
 /// Starts `program args...` in `cwd` with stdout and stderr appended to `log` (empty: inherited); the
-/// child is killed when this process dies. Returns its pid.
+/// child is killed when this process dies. Relative paths in `args` resolve from `cwd`; a relative
+/// `log` from this process's folder. Returns its pid.
 int spawnProcess(const std::string& program, const std::vector<std::string>& args, const std::string& cwd,
                  const std::string& log);
 /// Waits for pid; its exit status (128 + signal when killed).

@@ -1,5 +1,6 @@
 #include "orbcal/calib/diagnose.hpp"
 
+#include <Eigen/Cholesky>
 #include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
@@ -12,6 +13,7 @@
 #include <sstream>
 #include <thread>
 
+#include "orbcal/calib/plausibility.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
@@ -138,24 +140,12 @@ struct Folds {
   int k = 0;
 };
 
-/// Folds by configuration: observations with the same joint readings (to 1e-9 rad) stay together.
+/// Folds by configuration (splitByConfiguration, equal shares): repeated measurements of one
+/// configuration stay in one fold, and every fold's training set sees every session.
 Folds makeFolds(const std::vector<MarkerObservation>& obs, int k, std::uint64_t seed) {
-  const std::map<std::vector<long long>, std::vector<int>> groups = configurationGroups(obs);
-  // Per session, shuffled groups dealt round-robin: every fold's training set sees every session.
-  std::map<int, std::vector<const std::vector<int>*>> by_session;
-  for (const auto& [key, members] : groups) by_session[static_cast<int>(key[0])].push_back(&members);
-  std::mt19937_64 rng = sim::makeRng(seed, 0x666f6c6473ULL);
   Folds f;
   f.k = k;
-  f.fold.assign(obs.size(), 0);
-  int next = 0;
-  for (auto& [session, list] : by_session) {
-    std::shuffle(list.begin(), list.end(), rng);
-    for (const std::vector<int>* g : list) {
-      for (int i : *g) f.fold[static_cast<std::size_t>(i)] = next % k;
-      ++next;
-    }
-  }
+  f.fold = splitByConfiguration(obs, std::vector<double>(static_cast<std::size_t>(k), 1.0), seed);
   return f;
 }
 
@@ -215,6 +205,7 @@ class Diagnoser {
   }
 
   CvResult crossValidateFolds(const std::vector<Effect>& effects, const Fit* warm) const {
+    if (o_.one_step_folds) return oneStepFolds(effects, warm);
     std::optional<sim::KinematicModel> warm_model;
     Eigen::VectorXd warm_p;
     if (warm) {
@@ -253,6 +244,79 @@ class Diagnoser {
       auto [sse, res] = j.get();
       r.sse += sse;
       for (auto& [i, v] : res) r.residual[static_cast<std::size_t>(i)] = std::move(v);
+    }
+    return r;
+  }
+
+  /// The fit of `effects` to all the data, from `warm` (its frames and parameters, the added effects
+  /// at zero) where given, else from the closed-form start; for its parameters alone.
+  Fit fitLean(const std::vector<Effect>& effects, const Fit* warm) const {
+    FitOptions f = fitOptions();
+    f.analyze = false;
+    if (!warm) return fitMarkerModel(startingModel(data_, obs_, effects), obs_, f);
+    const sim::KinematicModel& w = warm->model;
+    const sim::KinematicModel start = sim::makeKinematicModel(w.arm, w.sessions, w.base, w.marker, w.world_T_base, w.flange_T_marker, effects);
+    Eigen::VectorXd p0 = Eigen::VectorXd::Zero(start.layout.size());
+    p0.head(warm->p.size()) = warm->p;
+    return fitMarkerModel(start, obs_, f, p0);
+  }
+
+  /// DiagnoseOptions::one_step_folds: the whitened system A, b of all the samples at the full fit p
+  /// (with the geometry prior's rows S = diag(1/sigma^2)); fold f's step solves, on the free
+  /// parameters, (A_t^T A_t + S) dp = A_t^T b_t - S p over its training rows t, and its held-out
+  /// residuals are evaluated at p + dp.
+  CvResult oneStepFolds(const std::vector<Effect>& effects, const Fit* warm) const {
+    const Fit full = fitLean(effects, warm);
+    const sim::KinematicModel& model = full.model;
+    const MarkerPoseModel m(model, obs_, noise_, full.p);
+    const int n = m.numParams();
+    Eigen::MatrixXd A;
+    Eigen::VectorXd b;
+    whitenedSystem(m, Eigen::VectorXd::Zero(n), A, b);
+    const Eigen::VectorXd sigma = geometryPriorSigma(model.layout);
+    Eigen::VectorXd prior = Eigen::VectorXd::Zero(n);  // S's diagonal
+    for (int i = 0; i < n; ++i) prior[i] = sigma[i] > 0.0 ? 1.0 / (sigma[i] * sigma[i]) : 0.0;
+    std::vector<int> free;
+    for (int i = 0; i < n; ++i) {
+      if (!std::binary_search(full.estimate.held.begin(), full.estimate.held.end(), i)) free.push_back(i);
+    }
+    const auto nf = static_cast<Eigen::Index>(free.size());
+    Eigen::MatrixXd Af(A.rows(), nf);
+    Eigen::VectorXd scale(nf), prior_f(nf), p_f(nf);
+    for (Eigen::Index c = 0; c < nf; ++c) {
+      const int i = free[static_cast<std::size_t>(c)];
+      scale[c] = model.layout.typical()[i];  // columns in typical magnitudes: a well-scaled normal matrix
+      Af.col(c) = A.col(i) * scale[c];
+      prior_f[c] = prior[i] * scale[c] * scale[c];
+      p_f[c] = full.p[i] / scale[c];
+    }
+    std::vector<Eigen::Index> first_row(obs_.size() + 1, 0);
+    for (std::size_t k = 0; k < obs_.size(); ++k) first_row[k + 1] = first_row[k] + m.rows(static_cast<int>(k));
+    const Eigen::MatrixXd N_all = Af.transpose() * Af;
+    const Eigen::VectorXd g_all = Af.transpose() * b;
+    CvResult r;
+    r.residual.resize(obs_.size());
+    for (int f = 0; f < folds_.k; ++f) {
+      Eigen::MatrixXd N = N_all;
+      Eigen::VectorXd g = g_all;
+      std::vector<MarkerObservation> test;
+      std::vector<std::size_t> test_index;
+      for (std::size_t k = 0; k < obs_.size(); ++k) {
+        if (folds_.fold[k] != f) continue;
+        const auto rows = Eigen::seqN(first_row[k], first_row[k + 1] - first_row[k]);
+        N -= Af(rows, Eigen::all).transpose() * Af(rows, Eigen::all);
+        g -= Af(rows, Eigen::all).transpose() * b(rows);
+        test.push_back(obs_[k]);
+        test_index.push_back(k);
+      }
+      N.diagonal() += prior_f;
+      g -= prior_f.cwiseProduct(p_f);
+      const Eigen::VectorXd step = N.ldlt().solve(g);
+      Eigen::VectorXd p = full.p;
+      for (Eigen::Index c = 0; c < nf; ++c) p[free[static_cast<std::size_t>(c)]] += step[c] * scale[c];
+      const MarkerPoseModel held(model, test, noise_, p);
+      r.sse += 2.0 * weightedCost(held, Eigen::VectorXd::Zero(held.numParams()));
+      for (std::size_t t = 0; t < test.size(); ++t) r.residual[test_index[t]] = markerResidual(model, p, test[t]);
     }
     return r;
   }
@@ -483,11 +547,17 @@ void forwardSelect(const Diagnoser& d, const DiagnoseOptions& o, const std::vect
     std::optional<std::size_t> best;
     double best_gain = 0.0;
     std::map<std::size_t, CvResult> cvs;
+    std::vector<std::future<CvResult>> jobs;  // the candidates side by side, on every core
     for (std::size_t i : order) {
-      std::vector<Effect> trial = sel.effects;
-      trial.push_back(tests[i].effect);
-      cvs[i] = d.crossValidate(trial, &sel.fit);
-      tests[i].cv_gain = sel.cv.sse - cvs[i].sse;
+      jobs.push_back(std::async(std::launch::async, [&d, &sel, &tests, i] {
+        std::vector<Effect> trial = sel.effects;
+        trial.push_back(tests[i].effect);
+        return d.crossValidate(trial, &sel.fit);
+      }));
+    }
+    for (std::size_t j = 0; j < order.size(); ++j) {
+      cvs[order[j]] = jobs[j].get();
+      tests[order[j]].cv_gain = sel.cv.sse - cvs[order[j]].sse;
     }
     // The largest penalized gain; then parsimony: among the candidates whose gain comes within the
     // confounding margin of it (the data cannot tell them apart), the one with the fewest parameters.
@@ -667,7 +737,14 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   first.joint_noise_sigma_rad = joint.value_or(0.0);
   first.estimate_joint_noise = !joint && !anyOwnCovariance(obs);
   first.normal_equations = o.lean_fits;
+  // Data no real arm and instrument can give (a wrong unit or convention) are refused, not diagnosed.
+  FitOptions registration = first;
+  registration.analyze = false;
+  registration.estimate_joint_noise = false;  // the frames alone: no joint noise to tell from the rest
+  requirePlausibleResidual(data, fitRegistration(startingModel(data, obs, {}), obs, registration).residuals,
+                           "the nominal arm's registration residual");
   out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, first);
+  requirePlausibleGeometry(data, out.base_fit);
   d.setNoise(out.base_fit.noise);
   // The noise is stated when the tracker's sigma (or each sample's covariance) is given, not estimated
   // from these residuals.
@@ -691,6 +768,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
 
   out.selected = sel.effects;
   out.fit = sel.fit;  // the fit of `selected` on all the data (kept current by both passes)
+  requirePlausibleGeometry(data, out.fit);
   out.cv_selected = sel.cv.sse;
   out.residual_selected = sel.cv.residual;
   out.heldout.base = residualStats(out.residual_base);

@@ -1,6 +1,7 @@
 #include "orbcal/calib/estimators.hpp"
 
 #include <ceres/ceres.h>
+#include <ceres/normal_prior.h>
 
 #include <Eigen/Cholesky>
 #include <Eigen/SVD>
@@ -298,6 +299,25 @@ class SampleCost : public ceres::CostFunction {
   const std::vector<int>& free_;
 };
 
+/// LmOptions' Gaussian prior on the free parameters that have one, as one residual block
+/// diag(1/sigma) (x - mean) (Ceres's NormalPrior) on the free-parameter vector x.
+void addPrior(const LmOptions& o, const std::vector<int>& free, ceres::Problem& problem, double* x) {
+  if (o.prior_sigma.size() == 0 || free.empty()) return;
+  std::vector<Eigen::Index> rows;
+  for (std::size_t c = 0; c < free.size(); ++c) {
+    if (o.prior_sigma[free[c]] > 0.0) rows.push_back(static_cast<Eigen::Index>(c));
+  }
+  if (rows.empty()) return;
+  const auto n = static_cast<Eigen::Index>(free.size());
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(rows.size()), n);
+  Eigen::VectorXd mean = Eigen::VectorXd::Zero(n);
+  for (Eigen::Index c = 0; c < n; ++c) mean[c] = o.prior_mean.size() ? o.prior_mean[free[static_cast<std::size_t>(c)]] : 0.0;
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    A(static_cast<Eigen::Index>(r), rows[r]) = 1.0 / o.prior_sigma[free[static_cast<std::size_t>(rows[r])]];
+  }
+  problem.AddResidualBlock(new ceres::NormalPrior(A, mean), nullptr, x);
+}
+
 }  // namespace
 
 Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
@@ -329,10 +349,12 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
     if (o.loss == LmOptions::Loss::kCauchy) loss = new ceres::CauchyLoss(o.loss_scale);
     problem.AddResidualBlock(new SampleCost(m, k, whitener(start.R[static_cast<std::size_t>(k)]), free), loss, x.data());
   }
+  addPrior(o, free, problem, x.data());
   ceres::Solver::Options so;
   so.linear_solver_type = o.normal_equations ? ceres::DENSE_NORMAL_CHOLESKY : ceres::DENSE_QR;
   so.max_num_iterations = o.max_iterations;
-  so.function_tolerance = 1e-14;
+  so.function_tolerance = o.function_tolerance;
+  so.initial_trust_region_radius = 1e8;
   so.gradient_tolerance = 1e-14;
   so.parameter_tolerance = 1e-14;
   so.num_threads = 1;

@@ -182,16 +182,6 @@ Eigen::MatrixXd scaledResiduals(const std::vector<Eigen::VectorXd>& residual, co
   return Y;
 }
 
-std::map<std::vector<long long>, std::vector<int>> configurationGroups(const std::vector<MarkerObservation>& obs) {
-  std::map<std::vector<long long>, std::vector<int>> groups;
-  for (std::size_t i = 0; i < obs.size(); ++i) {
-    std::vector<long long> key{obs[i].sample.session};
-    for (Eigen::Index j = 0; j < obs[i].sample.q_rad.size(); ++j) key.push_back(std::llround(obs[i].sample.q_rad[j] * 1e9));
-    groups[key].push_back(static_cast<int>(i));
-  }
-  return groups;
-}
-
 Eigen::MatrixXd groupMeans(const Eigen::MatrixXd& A, const std::vector<MarkerObservation>& obs, int rows_per) {
   const auto groups = configurationGroups(obs);
   Eigen::MatrixXd out = Eigen::MatrixXd::Zero(static_cast<Eigen::Index>(groups.size()) * rows_per, A.cols());

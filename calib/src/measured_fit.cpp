@@ -138,7 +138,7 @@ std::vector<Eigen::Isometry3d> framesFor(sim::FrameSharing sharing, int sessions
   return std::vector<Eigen::Isometry3d>(sharing == sim::FrameSharing::kPerSession ? static_cast<std::size_t>(sessions) : 1, T);
 }
 
-Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o) {
+Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o, const sim::ParamLayout& layout, const Eigen::VectorXd& p0) {
   switch (o.method) {
     case FitOptions::Method::kLse: {
       LseOptions lo;
@@ -156,6 +156,10 @@ Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o) {
       lo.fix_unidentifiable = o.fix_unidentifiable;
       lo.covariance = o.analyze;
       lo.normal_equations = o.normal_equations;
+      if (o.geometry_prior) {
+        lo.prior_sigma = geometryPriorSigma(layout);
+        lo.prior_mean = -p0;  // centred on the starting model: p = p0 + y = 0
+      }
       return runLm(m, lo);
     }
   }
@@ -282,6 +286,16 @@ ResidualStats residualStats(const sim::KinematicModel& model, const Eigen::Vecto
   return residualStats(residuals);
 }
 
+Eigen::VectorXd geometryPriorSigma(const sim::ParamLayout& layout) {
+  const Eigen::VectorXd typical = layout.typical();
+  Eigen::VectorXd sigma = Eigen::VectorXd::Zero(layout.size());
+  for (const sim::ParamBlock& b : layout.blocks()) {
+    if (b.effect != "geometry" && b.effect != "base" && b.effect != "marker") continue;
+    sigma.segment(b.offset, b.size()) = typical.segment(b.offset, b.size());
+  }
+  return sigma;
+}
+
 Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObservation>& obs, const FitOptions& o,
                    const Eigen::VectorXd& p0_in) {
   Fit fit;
@@ -302,7 +316,7 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
       fit.identifiability = sim::analyzeJacobian(whitenedJacobian(m, Eigen::VectorXd::Zero(m.numParams())), names,
                                                  m.numSamples(), 1e-6);
     }
-    fit.estimate = runFitMethod(m, o);
+    fit.estimate = runFitMethod(m, o, start.layout, fit.p0);
     fit.p = fit.p0 + fit.estimate.y;
     fit.chi2 = 2.0 * fit.estimate.cost;
     const int free = m.numParams() - static_cast<int>(fit.estimate.held.size());

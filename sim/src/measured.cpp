@@ -170,10 +170,29 @@ void readPoseLayout(const ConfigNode& pose, Layout& l, ColumnClaims& claims) {
   if (quaternion) l.quaternion.names = readNames(*quaternion, 4, "w, x, y, z", claims);
 }
 
+/// {columns: [...], unit: U, sense: S}: the files' torques in orbcal's sense (sense: actuator, the
+/// default: the torque the joint's actuator applies, sim/gravity.hpp) or negated (sense: load: the
+/// torque the load exerts on the joint), read into the actuator's sense either way.
+ColumnGroup readTorqueColumns(const ConfigNode& node, std::size_t joints, const std::string& per_joint, ColumnClaims& claims) {
+  node.requireOnlyKeys({"columns", "unit", "sense"});
+  ColumnGroup g;
+  g.unit = readUnit(valueOf(node, "unit"), kTorqueUnits);
+  g.names = readNames(valueOf(node, "columns"), joints, per_joint, claims);
+  if (const auto sense = optionalValueOf(node, "sense")) {
+    const std::string v = sense->asString();
+    if (v != "actuator" && v != "load") {
+      sense->fail("expected actuator (the torque the joint's actuator applies, orbcal's sense) or load (the load's "
+                  "torque on the joint, the negative), got " + quoteInput(v));
+    }
+    if (v == "load") g.unit.multiply = -g.unit.multiply;
+  }
+  return g;
+}
+
 void readCovariateLayout(const ConfigNode& cov, std::size_t joints, const std::string& per_joint, Layout& l,
                          ColumnClaims& claims) {
   cov.requireOnlyKeys({"torque", "temperature", "time", "direction"});
-  if (const auto n = optionalValueOf(cov, "torque")) l.torque = readColumns(*n, joints, per_joint, kTorqueUnits, claims);
+  if (const auto n = optionalValueOf(cov, "torque")) l.torque = readTorqueColumns(*n, joints, per_joint, claims);
   if (const auto n = optionalValueOf(cov, "temperature")) l.temperature = readColumn(*n, kTemperatureUnits, claims);
   if (const auto n = optionalValueOf(cov, "time")) l.time = readColumn(*n, kTimeUnits, claims);
   if (const auto n = optionalValueOf(cov, "direction")) l.direction = readColumns(*n, joints, per_joint, {}, claims);
@@ -284,9 +303,10 @@ Layout bindColumns(Layout l, const CsvTable& t) {
 /// message gives the value and the range in the column's unit.
 void checkWithin(const CsvTable& t, std::size_t r, int col, double si, const Unit& unit, const PhysicalRange& range) {
   if (si >= range.lo && si <= range.hi) return;
-  const auto in = [&unit](double v) { return formatNumber("%.9g", unit.fromSi(v)) + " " + unit.name; };
-  throw InputError(t.where(r) + ": " + t.header()[static_cast<std::size_t>(col)] + ": " + in(si) + " is outside " +
-                   in(range.lo) + " to " + in(range.hi) + " (" + range.what + ")");
+  const auto in = [&unit](double v) { return formatNumber("%.9g", v) + " " + unit.name; };
+  const double a = unit.fromSi(range.lo), b = unit.fromSi(range.hi);  // in the file's sense (torques: maybe negated)
+  throw InputError(t.where(r) + ": " + t.header()[static_cast<std::size_t>(col)] + ": " + in(unit.fromSi(si)) + " is outside " +
+                   in(std::min(a, b)) + " to " + in(std::max(a, b)) + " (" + range.what + ")");
 }
 
 /// The cells of `g` on row r, in SI units, each within the group's range.
@@ -560,6 +580,9 @@ MeasuredData loadMeasuredData(const std::string& description_path) {
   d.has_temperature = layout.temperature.given();
   d.has_time = layout.time.given();
   d.has_direction = layout.direction.given();
+  d.length_unit = layout.length.name;
+  d.angle_unit = layout.joints.unit.name;
+  d.quaternion = layout.quaternion.given();
   if (!d.has_direction) fillApproachDirections(d.poses);
   return d;
 }

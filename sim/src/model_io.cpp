@@ -33,7 +33,7 @@ std::string writeModelFile(const KinematicModel& m, const Eigen::VectorXd& p, co
   std::ostringstream s;
   std::istringstream lines(header);
   for (std::string line; std::getline(lines, line);) s << "# " << line << "\n";
-  s << "format: orbcal-model-1\n"
+  s << "format: orbcal-model-2\n"
     << "robot: " << robot_name << "\n"
     << "sessions: " << m.sessions << "\n"
     << "registration:\n"
@@ -126,7 +126,9 @@ void checkParameterList(const ConfigNode& rows, const KinematicModel& full, cons
 LoadedModel loadModelFile(const std::string& path) {
   const ConfigNode root = ConfigNode::load(path);
   root.requireOnlyKeys({"format", "robot", "sessions", "registration", "effects", "parameters"});
-  if (root["format"].asString() != "orbcal-model-1") root["format"].fail("expected orbcal-model-1");
+  // Format 1 wrote a compliance with the other sign (dq = +c tau); files without one read the same.
+  const std::string format = root["format"].asString();
+  if (format != "orbcal-model-2" && format != "orbcal-model-1") root["format"].fail("expected orbcal-model-2");
   const std::string robot = root["robot"].asString();
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
   const std::string robot_path =
@@ -151,6 +153,10 @@ LoadedModel loadModelFile(const std::string& path) {
     const ConfigNode e = list[k];
     e.requireOnlyKeys({"spec", "parameters"});
     effects.push_back(parseEffect(e["spec"].asString(), arm.numJoints(), path + ": effects[" + std::to_string(k) + "].spec"));
+    if (format == "orbcal-model-1" && !effects.back().kind().signConvention().empty()) {
+      e["spec"].fail("a format orbcal-model-1 file gave " + effects.back().name() +
+                     " the other sign; calibrate again (orbcal-model-2: positive compliance sags)");
+    }
     (void)e["parameters"];  // required (read below, once the layout is known)
   }
   LoadedModel out;

@@ -19,6 +19,20 @@ Eigen::Vector3d randomUnit(std::mt19937_64& rng) {
   return v.normalized();
 }
 
+/// The effect parameters of p whose sign physics fixes (EffectKind::physicalSign: a compliance, the joint
+/// yields to its load) given that sign, their magnitudes kept.
+void withPhysicalSigns(const KinematicModel& m, Eigen::VectorXd& p) {
+  for (std::size_t k = 0; k < m.effects.size(); ++k) {
+    for (const int blk : m.effect_blocks[k]) {
+      const ParamBlock& b = m.layout.block(blk);
+      for (int i = 0; i < b.size(); ++i) {
+        const int sign = m.effects[k].kind().physicalSign(b, i);
+        if (sign != 0) p[b.offset + i] = sign * std::abs(p[b.offset + i]);
+      }
+    }
+  }
+}
+
 /// Throws InputError naming the setting for a value no real arm or instrument has: a payload outside
 /// 0 to 1e6 kg (as a robot file's masses), DH error spreads beyond half a turn or 10 m, a temperature
 /// outside an arm's, times that are not positive.
@@ -110,6 +124,7 @@ SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
       const double z = n01(rng);
       out.p_true[i] = typical[i] * (z < 0 ? std::min(z, -0.5) : std::max(z, 0.5));
     }
+    withPhysicalSigns(out.truth, out.p_true);
   }
 
   MeasuredData& d = out.data;

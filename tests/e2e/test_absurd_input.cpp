@@ -484,9 +484,10 @@ TEST_CASE("clear messages: a figure that fails for another reason than a missing
   const Run full = runOrbcal(dir, "diagnose " + desc + " -o diag", "ORBCAL_PYTHON=/bin/sh ORBCAL_PLOT_SCRIPT=" + dir + "/full.sh");
   INFO(full.err);
   CHECK(full.status == 1);
-  CHECK_THAT(full.err, StartsWith("orbcal: diag/samples.png: figure not drawn: OSError: [Errno 28] No space left on device"));
+  CHECK_THAT(full.err, StartsWith("orbcal: figure samples.png not drawn: OSError: [Errno 28] No space left on device"));
   CHECK(full.err.find("matplotlib") == std::string::npos);
   CHECK(std::count(full.err.begin(), full.err.end(), '\n') == 1);
+  CHECK_FALSE(fs::exists(dir + "/diag/diagnosis.json"));  // the run failed: no result left that looks valid
   // Without matplotlib, figures stay optional: a warning, and the run completes.
   const Run missing = runOrbcal(dir, "diagnose " + desc + " -o diag2", "ORBCAL_PYTHON=/bin/sh ORBCAL_PLOT_SCRIPT=" + dir + "/nomodule.sh");
   CHECK(missing.status == 0);

@@ -97,7 +97,7 @@ TEST_CASE("model files: errors name the file and the key", "[e2e][measured]") {
     }
     return std::string("no error");
   };
-  CHECK_THAT(messageFor("format: orbcal-model-1", "format: orbcal-model-9"), Catch::Contains("bad.yaml") && Catch::Contains("format"));
+  CHECK_THAT(messageFor("format: orbcal-model-2", "format: orbcal-model-9"), Catch::Contains("bad.yaml") && Catch::Contains("format"));
   CHECK_THAT(messageFor("{s1: ", "{s9: "), Catch::Contains("bad.yaml") && Catch::Contains("parameters.s1"));
   CHECK_THAT(messageFor("base: shared", "base: sometimes"), Catch::Contains("registration.base"));
   CHECK_THAT(messageFor("sessions: 2", "sessions: 3"), Catch::Contains("registration.flange_T_marker"));

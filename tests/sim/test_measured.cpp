@@ -417,7 +417,8 @@ TEST_CASE("the real iiwa7 measurements load through scenes/iiwa7_measurements.ya
   CHECK(d.poses[198].sample.session == 1);
   CHECK(d.has_torque);
   CHECK(d.poses[0].sample.tau_Nm.size() == 7);
-  CHECK(d.poses[0].sample.tau_Nm[1] == 0.159293592453003);  // tau_2 of the first line of run1_0kg.csv
+  // tau_2 of the first line of run1_0kg.csv, negated: the description says `sense: load`.
+  CHECK(d.poses[0].sample.tau_Nm[1] == -0.159293592453003);
   CHECK(d.marker == FrameSharing::kPerSession);
   CHECK(d.base == FrameSharing::kShared);
   // m_03, m_13, m_23 of the first line of run1_0kg.csv, in mm.

@@ -137,7 +137,7 @@ TEST_CASE("two effects of one kind on different joints keep their own parameters
   p[m.layout.block(m.effect_blocks[2][0]).offset] = 1e-4;  // c4 only
   const Eigen::VectorXd dq = jointCorrections(m, p, s);
   CHECK(dq[1] == 0.0);
-  CHECK(dq[3] == Approx(1e-4 * s.tau_Nm[3]).epsilon(1e-14));
+  CHECK(dq[3] == Approx(-1e-4 * s.tau_Nm[3]).epsilon(1e-14));  // yields to its load: against the actuator's torque
   CHECK_THROWS_WITH(modelWith(arm, {Compliance{{1, 3}}, Compliance{{3}}}), Catch::Contains("compliance:4 is given twice"));
 }
 
@@ -155,7 +155,7 @@ TEST_CASE("joint effects follow their defining formulas", "[model]") {
   p[at("b5")] = 2e-4;
   const Eigen::VectorXd dq = jointCorrections(m, p, s);
   CHECK(dq[0] == 0.0);
-  CHECK(dq[1] == Approx(2e-5 * s.tau_Nm[1]).epsilon(1e-14));
+  CHECK(dq[1] == Approx(-2e-5 * s.tau_Nm[1]).epsilon(1e-14));
   CHECK(dq[2] == Approx(3e-4 * std::sin(s.q_rad[2]) - 1e-4 * std::cos(s.q_rad[2])).epsilon(1e-14));
   CHECK(dq[3] == Approx(5e-4 * s.q_rad[3]).epsilon(1e-14));
   CHECK(dq[4] == Approx(2e-4 * s.direction[4]).epsilon(1e-14));
@@ -231,7 +231,7 @@ TEST_CASE("coupling and a stiffening compliance follow their defining formulas",
   CHECK(dq[2] == Approx(4e-4 * s.q_rad[1]).epsilon(1e-14));
   CHECK(dq[1] == 0.0);
   const double t = s.tau_Nm[4];
-  CHECK(dq[4] == Approx(1e-4 * t - 2e-8 * t * t * t).epsilon(1e-14));
+  CHECK(dq[4] == Approx(-(1e-4 * t - 2e-8 * t * t * t)).epsilon(1e-14));  // against the actuator's torque
   CHECK((dq.array() != 0.0).count() == 2);
 }
 

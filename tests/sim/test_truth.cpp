@@ -134,8 +134,8 @@ covariates: {payload_kg: 1.5}
     CHECK(s.tau_Nm == tau);
     CHECK(std::abs(tau[1]) + std::abs(tau[3]) > 1.0);  // the payload and the links load joints 2 and 4
     Eigen::VectorXd deflected = q;
-    deflected[1] += 1.0e-4 * tau[1];
-    deflected[3] += 3.0e-4 * tau[3];
+    deflected[1] -= 1.0e-4 * tau[1];  // c > 0: the joint yields to its load, against the actuator's torque
+    deflected[3] -= 3.0e-4 * tau[3];
     CHECK((t.flangePose(s).matrix() - forwardKinematics(iiwa, deflected).matrix()).cwiseAbs().maxCoeff() < 1e-12);
   }
 

@@ -1,5 +1,10 @@
 // compliance: a joint that deflects under the torque it carries (harmonic drives, belts, gearboxes),
 // linearly, or stiffening with load (degree 3: harmonic drives are softer near zero torque).
+//
+// Signs: tau_j is the torque joint j's actuator applies (sim/gravity.hpp: at rest tau_j = dU/dq_j, U the
+// potential energy). The joint yields to its load, i.e. against that torque: the link stands at the
+// reading plus dq_j = -(c_j tau_j + c3_j tau_j^3), so c_j = 1/k_j > 0 for a transmission of stiffness
+// k_j (N m/rad): a joint that sags under gravity has a positive c.
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -16,11 +21,23 @@ class ComplianceKind final : public EffectKind {
   std::string name() const override { return "compliance"; }
   std::string words(const Effect& e) const override {
     return (e.order() == 3 ? "stiffening compliance" : "compliance") + ofJoints(e.joints()) +
-           (e.order() == 3 ? " (deflection c1 tau + c3 tau^3 under its torque)" : " (deflection under its torque)");
+           (e.order() == 3 ? " (deflection -(c1 tau + c3 tau^3) under its torque)" : " (deflection under its torque)");
   }
   std::string physics() const override {
-    return "a joint's transmission (harmonic drive, gearbox, belt) twists under the torque it carries: dq = c tau; harmonic "
-           "drives stiffen with load, dq = c1 tau + c3 tau^3 (compliance:J/3)";
+    return "a joint's transmission (harmonic drive, gearbox, belt) twists under the torque it carries, yielding to its load: "
+           "dq = -c tau; harmonic drives stiffen with load, dq = -(c1 tau + c3 tau^3) (compliance:J/3)";
+  }
+  std::string signConvention() const override {
+    return "Compliance signs: tau_j is the torque joint j's actuator applies about its axis (right-hand rule; at rest it holds "
+           "the arm, tau_j = dU/dq_j with U the potential energy; a description's `sense: load` flips a sensor that reports "
+           "the load's torque instead). The joint yields to its load: the link stands at the reading plus "
+           "dq_j = -(c_j tau_j + c3_j tau_j^3), so c_j = 1/k_j is positive for a joint of stiffness k_j (N m/rad): positive c "
+           "means the joint sags under gravity; c3_j < 0 where it stiffens with load.";
+  }
+  /// c_j > 0 (every real joint yields to its load); the cubic term takes either sign.
+  int physicalSign(const ParamBlock& b, int i) const override {
+    const int per = b.size() / std::max<int>(1, static_cast<int>(b.joints.size()));  // c, or c and c_cubic, per joint
+    return i % per == 0 ? 1 : 0;
   }
   int defaultOrder() const override { return 1; }
   /// Effect::reference() of a compliance is the torque scale tau_s (N m) its typical magnitudes follow
@@ -69,12 +86,12 @@ class ComplianceKind final : public EffectKind {
     const int per = e.order() == 3 ? 2 : 1;
     for (std::size_t i = 0; i < b.joints.size(); ++i) {
       const int j = b.joints[i], col = b.offset + per * static_cast<int>(i);
-      const double tau = s.tau_Nm[j];
-      dq[j] += p[col] * tau;
-      if (J) (*J)(j, col) += tau;
+      const double tau = s.tau_Nm[j];  // the actuator's; the joint yields against it (see the top)
+      dq[j] -= p[col] * tau;
+      if (J) (*J)(j, col) -= tau;
       if (per == 2) {
-        dq[j] += p[col + 1] * tau * tau * tau;
-        if (J) (*J)(j, col + 1) += tau * tau * tau;
+        dq[j] -= p[col + 1] * tau * tau * tau;
+        if (J) (*J)(j, col + 1) -= tau * tau * tau;
       }
     }
   }

@@ -34,6 +34,18 @@ const EffectKind* findEffectKind(const std::string& name) {
   return nullptr;
 }
 
+std::string signConventions(const std::vector<Effect>& effects) {
+  std::vector<const EffectKind*> seen;
+  std::string out;
+  for (const Effect& e : effects) {
+    if (std::find(seen.begin(), seen.end(), &e.kind()) != seen.end()) continue;
+    seen.push_back(&e.kind());
+    const std::string text = e.kind().signConvention();
+    if (!text.empty()) out += text + "\n\n";
+  }
+  return out;
+}
+
 std::string ofJoints(const std::vector<int>& joints) {
   std::string js;
   for (std::size_t i = 0; i < joints.size(); ++i) {

@@ -49,6 +49,12 @@ struct DiagnoseOptions {
   /// Cross-validation folds fitted for their parameters alone (FitOptions::analyze off) and every fit's
   /// LM steps from the normal equations: the same decisions, faster. Off only to time the full path (orbcal-bench diagnose --baseline).
   bool lean_fits = true;
+  /// Each fold's parameters by one Gauss-Newton step, on the fold's training samples, from the fit of
+  /// the model to all the data (approximate leave-group-out cross-validation; Rad and Maleki 2020 give
+  /// the leave-one-out case): one fit per model instead of one per fold. A fold's optimum lies within
+  /// the noise's share of one fold of the full fit, where one step reaches it to second order; its
+  /// held-out residuals are then evaluated exactly. Off: every fold refitted to convergence.
+  bool one_step_folds = true;
 };
 
 /// One candidate at one forward step.

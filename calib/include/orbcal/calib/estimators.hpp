@@ -59,6 +59,11 @@ struct LmOptions {
   Loss loss = Loss::kNone;
   double loss_scale = 3.0;      ///< in whitened units (sigmas)
   int max_iterations = 100;
+  /// Stop when an iteration changes the cost by less than this share of it. 1e-10 of a whitened
+  /// cost of n samples (about 3n at the noise) is a change of 1e-10 * 3n in chi-square units: far below
+  /// what any test or cross-validated gain resolves (their decisions turn on changes of order 1),
+  /// while the last digits of a tighter tolerance cost iterations of round-off-sized steps.
+  double function_tolerance = 1e-10;
   /// Hold one parameter of each unidentifiable group at zero (the group's observable combination is
   /// then carried by the others), found from the SVD at the start; otherwise LM's damping alone
   /// picks a point on the unidentifiable manifold.
@@ -72,6 +77,12 @@ struct LmOptions {
   /// several times cheaper; the condition number is squared, which the Jacobi scaling of the columns
   /// and the held unidentifiable parameters keep well below round-off for the marker fits.
   bool normal_equations = false;
+  /// A Gaussian prior y_i ~ N(prior_mean_i, prior_sigma_i^2) on the parameters whose prior_sigma_i is
+  /// positive (empty: none, the least-squares estimate): the maximum a-posteriori estimate, with the
+  /// prior's residuals (y_i - prior_mean_i) / prior_sigma_i beside the whitened measurements.
+  /// Estimate::cost stays the measurements' cost alone.
+  Eigen::VectorXd prior_sigma;
+  Eigen::VectorXd prior_mean;  ///< empty: zero
 };
 
 Estimate runEkf(const MeasurementModel& model, const EkfOptions& options);

@@ -22,6 +22,7 @@
 #include <string>
 #include <vector>
 
+#include "orbcal/calib/heldout.hpp"
 #include "orbcal/calib/measured_fit.hpp"
 
 namespace orbcal::calib {
@@ -70,10 +71,6 @@ std::vector<VariableTest> variableTests(const Eigen::MatrixXd& Y, const std::vec
 
 /// Residual components (position, then rotation) scaled by the noise sigmas: the Y of variableTests.
 Eigen::MatrixXd scaledResiduals(const std::vector<Eigen::VectorXd>& residual, const MarkerNoise& noise);
-
-/// Replicate groups: observations with the same session and the same joint readings (to 1e-9 rad), keyed
-/// by (session, readings in nrad); makeFolds keeps each in one fold.
-std::map<std::vector<long long>, std::vector<int>> configurationGroups(const std::vector<MarkerObservation>& obs);
 
 /// Means over the replicate groups (configurationGroups, in its order) of each row block of `rows_per`
 /// rows: n x d -> G x d (rows_per 1), or stacked (n m) x d -> (G m) x d. With replicates the evidence is

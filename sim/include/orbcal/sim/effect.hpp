@@ -101,6 +101,11 @@ class EffectKind {
   virtual std::string words(const Effect& e) const = 0;
   /// The physical reason, one or two sentences for the manual and --help.
   virtual std::string physics() const = 0;
+  /// Its parameters' sign convention, one sentence for reports ("" where the signs need none).
+  virtual std::string signConvention() const { return ""; }
+  /// The sign physics gives parameter `i` of block `b` on every real arm (+1, -1; a compliance is
+  /// positive: a joint yields to its load), 0 where either sign occurs. The simulator draws with it.
+  virtual int physicalSign(const ParamBlock& /*b*/, int /*i*/) const { return 0; }
   /// Empirical, not a physical cause: a smooth function fitted where no cause of the catalog explains
   /// the structure. Its spec carries the variable's range ("@lo..hi", SI).
   virtual bool empirical() const { return false; }
@@ -163,6 +168,10 @@ class EffectKind {
 const std::vector<const EffectKind*>& catalog();
 /// The kind named `name`, or null.
 const EffectKind* findEffectKind(const std::string& name);
+
+/// The sign conventions of the kinds among `effects`, each kind's once, one paragraph per kind
+/// ("" when none has one): what a report on a model with these effects says beside its parameters.
+std::string signConventions(const std::vector<Effect>& effects);
 
 /// " of joint 2", " of joints 2 and 4" (people's words for joints numbered from 0).
 std::string ofJoints(const std::vector<int>& joints);

@@ -6,7 +6,10 @@
 // Sign convention: tau_j is the torque the joint's actuator applies about its own z axis (the DH
 // joint axis), the quantity a joint torque sensor reports: tau_j = -z_j . sum_{i >= j}
 // (c_i - o_j) x (m_i g), with g the gravity vector in the base frame, c_i the centre of mass of link i
-// and o_j a point on axis j.
+// and o_j a point on axis j; equivalently tau_j = dU/dq_j, U the arm's potential energy. Every torque
+// orbcal reads or writes follows it (a measurement description's `sense: load` flips a sensor that
+// reports the load's torque instead); a compliance c_j > 0 makes the joint yield against it, i.e. sag
+// (sim/src/effects/compliance.cpp).
 #include <Eigen/Geometry>
 #include <vector>
 

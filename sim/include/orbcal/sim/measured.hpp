@@ -16,7 +16,7 @@
 //     # quaternion_wxyz: [qw, qx, qy, qz]  #   optionally 4 names (without: position-only data)
 //     length_unit: mm                      #   m or mm
 //   covariates:                            # optional, by physical role
-//     torque: {columns: [tau_1, ..., tau_7], unit: N*m}   # or Nm
+//     torque: {columns: [tau_1, ..., tau_7], unit: N*m}   # or Nm; sense: actuator (default) or load, below
 //     temperature: {column: temp_C, unit: degC}           # or K
 //     time: {column: time_s, unit: s}                     # or ms, min, h
 //     direction: {columns: [dir_1, ..., dir_7]}   # approach direction per joint (+1/-1/0)
@@ -26,6 +26,11 @@
 //   noise: {position_mm: 0.05, rotation_deg: 0.01, joint_deg: 0.01}  # optional, each key too; the
 //                                          # tracker's sigmas per axis and the joint readings' (vs the true
 //                                          # angles, 0: exact); absent ones are estimated from the fit
+//
+// Torques: orbcal's sense is the torque each joint's actuator applies about its axis (sim/gravity.hpp:
+// at rest it holds the arm, tau_j = dU/dq_j), in which a compliance c > 0 is a joint that sags. A
+// sensor that reports the load's torque on the joint (the negative) is declared `sense: load`; the
+// torques are then read negated.
 //
 // Every key but covariates and noise (and their entries) is required; an unknown key or an empty
 // value (`unit:` and nothing) is an InputError naming the description and the key, never a default.
@@ -99,6 +104,11 @@ struct MeasuredData {
   /// Which covariates the files give (then every sample has them). has_direction is false when the
   /// directions were filled from the sample order (fillApproachDirections) rather than read.
   bool has_torque = false, has_temperature = false, has_time = false, has_direction = false;
+  /// As the description declares them (the values are SI above): pose.length_unit ("m", "mm"),
+  /// joints.unit ("rad", "deg"), and whether the rotations came from quaternion_wxyz columns. For
+  /// messages that name which other reading would fit.
+  std::string length_unit = "m", angle_unit = "rad";
+  bool quaternion = false;
 
   int numSessions() const { return static_cast<int>(files.size()); }
 };

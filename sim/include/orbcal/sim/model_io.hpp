@@ -4,7 +4,8 @@
 // and, for people, every fitted parameter with its 1-sigma. `orbcal calibrate` writes it, `orbcal
 // simulate` writes the truth of a simulated dataset in the same format, `orbcal evaluate` reads both.
 //
-//   format: orbcal-model-1
+//   format: orbcal-model-2             # orbcal-model-1 is read too, unless it holds a compliance (its
+//                                      # sign was the other; sim/src/effects/compliance.cpp)
 //   robot: robot.yaml                  # relative to this file (written beside it)
 //   sessions: 2
 //   registration:
@@ -13,7 +14,7 @@
 //     world_T_base: [{xyz_m: [...], rpy_deg: [...]}]         # one, or one per session
 //     flange_T_marker: [{...}, {...}]
 //   effects:
-//     - {spec: "compliance:2,4", parameters: {c2: 1.2e-05, c4: 3.1e-06}}   # SI values
+//     - {spec: "compliance:2,4", parameters: {c2: 1.2e-05, c4: 3.1e-06}}   # SI values; c > 0 sags
 //   parameters:                        # for people: every fitted parameter (SI) and its 1-sigma (.nan: unknown)
 //     - {name: theta2, effect: geometry, value: 1e-4, sigma: 2e-6, unit: rad, held: false}
 //

@@ -21,7 +21,8 @@ struct SimulationSpec {
   ErrorSetSpec geometry{"random", 0.05 * kDegToRad, 0.5e-3, 1};  ///< DH errors of the true arm
   std::vector<Effect> effects;       ///< injected
   /// Effect parameter values in the effects' layout order (SI); empty: drawn from N(0, typical) with
-  /// magnitudes at least half a typical value (so a drawn effect is never negligible).
+  /// magnitudes at least half a typical value (so a drawn effect is never negligible), and the sign
+  /// physics gives where it gives one (EffectKind::physicalSign: a compliance is positive, the joint sags).
   Eigen::VectorXd effect_values;
   FrameSharing base = FrameSharing::kShared;
   FrameSharing marker = FrameSharing::kPerSession;

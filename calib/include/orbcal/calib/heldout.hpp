@@ -1,0 +1,74 @@
+#pragma once
+// Held-out validation of measured data, one way for every path (`orbcal calibrate DESC.yaml`'s hold-out,
+// `orbcal diagnose`'s cross-validation folds):
+//
+//  1. The split is by configuration: every measurement of one configuration (same session, every joint
+//     reading within kSameConfigurationRad; configurationGroups) lands on the same side, so a row
+//     repeated in the file can never be fitted and "predicted" at once.
+//  2. A calibration is accepted on held-out data only when at least kMinHeldoutConfigurations
+//     configurations are held out and its gain over the nominal arm is significant against the scatter
+//     of the held-out errors: a one-sided paired test of the per-configuration loss differentials
+//     d_g = |r_nominal|^2 - |r_calibrated|^2 (position, m^2, averaged over the rows of configuration g),
+//     t = mean(d) / (sd(d) / sqrt(G)) against Student's t with G - 1 degrees of freedom (Diebold and
+//     Mariano 1995), at the significance level diagnose's tests use (0.01).
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "orbcal/calib/marker_model.hpp"
+
+namespace orbcal::calib {
+
+/// Two readings of one joint closer than this are one configuration (rad; m for a prismatic reading):
+/// copies and re-reads of one pose agree to the encoder's last digits, and 1e-6 rad moves a marker 1 m
+/// out by 1 um, below any tracker's noise, so nothing can be learnt from one that the other lacks.
+constexpr double kSameConfigurationRad = 1e-6;
+
+/// At least this many held-out configurations: the paired test's scatter is then estimated with 9 or
+/// more degrees of freedom (Student's one-sided 1 % point 2.82 against 2.33 for infinitely many), and a
+/// mean of squared-error differences, skewed as they are, is near enough to normal only from about ten.
+constexpr int kMinHeldoutConfigurations = 10;
+
+/// The significance level of the held-out gain test (the level of diagnose's tests).
+constexpr double kHeldoutGainAlpha = 0.01;
+
+/// Configurations (replicate groups): observations of one session whose joint readings all agree within
+/// kSameConfigurationRad, joined transitively (single linkage), keyed by (session, the readings of the
+/// group's first observation in nrad), members in index order. Every split, the pure error and the
+/// group means of diagnose's evidence use these.
+std::map<std::vector<long long>, std::vector<int>> configurationGroups(const std::vector<MarkerObservation>& obs);
+
+/// The one split of measured samples into parts (cross-validation folds, or fitted | held out): each
+/// configuration goes whole to one part. The configurations are shuffled per session (seeded) and dealt,
+/// session after session, each to the part furthest below its share of those dealt so far (the lowest
+/// part on a tie): equal shares deal round-robin, and every part gets its share of every session to one
+/// configuration. `shares` > 0 (normalised here). Returns the part of each observation.
+std::vector<int> splitByConfiguration(const std::vector<MarkerObservation>& obs, const std::vector<double>& shares,
+                                      std::uint64_t seed);
+
+/// The number of configurations among `obs` (configurationGroups).
+int countConfigurations(const std::vector<MarkerObservation>& obs);
+
+/// The held-out gain of a calibrated model over the nominal arm (registration fitted) and its test.
+struct HeldoutGain {
+  int configurations = 0;          ///< held out
+  double before_rms_m = 0.0;       ///< position RMS over the held-out rows: nominal arm
+  double after_rms_m = 0.0;        ///< calibrated
+  double t = 0.0;                  ///< the paired statistic (0 with fewer than two configurations)
+  double p_value = 1.0;            ///< one-sided: P(T > t) under "no gain"
+  bool enough = false;             ///< configurations >= kMinHeldoutConfigurations
+  bool significant = false;        ///< enough and p_value < kHeldoutGainAlpha
+};
+
+/// The test above on held-out observations `obs` and their residuals ([position; rotation] or
+/// [position]) under the nominal arm (`before`) and the calibrated model (`after`).
+HeldoutGain heldoutGain(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& before,
+                        const std::vector<Eigen::VectorXd>& after);
+
+/// Why a gain is not accepted, one sentence a user can act on ("only 3 configurations held out, ...");
+/// empty when it is significant. `holdout`: the fraction held out, for the advice; `total`: the
+/// configurations in all.
+std::string heldoutRefusal(const HeldoutGain& g, double holdout, int total);
+
+}  // namespace orbcal::calib

@@ -1,0 +1,154 @@
+#include "orbcal/calib/heldout.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "orbcal/calib/diagnose.hpp"
+#include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/errors.hpp"
+
+namespace orbcal::calib {
+
+namespace {
+
+/// Union-find root with path halving.
+std::size_t rootOf(std::vector<std::size_t>& parent, std::size_t i) {
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+bool sameConfiguration(const sim::JointSample& a, const sim::JointSample& b) {
+  return a.session == b.session && a.q_rad.size() == b.q_rad.size() &&
+         (a.q_rad.size() == 0 || (a.q_rad - b.q_rad).cwiseAbs().maxCoeff() <= kSameConfigurationRad);
+}
+
+/// Position loss |r_pos|^2 (m^2) of each configuration (configurationGroups' order), averaged over its rows.
+std::vector<double> configurationLoss(const std::map<std::vector<long long>, std::vector<int>>& groups,
+                                      const std::vector<Eigen::VectorXd>& residual) {
+  std::vector<double> loss;
+  for (const auto& [key, members] : groups) {
+    double sum = 0.0;
+    for (int i : members) sum += residual[static_cast<std::size_t>(i)].head<3>().squaredNorm();
+    loss.push_back(sum / static_cast<double>(members.size()));
+  }
+  return loss;
+}
+
+double positionRms(const std::vector<Eigen::VectorXd>& residual) {
+  double sum = 0.0;
+  for (const Eigen::VectorXd& r : residual) sum += r.head<3>().squaredNorm();
+  return residual.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(residual.size()));
+}
+
+}  // namespace
+
+std::map<std::vector<long long>, std::vector<int>> configurationGroups(const std::vector<MarkerObservation>& obs) {
+  const std::size_t n = obs.size();
+  // Candidates pairs from a sweep along the first joint's reading (within a session).
+  const auto first = [&](std::size_t i) { return obs[i].sample.q_rad.size() ? obs[i].sample.q_rad[0] : 0.0; };
+  std::vector<std::size_t> order(n), parent(n);
+  std::iota(order.begin(), order.end(), 0);
+  std::iota(parent.begin(), parent.end(), 0);
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
+    return obs[a].sample.session != obs[b].sample.session ? obs[a].sample.session < obs[b].sample.session : first(a) < first(b);
+  });
+  for (std::size_t a = 0; a < n; ++a) {
+    for (std::size_t b = a + 1; b < n; ++b) {
+      const std::size_t i = order[a], j = order[b];
+      if (obs[j].sample.session != obs[i].sample.session || first(j) - first(i) > kSameConfigurationRad) break;
+      if (sameConfiguration(obs[i].sample, obs[j].sample)) parent[rootOf(parent, j)] = rootOf(parent, i);
+    }
+  }
+  std::map<std::size_t, std::vector<int>> by_root;
+  for (std::size_t i = 0; i < n; ++i) by_root[rootOf(parent, i)].push_back(static_cast<int>(i));
+  std::map<std::vector<long long>, std::vector<int>> groups;
+  for (auto& [root, members] : by_root) {
+    const sim::JointSample& s = obs[static_cast<std::size_t>(members.front())].sample;
+    std::vector<long long> key{s.session};
+    for (Eigen::Index j = 0; j < s.q_rad.size(); ++j) key.push_back(std::llround(s.q_rad[j] * 1e9));
+    groups[key] = std::move(members);
+  }
+  return groups;
+}
+
+int countConfigurations(const std::vector<MarkerObservation>& obs) { return static_cast<int>(configurationGroups(obs).size()); }
+
+std::vector<int> splitByConfiguration(const std::vector<MarkerObservation>& obs, const std::vector<double>& shares,
+                                      std::uint64_t seed) {
+  if (shares.empty() || std::any_of(shares.begin(), shares.end(), [](double s) { return !(s > 0.0); })) {
+    throw std::invalid_argument("splitByConfiguration: every share must be > 0");
+  }
+  const double total = std::accumulate(shares.begin(), shares.end(), 0.0);
+  std::map<int, std::vector<const std::vector<int>*>> by_session;
+  const std::map<std::vector<long long>, std::vector<int>> groups = configurationGroups(obs);
+  for (const auto& [key, members] : groups) by_session[static_cast<int>(key[0])].push_back(&members);
+  std::mt19937_64 rng = sim::makeRng(seed, 0x666f6c6473ULL);
+  std::vector<int> part(obs.size(), 0);
+  std::vector<double> count(shares.size(), 0.0);
+  double dealt = 0.0;
+  for (auto& [session, list] : by_session) {
+    std::shuffle(list.begin(), list.end(), rng);
+    for (const std::vector<int>* g : list) {
+      dealt += 1.0;
+      std::size_t best = 0;
+      for (std::size_t k = 1; k < shares.size(); ++k) {
+        if (shares[k] / total * dealt - count[k] > shares[best] / total * dealt - count[best]) best = k;
+      }
+      count[best] += 1.0;
+      for (int i : *g) part[static_cast<std::size_t>(i)] = static_cast<int>(best);
+    }
+  }
+  return part;
+}
+
+HeldoutGain heldoutGain(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& before,
+                        const std::vector<Eigen::VectorXd>& after) {
+  if (before.size() != obs.size() || after.size() != obs.size()) {
+    throw std::invalid_argument("heldoutGain: one residual per observation expected");
+  }
+  HeldoutGain g;
+  const auto groups = configurationGroups(obs);
+  const std::vector<double> lb = configurationLoss(groups, before), la = configurationLoss(groups, after);
+  g.configurations = static_cast<int>(groups.size());
+  g.before_rms_m = positionRms(before);
+  g.after_rms_m = positionRms(after);
+  g.enough = g.configurations >= kMinHeldoutConfigurations;
+  if (g.configurations >= 2) {
+    const double n = static_cast<double>(g.configurations);
+    double mean = 0.0, ss = 0.0;
+    for (std::size_t k = 0; k < lb.size(); ++k) mean += (lb[k] - la[k]) / n;
+    for (std::size_t k = 0; k < lb.size(); ++k) ss += (lb[k] - la[k] - mean) * (lb[k] - la[k] - mean);
+    const double se = std::sqrt(ss / (n - 1.0) / n);
+    if (se > 0.0) {
+      g.t = mean / se;
+      // P(T > t) for t > 0 is half of P(|T| > t) = P(F(1, n - 1) > t^2).
+      const double two_sided = fSurvival(g.t * g.t, 1.0, n - 1.0);
+      g.p_value = g.t > 0.0 ? 0.5 * two_sided : 1.0 - 0.5 * two_sided;
+    } else {
+      g.p_value = mean > 0.0 ? 0.0 : 1.0;
+    }
+  }
+  g.significant = g.enough && g.p_value < kHeldoutGainAlpha;
+  return g;
+}
+
+std::string heldoutRefusal(const HeldoutGain& g, double holdout, int total) {
+  using sim::formatNumber;
+  if (g.significant) return "";
+  if (!g.enough) {
+    const std::string in_all = holdout > 0.0 ? std::to_string(static_cast<int>(std::ceil(kMinHeldoutConfigurations / holdout - 1e-9)))
+                                             : std::string("more");
+    return "only " + std::to_string(g.configurations) + " of the " + std::to_string(total) +
+           " configurations are held out, and at least " + std::to_string(kMinHeldoutConfigurations) +
+           " are needed to tell a held-out gain from noise: measure more configurations (at least " + in_all +
+           " in all with --holdout " + formatNumber("%g", holdout) + ") or raise --holdout";
+  }
+  return "the held-out gain is not significant: position RMS " + formatNumber("%.4f", g.before_rms_m * 1e3) + " -> " +
+         formatNumber("%.4f", g.after_rms_m * 1e3) + " mm over " + std::to_string(g.configurations) +
+         " held-out configurations, one-sided paired test of their squared errors t = " + formatNumber("%.2f", g.t) +
+         ", p = " + formatNumber("%.2g", g.p_value) + " (needs p < " + formatNumber("%g", kHeldoutGainAlpha) +
+         "): measure more configurations, or fit fewer effects";
+}
+
+}  // namespace orbcal::calib
