@@ -12,6 +12,7 @@
 
 #include "calibrate.hpp"
 #include "measured.hpp"
+#include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/io.hpp"
@@ -185,6 +186,22 @@ TEST_CASE("absurd input: JSON orbcal writes never holds a non-finite number; str
   s.position_rms_m = std::numeric_limits<double>::infinity();
   CHECK_THROWS_WITH(tools::residualJson(s, "evaluation.json"), StartsWith("evaluation.json.position_rms_mm: inf"));
   CHECK(sim::jsonString("a\"b\\c\nd\x01") == "\"a\\\"b\\\\c\\u000ad\\u0001\"");
+}
+
+TEST_CASE("absurd input: a PNG cut short is an unreadable image, without libpng's complaint on the terminal", "[e2e][absurd]") {
+  const std::string dir = test::tempDir("absurd-truncated-png");
+  render::DatasetJob job;
+  job.scene = test::sourcePath("scenes/quick_scene.yaml");
+  job.count = 2;
+  job.out = dir + "/dataset";
+  render::renderDataset(job);
+  const std::string png = job.out + "/images/000001.png";
+  write(png, slurp(png).substr(0, 100));  // as a full disk or a killed writer leaves it
+  const Run r = runOrbcal(dir, "measure dataset -o m.csv");
+  CHECK(r.status == 0);
+  CHECK(r.err.empty());  // before: "libpng error: Read Error"
+  CHECK_THAT(r.out, Contains("1 x unreadable: cannot decode"));
+  CHECK_THAT(slurp(dir + "/m.csv"), Contains("images/000001.png: truncated (no end marker)"));
 }
 
 // ---- item 5: every measured column within its physical range ----
