@@ -365,7 +365,7 @@ Dataset loadDataset(const std::string& folder) {
   const std::string manifest_path = folder + "/manifest.yaml";
   d.manifest = parseManifest(readTextSource(manifest_path), manifest_path);
   d.arm = loadArm(RobotSource{d.path(d.manifest.robot_file), "", ""}, manifest_path + ": robot");
-  (void)readTextNamedBy(d.path(d.manifest.scene_file), manifest_path + ": scene");
+  (void)readTextNamedBy(d.path(d.manifest.scene_file), manifest_path + ": scene");  // a missing scene names the key (read twice: a few kB)
   d.scene = loadScene(d.path(d.manifest.scene_file));
   const std::string samples_path = d.path(d.manifest.samples_file);
   d.samples = parseSamplesCsv(readTextNamedBy(samples_path, manifest_path + ": samples"), samples_path, d.arm.numJoints(), &d.arm);

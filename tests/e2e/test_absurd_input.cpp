@@ -139,7 +139,7 @@ std::string robotError(const std::string& dir, const std::string& shipped, const
 
 }  // namespace
 
-// ---- item 1: no crash, no non-finite number anywhere ----
+// ---- no crash, no non-finite number anywhere ----
 
 TEST_CASE("absurd input: a measured x_m of -1e308 is refused by calibrate, diagnose and evaluate at its cell", "[e2e][absurd]") {
   const std::string dir = test::tempDir("absurd-1e308");
@@ -204,7 +204,7 @@ TEST_CASE("absurd input: a PNG cut short is an unreadable image, without libpng'
   CHECK_THAT(slurp(dir + "/m.csv"), Contains("images/000001.png: truncated (no end marker)"));
 }
 
-// ---- item 5: every measured column within its physical range ----
+// ---- every measured column within its physical range ----
 
 TEST_CASE("absurd input: measured torques, temperatures and times are refused outside their physical ranges", "[e2e][absurd]") {
   const std::string dir = test::tempDir("absurd-covariates");
@@ -245,7 +245,7 @@ TEST_CASE("absurd input: a pose matrix translation of 1e308 mm is refused at its
         dir + "/run.csv: line 3: m_03: 1e+308 mm is outside -10000000 mm to 10000000 mm (a position within 10 km)");
 }
 
-// ---- item 5: the description ----
+// ---- the description ----
 
 TEST_CASE("absurd input: a column a description names twice is refused at the second key", "[e2e][absurd]") {
   const std::string dir = test::tempDir("absurd-column-twice");
@@ -272,7 +272,7 @@ TEST_CASE("absurd input: a description's noise of 1e9 mm is refused with the com
   CHECK(inputError([&] { sim::loadMeasuredData(desc); }) == desc + ": noise.joint_deg: '-1' is outside 0 to 10 deg (0: readings exact)");
 }
 
-// ---- item 5: model files ----
+// ---- model files ----
 
 TEST_CASE("absurd input: a model's effect parameter of -5 rad/(N m) is refused, and evaluate writes nothing", "[e2e][absurd]") {
   const std::string dir = test::tempDir("absurd-model-effect");
@@ -317,7 +317,7 @@ TEST_CASE("absurd input: model.yaml's parameter list is read and must agree with
              StartsWith(model + ": parameters[46].value: 0.0001 differs from the value in effects, "));
 }
 
-// ---- item 5: error-set files ----
+// ---- error-set files ----
 
 TEST_CASE("absurd input: error-set effect parameters and covariates outside their physical ranges", "[e2e][absurd]") {
   const sim::Arm iiwa = sim::loadArm(test::sourcePath("scenes/iiwa7.yaml"));
@@ -340,7 +340,7 @@ TEST_CASE("absurd input: error-set effect parameters and covariates outside thei
         "e.yaml: geometry.random.length_sigma_mm: '1e308' is outside 0 mm to 10000 mm (a length error)");
 }
 
-// ---- item 5: image datasets ----
+// ---- image datasets ----
 
 TEST_CASE("absurd input: a manifest's joint_noise_deg of -1 or 1e6 and a negative seed are refused", "[e2e][absurd]") {
   const std::string dir = test::tempDir("absurd-manifest");
@@ -388,7 +388,7 @@ TEST_CASE("absurd input: samples.csv truth columns outside physical ranges, and 
   CHECK(sim::loadDataset(dir + "/dataset").samples[1].image == "images/../images/1b.png");
 }
 
-// ---- item 5: robot files ----
+// ---- robot files ----
 
 TEST_CASE("absurd input: robot com_m of 1e9 m and gravity_m_s2 of 1e9 are refused at their entries", "[e2e][absurd]") {
   const std::string dir = test::tempDir("absurd-robot");
@@ -416,7 +416,7 @@ TEST_CASE("absurd input: a URDF joint origin 1e9 m away or a limit of 1e308 is r
         dir + "/arm.urdf: joint 'iiwa_joint_2': <limit upper>: 1e+308 rad is outside -62.83 rad to 62.83 rad (ten turns)");
 }
 
-// ---- item 5: simulate's settings ----
+// ---- simulate's settings ----
 
 TEST_CASE("absurd input: simulate refuses a payload of NaN kg and an effect value of 1e308, writing nothing", "[e2e][absurd]") {
   const std::string dir = test::tempDir("absurd-simulate");
@@ -430,7 +430,7 @@ TEST_CASE("absurd input: simulate refuses a payload of NaN kg and an effect valu
   for (const char* out : {"a", "b", "c"}) CHECK_FALSE(fs::exists(dir + "/" + out));
 }
 
-// ---- item 6: clear messages ----
+// ---- clear messages ----
 
 TEST_CASE("clear messages: study option values are checked before any task runs", "[e2e][absurd][study]") {
   const std::string dir = test::tempDir("absurd-study-values");
