@@ -360,7 +360,7 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
     throw sim::InputError(o.dataset + ": only " + std::to_string(ident.size()) +
                           " usable identification images: at least " + std::to_string((d.arm.numParams() + 5) / 6) +
                           " are needed for " + std::to_string(d.arm.numParams()) + " parameters (" +
-                          vision::formatSummary(vision::summarize(meas)) + ")");
+                          vision::summaryLine(vision::summarize(meas)) + ")");
   }
 
   // R: the vision covariance plus the joint noise (unless the method says otherwise).

@@ -82,13 +82,13 @@ void addCalibrateCommand(CLI::App& app) {
   cmd->add_option_function<double>(
          "--joint-noise-deg", [o](double d) { o->images.joint_noise_sigma_rad = d * sim::kDegToRad; },
          "images: joint noise carried into R, 1 sigma [deg] (default: the manifest's, else 0.01)")
-      ->check(CLI::Range(0.0, 10.0));
+      ->check(CLI::Range(0.0, sim::kMaxNoiseJointDeg));
   cmd->add_option("--noise-position-mm", o->noise_position_mm,
                   "measured data: tracker position noise, 1 sigma per axis [mm] (default: the description's, else estimated)")
-      ->check(CLI::Range(1e-6, 100.0));
+      ->check(CLI::Range(sim::kMinNoisePositionMm, sim::kMaxNoisePositionMm));
   cmd->add_option("--noise-rotation-deg", o->noise_rotation_deg,
                   "measured data: tracker rotation noise, 1 sigma per axis [deg] (default: the description's, else estimated)")
-      ->check(CLI::Range(1e-7, 10.0));
+      ->check(CLI::Range(sim::kMinNoiseRotationDeg, sim::kMaxNoiseRotationDeg));
   cmd->add_option("--holdout", o->holdout,
                   "fraction kept out for validation: of the usable images; measured data: of the configurations (at least " +
                       std::to_string(calib::kMinHeldoutConfigurations) + " held out, and a gain significant at p < " +

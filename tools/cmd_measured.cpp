@@ -70,13 +70,13 @@ void addSimulateCommand(CLI::App& app) {
   cmd->add_option("--error-length-mm", o->error_length_mm, "spread of random a/d errors [mm]")->capture_default_str();
   cmd->add_option("--noise-position-mm", o->noise_position_mm, "tracker noise, 1 sigma per axis [mm]")
       ->capture_default_str()
-      ->check(CLI::Range(1e-6, 100.0));
+      ->check(CLI::Range(sim::kMinNoisePositionMm, sim::kMaxNoisePositionMm));
   cmd->add_option("--noise-rotation-deg", o->noise_rotation_deg, "tracker noise, 1 sigma per axis [deg]")
       ->capture_default_str()
-      ->check(CLI::Range(1e-7, 10.0));
+      ->check(CLI::Range(sim::kMinNoiseRotationDeg, sim::kMaxNoiseRotationDeg));
   cmd->add_option("--joint-noise-deg", o->joint_noise_deg, "joint readings vs true angles, 1 sigma [deg]")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 10.0));
+      ->check(CLI::Range(0.0, sim::kMaxNoiseJointDeg));
   cmd->add_flag("--position-only", o->position_only, "the tracker measures positions only");
   cmd->add_flag("--quiet", o->quiet, "no progress output (simulate shows none; taken as the other commands take it)");
   cmd->add_option("--base", o->base, "tracker frame: shared, per_session or known")->capture_default_str()

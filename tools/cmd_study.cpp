@@ -20,20 +20,38 @@ namespace orbcal::tools {
 
 namespace {
 
-/// Checks a study's option names against this program's own commands.
+/// The message of CLI11's own checks (type, range, choices) of `values` given to option `o`, or "".
+/// The values go through the option as parsing would put them there (its validators and its conversion
+/// into the probe's own variables), and are cleared again.
+std::string optionValueError(CLI::Option& o, const std::vector<std::string>& values) {
+  o.clear();
+  o.add_result(values);
+  std::string why;
+  try {
+    o.run_callback();
+  } catch (const CLI::Error& e) {
+    why = sim::printable(e.what());
+  }
+  o.clear();
+  return why;
+}
+
+/// Checks a study's option names and values against this program's own commands.
 StudyOptionCheck programOptions() {
   auto probe = std::make_shared<CLI::App>();  // built once, asked for every option of the study
   addRegisteredCommands(*probe);
-  return [probe](const std::string& job, const std::string& option, bool flag) -> std::string {
+  return [probe](const std::string& job, const std::string& option, bool flag, const std::vector<std::string>& values) -> std::string {
     CLI::App* sub = nullptr;
     for (CLI::App* c : probe->get_subcommands({})) {
       if (c->get_name() == job) sub = c;
     }
-    const CLI::Option* o = sub ? sub->get_option_no_throw("--" + option) : nullptr;
+    CLI::Option* o = sub ? sub->get_option_no_throw("--" + option) : nullptr;
     if (!o) return "not an option of orbcal " + job + " (see orbcal " + job + " --help)";
     if (flag && o->get_expected_max() != 0) return "--" + option + " takes a value, not true";
     if (!flag && o->get_expected_max() == 0) return "--" + option + " is a flag: give true or false";
-    return "";
+    if (values.empty()) return "";
+    const std::string why = optionValueError(*o, values);  // CLI11's message names the option and the value
+    return why.empty() ? "" : why + " (orbcal " + job + " would refuse it)";
   };
 }
 

@@ -31,17 +31,8 @@ namespace orbcal::tools {
 
 namespace {
 
-std::string jsonString(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
-}
-
 std::string effectJson(const sim::Effect& e) {
-  std::string j = "{\"effect\": " + jsonString(sim::effectName(e)) + ", \"joints\": [";
+  std::string j = "{\"effect\": " + sim::jsonString(sim::effectName(e)) + ", \"joints\": [";
   const std::vector<int> joints = sim::effectJoints(e);
   for (std::size_t i = 0; i < joints.size(); ++i) j += (i ? ", " : "") + std::to_string(joints[i] + 1);
   return j + "]";
@@ -74,19 +65,20 @@ std::vector<EffectParams> selectedParams(const calib::Diagnosis& d) {
 }  // namespace
 
 std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& distortion) {
+  const auto num = [](double v, const std::string& key) { return sim::jsonNumber(v, "diagnosis.json: " + key); };
   std::ostringstream j;
   // clean: nothing selected, nothing left; effects: the selected model explains what there was;
   // unexplained: its held-out residuals still exceed the noise or are structured (with or without
   // effects selected: `selected` says which).
-  j << "{\"verdict\": " << jsonString(d.clean ? "clean" : d.unexplained ? "unexplained" : "effects") << ",\n \"sentence\": " << jsonString(d.verdict)
+  j << "{\"verdict\": " << sim::jsonString(d.clean ? "clean" : d.unexplained ? "unexplained" : "effects") << ",\n \"sentence\": " << sim::jsonString(d.verdict)
     << ",\n \"selected\": [";
   const std::vector<EffectParams> sel = selectedParams(d);
   for (std::size_t k = 0; k < sel.size(); ++k) {
     j << (k ? ",\n   " : "\n   ") << effectJson(sel[k].effect) << ", \"parameters\": [";
     for (std::size_t i = 0; i < sel[k].params.size(); ++i) {
       const auto& [info, value, sigma] = sel[k].params[i];
-      j << (i ? ", " : "") << "{\"name\": " << jsonString(info->name) << ", \"value\": " << sim::exactNumber(value)
-        << ", \"sigma\": " << sim::exactNumber(sigma) << ", \"unit\": " << jsonString(info->unit) << "}";
+      j << (i ? ", " : "") << "{\"name\": " << sim::jsonString(info->name) << ", \"value\": " << num(value, "selected." + info->name)
+        << ", \"sigma\": " << num(sigma, "selected." + info->name + ".sigma") << ", \"unit\": " << sim::jsonString(info->unit) << "}";
     }
     j << "]}";
   }
@@ -94,8 +86,8 @@ std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& dist
     static const char* kNames[4] = {"dk1", "dk2", "dp1", "dp2"};
     j << (sel.empty() ? "\n   " : ",\n   ") << "{\"effect\": \"distortion\", \"joints\": [], \"parameters\": [";
     for (std::size_t i = 0; i < 4; ++i) {
-      j << (i ? ", " : "") << "{\"name\": \"" << kNames[i] << "\", \"value\": " << sim::exactNumber(distortion.dk[i])
-        << ", \"sigma\": " << sim::exactNumber(distortion.dk_sigma[i]) << ", \"unit\": \"1\"}";
+      j << (i ? ", " : "") << "{\"name\": \"" << kNames[i] << "\", \"value\": " << num(distortion.dk[i], std::string("selected.") + kNames[i])
+        << ", \"sigma\": " << num(distortion.dk_sigma[i], std::string("selected.") + kNames[i] + ".sigma") << ", \"unit\": \"1\"}";
     }
     j << "]}";
   }
@@ -107,25 +99,27 @@ std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& dist
     j << "]";
   }
   const calib::MarkerNoise& n = d.base_fit.noise;  // SI: m, rad
-  j << "],\n \"noise\": {\"position_m\": " << sim::exactNumber(n.sigma_position_m) << ", \"rotation_rad\": "
-    << sim::exactNumber(n.sigma_rotation_rad) << ", \"joint_rad\": " << sim::exactNumber(n.joint_noise_sigma_rad) << "}";
+  j << "],\n \"noise\": {\"position_m\": " << num(n.sigma_position_m, "noise.position_m") << ", \"rotation_rad\": "
+    << num(n.sigma_rotation_rad, "noise.rotation_rad") << ", \"joint_rad\": " << num(n.joint_noise_sigma_rad, "noise.joint_rad") << "}";
   const calib::LackOfFit& l = d.lack_of_fit;
   j << ",\n \"unexplained\": [";
   for (std::size_t i = 0; i < l.unexplained.size(); ++i) {
-    j << (i ? ", " : "") << "{\"variable\": " << jsonString(l.unexplained[i].variable) << ", \"statistic\": "
-      << sim::exactNumber(l.unexplained[i].statistic) << ", \"dof\": " << l.unexplained[i].dof << ", \"p\": "
-      << sim::exactNumber(l.unexplained[i].p_adjusted) << "}";
+    j << (i ? ", " : "") << "{\"variable\": " << sim::jsonString(l.unexplained[i].variable) << ", \"statistic\": "
+      << num(l.unexplained[i].statistic, "unexplained.statistic") << ", \"dof\": " << l.unexplained[i].dof << ", \"p\": "
+      << num(l.unexplained[i].p_adjusted, "unexplained.p") << "}";
   }
-  j << "],\n \"lack_of_fit\": {\"noise_source\": " << jsonString(calib::noiseSourceName(l.source))
-    << ", \"tested\": " << (l.tested ? "true" : "false") << ", \"statistic\": " << sim::exactNumber(l.statistic)
-    << ", \"dof1\": " << sim::exactNumber(l.dof1) << ", \"dof2\": " << sim::exactNumber(l.dof2) << ", \"p\": " << sim::exactNumber(l.p_value)
-    << ", \"level\": " << sim::exactNumber(l.level) << ", \"excess_rms_mm\": " << sim::exactNumber(l.excess_rms_m * 1e3)
-    << ", \"excess_share\": " << sim::exactNumber(l.excess_share) << ", \"estimation_factor\": " << sim::exactNumber(l.estimation_factor)
+  const auto lof = [&num](double v, const char* key) { return num(v, std::string("lack_of_fit.") + key); };
+  j << "],\n \"lack_of_fit\": {\"noise_source\": " << sim::jsonString(calib::noiseSourceName(l.source))
+    << ", \"tested\": " << (l.tested ? "true" : "false") << ", \"statistic\": " << lof(l.statistic, "statistic")
+    << ", \"dof1\": " << lof(l.dof1, "dof1") << ", \"dof2\": " << lof(l.dof2, "dof2") << ", \"p\": " << lof(l.p_value, "p")
+    << ", \"level\": " << lof(l.level, "level") << ", \"excess_rms_mm\": " << lof(l.excess_rms_m * 1e3, "excess_rms_mm")
+    << ", \"excess_share\": " << lof(l.excess_share, "excess_share") << ", \"estimation_factor\": " << lof(l.estimation_factor, "estimation_factor")
     << ", \"replicated_configurations\": " << l.pure.replicated << ", \"share_of_excess\": [";
-  for (std::size_t i = 0; i < d.share_of_excess.size(); ++i) j << (i ? ", " : "") << sim::exactNumber(d.share_of_excess[i]);
+  for (std::size_t i = 0; i < d.share_of_excess.size(); ++i) j << (i ? ", " : "") << lof(d.share_of_excess[i], "share_of_excess");
   j << "]}";
-  j << ",\n \"heldout\": {\"base\": " << residualJson(d.heldout.base) << ", \"selected\": " << residualJson(d.heldout.selected)
-    << ", \"noise_position_rms_mm\": " << sim::exactNumber(d.heldout.noise_position_rms_m * 1e3) << "},\n"
+  j << ",\n \"heldout\": {\"base\": " << residualJson(d.heldout.base, "diagnosis.json: heldout.base") << ", \"selected\": "
+    << residualJson(d.heldout.selected, "diagnosis.json: heldout.selected")
+    << ", \"noise_position_rms_mm\": " << num(d.heldout.noise_position_rms_m * 1e3, "heldout.noise_position_rms_mm") << "},\n"
     << " \"seconds\": " << sim::formatNumber("%.3f", d.seconds) << "}\n";
   return j.str();
 }

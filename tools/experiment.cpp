@@ -1,5 +1,6 @@
 #include "experiment.hpp"
 
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -9,6 +10,7 @@
 #include <iostream>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 
 #include "calibrate.hpp"
 #include "orbcal/calib/observability.hpp"
@@ -98,9 +100,14 @@ std::string drawFigure(const ExperimentOptions& o, const std::string& folder, co
   if (status == 0) return "![" + caption + "](" + png + ")\n";
   // The last line of a Python error is its message (e.g. "ModuleNotFoundError: No module named ...").
   while (!output.empty() && output.back() == '\n') output.pop_back();
-  std::cerr << "orbcal: warning: figure " << png << " not drawn (python3 with matplotlib is needed): "
-            << output.substr(output.find_last_of('\n') + 1) << "\n";
-  return "(figure " + png + " not drawn: python3 with matplotlib is needed)\n";
+  const std::string last = sim::printable(output.substr(output.find_last_of('\n') + 1), 300);
+  const bool no_python = status == -1 || (WIFEXITED(status) && WEXITSTATUS(status) == 127);
+  if (no_python || output.find("No module named") != std::string::npos) {  // figures are optional: a warning
+    std::cerr << "orbcal: warning: figure " << png << " not drawn (python3 with matplotlib is needed): " << last << "\n";
+    return "(figure " + png + " not drawn: python3 with matplotlib is needed)\n";
+  }
+  // Anything else (a full disk, an unwritable folder, a plotting error): the run is not complete.
+  throw std::runtime_error("figure " + png + " not drawn: " + (last.empty() ? "the plot script failed" : last) + " (" + script + ")");
 }
 
 std::vector<calib::MethodSpec> chosenMethods(const ExperimentOptions& o, std::vector<calib::MethodSpec> preset) {
@@ -214,7 +221,7 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
   const Eigen::VectorXd y_true = truth.geometryErrors();
   if (r.identification.observations.empty()) {
     throw sim::InputError(o.out + "/datasets: no identification image gave a pose (" +
-                          vision::formatSummary(r.identification.summary) + ")");
+                          vision::summaryLine(r.identification.summary) + ")");
   }
   const auto methods = chosenMethods(o, calib::comparisonMethods(o.joint_noise_sigma_rad));
   log(o, "estimating with " + std::to_string(methods.size()) + " methods ...");

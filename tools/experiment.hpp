@@ -96,7 +96,10 @@ using sim::formatNumber;  // printf-style formatting of one number (sim/csv.hpp)
 /// code block); "" without effects.
 std::string injectedEffects(const sim::TrueArm& truth, const std::string& source);
 /// Draws <folder>/<png> with tools/plot_report.py (`args` = its kind and CSV path, quoted); returns the
-/// Markdown image line, or a line saying why the figure was not drawn (also warned on stderr).
+/// Markdown image line, or, where python3 or matplotlib is missing (figures are optional), a line saying
+/// so (also warned on stderr). Any other failure (a full disk, an unwritable folder, an error of the
+/// script) throws std::runtime_error naming the figure and the script's last line: the run is not
+/// complete, and the command exits non-zero.
 /// Runs a shell command line (its own redirections included) and returns its exit status (pclose's:
 /// 0 for success, -1 when it cannot start) and what it printed on standard output.
 std::pair<int, std::string> shellOutput(const std::string& command);

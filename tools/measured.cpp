@@ -40,14 +40,12 @@ std::vector<sim::ParameterRow> parameterRows(const calib::Fit& fit) {
   return rows;
 }
 
-std::string residualJson(const calib::ResidualStats& s) {
-  std::ostringstream j;
-  j << "{\"samples\": " << s.samples << ", \"position_mean_mm\": " << sim::exactNumber(s.position_mean_m * 1e3)
-    << ", \"position_rms_mm\": " << sim::exactNumber(s.position_rms_m * 1e3)
-    << ", \"position_max_mm\": " << sim::exactNumber(s.position_max_m * 1e3)
-    << ", \"rotation_rms_deg\": " << sim::exactNumber(s.rotation_rms_rad * sim::kRadToDeg)
-    << ", \"rotation_max_deg\": " << sim::exactNumber(s.rotation_max_rad * sim::kRadToDeg) << "}";
-  return j.str();
+std::string residualJson(const calib::ResidualStats& s, const std::string& key) {
+  const auto number = [&key](const char* name, double v) { return "\"" + std::string(name) + "\": " + sim::jsonNumber(v, key + "." + name); };
+  return "{\"samples\": " + std::to_string(s.samples) + ", " + number("position_mean_mm", s.position_mean_m * 1e3) + ", " +
+         number("position_rms_mm", s.position_rms_m * 1e3) + ", " + number("position_max_mm", s.position_max_m * 1e3) + ", " +
+         number("rotation_rms_deg", s.rotation_rms_rad * sim::kRadToDeg) + ", " +
+         number("rotation_max_deg", s.rotation_max_rad * sim::kRadToDeg) + "}";
 }
 
 namespace {
@@ -225,8 +223,8 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   calib::requirePlausibleResidual(data, r.fit.residuals, "the prediction residual of " + model_file);
   sim::OutputFolder folder(out, "orbcal evaluate");  // the inputs are read and plausible
   r.warnings = calib::outsideTrustedRange(lm.model, obs);
-  std::string json = residualJson(r.fit.residuals);
-  json.insert(json.size() - 1, ", \"model\": \"" + model_file + "\", \"data\": \"" + description + "\"");
+  std::string json = residualJson(r.fit.residuals, out + "/evaluation.json");
+  json.insert(json.size() - 1, ", \"model\": " + sim::jsonString(model_file) + ", \"data\": " + sim::jsonString(description));
   sim::writeFileAtomic(folder.path() + "/evaluation.json", json + "\n");
   std::ostringstream md;
   md << "# Evaluation of `" << model_file << "` on `" << description << "`\n\n"

@@ -60,7 +60,8 @@ sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& s
 /// Parameter rows (display units are the caller's) of a fit: every parameter, value p, 1-sigma, held.
 std::vector<sim::ParameterRow> parameterRows(const calib::Fit& fit);
 
-/// JSON of residual statistics in mm and deg: {"samples": .., "position_mean_mm": .., ...}.
-std::string residualJson(const calib::ResidualStats& s);
+/// JSON of residual statistics in mm and deg: {"samples": .., "position_mean_mm": .., ...}. `key` names
+/// the file and the field for the message of a non-finite number (sim::jsonNumber).
+std::string residualJson(const calib::ResidualStats& s, const std::string& key);
 
 }  // namespace orbcal::tools

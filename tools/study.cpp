@@ -50,12 +50,12 @@ bool isTrue(const std::string& v) { return v == "true" || v == "yes" || v == "on
 bool isFalse(const std::string& v) { return v == "false" || v == "no" || v == "off"; }
 
 std::string checkedOption(const sim::ConfigNode& n, const std::string& key, const std::string& job, bool flag,
-                          const StudyOptionCheck& check) {
+                          const std::vector<std::string>& values, const StudyOptionCheck& check) {
   if (kReserved.count(key)) {
     n.fail("set by the study itself (-o, --seed, --shard and --preset come from the study's folder, seeds, shards and preset)");
   }
   if (check) {
-    const std::string why = check(job, key, flag);
+    const std::string why = check(job, key, flag, values);
     if (!why.empty()) n.fail(why);
   }
   return key;
@@ -191,24 +191,26 @@ StudySpec parseStudy(const std::string& text, const std::string& source, const S
     for (const std::string& key : opts.keys()) {
       const sim::ConfigNode v = opts[key];
       if (v.isSequence()) {  // an option that takes several values
-        s.options.emplace_back(checkedOption(v, key, s.job, false, check), stringList(v));
+        const std::vector<std::string> values = stringList(v);
+        s.options.emplace_back(checkedOption(v, key, s.job, false, values, check), values);
         continue;
       }
       const std::string value = cellValue(v);
       if (isFalse(value)) continue;  // a flag left off
-      s.options.emplace_back(checkedOption(v, key, s.job, isTrue(value), check),
-                             isTrue(value) ? std::vector<std::string>{} : std::vector<std::string>{value});
+      const std::vector<std::string> values = isTrue(value) ? std::vector<std::string>{} : std::vector<std::string>{value};
+      s.options.emplace_back(checkedOption(v, key, s.job, isTrue(value), values, check), values);
     }
   }
   if (root.has("grid")) {
     const sim::ConfigNode grid = root["grid"];
     for (const std::string& key : grid.keys()) {
       const sim::ConfigNode v = grid[key];
-      checkedOption(v, key, s.job, false, check);
+      checkedOption(v, key, s.job, false, {}, check);
       for (const auto& [name, value] : s.options) {
         if (name == key) v.fail("also in options: give an option either fixed or in the grid");
       }
       std::vector<std::string> values = stringList(v);
+      for (std::size_t i = 0; i < values.size(); ++i) checkedOption(v[i], key, s.job, false, {values[i]}, check);
       if (values.empty()) v.fail("an empty list leaves the study without cells");
       if (std::set<std::string>(values.begin(), values.end()).size() != values.size()) v.fail("a value given twice");
       s.grid.emplace_back(key, std::move(values));

@@ -68,9 +68,12 @@ struct StudyTask {
   std::vector<std::string> args;         ///< orbcal's arguments, without -o
 };
 
-/// Checks that `option` (long name without "--") is an option of `job`; returns "" when it is, else
-/// what is wrong (e.g. "not an option of orbcal experiment"). `flag`: given as `true` (no value).
-using StudyOptionCheck = std::function<std::string(const std::string& job, const std::string& option, bool flag)>;
+/// Checks that `option` (long name without "--") is an option of `job` and that `values` (its arguments;
+/// empty: the name alone) pass the option's own checks (type, range, choices), so that a bad value is
+/// refused before any task runs; returns "" when they do, else what is wrong in one line (e.g. "not an
+/// option of orbcal experiment"). `flag`: given as `true` (no value).
+using StudyOptionCheck = std::function<std::string(const std::string& job, const std::string& option, bool flag,
+                                                   const std::vector<std::string>& values)>;
 
 /// Parses a study file; errors name the file and the key (sim::InputError). `check` validates option
 /// names against the program's commands (empty: not checked).

@@ -128,6 +128,7 @@ Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
     const int iterations = o.relinearize ? std::max(1, o.iterations_per_update) : 1;
     for (int it = 0; it < iterations; ++it) {
       const Linearization lin = m.linearize(k, o.relinearize ? y_i : zero);
+      requireFinite(lin, k);
       H = lin.H;
       // (13): paper-literal h = Z - J y_prior with Z, J at nominal; re-linearized:
       // nu(y_i) - H (y_prior - y_i), which equals nu(y_prior) on the first iteration.
@@ -273,11 +274,16 @@ class SampleCost : public ceres::CostFunction {
     Eigen::VectorXd y = Eigen::VectorXd::Zero(m_.numParams());
     for (std::size_t c = 0; c < free_.size(); ++c) y[free_[c]] = params[0][c];
     // Ceres asks for the residual alone at every trial step: the prediction without its Jacobian.
+    // A step to where the prediction is not finite is a failed evaluation (Ceres then shortens the
+    // step), never a non-finite residual: Ceres would log it on the terminal.
     if (!jacobians || !jacobians[0]) {
-      Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = W_ * m_.innovation(k_, y);
+      const Eigen::VectorXd r = W_ * m_.innovation(k_, y);
+      if (!r.allFinite()) return false;
+      Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = r;
       return true;
     }
     const Linearization lin = m_.linearize(k_, y);
+    if (!lin.innovation.allFinite() || !lin.H.allFinite()) return false;
     Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = W_ * lin.innovation;
     const Eigen::MatrixXd WH = W_ * lin.H;
     Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jacobians[0], m_.rows(k_),

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <sstream>
+#include <stdexcept>
 
 #include "orbcal/sim/config.hpp"
 
@@ -105,6 +106,28 @@ std::string formatNumber(const char* format, double value) {
   char buf[64];
   std::snprintf(buf, sizeof buf, format, value);
   return buf;
+}
+
+std::string jsonNumber(double v, const std::string& key) {
+  if (!std::isfinite(v)) throw std::runtime_error(key + ": " + exactNumber(v) + " is not a finite number (JSON holds none); nothing written");
+  return exactNumber(v);
+}
+
+std::string jsonString(const std::string& text) {
+  std::string out = "\"";
+  for (const char c : text) {
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += c;
+    } else if (static_cast<unsigned char>(c) < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(static_cast<unsigned char>(c)));
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out + "\"";
 }
 
 std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs) {

@@ -3,6 +3,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <sstream>
 
@@ -12,6 +13,7 @@
 #include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/io.hpp"
+#include "orbcal/sim/measured.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::sim {
@@ -26,6 +28,17 @@ std::string num(double v) {
 }  // namespace
 
 namespace {
+/// A seed: a whole number from 0 that fits 64 bits, written as digits (a double would round seeds
+/// above 2^53, and a cast of a negative or huge one is undefined).
+std::uint64_t readSeed(const ConfigNode& n) {
+  const std::string text = n.asString();
+  const bool digits = !text.empty() && text.size() <= 20 && text.find_first_not_of("0123456789") == std::string::npos;
+  if (!digits || (text.size() == 20 && text > "18446744073709551615")) {
+    n.fail("expected a whole number from 0 to 18446744073709551615, got " + quoteInput(text));
+  }
+  return std::stoull(text);
+}
+
 /// The manifest keeps angles in degrees and lengths in mm for people (12 significant digits), so a
 /// value read back differs from the one written by up to 1e-12 relative: compare within that.
 bool sameValue(double a, double b) { return std::abs(a - b) <= 1e-11 * std::max(std::abs(a), std::abs(b)); }
@@ -183,13 +196,16 @@ DatasetManifest parseManifest(const std::string& text, const std::string& source
     }
     m.shard = expected;
   }
-  m.joint_noise_sigma_rad = root.optional("joint_noise_deg").asDouble(0.0) * kDegToRad;
+  if (const ConfigNode noise = root.optional("joint_noise_deg"); noise.defined()) {
+    m.joint_noise_sigma_rad = noise.asDoubleWithin(0.0, kMaxNoiseJointDeg, "0 to 10 deg (1 sigma; 0: readings exact)") * kDegToRad;
+  }
   const ConfigNode seeds = root.optional("seeds");
   if (seeds.defined()) {
     seeds.requireOnlyKeys({"configurations", "joint_noise", "render"});
-    m.configuration_seed = static_cast<std::uint64_t>(seeds.optional("configurations").asDouble(0));
-    m.noise_seed = static_cast<std::uint64_t>(seeds.optional("joint_noise").asDouble(0));
-    m.render_seed = static_cast<std::uint64_t>(seeds.optional("render").asDouble(0));
+    for (const auto& [key, seed] : {std::pair<const char*, std::uint64_t*>{"configurations", &m.configuration_seed},
+                                    {"joint_noise", &m.noise_seed}, {"render", &m.render_seed}}) {
+      if (seeds.has(key)) *seed = readSeed(seeds[key]);
+    }
   }
   const ConfigNode te = root.optional("true_errors");
   if (te.defined()) {
@@ -211,6 +227,46 @@ DatasetManifest parseManifest(const std::string& text, const std::string& source
 namespace {
 const char* kPoseColumns[6] = {"cam_board_x_m", "cam_board_y_m", "cam_board_z_m",
                                "cam_board_rx_rad", "cam_board_ry_rad", "cam_board_rz_rad"};
+
+/// How far a true joint (simulation: the reading plus the joint noise) may lie outside the limits:
+/// 6 sigma of the largest joint noise a manifest states (a draw beyond it: once in 5e8).
+constexpr double kTrueJointMarginRad = 6.0 * kMaxNoiseJointDeg * kDegToRad;
+
+/// Throws unless the image path stays inside the dataset folder: relative, and no `..` that leaves it.
+void checkImagePath(const CsvTable& t, std::size_t r, const std::string& image) {
+  const std::filesystem::path p = std::filesystem::path(image).lexically_normal();
+  if (p.is_absolute() || p.has_root_name() || p.has_root_directory() || (!p.empty() && *p.begin() == "..")) {
+    throw InputError(t.where(r) + ": image: " + quoteInput(image) +
+                     " leaves the dataset folder (image paths are relative to it and stay inside)");
+  }
+}
+
+/// The simulation-truth columns of row r: true joints within the limits widened by
+/// kTrueJointMarginRad, the camera-board pose within 10 km and a rotation vector of at most one turn.
+void checkTruthColumns(const CsvTable& t, std::size_t r, const std::vector<int>& c_qt, const std::vector<int>& c_pose,
+                       const Arm* limits) {
+  for (std::size_t j = 0; limits && j < c_qt.size(); ++j) {
+    const Eigen::Index i = static_cast<Eigen::Index>(j);
+    const double lo = limits->lower_rad[i] - kTrueJointMarginRad, hi = limits->upper_rad[i] + kTrueJointMarginRad;
+    if (t.cell(r, c_qt[j]).empty() || (t.number(r, c_qt[j]) >= lo && t.number(r, c_qt[j]) <= hi)) continue;
+    throw InputError(t.where(r) + ": " + t.header()[static_cast<std::size_t>(c_qt[j])] + ": " +
+                     formatNumber("%.9g", t.number(r, c_qt[j])) + " rad is outside the joint limits of " + limits->source +
+                     " widened by 60 deg (6 sigma of the largest joint noise), " + formatNumber("%.9g", lo) + " to " +
+                     formatNumber("%.9g", hi) + " rad");
+  }
+  const auto pose = t.numbers(r, c_pose);
+  if (!pose) return;
+  for (int i = 0; i < 3; ++i) {
+    if (std::abs((*pose)[i]) > kMaxLengthM) {
+      throw InputError(t.where(r) + ": " + kPoseColumns[i] + ": " + formatNumber("%.9g", (*pose)[i]) +
+                       " m is outside -10000 m to 10000 m");
+    }
+  }
+  if (pose->tail<3>().norm() > 2.0 * kPi) {
+    throw InputError(t.where(r) + ": " + kPoseColumns[3] + ".." + kPoseColumns[5] + ": a rotation vector of " +
+                     formatNumber("%.9g", pose->tail<3>().norm()) + " rad, more than one turn (2 pi rad)");
+  }
+}
 }  // namespace
 
 std::string formatSamplesCsv(const std::vector<DatasetSample>& samples, int n) {
@@ -280,6 +336,7 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
     }
     s.image = t.cell(r, c_image);
     if (s.image.empty()) throw InputError(t.where(r) + ": image: empty");
+    checkImagePath(t, r, s.image);
     if (const auto [it, fresh] = image_line.emplace(s.image, line); !fresh) {
       throw InputError(t.where(r) + ": image: " + quoteInput(s.image) + " given twice (first on line " +
                        std::to_string(it->second) + ")");
@@ -294,6 +351,7 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
       throw InputError(t.where(r) + ": q" + std::to_string(j + 1) + "_rad: " + formatNumber("%.9g", v) + " rad (" + deg(v) +
                        " deg) is outside the joint limits [" + deg(lo) + ", " + deg(hi) + "] deg of " + limits->source);
     }
+    checkTruthColumns(t, r, c_qt, c_pose, limits);
     s.q_true_rad = t.numbers(r, c_qt);
     if (const auto pose = t.numbers(r, c_pose)) s.camera_T_board_true = poseFromVector(*pose);
     samples.push_back(std::move(s));
@@ -306,10 +364,11 @@ Dataset loadDataset(const std::string& folder) {
   d.folder = folder;
   const std::string manifest_path = folder + "/manifest.yaml";
   d.manifest = parseManifest(readTextSource(manifest_path), manifest_path);
-  d.arm = loadArm(d.path(d.manifest.robot_file));
+  d.arm = loadArm(RobotSource{d.path(d.manifest.robot_file), "", ""}, manifest_path + ": robot");
+  (void)readTextNamedBy(d.path(d.manifest.scene_file), manifest_path + ": scene");  // a missing scene names the key (read twice: a few kB)
   d.scene = loadScene(d.path(d.manifest.scene_file));
   const std::string samples_path = d.path(d.manifest.samples_file);
-  d.samples = parseSamplesCsv(readTextSource(samples_path), samples_path, d.arm.numJoints(), &d.arm);
+  d.samples = parseSamplesCsv(readTextNamedBy(samples_path, manifest_path + ": samples"), samples_path, d.arm.numJoints(), &d.arm);
   if (static_cast<int>(d.samples.size()) != d.manifest.num_samples) {
     throw InputError(manifest_path + ": num_samples: " + std::to_string(d.manifest.num_samples) + ", but " +
                      d.manifest.samples_file + " has " + std::to_string(d.samples.size()) + " rows");

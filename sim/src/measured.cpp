@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <stdexcept>
@@ -45,15 +46,42 @@ const std::vector<Unit> kTemperatureUnits = {{"degC"}, {"K", 1.0, 1.0, -273.15}}
 const std::vector<Unit> kTimeUnits = {{"s"}, {"ms", 1.0, 1000.0}, {"min", 60.0}, {"h", 3600.0}};
 
 // ---------------------------------------------------------------------------------------------
+// Physical ranges: what no real arm and instrument measure, refused at read time (SI).
+
+struct PhysicalRange {
+  double lo = -std::numeric_limits<double>::infinity();
+  double hi = std::numeric_limits<double>::infinity();
+  const char* what = "";  ///< why, for the message; empty: no range (checked otherwise, or none)
+};
+
+const PhysicalRange kPositionRange{-kMaxLengthM, kMaxLengthM, "a position within 10 km"};
+/// Ten times the largest joint torques of industrial arms (a few 1e4 N m at a heavy arm's base).
+const PhysicalRange kTorqueRange{-1e6, 1e6, "a joint torque within 1e6 N*m"};
+const PhysicalRange kTemperatureRange{kMinTemperatureC, kMaxTemperatureC, "an arm's temperature"};
+const PhysicalRange kTimeRange{-1e10, 1e10, "a time within 1e10 s, about 300 years: Unix time stamps fit"};
+
+// ---------------------------------------------------------------------------------------------
 // The description: which columns hold what.
 
-/// Columns named by the description for one quantity, and their unit.
+/// Columns named by the description for one quantity, their unit and their physical range.
 struct ColumnGroup {
   std::vector<std::string> names;  ///< empty: not in the files
   Unit unit;
   std::vector<int> index;          ///< of each name in the CSV file being read (bindColumns)
+  PhysicalRange range;
   bool given() const { return !names.empty(); }
 };
+
+/// The key that named each column so far (column name -> key path): a column holds one quantity.
+using ColumnClaims = std::map<std::string, std::string>;
+
+/// The column name at `node`, which no other key may have named.
+std::string claimColumn(const ConfigNode& node, ColumnClaims& claims) {
+  const std::string name = node.asString();
+  const auto [it, fresh] = claims.emplace(name, node.path());
+  if (!fresh) node.fail("column " + quoteInput(name) + " is named twice (also at " + it->second + "); a column holds one quantity");
+  return name;
+}
 
 struct Layout {
   ColumnGroup joints, matrix, position, quaternion, torque, temperature, time, direction;
@@ -91,18 +119,18 @@ Unit readUnit(const ConfigNode& node, const std::vector<Unit>& known) {
 }
 
 /// A sequence of exactly `count` column names; `what` says why that many.
-std::vector<std::string> readNames(const ConfigNode& node, std::size_t count, const std::string& what) {
+std::vector<std::string> readNames(const ConfigNode& node, std::size_t count, const std::string& what, ColumnClaims& claims) {
   if (node.size() != count) {
     node.fail("expected " + std::to_string(count) + " column names (" + what + "), got " + std::to_string(node.size()));
   }
   std::vector<std::string> names;
-  for (std::size_t i = 0; i < count; ++i) names.push_back(node[i].asString());
+  for (std::size_t i = 0; i < count; ++i) names.push_back(claimColumn(node[i], claims));
   return names;
 }
 
 /// {columns: [...], unit: U} (without `unit` when `units` is empty).
 ColumnGroup readColumns(const ConfigNode& node, std::size_t count, const std::string& what,
-                        const std::vector<Unit>& units) {
+                        const std::vector<Unit>& units, ColumnClaims& claims) {
   ColumnGroup g;
   if (units.empty()) {
     node.requireOnlyKeys({"columns"});
@@ -110,20 +138,20 @@ ColumnGroup readColumns(const ConfigNode& node, std::size_t count, const std::st
     node.requireOnlyKeys({"columns", "unit"});
     g.unit = readUnit(valueOf(node, "unit"), units);
   }
-  g.names = readNames(valueOf(node, "columns"), count, what);
+  g.names = readNames(valueOf(node, "columns"), count, what, claims);
   return g;
 }
 
 /// {column: NAME, unit: U}.
-ColumnGroup readColumn(const ConfigNode& node, const std::vector<Unit>& units) {
+ColumnGroup readColumn(const ConfigNode& node, const std::vector<Unit>& units, ColumnClaims& claims) {
   node.requireOnlyKeys({"column", "unit"});
   ColumnGroup g;
-  g.names = {valueOf(node, "column").asString()};
+  g.names = {claimColumn(valueOf(node, "column"), claims)};
   g.unit = readUnit(valueOf(node, "unit"), units);
   return g;
 }
 
-void readPoseLayout(const ConfigNode& pose, Layout& l) {
+void readPoseLayout(const ConfigNode& pose, Layout& l, ColumnClaims& claims) {
   pose.requireOnlyKeys({"matrix", "position", "quaternion_wxyz", "length_unit"});
   l.length = readUnit(valueOf(pose, "length_unit"), kLengthUnits);
   const auto matrix = optionalValueOf(pose, "matrix");
@@ -133,22 +161,23 @@ void readPoseLayout(const ConfigNode& pose, Layout& l) {
     pose.fail("expected either 'matrix' (16 column names) or 'position' (3, optionally with 'quaternion_wxyz')");
   }
   if (matrix && quaternion) quaternion->fail("not with 'matrix' (the matrix holds the rotation)");
-  if (matrix) l.matrix.names = readNames(*matrix, 16, "a row-major 4x4 matrix");
+  if (matrix) l.matrix.names = readNames(*matrix, 16, "a row-major 4x4 matrix", claims);
   if (position) {
-    l.position.names = readNames(*position, 3, "x, y, z");
+    l.position.names = readNames(*position, 3, "x, y, z", claims);
     l.position.unit = l.length;
+    l.position.range = kPositionRange;
   }
-  if (quaternion) l.quaternion.names = readNames(*quaternion, 4, "w, x, y, z");
+  if (quaternion) l.quaternion.names = readNames(*quaternion, 4, "w, x, y, z", claims);
 }
 
 /// {columns: [...], unit: U, sense: S}: the files' torques in orbcal's sense (sense: actuator, the
 /// default: the torque the joint's actuator applies, sim/gravity.hpp) or negated (sense: load: the
 /// torque the load exerts on the joint), read into the actuator's sense either way.
-ColumnGroup readTorqueColumns(const ConfigNode& node, std::size_t joints, const std::string& per_joint) {
+ColumnGroup readTorqueColumns(const ConfigNode& node, std::size_t joints, const std::string& per_joint, ColumnClaims& claims) {
   node.requireOnlyKeys({"columns", "unit", "sense"});
   ColumnGroup g;
   g.unit = readUnit(valueOf(node, "unit"), kTorqueUnits);
-  g.names = readNames(valueOf(node, "columns"), joints, per_joint);
+  g.names = readNames(valueOf(node, "columns"), joints, per_joint, claims);
   if (const auto sense = optionalValueOf(node, "sense")) {
     const std::string v = sense->asString();
     if (v != "actuator" && v != "load") {
@@ -160,21 +189,26 @@ ColumnGroup readTorqueColumns(const ConfigNode& node, std::size_t joints, const 
   return g;
 }
 
-void readCovariateLayout(const ConfigNode& cov, std::size_t joints, const std::string& per_joint, Layout& l) {
+void readCovariateLayout(const ConfigNode& cov, std::size_t joints, const std::string& per_joint, Layout& l,
+                         ColumnClaims& claims) {
   cov.requireOnlyKeys({"torque", "temperature", "time", "direction"});
-  if (const auto n = optionalValueOf(cov, "torque")) l.torque = readTorqueColumns(*n, joints, per_joint);
-  if (const auto n = optionalValueOf(cov, "temperature")) l.temperature = readColumn(*n, kTemperatureUnits);
-  if (const auto n = optionalValueOf(cov, "time")) l.time = readColumn(*n, kTimeUnits);
-  if (const auto n = optionalValueOf(cov, "direction")) l.direction = readColumns(*n, joints, per_joint, {});
+  if (const auto n = optionalValueOf(cov, "torque")) l.torque = readTorqueColumns(*n, joints, per_joint, claims);
+  if (const auto n = optionalValueOf(cov, "temperature")) l.temperature = readColumn(*n, kTemperatureUnits, claims);
+  if (const auto n = optionalValueOf(cov, "time")) l.time = readColumn(*n, kTimeUnits, claims);
+  if (const auto n = optionalValueOf(cov, "direction")) l.direction = readColumns(*n, joints, per_joint, {}, claims);
+  l.torque.range = kTorqueRange;
+  l.temperature.range = kTemperatureRange;
+  l.time.range = kTimeRange;
 }
 
 Layout readLayout(const ConfigNode& root, const Arm& arm) {
   const auto joints = static_cast<std::size_t>(arm.numJoints());
   const std::string per_joint = "one per joint of " + arm.source;
   Layout l;
-  l.joints = readColumns(valueOf(root, "joints"), joints, per_joint, kAngleUnits);
-  readPoseLayout(valueOf(root, "pose"), l);
-  if (const auto cov = optionalValueOf(root, "covariates")) readCovariateLayout(*cov, joints, per_joint, l);
+  ColumnClaims claims;
+  l.joints = readColumns(valueOf(root, "joints"), joints, per_joint, kAngleUnits, claims);
+  readPoseLayout(valueOf(root, "pose"), l, claims);
+  if (const auto cov = optionalValueOf(root, "covariates")) readCovariateLayout(*cov, joints, per_joint, l, claims);
   return l;
 }
 
@@ -198,12 +232,12 @@ void readSources(const ConfigNode& root, MeasuredData& d) {
     if (const auto base = optionalValueOf(robot, "base_link")) source.base_link = base->asString();
     if (const auto tip = optionalValueOf(robot, "tip_link")) source.tip_link = tip->asString();
     const bool links = !source.base_link.empty() || !source.tip_link.empty();
-    if (links && !looksLikeXml(readTextSource(source.path))) robot.fail("base_link and tip_link choose a chain in a URDF; " + source.path + " is not one");
+    if (links && !looksLikeXml(readTextNamedBy(source.path, robot.source() + ": robot.file"))) robot.fail("base_link and tip_link choose a chain in a URDF; " + source.path + " is not one");
   } else {
     source.path = resolvePath(folder, robot.asString());
   }
   d.robot_file = source.path;
-  d.arm = loadArm(source);
+  d.arm = loadArm(source, robot.source() + ": robot" + (robot.isMap() ? ".file" : ""));
   const ConfigNode files = valueOf(root, "files");
   if (files.size() == 0) files.fail("expected at least one CSV file");
   for (std::size_t i = 0; i < files.size(); ++i) d.files.push_back(resolvePath(folder, files[i].asString()));
@@ -231,24 +265,26 @@ void readRegistration(const ConfigNode& root, MeasuredData& d) {
   d.flange_T_marker = readKnownFrame(root, "flange_T_marker", d.marker, "marker");
 }
 
-/// A positive number at `key`, times `to_si`, when given.
-std::optional<double> readSigma(const ConfigNode& noise, const std::string& key, double to_si) {
+/// The number at `key` within [lo, hi] (`range` says it in the key's unit), times `to_si`, when given.
+std::optional<double> readSigma(const ConfigNode& noise, const std::string& key, double lo, double hi,
+                                const std::string& range, double to_si) {
   const auto node = optionalValueOf(noise, key);
   if (!node) return std::nullopt;
-  const double v = node->asDouble();
-  if (!(v > 0.0)) node->fail("must be positive");
-  return v * to_si;
+  return node->asDoubleWithin(lo, hi, range) * to_si;
 }
 
 void readNoise(const ConfigNode& root, MeasuredData& d) {
   const auto noise = optionalValueOf(root, "noise");
   if (!noise) return;
   noise->requireOnlyKeys({"position_mm", "rotation_deg", "joint_deg"});
-  d.noise_position_m = readSigma(*noise, "position_mm", 1e-3);
-  d.noise_rotation_rad = readSigma(*noise, "rotation_deg", kDegToRad);
-  if (const auto joint = optionalValueOf(*noise, "joint_deg")) {  // 0: readings exact
-    d.noise_joint_rad = joint->asDoubleWithin(0.0, 10.0, "0 to 10 deg") * kDegToRad;
-  }
+  const auto range = [](double lo, double hi, const char* unit) {
+    return formatNumber("%.9g", lo) + " " + unit + " to " + formatNumber("%.9g", hi) + " " + unit + " (1 sigma per axis)";
+  };
+  d.noise_position_m = readSigma(*noise, "position_mm", kMinNoisePositionMm, kMaxNoisePositionMm,
+                                 range(kMinNoisePositionMm, kMaxNoisePositionMm, "mm"), 1e-3);
+  d.noise_rotation_rad = readSigma(*noise, "rotation_deg", kMinNoiseRotationDeg, kMaxNoiseRotationDeg,
+                                   range(kMinNoiseRotationDeg, kMaxNoiseRotationDeg, "deg"), kDegToRad);
+  d.noise_joint_rad = readSigma(*noise, "joint_deg", 0.0, kMaxNoiseJointDeg, "0 to 10 deg (0: readings exact)", kDegToRad);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -263,10 +299,24 @@ Layout bindColumns(Layout l, const CsvTable& t) {
   return l;
 }
 
-/// The cells of `g` on row r, in SI units.
+/// Throws unless `si` (the cell of column `col` on row r, read in `unit`) lies within `range`: the
+/// message gives the value and the range in the column's unit.
+void checkWithin(const CsvTable& t, std::size_t r, int col, double si, const Unit& unit, const PhysicalRange& range) {
+  if (si >= range.lo && si <= range.hi) return;
+  const auto in = [&unit](double v) { return formatNumber("%.9g", v) + " " + unit.name; };
+  const double a = unit.fromSi(range.lo), b = unit.fromSi(range.hi);  // in the file's sense (torques: maybe negated)
+  throw InputError(t.where(r) + ": " + t.header()[static_cast<std::size_t>(col)] + ": " + in(unit.fromSi(si)) + " is outside " +
+                   in(std::min(a, b)) + " to " + in(std::max(a, b)) + " (" + range.what + ")");
+}
+
+/// The cells of `g` on row r, in SI units, each within the group's range.
 Eigen::VectorXd readGroup(const CsvTable& t, std::size_t r, const ColumnGroup& g) {
   Eigen::VectorXd v(static_cast<Eigen::Index>(g.index.size()));
-  for (std::size_t i = 0; i < g.index.size(); ++i) v[static_cast<Eigen::Index>(i)] = g.unit.toSi(t.number(r, g.index[i]));
+  for (std::size_t i = 0; i < g.index.size(); ++i) {
+    const double si = g.unit.toSi(t.number(r, g.index[i]));
+    checkWithin(t, r, g.index[i], si, g.unit, g.range);
+    v[static_cast<Eigen::Index>(i)] = si;
+  }
   return v;
 }
 
@@ -309,7 +359,10 @@ Eigen::Isometry3d readMatrixPose(const CsvTable& t, std::size_t r, const Layout&
   checkRotation(m.topLeftCorner<3, 3>(), columnsAt(t, r, n[0], n[10]));
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.linear() = m.topLeftCorner<3, 3>();
-  for (int i = 0; i < 3; ++i) T.translation()[i] = l.length.toSi(m(i, 3));
+  for (int i = 0; i < 3; ++i) {
+    T.translation()[i] = l.length.toSi(m(i, 3));
+    checkWithin(t, r, l.matrix.index[static_cast<std::size_t>(4 * i + 3)], T.translation()[i], l.length, kPositionRange);
+  }
   return T;
 }
 
@@ -355,11 +408,25 @@ MeasuredPose readPose(const CsvTable& t, std::size_t r, const Layout& l, const A
   return p;
 }
 
+/// Throws when row r's time is earlier than row r - 1's: the rows of a file are its samples in the
+/// order they were taken (approach directions and drift read that order).
+void checkTimeOrder(const CsvTable& t, std::size_t r, const ColumnGroup& time, double previous_s, double now_s) {
+  if (r == 0 || now_s >= previous_s) return;
+  const auto in = [&time](double s) { return formatNumber("%.9g", time.unit.fromSi(s)) + " " + time.unit.name; };
+  throw InputError(t.where(r) + ": " + time.names[0] + ": " + in(now_s) + " is earlier than " + in(previous_s) + " on line " +
+                   std::to_string(t.line(r - 1)) + " (time runs backwards; the rows of a file are samples in the order taken)");
+}
+
 void readSession(const std::string& path, int session, const Layout& layout, MeasuredData& d) {
-  const CsvTable t = CsvTable::parse(readTextSource(path), path);
+  const std::string named_by = d.description + ": files[" + std::to_string(session) + "]";
+  const CsvTable t = CsvTable::parse(readTextNamedBy(path, named_by), path);
   if (t.rows() == 0) throw InputError(path + ": no data rows (expected one sample per line after the header)");
   const Layout bound = bindColumns(layout, t);
-  for (std::size_t r = 0; r < t.rows(); ++r) d.poses.push_back(readPose(t, r, bound, d.arm, session));
+  for (std::size_t r = 0; r < t.rows(); ++r) {
+    MeasuredPose p = readPose(t, r, bound, d.arm, session);
+    if (bound.time.given()) checkTimeOrder(t, r, bound.time, r > 0 ? d.poses.back().sample.time_s : 0.0, p.sample.time_s);
+    d.poses.push_back(std::move(p));
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -373,14 +440,14 @@ Layout outputLayout(const MeasuredData& d, int joints) {
     return names;
   };
   Layout l;
-  l.joints = {perJoint("q", "_rad"), kAngleUnits[0], {}};
-  l.position = {{"x_m", "y_m", "z_m"}, kLengthUnits[0], {}};
+  l.joints = {perJoint("q", "_rad"), kAngleUnits[0], {}, {}};
+  l.position = {{"x_m", "y_m", "z_m"}, kLengthUnits[0], {}, {}};
   bool rotation = false;
   for (const MeasuredPose& p : d.poses) rotation |= p.has_rotation;
   if (rotation) l.quaternion.names = {"qw", "qx", "qy", "qz"};
-  if (d.has_torque) l.torque = {perJoint("tau", "_Nm"), kTorqueUnits[0], {}};
-  if (d.has_temperature) l.temperature = {{"temperature_C"}, kTemperatureUnits[0], {}};
-  if (d.has_time) l.time = {{"time_s"}, kTimeUnits[0], {}};
+  if (d.has_torque) l.torque = {perJoint("tau", "_Nm"), kTorqueUnits[0], {}, {}};
+  if (d.has_temperature) l.temperature = {{"temperature_C"}, kTemperatureUnits[0], {}, {}};
+  if (d.has_time) l.time = {{"time_s"}, kTimeUnits[0], {}, {}};
   if (d.has_direction) l.direction.names = perJoint("dir", "");
   l.length = kLengthUnits[0];
   return l;

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::sim {
@@ -44,6 +45,27 @@ Eigen::VectorXd ParamLayout::typical() const {
     for (int i = 0; i < b.size(); ++i) t[b.offset + i] = b.params[static_cast<std::size_t>(i)].typical;
   }
   return t;
+}
+
+double physicalBound(const ParamInfo& info) {
+  constexpr double kTypicalMultiple = 1e4;
+  if (info.quantity == Quantity::kAngle) return kPi;
+  if (info.quantity == Quantity::kLength) return 10.0;
+  return kTypicalMultiple * info.typical;
+}
+
+std::string physicalRangeText(const ParamInfo& info) {
+  const double b = physicalBound(info);
+  const std::string why = info.quantity == Quantity::kAngle    ? "half a turn"
+                          : info.quantity == Quantity::kLength ? "10 m"
+                                                               : "1e4 times its typical magnitude, " +
+                                                                     formatNumber("%.3g", info.typical) + " " + info.unit;
+  return formatNumber("%.6g", -b) + " to " + formatNumber("%.6g", b) + " " + info.unit + " (" + why + ")";
+}
+
+double readParameterValue(const ConfigNode& node, const ParamInfo& info) {
+  const double b = physicalBound(info);
+  return node.asDoubleWithin(-b, b, physicalRangeText(info));
 }
 
 ParamInfo angleParam(std::string name, double typical_rad) {

@@ -64,6 +64,65 @@ std::string writeModelFile(const KinematicModel& m, const Eigen::VectorXd& p, co
   return path;
 }
 
+namespace {
+
+/// The effects' parameter values: effects[k].parameters of `list`, every one of the model's and no
+/// other, each within its physical bound.
+Eigen::VectorXd readEffectValues(const ConfigNode& list, const KinematicModel& model) {
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(model.layout.size());
+  for (std::size_t k = 0; k < list.size(); ++k) {
+    const ConfigNode params = list[k]["parameters"];
+    std::vector<std::string> allowed;
+    for (const int blk : model.effect_blocks[k]) {
+      const ParamBlock& b = model.layout.block(blk);
+      for (int i = 0; i < b.size(); ++i) {
+        const ParamInfo& info = b.params[static_cast<std::size_t>(i)];
+        allowed.push_back(info.name);
+        p[b.offset + i] = readParameterValue(params[info.name], info);
+      }
+    }
+    params.requireOnlyKeys(allowed);
+  }
+  return p;
+}
+
+/// A 1-sigma of the parameter list: '.nan' (not known) or a finite number from 0.
+void checkSigma(const ConfigNode& sigma) {
+  if (sigma.isScalar() && sigma.asString() == ".nan") return;
+  if (!(sigma.asDouble() >= 0.0)) sigma.fail("a 1-sigma must not be negative");
+}
+
+/// `parameters:` against the model it lists: one row per parameter of `full` (the model with its
+/// geometry, as fitted), in its order, with its name, block and unit; values within their physical
+/// bounds, and an effect's value the one `effects:` gives (`effect_values`: name -> value).
+void checkParameterList(const ConfigNode& rows, const KinematicModel& full, const std::map<std::string, double>& effect_values) {
+  if (rows.size() != static_cast<std::size_t>(full.layout.size())) {
+    rows.fail("expected " + std::to_string(full.layout.size()) + " rows, one per parameter of the model above (geometry, "
+              "registration, effects), got " + std::to_string(rows.size()));
+  }
+  for (int i = 0; i < full.layout.size(); ++i) {
+    const ConfigNode row = rows[static_cast<std::size_t>(i)];
+    row.requireOnlyKeys({"name", "effect", "value", "sigma", "unit", "held"});
+    const ParamInfo& info = full.layout.param(i);
+    const std::string block = full.layout.block(full.layout.blockOf(i)).effect;
+    for (const auto& [key, expected] : {std::pair<const char*, std::string>{"name", info.name}, {"effect", block}, {"unit", info.unit}}) {
+      if (row[key].asString() != expected) {
+        row[key].fail("expected " + quoteInput(expected) + " (parameter " + std::to_string(i + 1) + " of the model above), got " +
+                      quoteInput(row[key].asString()));
+      }
+    }
+    const double value = readParameterValue(row["value"], info);
+    const auto given = effect_values.find(info.name);
+    if (given != effect_values.end() && given->second != value) {
+      row["value"].fail(exactNumber(value) + " differs from the value in effects, " + exactNumber(given->second));
+    }
+    checkSigma(row["sigma"]);
+    (void)row["held"].asBool();
+  }
+}
+
+}  // namespace
+
 LoadedModel loadModelFile(const std::string& path) {
   const ConfigNode root = ConfigNode::load(path);
   root.requireOnlyKeys({"format", "robot", "sessions", "registration", "effects", "parameters"});
@@ -72,11 +131,11 @@ LoadedModel loadModelFile(const std::string& path) {
   if (format != "orbcal-model-2" && format != "orbcal-model-1") root["format"].fail("expected orbcal-model-2");
   const std::string robot = root["robot"].asString();
   const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  const Arm arm = loadArm(robot.rfind("builtin:", 0) == 0 || std::filesystem::path(robot).is_absolute()
-                              ? robot
-                              : (dir / robot).string());
+  const std::string robot_path =
+      robot.rfind("builtin:", 0) == 0 || std::filesystem::path(robot).is_absolute() ? robot : (dir / robot).string();
+  const Arm arm = loadArm(RobotSource{robot_path, "", ""}, path + ": robot");
   const int sessions = root["sessions"].asInt();
-  if (sessions < 1) root["sessions"].fail("must be at least 1");
+  if (sessions < 1 || sessions > 10000) root["sessions"].fail("must be within 1 to 10000");
   const ConfigNode reg = root["registration"];
   reg.requireOnlyKeys({"base", "marker", "world_T_base", "flange_T_marker"});
   const FrameSharing base = readFrameSharing(reg["base"]), marker = readFrameSharing(reg["marker"]);
@@ -89,7 +148,6 @@ LoadedModel loadModelFile(const std::string& path) {
     return out;
   };
   std::vector<Effect> effects;
-  std::map<std::string, std::pair<double, ConfigNode>> values;
   const ConfigNode list = root["effects"];
   for (std::size_t k = 0; k < list.size(); ++k) {
     const ConfigNode e = list[k];
@@ -102,28 +160,23 @@ LoadedModel loadModelFile(const std::string& path) {
     (void)e["parameters"];  // required (read below, once the layout is known)
   }
   LoadedModel out;
+  KinematicModel full;
   try {
-    out.model = makeKinematicModel(arm, sessions, base, marker, frames("world_T_base", base),
-                                   frames("flange_T_marker", marker), effects, false);
+    const auto world_T_base = frames("world_T_base", base), flange_T_marker = frames("flange_T_marker", marker);
+    out.model = makeKinematicModel(arm, sessions, base, marker, world_T_base, flange_T_marker, effects, false);
+    full = makeKinematicModel(arm, sessions, base, marker, world_T_base, flange_T_marker, effects, true);
   } catch (const std::invalid_argument& e) {
     throw InputError(path + ": effects: " + e.what());
   }
-  out.p = Eigen::VectorXd::Zero(out.model.layout.size());
-  for (std::size_t k = 0; k < list.size(); ++k) {
-    const ConfigNode params = list[k]["parameters"];
-    std::vector<std::string> allowed;
-    for (const int blk : out.model.effect_blocks[k]) {
+  out.p = readEffectValues(list, out.model);
+  std::map<std::string, double> effect_values;
+  for (const std::vector<int>& blocks : out.model.effect_blocks) {
+    for (const int blk : blocks) {
       const ParamBlock& b = out.model.layout.block(blk);
-      for (int i = 0; i < b.size(); ++i) {
-        const std::string& pname = b.params[static_cast<std::size_t>(i)].name;
-        allowed.push_back(pname);
-        out.p[b.offset + i] = params[pname].asDouble();
-      }
+      for (int i = 0; i < b.size(); ++i) effect_values[b.params[static_cast<std::size_t>(i)].name] = out.p[b.offset + i];
     }
-    params.requireOnlyKeys(allowed);
   }
-  const ConfigNode rows = root["parameters"];
-  (void)rows.size();  // a sequence (informative; not read back)
+  checkParameterList(root["parameters"], full, effect_values);
   return out;
 }
 

@@ -57,7 +57,8 @@ MassModel readMasses(const ConfigNode& n, int num_joints) {
   if (!n.defined()) return masses;
   n.requireOnlyKeys({"gravity_m_s2", "links", "payload"});
   const ConfigNode gravity = n.optional("gravity_m_s2");
-  if (gravity.defined()) masses.gravity_base = gravity.asVector(3);
+  // Within 10 g: Jupiter's surface gravity is 24.8 m/s^2.
+  if (gravity.defined()) masses.gravity_base = gravity.asVectorWithin(3, -100.0, 100.0, "-100 m/s^2 to 100 m/s^2 (10 g)");
   const ConfigNode links = n.optional("links");
   if (links.defined()) {
     if (static_cast<int>(links.size()) != num_joints) {
@@ -68,7 +69,7 @@ MassModel readMasses(const ConfigNode& n, int num_joints) {
       l.requireOnlyKeys({"mass_kg", "com_m"});
       LinkMass link;
       link.mass_kg = readMass(l["mass_kg"]);
-      link.com_m = l["com_m"].asVector(3);
+      link.com_m = l["com_m"].asVectorWithin(3, -kMaxLengthM, kMaxLengthM, kLengthRange);
       masses.links.push_back(link);
     }
   }
@@ -77,7 +78,7 @@ MassModel readMasses(const ConfigNode& n, int num_joints) {
     payload.requireOnlyKeys({"mass_kg", "com_m"});
     masses.payload_kg = readMass(payload["mass_kg"]);
     const ConfigNode com = payload.optional("com_m");
-    if (com.defined()) masses.payload_com_flange_m = com.asVector(3);
+    if (com.defined()) masses.payload_com_flange_m = com.asVectorWithin(3, -kMaxLengthM, kMaxLengthM, kLengthRange);
   }
   return masses;
 }
@@ -90,12 +91,13 @@ namespace {
 void readUrdfJoint(const ConfigNode& j, Arm& arm) {
   j.requireOnlyKeys({"name", "xyz_m", "rpy_deg", "axis", "theta_offset_deg", "fixed_before", "min_deg", "max_deg"});
   DhRow r;
-  r.xyz_m = j["xyz_m"].asVector(3);
-  r.rpy_rad = j["rpy_deg"].asVector(3) * kDegToRad;
-  const Eigen::Vector3d axis = j["axis"].asVector(3);
+  r.xyz_m = j["xyz_m"].asVectorWithin(3, -kMaxLengthM, kMaxLengthM, kLengthRange);
+  r.rpy_rad = j["rpy_deg"].asVectorWithin(3, -360.0, 360.0, kAngleRange) * kDegToRad;
+  const Eigen::Vector3d axis = j["axis"].asVectorWithin(3, -1e6, 1e6, "-1e6 to 1e6 (a direction, normalised)");
   if (!(axis.norm() > 1e-9)) j["axis"].fail("must not be zero");
   r.axis = axis.normalized();
-  r.theta_rad = j.optional("theta_offset_deg").asDouble(0.0) * kDegToRad;
+  const ConfigNode offset = j.optional("theta_offset_deg");
+  r.theta_rad = (offset.defined() ? offset.asDoubleWithin(-360.0, 360.0, kAngleRange) : 0.0) * kDegToRad;
   arm.joints.push_back(r);
   arm.urdf.joint_names.push_back(j.optional("name").asString(""));
   const ConfigNode before = j.optional("fixed_before");
@@ -112,9 +114,11 @@ std::string lowerExtension(const std::string& path) {
 
 Arm loadArm(const std::string& path) { return loadArm(RobotSource{path, "", ""}); }
 
-Arm loadArm(const RobotSource& robot) {
+Arm loadArm(const RobotSource& robot) { return loadArm(robot, ""); }
+
+Arm loadArm(const RobotSource& robot, const std::string& named_by) {
   const std::string& path = robot.path;
-  const std::string text = readTextSource(path);
+  const std::string text = readTextNamedBy(path, named_by);
   const std::string ext = lowerExtension(path);
   const bool xml = looksLikeXml(text);
   if ((ext == ".urdf" || ext == ".xml") && !xml) {

@@ -5,6 +5,7 @@
 #include <random>
 
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/gravity.hpp"
 #include "orbcal/sim/se3.hpp"
 
@@ -32,12 +33,53 @@ void withPhysicalSigns(const KinematicModel& m, Eigen::VectorXd& p) {
   }
 }
 
-}  // namespace
-
-SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
+/// Throws InputError naming the setting for a value no real arm or instrument has: a payload outside
+/// 0 to 1e6 kg (as a robot file's masses), DH error spreads beyond half a turn or 10 m, a temperature
+/// outside an arm's, times that are not positive.
+void checkSpec(const SimulationSpec& spec) {
   if (spec.samples < 1) throw InputError("simulate: samples: must be at least 1");
   if (spec.sessions < 1 || spec.sessions > spec.samples) throw InputError("simulate: sessions: must be within 1..samples");
   if (spec.payload_kg.empty()) throw InputError("simulate: payload_kg: give one payload, or one per session");
+  for (std::size_t i = 0; i < spec.payload_kg.size(); ++i) {
+    if (!(spec.payload_kg[i] >= 0.0 && spec.payload_kg[i] <= 1e6)) {
+      throw InputError("simulate: payload_kg: value " + std::to_string(i + 1) + ", " + formatNumber("%.9g", spec.payload_kg[i]) +
+                       " kg, is outside 0 kg to 1e6 kg");
+    }
+  }
+  if (!(spec.geometry.angle_sigma_rad >= 0.0 && spec.geometry.angle_sigma_rad <= kPi)) {
+    throw InputError("simulate: geometry: an angle error spread of " + formatNumber("%.9g", spec.geometry.angle_sigma_rad * kRadToDeg) +
+                     " deg is outside 0 deg to 180 deg");
+  }
+  if (!(spec.geometry.length_sigma_m >= 0.0 && spec.geometry.length_sigma_m <= 10.0)) {
+    throw InputError("simulate: geometry: a length error spread of " + formatNumber("%.9g", spec.geometry.length_sigma_m * 1e3) +
+                     " mm is outside 0 mm to 10000 mm");
+  }
+  const double end_C = spec.temperature_start_C + spec.temperature_rise_C;
+  for (const double t : {spec.temperature_start_C, end_C}) {
+    if (!(t >= kMinTemperatureC && t <= kMaxTemperatureC)) {
+      throw InputError("simulate: temperature: " + formatNumber("%.9g", t) + " degC is outside an arm's, " +
+                       formatNumber("%g", kMinTemperatureC) + " degC to " + formatNumber("%g", kMaxTemperatureC) + " degC");
+    }
+  }
+  if (!(spec.temperature_tau_s > 0.0 && spec.sample_period_s > 0.0)) throw InputError("simulate: temperature_tau_s and sample_period_s must be positive");
+}
+
+/// Given effect values: each within its physical bound (sim::physicalBound), named by its place in the
+/// list and its parameter.
+void checkEffectValues(const KinematicModel& truth, int first_effect, const Eigen::VectorXd& values) {
+  for (Eigen::Index i = 0; i < values.size(); ++i) {
+    const ParamInfo& info = truth.layout.param(first_effect + static_cast<int>(i));
+    const double b = physicalBound(info);
+    if (std::abs(values[i]) <= b) continue;
+    throw InputError("simulate: effect values: value " + std::to_string(i + 1) + " (" + info.name + "), " +
+                     formatNumber("%.9g", values[i]) + " " + info.unit + ", is outside " + physicalRangeText(info));
+  }
+}
+
+}  // namespace
+
+SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
+  checkSpec(spec);
   std::mt19937_64 rng = makeRng(spec.seed, 0x73696d756c617465ULL);
   std::uniform_real_distribution<double> u(0.0, 1.0);
   std::normal_distribution<double> n01(0.0, 1.0);
@@ -74,6 +116,7 @@ SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
       throw InputError("simulate: effect values: expected " + std::to_string(n_effect) + ", got " +
                        std::to_string(spec.effect_values.size()));
     }
+    checkEffectValues(out.truth, first_effect, spec.effect_values);
     out.p_true.tail(n_effect) = spec.effect_values;
   } else {
     const Eigen::VectorXd typical = out.truth.layout.typical();

@@ -31,15 +31,37 @@ TrueArm assemble(const Arm& arm, const Eigen::VectorXd& y, std::vector<Effect> e
   return t;
 }
 
-double nonNegative(const ConfigNode& n, double fallback) {
-  const double v = n.asDouble(fallback);
-  if (v < 0.0) n.fail("must not be negative");
-  return v;
-}
-double positive(const ConfigNode& n, double fallback) {
-  const double v = n.asDouble(fallback);
+/// A positive number up to `max` (`range` says it: "more than 0 s to 1e10 s"), or `fallback` when absent.
+double positive(const ConfigNode& n, double fallback, double max, const std::string& range) {
+  if (!n.defined()) return fallback;
+  const double v = n.asDoubleWithin(0.0, max, range);
   if (!(v > 0.0)) n.fail("must be positive");
   return v;
+}
+
+/// covariates: of an error-set file; the plant's temperatures stay within an arm's (kMinTemperatureC
+/// to kMaxTemperatureC) from start_C to start_C + rise_C.
+CovariateProfile readCovariates(const ConfigNode& c, double default_payload_kg) {
+  CovariateProfile cov;
+  if (c.defined()) c.requireOnlyKeys({"payload_kg", "temperature", "sample_period_s"});
+  const ConfigNode payload = c.optional("payload_kg");
+  cov.payload_kg = payload.defined() ? payload.asDoubleWithin(0.0, 1e6, "0 kg to 1e6 kg") : default_payload_kg;
+  const ConfigNode temp = c.optional("temperature");
+  if (temp.defined()) {
+    temp.requireOnlyKeys({"start_C", "rise_C", "tau_s"});
+    const std::string arm_range = formatNumber("%g", kMinTemperatureC) + " degC to " + formatNumber("%g", kMaxTemperatureC) +
+                                  " degC (an arm's temperature)";
+    const ConfigNode start = temp.optional("start_C"), rise = temp.optional("rise_C");
+    if (start.defined()) cov.temperature_start_C = start.asDoubleWithin(kMinTemperatureC, kMaxTemperatureC, arm_range);
+    if (rise.defined()) cov.temperature_rise_C = rise.asDouble();
+    const double end = cov.temperature_start_C + cov.temperature_rise_C;
+    if (rise.defined() && !(end >= kMinTemperatureC && end <= kMaxTemperatureC)) {
+      rise.fail("start_C + rise_C = " + formatNumber("%.9g", end) + " degC is outside " + arm_range);
+    }
+    cov.temperature_tau_s = positive(temp.optional("tau_s"), cov.temperature_tau_s, 1e10, "more than 0 s to 1e10 s");
+  }
+  cov.sample_period_s = positive(c.optional("sample_period_s"), cov.sample_period_s, 1e6, "more than 0 s to 1e6 s (11 days)");
+  return cov;
 }
 
 Eigen::VectorXd readGeometry(const Arm& arm, const ConfigNode& g) {
@@ -58,8 +80,12 @@ Eigen::VectorXd readGeometry(const Arm& arm, const ConfigNode& g) {
     if (r.defined()) {
       r.requireOnlyKeys({"angle_sigma_deg", "length_sigma_mm", "seed"});
       // Only the keys given replace ErrorSetSpec's defaults (no round trip through deg and mm).
-      if (r.has("angle_sigma_deg")) spec.angle_sigma_rad = nonNegative(r["angle_sigma_deg"], 0.0) * kDegToRad;
-      if (r.has("length_sigma_mm")) spec.length_sigma_m = nonNegative(r["length_sigma_mm"], 0.0) * 1e-3;
+      if (r.has("angle_sigma_deg")) {
+        spec.angle_sigma_rad = r["angle_sigma_deg"].asDoubleWithin(0.0, 180.0, "0 deg to 180 deg (an angle error)") * kDegToRad;
+      }
+      if (r.has("length_sigma_mm")) {
+        spec.length_sigma_m = r["length_sigma_mm"].asDoubleWithin(0.0, 1e4, "0 mm to 10000 mm (a length error)") * 1e-3;
+      }
       if (r.has("seed")) {
         const int seed = r["seed"].asInt();
         if (seed < 0) r["seed"].fail("must not be negative");
@@ -152,18 +178,8 @@ TrueArm parseTrueArm(const Arm& nominal, const std::string& text, const std::str
   const Eigen::VectorXd y = readGeometry(nominal, root["geometry"]);
 
   // Covariates first: the effects are checked against them.
-  CovariateProfile cov;
-  const ConfigNode c = root.optional("covariates");
-  if (c.defined()) c.requireOnlyKeys({"payload_kg", "temperature", "sample_period_s"});
-  cov.payload_kg = nonNegative(c.optional("payload_kg"), nominal.masses.payload_kg);
-  const ConfigNode temp = c.optional("temperature");
-  if (temp.defined()) {
-    temp.requireOnlyKeys({"start_C", "rise_C", "tau_s"});
-    cov.temperature_start_C = temp.optional("start_C").asDouble(cov.temperature_start_C);
-    cov.temperature_rise_C = temp.optional("rise_C").asDouble(cov.temperature_rise_C);
-    cov.temperature_tau_s = positive(temp.optional("tau_s"), cov.temperature_tau_s);
-  }
-  cov.sample_period_s = positive(c.optional("sample_period_s"), cov.sample_period_s);
+  const CovariateProfile cov = readCovariates(root.optional("covariates"), nominal.masses.payload_kg);
+  const ConfigNode temp = root.optional("covariates").optional("temperature");
   Arm arm = nominal;
   arm.masses.payload_kg = cov.payload_kg;
 
@@ -186,7 +202,7 @@ TrueArm parseTrueArm(const Arm& nominal, const std::string& text, const std::str
       for (const ParamInfo& info : b.params) names.push_back(info.name);
       const ConfigNode params = e["parameters"];
       params.requireOnlyKeys(names);
-      for (int i = 0; i < 4; ++i) distortion[i] = params[names[static_cast<std::size_t>(i)]].asDouble();
+      for (int i = 0; i < 4; ++i) distortion[i] = readParameterValue(params[names[static_cast<std::size_t>(i)]], b.params[static_cast<std::size_t>(i)]);
       continue;
     }
     Effect effect = parseEffect(spec.asString(), arm.numJoints(), source + ": " + spec.path());
@@ -229,7 +245,10 @@ TrueArm parseTrueArm(const Arm& nominal, const std::string& text, const std::str
     params.requireOnlyKeys(allowed);
     for (const ParamBlock& b : t.model.layout.blocks()) {
       if (b.effect != name) continue;
-      for (int i = 0; i < b.size(); ++i) t.p[b.offset + i] = params[b.params[static_cast<std::size_t>(i)].name].asDouble();
+      for (int i = 0; i < b.size(); ++i) {
+        const ParamInfo& info = b.params[static_cast<std::size_t>(i)];
+        t.p[b.offset + i] = readParameterValue(params[info.name], info);
+      }
     }
   }
   return t;
@@ -240,7 +259,7 @@ std::optional<TrueArm> datasetTrueArm(const Dataset& d) {
   if (!m.true_errors) return std::nullopt;
   if (m.error_set_file.empty()) return geometricTrueArm(d.arm, *m.true_errors, m.error_set);
   const std::string path = d.path(m.error_set_file);
-  TrueArm t = parseTrueArm(d.arm, readTextSource(path), path);
+  TrueArm t = parseTrueArm(d.arm, readTextNamedBy(path, d.folder + "/manifest.yaml: true_errors.file"), path);
   // The manifest prints the errors in deg and mm with 12 significant digits.
   const Eigen::VectorXd y = t.geometryErrors();
   for (Eigen::Index i = 0; i < y.size(); ++i) {

@@ -70,6 +70,37 @@ Eigen::Isometry3d poseOf(const urdf::Pose& p) {
   return T;
 }
 
+/// Throws unless `p` (the origin of `what`, e.g. "joint 'j2'") lies within 10 km (kMaxLengthM) with a
+/// finite rotation.
+void checkOrigin(const urdf::Pose& p, const std::string& what) {
+  const Eigen::Vector3d t(p.position.x, p.position.y, p.position.z);
+  for (int i = 0; i < 3; ++i) {
+    if (!(std::abs(t[i]) <= kMaxLengthM)) {
+      throw InputError(what + ": <origin xyz>: " + formatNumber("%.9g", t[i]) + " m is outside -10000 m to 10000 m");
+    }
+  }
+  const Eigen::Vector4d q(p.rotation.w, p.rotation.x, p.rotation.y, p.rotation.z);
+  if (!q.allFinite() || !(q.norm() > 0.0)) throw InputError(what + ": <origin rpy>: not a finite rotation");
+}
+
+/// The limits of revolute joint `what` (rad): finite, within ten turns (as a robot YAML's min_deg and
+/// max_deg), lower < upper.
+std::pair<double, double> readLimits(const urdf::Joint& joint, const std::string& what) {
+  if (!joint.limits) throw InputError(what + ": a revolute joint needs <limit lower=.. upper=..>");
+  constexpr double kTenTurnsRad = 20.0 * kPi;
+  for (const auto& [name, v] : {std::pair<const char*, double>{"lower", joint.limits->lower}, {"upper", joint.limits->upper}}) {
+    if (!(std::abs(v) <= kTenTurnsRad)) {
+      throw InputError(what + ": <limit " + name + ">: " + formatNumber("%.9g", v) +
+                       " rad is outside -62.83 rad to 62.83 rad (ten turns)");
+    }
+  }
+  if (!(joint.limits->lower < joint.limits->upper)) {
+    throw InputError(what + ": limit upper (" + exactNumber(joint.limits->upper) + ") must be greater than lower (" +
+                     exactNumber(joint.limits->lower) + ")");
+  }
+  return {joint.limits->lower, joint.limits->upper};
+}
+
 const char* jointTypeName(int type) {
   switch (type) {
     case urdf::Joint::REVOLUTE: return "revolute";
@@ -117,6 +148,8 @@ double inertialMass(const urdf::Link& link, const std::string& urdf_errors, cons
   }
   const double m = link.inertial->mass;
   if (!std::isfinite(m) || m < 0.0) throw InputError(what + " mass " + exactNumber(m) + " kg must be finite and not negative");
+  if (m > 1e6) throw InputError(what + " mass " + exactNumber(m) + " kg is outside 0 kg to 1e6 kg");
+  checkOrigin(link.inertial->origin, what);
   return m;
 }
 
@@ -212,6 +245,7 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
   Eigen::Isometry3d pending = Eigen::Isometry3d::Identity();  // fixed joints not yet folded
   for (const urdf::JointConstSharedPtr& joint : chain) {
     const std::string what = source + ": joint '" + joint->name + "'";
+    checkOrigin(joint->parent_to_joint_origin_transform, what);
     const Eigen::Isometry3d origin = poseOf(joint->parent_to_joint_origin_transform);
     if (joint->type == urdf::Joint::FIXED) {
       pending = pending * origin;
@@ -221,7 +255,7 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
       throw InputError(what + " is " + jointTypeName(joint->type) + ": an orbcal arm has revolute (or continuous) joints only");
     }
     const Eigen::Vector3d axis(joint->axis.x, joint->axis.y, joint->axis.z);
-    if (!(axis.norm() > 1e-9)) throw InputError(what + ": axis is zero");
+    if (!axis.allFinite() || !(axis.norm() > 1e-9)) throw InputError(what + ": <axis xyz>: zero or not finite");
     const Eigen::Isometry3d combined = pending * origin;
     DhRow row;
     row.xyz_m = combined.translation();
@@ -235,13 +269,9 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
       lower.push_back(-kPi);
       upper.push_back(kPi);
     } else {
-      if (!joint->limits) throw InputError(what + ": a revolute joint needs <limit lower=.. upper=..>");
-      if (!(joint->limits->lower < joint->limits->upper)) {
-        throw InputError(what + ": limit upper (" + exactNumber(joint->limits->upper) + ") must be greater than lower (" +
-                         exactNumber(joint->limits->lower) + ")");
-      }
-      lower.push_back(joint->limits->lower);
-      upper.push_back(joint->limits->upper);
+      const auto [lo, hi] = readLimits(*joint, what);
+      lower.push_back(lo);
+      upper.push_back(hi);
     }
   }
   if (arm.joints.empty()) {

@@ -28,6 +28,15 @@ std::string readTextSource(const std::string& path) {
   return ss.str();
 }
 
+std::string readTextNamedBy(const std::string& path, const std::string& named_by) {
+  try {
+    return readTextSource(path);
+  } catch (const InputError& e) {
+    if (named_by.empty()) throw;
+    throw InputError(named_by + ": " + e.what());
+  }
+}
+
 std::string builtinFileNames() {
   std::string names;
   for (const auto& [name, text] : builtin::files()) names += (names.empty() ? "" : ", ") + ("builtin:" + name);
@@ -214,14 +223,16 @@ Eigen::VectorXd ConfigNode::asVector(int n) const {
   return v;
 }
 
+Eigen::VectorXd ConfigNode::asVectorWithin(int n, double lo, double hi, const std::string& range) const {
+  Eigen::VectorXd v = asVector(n);
+  for (int i = 0; i < n; ++i) v[i] = (*this)[static_cast<std::size_t>(i)].asDoubleWithin(lo, hi, range);
+  return v;
+}
+
 Eigen::Isometry3d ConfigNode::asTransform() const {
   requireOnlyKeys({"xyz_m", "rpy_deg"});
-  const Eigen::Vector3d xyz = (*this)["xyz_m"].asVector(3);
-  const Eigen::Vector3d rpy = (*this)["rpy_deg"].asVector(3) * kDegToRad;
-  for (int i = 0; i < 3; ++i) {
-    (*this)["xyz_m"][static_cast<std::size_t>(i)].asDoubleWithin(-kMaxLengthM, kMaxLengthM, "-10000 m to 10000 m");  // kMaxLengthM
-    (*this)["rpy_deg"][static_cast<std::size_t>(i)].asDoubleWithin(-360.0, 360.0, "-360 deg to 360 deg");
-  }
+  const Eigen::Vector3d xyz = (*this)["xyz_m"].asVectorWithin(3, -kMaxLengthM, kMaxLengthM, "-10000 m to 10000 m");  // kMaxLengthM
+  const Eigen::Vector3d rpy = (*this)["rpy_deg"].asVectorWithin(3, -360.0, 360.0, "-360 deg to 360 deg") * kDegToRad;
   return fromXyzRpy(xyz, rpy);
 }
 

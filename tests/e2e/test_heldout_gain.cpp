@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cstdlib>
 #include <filesystem>
 
@@ -42,10 +43,18 @@ sim::SimulationSpec spec(int samples, std::uint64_t seed) {
 }
 
 /// Writes `data` with every row repeated `copies` times (copies interleaved: the file repeated) into `folder`.
+/// Each copy is measured after the one before (its times follow on): time never runs backwards in a file.
 std::string repeatedRows(const sim::MeasuredData& data, int copies, const std::string& folder, const std::string& robot) {
   sim::MeasuredData out = data;
   out.poses.clear();
-  for (int c = 0; c < copies; ++c) out.poses.insert(out.poses.end(), data.poses.begin(), data.poses.end());
+  double span_s = 1.0;
+  for (const sim::MeasuredPose& p : data.poses) span_s = std::max(span_s, p.sample.time_s + 1.0);
+  for (int c = 0; c < copies; ++c) {
+    for (sim::MeasuredPose p : data.poses) {
+      p.sample.time_s += c * span_s;
+      out.poses.push_back(std::move(p));
+    }
+  }
   return sim::writeMeasuredData(out, folder, robot);
 }
 

@@ -223,8 +223,9 @@ TEST_CASE("measured data: every bad cell is named by file, line and column", "[s
     CHECK_THAT(loadError(f.description), Catch::StartsWith(f.csv + ": no data rows"));
   }
   SECTION("an approach direction other than -1, 0, 1") {
+    // t1, t2 read as directions (a column holds one quantity: not as torques as well).
     const std::string description =
-        with(kMatrixDescription, "unit: Nm}}", "unit: Nm}, direction: {columns: [t1, t2]}}");
+        with(kMatrixDescription, "torque: {columns: [t1, t2], unit: Nm}", "direction: {columns: [t1, t2]}");
     const Files f = writeFiles("direction", description, kHeader + "\n" + with(kRowA, "0.5,-0.25", "1,-0.25") + "\n");
     CHECK(loadError(f.description) == f.csv + ": line 2: t2: expected an approach direction of -1, 0 or 1, got -0.25");
   }
@@ -272,11 +273,11 @@ TEST_CASE("measured data: a bad description names the file and the key", "[sim][
         desc + ": flange_T_marker: given, but registration.marker is not 'known'");
   CHECK(error("files: [data.csv]", "files: []") == desc + ": files: expected at least one CSV file");
   CHECK(error("files: [data.csv]", "files: [nothing.csv]") ==
-        folderOf("desc") + "/nothing.csv: cannot read: no such file or not readable");
+        desc + ": files[0]: " + folderOf("desc") + "/nothing.csv: cannot read: no such file or not readable");
   CHECK_THAT(error("{matrix:", "{position: [x, y, z], matrix:"), Catch::StartsWith(desc + ": pose: expected either 'matrix'"));
   CHECK(error("registration: {base: shared, marker: per_session}\n",
               "registration: {base: shared, marker: per_session}\nnoise: {position_mm: 0}\n") ==
-        desc + ": noise.position_mm: must be positive");
+        desc + ": noise.position_mm: '0' is outside 1e-06 mm to 100 mm (1 sigma per axis)");
   CHECK_THAT(error("registration: {base: shared, marker: per_session}\n",
                    "registration: {base: shared, marker: per_session}\nnoise: {joint_deg: -0.01}\n"),
              Catch::StartsWith(desc + ": noise.joint_deg:") && Catch::Contains("0 to 10 deg"));

@@ -236,13 +236,28 @@ MeasurementSummary summarize(const std::vector<Measurement>& rows) {
   return s;
 }
 
+namespace {
+/// The summary's statements: the counts first, then the median RMS and each reason.
+std::vector<std::string> summaryItems(const MeasurementSummary& s) {
+  std::vector<std::string> items{std::to_string(s.total) + " images: " + std::to_string(s.found) + " used, " +
+                                 std::to_string(s.not_found) + " not found, " + std::to_string(s.rejected) + " rejected, " +
+                                 std::to_string(s.unreadable) + " unreadable"};
+  if (s.found > 0) items.push_back("median reprojection RMS of the used ones: " + fmt(s.median_rms_px, 3) + " px");
+  for (const auto& [why, n] : s.reasons) items.push_back(std::to_string(n) + " x " + why);
+  return items;
+}
+}  // namespace
+
 std::string formatSummary(const MeasurementSummary& s) {
-  std::ostringstream out;
-  out << s.total << " images: " << s.found << " used, " << s.not_found << " not found, " << s.rejected << " rejected, "
-      << s.unreadable << " unreadable\n";
-  if (s.found > 0) out << "  median reprojection RMS of the used ones: " << fmt(s.median_rms_px, 3) << " px\n";
-  for (const auto& [why, n] : s.reasons) out << "  " << n << " x " << why << "\n";
-  return out.str();
+  std::string out;
+  for (const std::string& item : summaryItems(s)) out += (out.empty() ? "" : "  ") + item + "\n";
+  return out;
+}
+
+std::string summaryLine(const MeasurementSummary& s) {
+  std::string out;
+  for (const std::string& item : summaryItems(s)) out += (out.empty() ? "" : "; ") + item;
+  return out;
 }
 
 }  // namespace orbcal::vision

@@ -1,6 +1,7 @@
 // Image and table files for measurement.hpp (the vision library's I/O edge).
 #include <cctype>
 #include <filesystem>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <system_error>
 
@@ -9,11 +10,32 @@
 
 namespace orbcal::vision {
 
+namespace {
+/// True for a PNG without its end chunk or a JPEG without its end marker (a file cut short by a full
+/// disk or a killed writer): such a file is refused before OpenCV decodes it, because libpng and
+/// libjpeg print their own complaints on the terminal.
+bool truncatedImage(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string head(8, '\0'), tail(12, '\0');
+  if (!in.read(&head[0], 8)) return false;
+  in.seekg(-12, std::ios::end);
+  if (!in.read(&tail[0], 12)) return false;
+  if (head == "\x89PNG\r\n\x1a\n") return tail != std::string("\0\0\0\0IEND\xAE\x42\x60\x82", 12);
+  if (head.compare(0, 2, "\xFF\xD8") == 0) return tail.compare(10, 2, "\xFF\xD9") != 0;
+  return false;
+}
+}  // namespace
+
 cv::Mat readGrayImage(const std::string& path, std::string* reason, std::string* detail) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) {
     if (reason) *reason = "file missing";
     if (detail) *detail = path + ": no such file";
+    return {};
+  }
+  if (truncatedImage(path)) {
+    if (reason) *reason = "cannot decode";
+    if (detail) *detail = path + ": truncated (no end marker)";
     return {};
   }
   cv::Mat gray;

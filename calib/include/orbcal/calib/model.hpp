@@ -85,6 +85,11 @@ struct StackedLinearization {
   Eigen::MatrixXd H;
   std::vector<Eigen::MatrixXd> R;  ///< per sample
 };
+/// Every sample's linearization at y; std::runtime_error (requireFinite) when one is not finite, so no
+/// estimator, SVD or identifiability analysis ever runs on an infinity or a NaN.
 StackedLinearization linearizeAll(const MeasurementModel& model, const Eigen::VectorXd& y);
+/// Throws std::runtime_error naming sample k (from 0; said from 1) unless its innovation, Jacobian and
+/// covariance are finite.
+void requireFinite(const Linearization& lin, int k);
 
 }  // namespace orbcal::calib

@@ -13,6 +13,9 @@ namespace orbcal::sim {
 
 /// The largest length a robot, scene or error file may give (m): 10 km; an arm in space is tens of metres.
 inline constexpr double kMaxLengthM = 1e4;
+/// An arm's temperature (degC), measured or simulated: from a space arm in the shade (-150 degC) to
+/// above a motor winding's insulation limit (class H, 180 degC).
+inline constexpr double kMinTemperatureC = -150.0, kMaxTemperatureC = 200.0;
 
 /// `text` as it may appear on a terminal: control bytes, C1 controls and bytes that are not valid
 /// UTF-8 become \xNN (so binary junk from an input is never echoed raw, and a message stays one
@@ -31,6 +34,10 @@ struct InputError : std::runtime_error {
 /// Text of a file, or of a built-in file when `path` is "builtin:NAME" (see builtinFileNames()).
 /// Throws InputError("<path>: cannot read: <reason>").
 std::string readTextSource(const std::string& path);
+/// readTextSource(path) for a path that another file named at a key (`named_by`: "<file>: <key>", e.g.
+/// "desc.yaml: files[1]"): the "cannot read" message starts with it, so it says which file and key named
+/// the one missing. An empty `named_by` adds nothing.
+std::string readTextNamedBy(const std::string& path, const std::string& named_by);
 /// Names of the built-in files (the YAML files under scenes/ compiled into the program).
 std::string builtinFileNames();
 
@@ -72,6 +79,8 @@ class ConfigNode {
   std::string asString(const std::string& fallback) const { return defined() ? asString() : fallback; }
   /// A sequence of exactly n finite numbers.
   Eigen::VectorXd asVector(int n) const;
+  /// asVector(n), each entry within [lo, hi] (asDoubleWithin at its own index, e.g. "com_m[2]").
+  Eigen::VectorXd asVectorWithin(int n, double lo, double hi, const std::string& range) const;
   /// A rigid transform written as {xyz_m: [x, y, z], rpy_deg: [roll, pitch, yaw]}, R = Rz Ry Rx.
   Eigen::Isometry3d asTransform() const;
 

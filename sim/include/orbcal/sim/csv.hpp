@@ -41,6 +41,14 @@ std::string exactNumber(double v);
 /// One number formatted printf-style, e.g. formatNumber("%.3f", x).
 std::string formatNumber(const char* format, double value);
 
+/// A JSON number, exactNumber(v): JSON has no NaN or infinity, so a non-finite v throws
+/// std::runtime_error "<key>: <v> is not a finite number (JSON holds none); nothing written", `key`
+/// naming the file and the field (e.g. "evaluation.json: position_rms_mm"). Every JSON orbcal writes
+/// puts its numbers through it.
+std::string jsonNumber(double v, const std::string& key);
+/// A JSON string: quotes, backslashes and control characters escaped.
+std::string jsonString(const std::string& text);
+
 /// Joint configurations: header "index,q1_rad,...,qN_rad", one row each.
 std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs);
 std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, const std::string& source, int num_joints);

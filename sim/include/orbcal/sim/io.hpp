@@ -31,6 +31,8 @@ struct RobotSource {
 /// to the YAML's folder), where `orbcal calibrate` writes the calibrated origins back.
 Arm loadArm(const RobotSource& source);
 Arm loadArm(const std::string& path);
+/// loadArm(source) of a robot file that another file named at a key (readTextNamedBy's `named_by`).
+Arm loadArm(const RobotSource& source, const std::string& named_by);
 /// A robot file for `arm` that loadArm reads back to the same kinematics and mass model (numbers
 /// written exactly; base and tool as {xyz_m, rpy_deg}; `masses:` only when the arm has one).
 /// `header` goes first as '#' comment lines.

@@ -41,8 +41,13 @@
 // number, a column named by the description but absent (or named twice in the header), a row with
 // the wrong cell count, a joint reading outside the robot's limits, a pose matrix whose bottom row is
 // not [0 0 0 1] or whose rotation is not orthonormal (max |R^T R - I| > 1e-6, or det < 0), a
-// quaternion whose norm differs from 1 by more than 1e-6, a file without data rows. A rotation
-// matrix within the tolerance is used as given; a quaternion within it is normalised.
+// quaternion whose norm differs from 1 by more than 1e-6, a file without data rows, and a value
+// outside its physical range (the message gives the range in the column's unit): a position or a
+// matrix translation beyond 10 km (kMaxLengthM), a torque beyond 1e6 N m, a temperature outside -150
+// to 200 degC, a time beyond 1e10 s (Unix time stamps fit), a time earlier than the row before it in
+// the same file (rows are samples in the order they were taken). A column the description names for
+// two quantities (or twice in one list) is an error naming both keys. A rotation matrix within the
+// tolerance is used as given; a quaternion within it is normalised.
 #include <Eigen/Geometry>
 #include <optional>
 #include <string>
@@ -54,6 +59,13 @@
 namespace orbcal::sim {
 
 class ConfigNode;
+
+/// The noise a description (`noise:`) or the command line may state, per axis, 1 sigma: a tracker's
+/// position noise within 1 nm to 100 mm, its rotation noise within 1e-7 deg to 10 deg, joint readings'
+/// within 0 to 10 deg (0: exact).
+inline constexpr double kMinNoisePositionMm = 1e-6, kMaxNoisePositionMm = 100.0;
+inline constexpr double kMinNoiseRotationDeg = 1e-7, kMaxNoiseRotationDeg = 10.0;
+inline constexpr double kMaxNoiseJointDeg = 10.0;
 
 /// How an unknown registration frame is shared between sessions.
 enum class FrameSharing {

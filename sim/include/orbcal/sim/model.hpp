@@ -135,6 +135,17 @@ std::string formatEffect(const Effect& e);
 /// Parameter blocks of an effect for an arm and a number of sessions.
 std::vector<ParamBlock> effectBlocks(const Effect& e, const Arm& arm, int num_sessions);
 
+/// The largest magnitude (SI) a parameter's value may have in a file orbcal reads (a model's or an error
+/// set's effects, a model's parameter list): an angle half a turn, a length 10 m, any other quantity
+/// 1e4 times its typical magnitude (typical magnitudes are at the upper end of what the catalog's
+/// sources report, so no real arm comes near: a compliance of 1 rad/(N m), a scale error of 200%).
+double physicalBound(const ParamInfo& info);
+/// "-B to B <unit> (why)": the range physicalBound gives, for messages.
+std::string physicalRangeText(const ParamInfo& info);
+/// The value at `node` of parameter `info` (SI): a finite number within +-physicalBound(info), else an
+/// InputError "<file>: <key>: '<value>' is outside -B to B <unit> (...)".
+double readParameterValue(const ConfigNode& node, const ParamInfo& info);
+
 /// Parameter makers for effect kinds (sim/src/effects/): an angle (rad, read in deg) and a length (m,
 /// read in mm) of a typical magnitude.
 ParamInfo angleParam(std::string name, double typical_rad);

@@ -15,8 +15,13 @@
 //     flange_T_marker: [{...}, {...}]
 //   effects:
 //     - {spec: "compliance:2,4", parameters: {c2: 1.2e-05, c4: 3.1e-06}}   # SI values; c > 0 sags
-//   parameters:                        # informative: every fitted parameter (SI) and its 1-sigma
+//   parameters:                        # for people: every fitted parameter (SI) and its 1-sigma (.nan: unknown)
 //     - {name: theta2, effect: geometry, value: 1e-4, sigma: 2e-6, unit: rad, held: false}
+//
+// loadModelFile checks `parameters:` against the model above it, so the file cannot say two things:
+// one row per parameter of the fitted model (geometry, registration, effects, in the layout's order)
+// with its name, block and unit, every value within its physical bound (sim::physicalBound), an
+// effect's value equal to the one under `effects:`.
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -42,7 +47,8 @@ struct LoadedModel {
   KinematicModel model;
   Eigen::VectorXd p;  ///< effect parameters in model.layout (geometry and frames zero)
 };
-/// Reads a model file; errors are InputError naming the file and the key.
+/// Reads a model file; errors are InputError naming the file and the key: effect values outside their
+/// physical bounds, and a parameter list that does not match the model (see above).
 LoadedModel loadModelFile(const std::string& path);
 
 }  // namespace orbcal::sim

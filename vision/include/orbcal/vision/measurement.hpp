@@ -100,6 +100,9 @@ struct MeasurementSummary {
   double median_rms_px = 0.0;          ///< over the found ones
 };
 MeasurementSummary summarize(const std::vector<Measurement>& rows);
+/// The summary for a report or the terminal: the counts, then one indented line per detail.
 std::string formatSummary(const MeasurementSummary& s);
+/// The same on one line ("; " between its parts), for a one-line message.
+std::string summaryLine(const MeasurementSummary& s);
 
 }  // namespace orbcal::vision
