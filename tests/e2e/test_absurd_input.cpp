@@ -21,6 +21,7 @@
 #include "orbcal/sim/truth.hpp"
 #include "orbcal/vision/measurement.hpp"
 #include "study.hpp"
+#include "dataset_fixture.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
@@ -97,31 +98,7 @@ void checkRefused(const Run& r, const std::string& line) {
   CHECK(r.err == "orbcal: " + line + "\n");
 }
 
-/// A dataset folder without images: the SSRMS, the quick scene, `n` samples within the joint limits
-/// with simulation-truth columns.
-std::string datasetWithoutImages(const std::string& dir, int n) {
-  const std::string folder = dir + "/dataset";
-  fs::create_directories(folder);
-  const sim::Arm arm = sim::loadArm(sim::kDefaultRobot);
-  write(folder + "/robot.yaml", sim::readTextSource(sim::kDefaultRobot));
-  write(folder + "/scene.yaml", slurp(test::sourcePath("scenes/quick_scene.yaml")));
-  sim::DatasetManifest m;
-  m.num_samples = n;
-  write(folder + "/manifest.yaml", sim::formatManifest(m));
-  std::vector<sim::DatasetSample> samples;
-  for (const Eigen::VectorXd& q : test::randomConfigs(arm, n, 7)) {
-    sim::DatasetSample s;
-    s.index = static_cast<int>(samples.size());
-    s.image = "images/" + std::to_string(s.index) + ".png";
-    s.q_rad = q;
-    s.q_true_rad = q;
-    s.camera_T_board_true = Eigen::Isometry3d(Eigen::Translation3d(0.0, 0.0, 2.0));
-    samples.push_back(s);
-  }
-  write(folder + "/samples.csv", sim::formatSamplesCsv(samples, arm.numJoints()));
-  REQUIRE(sim::loadDataset(folder).samples.size() == static_cast<std::size_t>(n));
-  return folder;
-}
+std::string datasetWithoutImages(const std::string& dir, int n) { return test::datasetWithoutImages(dir, n, true); }
 
 /// The message of loading the dataset once `edit` has changed its file `name`.
 std::string datasetError(const std::string& dir, const std::string& name, const std::function<void(const std::string&)>& edit) {

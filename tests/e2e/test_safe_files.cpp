@@ -24,6 +24,7 @@
 #include "orbcal/sim/measured.hpp"
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/vision/measurement.hpp"
+#include "dataset_fixture.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
@@ -82,29 +83,7 @@ std::string renderError(const std::string& dir, const std::string& robot, const 
   return msg;
 }
 
-/// A dataset folder without images (enough for the loaders): the SSRMS, the quick scene, `n` samples
-/// within the joint limits.
-std::string datasetWithoutImages(const std::string& dir, int n) {
-  const std::string folder = dir + "/dataset";
-  fs::create_directories(folder);
-  const sim::Arm arm = sim::loadArm(sim::kDefaultRobot);
-  write(folder + "/robot.yaml", sim::readTextSource(sim::kDefaultRobot));
-  write(folder + "/scene.yaml", slurp(test::sourcePath("scenes/quick_scene.yaml")));
-  sim::DatasetManifest m;
-  m.num_samples = n;
-  write(folder + "/manifest.yaml", sim::formatManifest(m));
-  std::vector<sim::DatasetSample> samples;
-  for (const Eigen::VectorXd& q : test::randomConfigs(arm, n, 7)) {
-    sim::DatasetSample s;
-    s.index = static_cast<int>(samples.size());
-    s.image = "images/" + std::to_string(s.index) + ".png";
-    s.q_rad = q;
-    samples.push_back(s);
-  }
-  write(folder + "/samples.csv", sim::formatSamplesCsv(samples, arm.numJoints()));
-  REQUIRE(sim::loadDataset(folder).samples.size() == static_cast<std::size_t>(n));
-  return folder;
-}
+std::string datasetWithoutImages(const std::string& dir, int n) { return test::datasetWithoutImages(dir, n, false); }
 
 /// The InputError of `calibrate DATASET -o OUT` on a dataset whose file `name` is changed by `edit`:
 /// nothing in the dataset changes and OUT is not even created.
