@@ -176,7 +176,7 @@ Effect parseEffect(const std::string& spec, int num_joints, const std::string& w
     char* end = nullptr;
     const std::string tok = rest.substr(slash + 1);
     order = static_cast<int>(std::strtol(tok.c_str(), &end, 10));
-    if (tok.empty() || *end != '\0') order = -1;
+    if (tok.empty() || *end != '\0' || order < 1) order = -1;  // 0 would read as the kind's default order
     rest = rest.substr(0, slash);
   }
   std::vector<int> joints;

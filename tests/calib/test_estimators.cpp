@@ -129,7 +129,7 @@ TEST_CASE("the paper-literal EKF equals the batch information-form solution", "[
   CHECK((e.covariance - P_batch).norm() <= 1e-6 * P_batch.norm());
 }
 
-TEST_CASE("the measurement covariance with joint noise is honest; without it, it is not", "[calib][model]") {
+TEST_CASE("the measurement covariance with joint noise is honest, without it, it is not", "[calib][model]") {
   // At the true parameters the innovation is measurement noise plus the joint noise seen through J_q.
   // nu^T R^-1 nu is then chi-square with 6 degrees of freedom: mean 6, and over 300 samples the mean's
   // standard deviation is sqrt(12/300) = 0.2, so [5.2, 6.8] is a +-4 sigma band.

@@ -43,7 +43,7 @@ calib::ParamClass classOf(const calib::ParameterClasses& c, const std::string& n
 
 }  // namespace
 
-TEST_CASE("liu2012: the beam-hitting configurations satisfy every condition; averaged readings have sigma / sqrt(m)",
+TEST_CASE("liu2012: the beam-hitting configurations satisfy every condition, averaged readings have sigma / sqrt(m)",
           "[calib][liu2012]") {
   const sim::Arm arm = puma();
   const sim::KinematicModel km = sim::flangeModel(arm);

@@ -27,7 +27,7 @@ bool ineffective(const calib::ParameterClasses& c, const std::string& name) {
 
 }  // namespace
 
-TEST_CASE("measurement kinds: names round-trip; an unknown one names the option and the choices", "[calib][planning]") {
+TEST_CASE("measurement kinds: names round-trip, an unknown one names the option and the choices", "[calib][planning]") {
   for (MeasurementKind k : {MeasurementKind::kPose, MeasurementKind::kPosition, MeasurementKind::kDistance,
                             MeasurementKind::kRotation, MeasurementKind::kDistanceRotation, MeasurementKind::kRange}) {
     CHECK(calib::parseMeasurementKind(calib::measurementKindName(k), "--model") == k);

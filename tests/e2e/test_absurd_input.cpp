@@ -153,7 +153,7 @@ TEST_CASE("absurd input: a fit whose residual is not finite throws one line befo
   }
 }
 
-TEST_CASE("absurd input: JSON orbcal writes never holds a non-finite number; strings are escaped", "[e2e][absurd]") {
+TEST_CASE("absurd input: JSON orbcal writes never holds a non-finite number, strings are escaped", "[e2e][absurd]") {
   CHECK(sim::jsonNumber(0.25, "x.json: a") == "0.25");
   CHECK_THROWS_WITH(sim::jsonNumber(std::numeric_limits<double>::infinity(), "evaluation.json: position_rms_mm"),
                     "evaluation.json: position_rms_mm: inf is not a finite number (JSON holds none); nothing written");

@@ -147,7 +147,7 @@ TEST_CASE("calibrate --estimate-frames: a wrong base_T_board in the scene no lon
   CHECK(std::filesystem::exists(job.out + "/../wrong/frames.yaml"));
 }
 
-TEST_CASE("calibrate --model dr: frame-free pairs of camera poses; a wrong base_T_board changes nothing", "[e2e][calibrate]") {
+TEST_CASE("calibrate --model dr: frame-free pairs of camera poses, a wrong base_T_board changes nothing", "[e2e][calibrate]") {
   // Jia et al. 2019's reason for the distance-and-rotation model: the board-to-base transform changes
   // between the ground calibration and use; distances and rotation angles between camera poses do not
   // depend on it.

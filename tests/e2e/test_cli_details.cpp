@@ -63,7 +63,7 @@ TEST_CASE("the built-in iiwa7's joint limits are KUKA's data sheet's for the LBR
              Contains(dir + "/a7.csv: line 2: q7: 176 deg") && Contains("[-175, 175] deg"));
 }
 
-TEST_CASE("orbcal simulate --quiet: as the other commands take it; the same data", "[e2e][measured]") {
+TEST_CASE("orbcal simulate --quiet: as the other commands take it, the same data", "[e2e][measured]") {
   const std::string dir = test::tempDir("simulate-quiet");
   REQUIRE(runOrbcal(dir, "simulate -o loud -n 20 --sessions 1 --seed 2") == 0);
   REQUIRE(runOrbcal(dir, "simulate -o quiet -n 20 --sessions 1 --seed 2 --quiet") == 0);

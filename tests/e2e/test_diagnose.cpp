@@ -71,7 +71,7 @@ TEST_CASE("diagnose writes its report, diagnosis.json and a model evaluate can r
   CHECK(std::filesystem::exists(r.model_path));
 }
 
-TEST_CASE("diagnose names a cyclic error of joint 2 from rendered images alone; clean images stay clean",
+TEST_CASE("diagnose names a cyclic error of joint 2 from rendered images alone, clean images stay clean",
           "[e2e][diagnose][images]") {
   const std::string dir = test::tempDir("diagnose-images");
   // A seeded amplitude of 0.04..0.08 deg (random sign) on sin(q2): 4 to 8 times the 0.01 deg control
@@ -98,7 +98,11 @@ TEST_CASE("diagnose names a cyclic error of joint 2 from rendered images alone; 
   const calib::Diagnosis hidden = renderAndDiagnose("cyclic", dir + "/errors.yaml").diagnosis;
   CAPTURE(amplitude, hidden.verdict);
   REQUIRE_FALSE(hidden.clean);
-  CHECK(sim::formatEffect(hidden.selected.front()) == "cyclic:2");
+  // The hidden error is the first harmonic alone: the orders chosen by cross-validation must hold it,
+  // either order 1 exactly ("cyclic:2/1") or the default orders 1-2 ("cyclic:2"), and no higher one.
+  const std::string named = sim::formatEffect(hidden.selected.front());
+  CAPTURE(named);
+  CHECK((named == "cyclic:2/1" || named == "cyclic:2"));
   const tools::DiagnoseRunResult clean = renderAndDiagnose("clean", "table3");
   CAPTURE(clean.diagnosis.verdict);
   CHECK(clean.diagnosis.clean);

@@ -30,7 +30,7 @@ std::string cyclicFile(double a1) {
 
 }  // namespace
 
-TEST_CASE("render with an error-set file: the camera sees the geared arm; errors.yaml copied, resumed, compared",
+TEST_CASE("render with an error-set file: the camera sees the geared arm, errors.yaml copied, resumed, compared",
           "[e2e][error-set]") {
   const std::string dir = test::tempDir("error-set-render");
   const std::string errors = dir + "/cyclic.yaml";

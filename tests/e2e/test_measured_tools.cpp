@@ -104,7 +104,7 @@ TEST_CASE("model files: errors name the file and the key", "[e2e][measured]") {
   CHECK(sim::loadModelFile(dir + "/truth/model.yaml").model.effects.size() == 1);
 }
 
-TEST_CASE("measured data: a fit inconsistent with the given noise is refused; with the hidden effect modelled it is not",
+TEST_CASE("measured data: a fit inconsistent with the given noise is refused, with the hidden effect modelled it is not",
           "[e2e][measured]") {
   const std::string dir = test::tempDir("measured-inconsistent");
   sim::SimulationSpec s = spec(120, 7);

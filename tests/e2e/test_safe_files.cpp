@@ -485,11 +485,11 @@ void interruptAndResume(int sig, const std::string& name, const std::string& exp
 
 }  // namespace
 
-TEST_CASE("safe files: Ctrl-C stops a render with one line saying where it stands; a rerun completes it", "[e2e][safe]") {
+TEST_CASE("safe files: Ctrl-C stops a render with one line saying where it stands, a rerun completes it", "[e2e][safe]") {
   interruptAndResume(SIGINT, "safe-sigint", "interrupted (SIGINT)");
 }
 
-TEST_CASE("safe files: SIGTERM stops a render with one line saying where it stands; a rerun completes it", "[e2e][safe]") {
+TEST_CASE("safe files: SIGTERM stops a render with one line saying where it stands, a rerun completes it", "[e2e][safe]") {
   interruptAndResume(SIGTERM, "safe-sigterm", "stopped (SIGTERM)");
 }
 

@@ -174,7 +174,7 @@ TEST_CASE("supersampling alone (2x, no MSAA, no board filter) keeps corners in p
   CHECK(a.rms < kMaxRmsPx);
 }
 
-TEST_CASE("MSAA alone (board filter off) brings the RMS under the bar; without any anti-aliasing it is worse",
+TEST_CASE("MSAA alone (board filter off) brings the RMS under the bar, without any anti-aliasing it is worse",
           "[render][accuracy][msaa]") {
   // The default settings also filter the board analytically, which alone smooths the pattern's edges:
   // with it on, the MSAA test above would pass with MSAA off too. Here the board filter is off.

@@ -147,7 +147,7 @@ TEST_CASE("gravity torques: a horizontal link held about a horizontal axis", "[s
   }
 }
 
-TEST_CASE("gravity torques of the iiwa7: a vertical first axis carries nothing; upright holds almost nothing",
+TEST_CASE("gravity torques of the iiwa7: a vertical first axis carries nothing, upright holds almost nothing",
           "[sim][gravity]") {
   const Arm arm = loadArm(orbcal::test::sourcePath("scenes/iiwa7.yaml"));
   REQUIRE(arm.masses.links.size() == 7);

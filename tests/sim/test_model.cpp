@@ -127,7 +127,7 @@ TEST_CASE("each effect's Jacobian matches central differences, alone and compose
   }
 }
 
-TEST_CASE("two effects of one kind on different joints keep their own parameters; a repeated one is refused", "[model]") {
+TEST_CASE("two effects of one kind on different joints keep their own parameters, a repeated one is refused", "[model]") {
   const Arm arm = loadArm(orbcal::test::sourcePath("scenes/iiwa7.yaml"));
   const KinematicModel m = modelWith(arm, {Compliance{{1}}, Cyclic{{2}, 1}, Compliance{{3}}});
   std::mt19937_64 rng(3);
@@ -193,7 +193,7 @@ TEST_CASE("folding parameters into the model keeps its predictions", "[model]") 
   CHECK(f.p.segment(f.model.layout.block(f.model.layout.find("geometry")).offset, arm.numParams()).isZero());
 }
 
-TEST_CASE("effect specifications parse and print back; bad ones are errors naming the option", "[model]") {
+TEST_CASE("effect specifications parse and print back, bad ones are errors naming the option", "[model]") {
   for (const char* spec : {"compliance:2,4", "compliance:3/3", "cyclic:2", "cyclic:1,7/3", "scale:3", "backlash:1", "thermal",
                            "drift", "mount", "coupling:3,2", "coupling:3,2,6,5", "link_bending:2,4"}) {
     CHECK(formatEffect(parseEffect(spec, 7, "--effects")) == spec);

@@ -137,7 +137,7 @@ TEST_CASE("URDF parameters: 7 a joint, named and united", "[sim][urdf]") {
   CHECK(paramKey(arm, kOyaw) == "yaw_deg");
 }
 
-TEST_CASE("a fixed joint folds into the next origin; a continuous joint is revolute without limits", "[sim][urdf]") {
+TEST_CASE("a fixed joint folds into the next origin, a continuous joint is revolute without limits", "[sim][urdf]") {
   const Arm arm = armFromUrdf(kTwisted, "twisted.urdf", "base", "tool");
   REQUIRE(arm.numJoints() == 3);
   CHECK(arm.urdf.joint_names == std::vector<std::string>{"j1", "j2", "j3"});

@@ -45,7 +45,7 @@ TEST_CASE("OpenCV's FileStorage reads orbcal's file, and orbcal reads FileStorag
   test::checkSameCamera(back, c);
 }
 
-TEST_CASE("intrinsics image arguments: a folder is its images, sorted; none is an error", "[vision][camera_files][badinput]") {
+TEST_CASE("intrinsics image arguments: a folder is its images, sorted, none is an error", "[vision][camera_files][badinput]") {
   const std::string dir = test::tempDir("camera-files-folder");
   std::filesystem::create_directories(dir + "/imgs/sub.png");  // a folder with an image's name: ignored
   for (const char* name : {"b.png", "a.JPG", "c.tiff", "notes.txt", "c.png.bak"}) test::write(dir + "/imgs/" + name, "x");
