@@ -358,11 +358,18 @@ Eigen::VectorXd jointCorrections(const KinematicModel& m, const Eigen::VectorXd&
 
 namespace {
 
+/// The chain at p, scaled: only what chainFrames and identificationJacobian read (convention, fixed
+/// end transforms, rows). The arm's name, source, limits, masses and URDF record are left out: copying
+/// them for every sample at every evaluation was most of a fit's memory traffic.
 Arm scaledArm(const KinematicModel& m, const Eigen::VectorXd& p, double length_scale) {
-  Arm arm = m.arm;
+  Arm arm;
+  arm.convention = m.arm.convention;
+  arm.base_T_first = m.arm.base_T_first;
+  arm.joints = m.arm.joints;
+  arm.last_T_flange = m.arm.last_T_flange;
   if (m.geometry) {
     const ParamBlock& g = m.layout.block(m.layout.find("geometry"));
-    arm = withErrors(m.arm, p.segment(g.offset, g.size()));
+    arm = withErrors(arm, p.segment(g.offset, g.size()));
   }
   if (length_scale != 1.0) {
     for (DhRow& r : arm.joints) {
