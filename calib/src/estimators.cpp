@@ -290,7 +290,7 @@ class SampleCost : public ceres::CostFunction {
     const Linearization lin = y.isZero(0.0) ? startLinearization() : m_.linearize(k_, y);
     if (!lin.innovation.allFinite() || !lin.H.allFinite()) return false;
     Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = W_ * lin.innovation;
-    const Eigen::MatrixXd WH = W_ * lin.H;
+    const Eigen::MatrixXd WH = W_.lazyProduct(lin.H);  // 3 or 6 rows: no blocked GEMM
     Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jacobians[0], m_.rows(k_),
                                                                                          static_cast<Eigen::Index>(free_.size()));
     for (std::size_t c = 0; c < free_.size(); ++c) J.col(static_cast<Eigen::Index>(c)) = -WH.col(free_[c]);

@@ -473,14 +473,16 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   const Matrix6d Ad_marker_flange = adjoint((Xf * MY).inverse());
   Matrix6Xd J_flange(6, arm.numParams());
   identificationJacobian(arm, q, ErrorFrame::kTool, J_flange, inserts.links);
-  const Matrix6Xd J_geo = Ad_marker_flange * J_flange;
+  // Products of 6-row matrices, coefficient by coefficient: the blocked GEMM path costs more than the
+  // arithmetic at these sizes (lazyProduct).
+  const Matrix6Xd J_geo = Ad_marker_flange.lazyProduct(J_flange);
   Matrix6Xd J_q(6, n);
   for (int j = 0; j < n; ++j) J_q.col(j) = J_geo.col(paramIndex(arm, j, kTheta));
   if (J_e_q) *J_e_q = J_q;
   if (!J_e_p) return world_T_marker;
 
   Eigen::MatrixXd& J = *J_e_p;
-  J = J_q * J_dq_p;  // joint-angle effects
+  J = J_q.lazyProduct(J_dq_p);  // joint-angle effects
   if (b_blk >= 0) {
     J.middleCols(m.layout.block(b_blk).offset, 6) += adjoint((D * F * MY).inverse()) * frameDeltaJacobian(seg(b_blk));
   }
