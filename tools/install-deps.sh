@@ -3,7 +3,7 @@
 # only what is missing, and does nothing (no apt-get update) when everything is present.
 # Usage: tools/install-deps.sh [--tests]   (--tests adds what only the test suite needs)
 set -euo pipefail
-pkgs=(build-essential cmake pkg-config libeigen3-dev libopencv-dev libosmesa6-dev libassimp-dev
+pkgs=(build-essential cmake pkg-config libeigen3-dev libboost-dev libopencv-dev libosmesa6-dev libassimp-dev
       catch2 libceres-dev libcli11-dev libyaml-cpp-dev liburdfdom-dev python3-matplotlib
       libopencv-contrib-dev)   # cv::aruco: ChArUco boards
 if [[ "${1:-}" == "--tests" ]]; then

@@ -13,6 +13,8 @@
 #include <sstream>
 #include <thread>
 
+#include "diagnose_candidates.hpp"
+#include "diagnose_text.hpp"
 #include "orbcal/calib/plausibility.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
@@ -20,114 +22,6 @@
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::calib {
-
-// ---- Distributions ------------------------------------------------------------------------------
-
-namespace {
-
-/// Regularized lower incomplete gamma P(a, x): series (x < a + 1) or continued fraction.
-double gammaP(double a, double x) {
-  if (x <= 0.0) return 0.0;
-  const double gln = std::lgamma(a);
-  if (x < a + 1.0) {
-    double sum = 1.0 / a, del = sum, ap = a;
-    for (int n = 0; n < 1000; ++n) {
-      ap += 1.0;
-      del *= x / ap;
-      sum += del;
-      if (std::abs(del) < std::abs(sum) * 1e-15) break;
-    }
-    return sum * std::exp(-x + a * std::log(x) - gln);
-  }
-  double b = x + 1.0 - a, c = 1.0 / 1e-300, d = 1.0 / b, h = d;
-  for (int i = 1; i < 1000; ++i) {
-    const double an = -i * (i - a);
-    b += 2.0;
-    d = an * d + b;
-    if (std::abs(d) < 1e-300) d = 1e-300;
-    c = b + an / c;
-    if (std::abs(c) < 1e-300) c = 1e-300;
-    d = 1.0 / d;
-    const double del = d * c;
-    h *= del;
-    if (std::abs(del - 1.0) < 1e-15) break;
-  }
-  return 1.0 - std::exp(-x + a * std::log(x) - gln) * h;
-}
-
-/// Continued fraction of the incomplete beta function (Lentz).
-double betaContinuedFraction(double a, double b, double x) {
-  const double qab = a + b, qap = a + 1.0, qam = a - 1.0;
-  double c = 1.0, d = 1.0 - qab * x / qap;
-  if (std::abs(d) < 1e-300) d = 1e-300;
-  d = 1.0 / d;
-  double h = d;
-  for (int m = 1; m < 1000; ++m) {
-    const int m2 = 2 * m;
-    double aa = m * (b - m) * x / ((qam + m2) * (a + m2));
-    d = 1.0 + aa * d;
-    if (std::abs(d) < 1e-300) d = 1e-300;
-    c = 1.0 + aa / c;
-    if (std::abs(c) < 1e-300) c = 1e-300;
-    d = 1.0 / d;
-    h *= d * c;
-    aa = -(a + m) * (qab + m) * x / ((a + m2) * (qap + m2));
-    d = 1.0 + aa * d;
-    if (std::abs(d) < 1e-300) d = 1e-300;
-    c = 1.0 + aa / c;
-    if (std::abs(c) < 1e-300) c = 1e-300;
-    d = 1.0 / d;
-    const double del = d * c;
-    h *= del;
-    if (std::abs(del - 1.0) < 1e-15) break;
-  }
-  return h;
-}
-
-/// Regularized incomplete beta I_x(a, b).
-double betaI(double a, double b, double x) {
-  if (x <= 0.0) return 0.0;
-  if (x >= 1.0) return 1.0;
-  const double bt = std::exp(std::lgamma(a + b) - std::lgamma(a) - std::lgamma(b) + a * std::log(x) + b * std::log(1.0 - x));
-  if (x < (a + 1.0) / (a + b + 2.0)) return bt * betaContinuedFraction(a, b, x) / a;
-  return 1.0 - bt * betaContinuedFraction(b, a, 1.0 - x) / b;
-}
-
-}  // namespace
-
-double chiSquareSurvival(double x, double k) { return x <= 0.0 ? 1.0 : 1.0 - gammaP(0.5 * k, 0.5 * x); }
-
-double fSurvival(double f, double d1, double d2) {
-  if (f <= 0.0) return 1.0;
-  return betaI(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * f));
-}
-
-double studentTCritical(double two_sided_alpha, double dof) {
-  // P(|T| > t) = P(F(1, dof) > t^2): bisection on the F survival function, which falls with t.
-  double lo = 0.0, hi = 1.0;
-  while (fSurvival(hi * hi, 1.0, dof) > two_sided_alpha) hi *= 2.0;
-  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (fSurvival(mid * mid, 1.0, dof) > two_sided_alpha ? lo : hi) = mid;
-  }
-  return 0.5 * (lo + hi);
-}
-
-std::vector<double> holmAdjust(const std::vector<double>& p) {
-  const std::size_t n = p.size();
-  std::vector<std::size_t> order(n);
-  std::iota(order.begin(), order.end(), 0);
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return p[a] < p[b]; });
-  std::vector<double> adj(n);
-  double running = 0.0;
-  for (std::size_t i = 0; i < n; ++i) {
-    running = std::max(running, std::min(1.0, static_cast<double>(n - i) * p[order[i]]));
-    adj[order[i]] = running;
-  }
-  return adj;
-}
-
-std::string describeEffect(const sim::Effect& e) { return e.kind().words(e); }
 
 // ---- Diagnosis ----------------------------------------------------------------------------------
 
@@ -423,29 +317,7 @@ class Diagnoser {
     return out;
   }
 
-  /// Every cause of the catalog the data can express (compliance needs torques, thermal a temperature
-  /// that varies, ...), as each kind proposes them.
-  std::vector<Effect> catalog() const {
-    sim::CandidateContext ctx;
-    ctx.arm = &data_.arm;
-    ctx.joints = data_.arm.numJoints();
-    ctx.torque = data_.has_torque || !data_.arm.masses.empty();
-    ctx.masses = !data_.arm.masses.empty();
-    for (const sim::MeasuredPose& p : data_.poses) ctx.direction |= p.sample.direction.size() > 0 && p.sample.direction.cwiseAbs().sum() > 0;
-    ctx.temperature = data_.has_temperature;
-    ctx.time = data_.has_time;
-    ctx.sessions = data_.numSessions();
-    ctx.shared_marker = data_.marker == sim::FrameSharing::kShared;
-    ctx.harmonics = o_.harmonics;
-    ctx.max_order = o_.max_order;
-    std::vector<sim::JointSample> samples;
-    for (const MarkerObservation& ob : obs_) samples.push_back(ob.sample);
-    std::vector<Effect> c;
-    for (const sim::EffectKind* k : sim::catalog()) {
-      for (const Effect& e : k->candidates(ctx)) c.push_back(k->adaptTo(e, samples));
-    }
-    return c;
-  }
+  std::vector<Effect> catalog() const { return catalogCandidates(data_, obs_, o_); }
 
   /// The order of a chosen cause with orders (cyclic: harmonics 1..max_order; compliance: degree 1 or 3) that
   /// earns the most cross-validated gain after its penalty per parameter; `cv` is the chosen order's.
@@ -489,19 +361,6 @@ class Diagnoser {
   MarkerNoise noise_;
   mutable std::map<std::string, CvResult> cold_cvs_;  ///< cross-validations from the closed-form start, by effects
 };
-
-/// The measurement that separates a confounded set: that of its first cause in catalog order, except
-/// that thermal expansion and drift, both growing through a warm-up, part in a cool-down.
-std::string separationAdvice(const std::vector<Effect>& set) {
-  const auto has = [&](const char* k) { return std::any_of(set.begin(), set.end(), [&](const Effect& e) { return e.name() == k; }); };
-  if (has("thermal") && has("drift") && !has("compliance")) {
-    return "measure while the temperature also falls (a cool-down), so that temperature and time part";
-  }
-  for (const sim::EffectKind* k : sim::catalog()) {
-    if (std::any_of(set.begin(), set.end(), [&](const Effect& e) { return &e.kind() == k; })) return k->separateBy();
-  }
-  return "add configurations that move the joints involved independently";
-}
 
 /// Evidence: held-out residuals against each variable (F test of a linear regression, pooled over the
 /// residual components), Holm-adjusted. The base family (lack_of_fit.hpp's evidenceVariables, not
@@ -609,28 +468,6 @@ void forwardSelect(const Diagnoser& d, const DiagnoseOptions& o, const std::vect
 
 }
 
-/// Empirical corrections (sim/src/effects/empirical.cpp) the data can carry: each joint against its
-/// own angle and, with torques, its own torque, at degree `degree` (the score test's reach; the degree
-/// is then chosen by cross-validation), over the data's range.
-std::vector<Effect> empiricalCandidates(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, int degree) {
-  std::vector<Effect> out;
-  const bool torque = !obs.empty() && obs.front().sample.hasTorque();
-  for (int j = 0; j < data.arm.numJoints(); ++j) {
-    for (const char* name : {"empirical", "empirical_torque"}) {
-      const sim::EffectKind& kind = *sim::findEffectKind(name);
-      if (kind.needs().torque && !torque) continue;
-      const Effect e(kind, {j, j}, std::clamp(degree, 1, kind.maxOrder()));
-      double lo = kind.variable(e, obs.front().sample), hi = lo;
-      for (const MarkerObservation& ob : obs) {
-        lo = std::min(lo, kind.variable(e, ob.sample));
-        hi = std::max(hi, kind.variable(e, ob.sample));
-      }
-      if (hi - lo > 1e-9 * std::max(1.0, std::abs(hi))) out.push_back(e.withRange(lo, hi));
-    }
-  }
-  return out;
-}
-
 /// Backward elimination: every selected effect must keep earning its place.
 void backwardEliminate(const Diagnoser& d, const sim::MeasuredData& data, const DiagnoseOptions& o, const Fit& base_fit,
                        ModelSelection& sel) {
@@ -674,55 +511,6 @@ std::vector<double> sharesOfExcess(const Diagnoser& d, const Diagnosis& out) {
     previous = current;
   }
   return shares;
-}
-
-/// The verdict: one paragraph a user can act on.
-std::string verdictText(const Diagnosis& out) {
-  const std::vector<Effect>& selected = out.selected;
-  std::ostringstream v;
-  if (out.clean && out.lack_of_fit.tested) {
-    v << "No unmodelled effect: the geometry + registration model leaves no significant structure in its held-out residuals "
-      << "(held-out position RMS " << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " mm, the noise gives "
-      << sim::formatNumber("%.3f", out.heldout.noise_position_rms_m * 1e3) << " mm); calibrate it as it is.";
-  } else if (out.clean) {
-    v << "No unmodelled effect found, but only relative to noise estimated from these residuals, "
-      << sim::formatNumber("%.3f", out.heldout.noise_position_rms_m * 1e3) << " mm (held-out position RMS "
-      << sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) << " mm): no structure found against any variable "
-      << "tested, but a misfit spread evenly over the samples cannot be told from noise without a stated noise or repeated "
-      << "configurations; calibrate it as it is, or state the noise to test it.";
-  } else if (selected.empty()) {
-    v << unexplainedSentence(out);
-  } else {
-    // Physical causes are named as causes; empirical corrections as what they are.
-    std::vector<Effect> causes, empirical;
-    for (const Effect& e : selected) (e.kind().empirical() ? empirical : causes).push_back(e);
-    const auto list = [&](const std::vector<Effect>& es) {
-      std::string t;
-      for (std::size_t i = 0; i < es.size(); ++i) t += (i ? (i + 1 == es.size() ? " and " : ", ") : "") + describeEffect(es[i]);
-      return t;
-    };
-    if (!causes.empty()) v << "The model misses " << list(causes);
-    if (!empirical.empty()) {
-      v << (causes.empty() ? "No cause of the catalog explains the structure in the residuals; " : "; what they leave is taken up by ")
-        << list(empirical) << (causes.empty() ? " takes it up (empirical, not a physical cause)" : " (empirical, not a physical cause)");
-    }
-    // In micrometres where millimetres to 3 decimals would read the same ("from 0.091 to 0.091 mm").
-    std::string before = sim::formatNumber("%.3f", out.heldout.base.position_rms_m * 1e3) + " mm";
-    std::string after = sim::formatNumber("%.3f", out.heldout.selected.position_rms_m * 1e3) + " mm";
-    if (before == after) {
-      before = sim::formatNumber("%.2f", out.heldout.base.position_rms_m * 1e6) + " um";
-      after = sim::formatNumber("%.2f", out.heldout.selected.position_rms_m * 1e6) + " um";
-    }
-    // Selection weighs the held-out errors by their noise; the plain position RMS can stay level.
-    const bool cut = out.heldout.selected.position_rms_m < out.heldout.base.position_rms_m;
-    v << ": adding " << (selected.size() > 1 ? "them" : "it")
-      << (cut ? " cuts the held-out position RMS from " : " lowers the held-out error weighed by the noise (the position RMS goes from ")
-      << before << " to " << after << (cut ? "" : ")") << "; calibrate with --effects";
-    for (const Effect& e : selected) v << " " << sim::formatEffect(e);
-    v << (out.confounded.empty() ? "." : " (some causes are confounded in this data: see below).");
-    if (out.unexplained) v << " " << unexplainedSentence(out);
-  }
-  return v.str();
 }
 
 }  // namespace

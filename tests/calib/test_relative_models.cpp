@@ -11,19 +11,13 @@
 #include "orbcal/calib/relative_models.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "jacobian_check.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
 
 namespace {
 
-// As tests/sim/test_model.cpp: columns scaled by each parameter's typical magnitude, central
-// differences with a step of 1e-3 typical (truncation ~1e-6 relative, round-off ~1e-16 x 15 m / 1e-3
-// typical ~ 1e-12), compared to 1e-5 of the largest entry of the sample's column plus 1e-11 absolute
-// (which also covers the exactly zero columns of the ineffective parameters).
-constexpr double kRelativeStep = 1e-3;
-constexpr double kRelTol = 1e-5;
-constexpr double kAbsTol = 1e-11;
 
 const char* const kArms[] = {"scenes/ssrms.yaml", "scenes/iiwa7.yaml"};
 
@@ -44,27 +38,17 @@ Eigen::VectorXd randomParams(const sim::ParamLayout& layout, std::mt19937_64& rn
   return p;
 }
 
+/// Every sample's H against central differences of its innovation (tests/jacobian_check.hpp):
+/// H = d h / d y = -d nu / d y.
 void checkH(const calib::MeasurementModel& m, const Eigen::VectorXd& y) {
-  const Eigen::VectorXd typical = m.layout().typical();
   double largest = 0.0;
   for (int k = 0; k < m.numSamples(); ++k) {
     const calib::Linearization lin = m.linearize(k, y);
     REQUIRE(lin.H.rows() == m.rows(k));
     REQUIRE(lin.H.cols() == m.numParams());
-    for (int c = 0; c < m.numParams(); ++c) {
-      const double h = kRelativeStep * typical[c];
-      Eigen::VectorXd yp = y, ym = y;
-      yp[c] += h;
-      ym[c] -= h;
-      // H = d h / d y = -d nu / d y.
-      const Eigen::VectorXd num = -(m.linearize(k, yp).innovation - m.linearize(k, ym).innovation) / (2.0 * h) * typical[c];
-      const Eigen::VectorXd ana = lin.H.col(c) * typical[c];
-      largest = std::max(largest, num.cwiseAbs().maxCoeff());
-      Eigen::Index r = 0;
-      const double err = (ana - num).cwiseAbs().maxCoeff(&r);
-      CAPTURE(k, m.paramName(c), r, ana[r], num[r]);
-      REQUIRE(err <= kRelTol * num.cwiseAbs().maxCoeff() + kAbsTol);
-    }
+    CAPTURE(k);
+    const auto f = [&](const Eigen::VectorXd& x) -> Eigen::VectorXd { return -m.linearize(k, x).innovation; };
+    largest = std::max(largest, test::requireJacobianMatches(f, lin.H, y, m.layout().typical(), [&](int c) { return m.paramName(c); }));
   }
   REQUIRE(largest > 1e-4);  // the harness is not comparing zeros
 }

@@ -45,7 +45,7 @@ TEST_CASE("diagnose writes its report, diagnosis.json and a model evaluate can r
   workflow::DiagnoseRunOptions o;
   o.input = test::sourcePath("scenes/iiwa7_0kg.yaml");
   if (!std::filesystem::exists(test::sharedDataPath("iiwa7/run1_0kg.csv"))) {
-    WARN("skipped: the real iiwa7 data is not at " << test::sharedDataPath("iiwa7"));
+    ORBCAL_SKIP("the real iiwa7 data is not at " << test::sharedDataPath("iiwa7"));
     return;
   }
   o.out = dir;

@@ -12,7 +12,7 @@ using namespace orbcal;
 namespace {
 bool haveData() {
   if (std::filesystem::exists(test::sharedDataPath("iiwa7/run1_0kg.csv"))) return true;
-  WARN("skipped: the real iiwa7 data is not at " << test::sharedDataPath("iiwa7"));
+  ORBCAL_SKIP("the real iiwa7 data is not at " << test::sharedDataPath("iiwa7"));
   return false;
 }
 }  // namespace

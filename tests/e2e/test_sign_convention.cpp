@@ -151,7 +151,7 @@ TEST_CASE("simulate: a positive compliance sags, and a drawn one is positive", "
 
 TEST_CASE("the real iiwa7: its files' torques are the load's (sense: load), and joint 2 comes out sagging", "[e2e][sign][iiwa7]") {
   if (!fs::exists(test::sharedDataPath("iiwa7/run1_0kg.csv"))) {
-    WARN("skipped: the real iiwa7 data is not at " << test::sharedDataPath("iiwa7"));
+    ORBCAL_SKIP("the real iiwa7 data is not at " << test::sharedDataPath("iiwa7"));
     return;
   }
   // Read with the description's `sense: load`, the torques follow dU/dq of iiwa7.yaml's masses (with

@@ -406,7 +406,7 @@ TEST_CASE("writeMeasuredData: loadMeasuredData reads the same samples back bit f
 TEST_CASE("the real iiwa7 measurements load through scenes/iiwa7_measurements.yaml", "[sim][measured][real]") {
   const std::string data = orbcal::test::sharedDataPath("iiwa7");
   if (!std::filesystem::exists(data + "/run1_0kg.csv")) {
-    WARN("skipped: " << data << " absent (the real iiwa7 measurements are not part of the repository)");
+    ORBCAL_SKIP("" << data << " absent (the real iiwa7 measurements are not part of the repository)");
     return;
   }
   const MeasuredData d = loadMeasuredData(orbcal::test::sourcePath("scenes/iiwa7_measurements.yaml"));

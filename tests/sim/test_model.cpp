@@ -9,22 +9,13 @@
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/model.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "jacobian_check.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal::sim;
 
 namespace {
 
-// Columns are compared scaled by each parameter's typical magnitude, so that every entry is the pose
-// change (m, rad) a typical value of the parameter causes: 1e-5..1e-1 here. Central differences with a
-// step of 1e-3 typical: truncation ~ (1e-3)^2 relative (the pose is smooth on the scale of a typical
-// value), round-off ~ 1e-16 x 3 m / 1e-3 = 3e-13. A relative tolerance of 1e-5 of the column's
-// largest entry (plus 1e-11 absolute) is far above both, and far below what a wrong lever arm, sign,
-// frame or missing right Jacobian gives (errors of 1e-3 relative and more: a 1 deg rotation vector
-// changes Jr by 0.9%).
-constexpr double kRelativeStep = 1e-3;
-constexpr double kRelTol = 1e-5;
-constexpr double kAbsTol = 1e-11;
 
 JointSample randomSample(const Arm& arm, int session, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
@@ -52,27 +43,15 @@ Eigen::VectorXd randomParams(const KinematicModel& m, std::mt19937_64& rng) {
   return p;
 }
 
+/// predictMarkerPose's Jacobian against central differences (tests/jacobian_check.hpp), in the
+/// chart poseMinus(., T) around the pose T at p.
 void checkJacobian(const KinematicModel& m, const JointSample& s, const Eigen::VectorXd& p) {
   Eigen::MatrixXd J;
   const Eigen::Isometry3d T = predictMarkerPose(m, p, s, &J);
   REQUIRE(J.rows() == 6);
   REQUIRE(J.cols() == m.layout.size());
-  const Eigen::VectorXd typical = m.layout.typical();
-  double largest = 0.0;
-  for (int c = 0; c < m.layout.size(); ++c) {
-    const double h = kRelativeStep * typical[c];
-    Eigen::VectorXd pp = p, pm = p;
-    pp[c] += h;
-    pm[c] -= h;
-    const Vector6d num =
-        (poseMinus(predictMarkerPose(m, pp, s), T) - poseMinus(predictMarkerPose(m, pm, s), T)) / (2.0 * h) * typical[c];
-    const Vector6d ana = J.col(c) * typical[c];
-    largest = std::max(largest, num.cwiseAbs().maxCoeff());
-    Eigen::Index r = 0;
-    const double err = (ana - num).cwiseAbs().maxCoeff(&r);
-    CAPTURE(m.layout.param(c).name, r, ana[r], num[r]);
-    REQUIRE(err <= kRelTol * num.cwiseAbs().maxCoeff() + kAbsTol);
-  }
+  const auto f = [&](const Eigen::VectorXd& x) -> Eigen::VectorXd { return poseMinus(predictMarkerPose(m, x, s), T); };
+  const double largest = orbcal::test::requireJacobianMatches(f, J, p, m.layout.typical(), [&](int c) { return m.layout.param(c).name; });
   REQUIRE(largest > 1e-4);  // the harness is not comparing zeros
 }
 
