@@ -87,7 +87,7 @@ sim::FrameSharing sharingNamed(const std::string& name, const std::string& what)
   throw sim::InputError(what + ": '" + name + "': expected shared, per_session or known");
 }
 
-/// Row k of an optional N x cols array, with its shape checked.
+/// Throws ValueError unless the optional array `a` has `rows` rows of `cols` columns (any count where cols is 0).
 void requireRows(const std::optional<Eigen::MatrixXd>& a, Eigen::Index rows, Eigen::Index cols, const char* name) {
   if (a && (a->rows() != rows || (cols > 0 && a->cols() != cols))) {
     throw py::value_error(std::string(name) + ": expected " + std::to_string(rows) + " rows of " + std::to_string(cols) +
@@ -190,6 +190,33 @@ sim::MeasuredData fromArrays(const sim::Arm& arm, const ArrayInput& in, const py
   return d;
 }
 
+/// `orbcal simulate`'s spec from the Python arguments, simulated; returns (data, truth).
+py::tuple simulateData(const sim::Arm& robot, int samples, std::uint64_t seed, const std::vector<std::string>& effects,
+                       const std::optional<Eigen::VectorXd>& values, int sessions, const std::vector<double>& payload_kg,
+                       const py::dict& noise, const std::string& geometry, bool rotation, const std::string& base,
+                       const std::string& marker) {
+  sim::SimulationSpec s;
+  s.samples = samples;
+  s.sessions = sessions;
+  s.seed = seed;
+  s.effects = parseEffects(effects, robot.numJoints(), "effects");
+  if (values) s.effect_values = *values;
+  s.payload_kg = payload_kg;
+  s.geometry.name = geometry;
+  s.geometry.seed = seed;
+  s.rotation = rotation;
+  s.base = sharingNamed(base, "base");
+  s.marker = sharingNamed(marker, "marker");
+  sim::MeasuredData stated;
+  readNoise(noise, stated);
+  s.noise_position_m = stated.noise_position_m.value_or(s.noise_position_m);
+  s.noise_rotation_rad = stated.noise_rotation_rad.value_or(s.noise_rotation_rad);
+  s.joint_noise_rad = stated.noise_joint_rad.value_or(s.joint_noise_rad);
+  sim::SimulatedData d = sim::simulateMeasured(robot, s);
+  const sim::FoldedModel truth = sim::foldParameters(d.truth, d.p_true);
+  return py::make_tuple(d.data, PyModel{truth.model, truth.p, exactRows(d.truth, d.p_true), py::dict()});
+}
+
 }  // namespace
 
 std::vector<sim::Effect> parseEffects(const std::vector<std::string>& specs, int joints, const std::string& what) {
@@ -214,7 +241,7 @@ void bindMeasurements(py::module_& m) {
       .def_readonly("robot", &sim::MeasuredData::arm, "the nominal robot")
       .def_readonly("description", &sim::MeasuredData::description, "the description file ('(arrays)' when built from arrays)")
       .def_readonly("files", &sim::MeasuredData::files, "one per session")
-      .def("__len__", [](const sim::MeasuredData& d) { return d.poses.size(); })
+      .def("__len__", [](const sim::MeasuredData& d) { return d.poses.size(); }, "number of samples")
       .def_property_readonly("sessions", &sim::MeasuredData::numSessions, "number of sessions")
       .def_property_readonly("q", [](const sim::MeasuredData& d) { return stackRows(d, &sim::JointSample::q_rad); },
                              "joint readings (N x dof, rad)")
@@ -276,30 +303,7 @@ void bindMeasurements(py::module_& m) {
 
   m.def(
       "simulate",
-      [](const sim::Arm& robot, int samples, std::uint64_t seed, const std::vector<std::string>& effects,
-         std::optional<Eigen::VectorXd> values, int sessions, std::vector<double> payload_kg, const py::dict& noise,
-         const std::string& geometry, bool rotation, const std::string& base, const std::string& marker) {
-        sim::SimulationSpec s;
-        s.samples = samples;
-        s.sessions = sessions;
-        s.seed = seed;
-        s.effects = parseEffects(effects, robot.numJoints(), "effects");
-        if (values) s.effect_values = *values;
-        s.payload_kg = payload_kg;
-        s.geometry.name = geometry;
-        s.geometry.seed = seed;
-        s.rotation = rotation;
-        s.base = sharingNamed(base, "base");
-        s.marker = sharingNamed(marker, "marker");
-        sim::MeasuredData stated;
-        readNoise(noise, stated);
-        s.noise_position_m = stated.noise_position_m.value_or(s.noise_position_m);
-        s.noise_rotation_rad = stated.noise_rotation_rad.value_or(s.noise_rotation_rad);
-        s.joint_noise_rad = stated.noise_joint_rad.value_or(s.joint_noise_rad);
-        sim::SimulatedData d = sim::simulateMeasured(robot, s);
-        const sim::FoldedModel truth = sim::foldParameters(d.truth, d.p_true);
-        return py::make_tuple(d.data, PyModel{truth.model, truth.p, exactRows(d.truth, d.p_true), py::dict()});
-      },
+      &simulateData,
       py::arg("robot"), py::kw_only(), py::arg("samples") = 200, py::arg("seed") = 1,
       py::arg("effects") = std::vector<std::string>{}, py::arg("values") = py::none(), py::arg("sessions") = 1,
       py::arg("payload_kg") = std::vector<double>{0.0}, py::arg("noise") = py::dict(), py::arg("geometry") = "random",
