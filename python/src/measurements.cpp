@@ -95,8 +95,37 @@ void requireRows(const std::optional<Eigen::MatrixXd>& a, Eigen::Index rows, Eig
   }
 }
 
-/// The pose of sample k: `poses[k]` (4x4, its rotation checked as a description's matrix columns are) or
-/// `positions[k]` (rotation unused).
+/// `T` as a rigid transform: its rotation orthonormal within 1e-6 with det +1 (as a description's matrix
+/// columns are checked), its bottom row [0 0 0 1], its translation finite; InputError naming `what` otherwise.
+Eigen::Isometry3d rigidTransform(const Eigen::Matrix4d& T, const std::string& what) {
+  const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
+  const double off = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (!(off <= 1e-6) || !(R.determinant() > 0.0) || !((T.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() <= 1e-6) ||
+      !T.topRightCorner<3, 1>().allFinite()) {
+    throw sim::InputError(what + ": not a rigid transform (rotation orthonormal within 1e-6, det R = +1, bottom row [0 0 0 1], "
+                          "finite translation)");
+  }
+  Eigen::Isometry3d X = Eigen::Isometry3d::Identity();
+  X.linear() = R;
+  X.translation() = T.topRightCorner<3, 1>();
+  return X;
+}
+
+/// InputError naming `what` unless every value is finite (a NaN would read as "not measured").
+void requireFinite(const Eigen::Ref<const Eigen::VectorXd>& v, const std::string& what) {
+  if (!v.allFinite()) throw sim::InputError(what + ": not a finite number");
+}
+
+/// A temperature (degC) within an arm's range (sim/config.hpp), else InputError naming `what`.
+double temperatureWithin(double t, const std::string& what) {
+  if (!(t >= sim::kMinTemperatureC && t <= sim::kMaxTemperatureC)) {
+    throw sim::InputError(what + ": " + sim::formatNumber("%.9g", t) + " degC is outside " + sim::formatNumber("%g", sim::kMinTemperatureC) +
+                          " to " + sim::formatNumber("%g", sim::kMaxTemperatureC) + " degC (an arm's temperature)");
+  }
+  return t;
+}
+
+/// The pose of sample k: `poses[k]` (4x4) or `positions[k]` (rotation unused).
 sim::MeasuredPose samplePose(const std::optional<py::array_t<double>>& poses, const std::optional<Eigen::MatrixXd>& positions,
                              std::size_t k) {
   sim::MeasuredPose p;
@@ -104,22 +133,15 @@ sim::MeasuredPose samplePose(const std::optional<py::array_t<double>>& poses, co
   if (positions) {
     p.world_T_marker.translation() = positions->row(static_cast<Eigen::Index>(k)).transpose();
     p.has_rotation = false;
+    requireFinite(p.world_T_marker.translation(), "positions[" + std::to_string(k) + "]");
   } else {
     auto a = poses->unchecked<3>();
     Eigen::Matrix4d T;
     for (int r = 0; r < 4; ++r) {
       for (int c = 0; c < 4; ++c) T(r, c) = a(static_cast<py::ssize_t>(k), r, c);
     }
-    const Eigen::Matrix3d R = T.topLeftCorner<3, 3>();
-    const double off = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
-    if (!(off <= 1e-6) || R.determinant() < 0.0 || (T.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-6) {
-      throw sim::InputError("poses[" + std::to_string(k) + "]: not a rigid transform (rotation orthonormal within 1e-6, det R = +1, "
-                            "bottom row [0 0 0 1])");
-    }
-    p.world_T_marker.linear() = R;
-    p.world_T_marker.translation() = T.topRightCorner<3, 1>();
+    p.world_T_marker = rigidTransform(T, "poses[" + std::to_string(k) + "]");
   }
-  if (!p.world_T_marker.translation().allFinite()) throw sim::InputError(p.where + ": position is not finite");
   return p;
 }
 
@@ -130,6 +152,7 @@ struct ArrayInput {
   std::optional<Eigen::MatrixXd> torques;
   std::optional<Eigen::VectorXd> temperature, time;
   std::optional<std::vector<int>> session;
+  std::optional<Eigen::Matrix4d> world_T_base, flange_T_marker;  ///< exactly where base / marker are known
 };
 
 /// The samples of `in` on `arm`: shapes, finite numbers, joint limits and rigid poses checked.
@@ -158,13 +181,25 @@ std::vector<sim::MeasuredPose> samplesFrom(const sim::Arm& arm, const ArrayInput
                             " rad is outside the joint limits [" + rad(arm.lower_rad[j]) + ", " + rad(arm.upper_rad[j]) +
                             "] rad of " + arm.source);
     }
-    if (in.torques) s.tau_Nm = in.torques->row(k).transpose();
-    if (in.temperature) s.temperature_C = (*in.temperature)[k];
+    const std::string at = "[" + std::to_string(k) + "]";
+    if (in.torques) requireFinite(s.tau_Nm = in.torques->row(k).transpose(), "torques" + at);
+    if (in.temperature) s.temperature_C = temperatureWithin((*in.temperature)[k], "temperature" + at);
+    if (in.time) requireFinite(Eigen::Matrix<double, 1, 1>((*in.time)[k]), "time" + at);
     if (in.time) s.time_s = (*in.time)[k];
     s.session = in.session ? (*in.session)[static_cast<std::size_t>(k)] : 0;
     out.push_back(std::move(p));
   }
   return out;
+}
+
+/// A known frame: given exactly when its sharing is `known` (as a description's keys), identity otherwise.
+Eigen::Isometry3d knownFrame(const std::optional<Eigen::Matrix4d>& T, sim::FrameSharing sharing, const std::string& key,
+                             const std::string& sharing_key) {
+  if ((sharing == sim::FrameSharing::kKnown) != T.has_value()) {
+    throw sim::InputError(key + ": given exactly when " + sharing_key + " is 'known' (" + sharing_key + ": '" +
+                          sim::frameSharingName(sharing) + "')");
+  }
+  return T ? rigidTransform(*T, key) : Eigen::Isometry3d::Identity();
 }
 
 sim::MeasuredData fromArrays(const sim::Arm& arm, const ArrayInput& in, const py::dict& noise, const std::string& base,
@@ -182,6 +217,8 @@ sim::MeasuredData fromArrays(const sim::Arm& arm, const ArrayInput& in, const py
   for (int s = 0; s < sessions; ++s) d.files.push_back("(arrays, session " + std::to_string(s) + ")");
   d.base = sharingNamed(base, "base");
   d.marker = sharingNamed(marker, "marker");
+  d.world_T_base = knownFrame(in.world_T_base, d.base, "world_T_base", "base");
+  d.flange_T_marker = knownFrame(in.flange_T_marker, d.marker, "flange_T_marker", "marker");
   d.has_torque = in.torques.has_value();
   d.has_temperature = in.temperature.has_value();
   d.has_time = in.time.has_value();
@@ -290,16 +327,20 @@ void bindMeasurements(py::module_& m) {
       [](const sim::Arm& robot, const Eigen::MatrixXd& q, std::optional<Eigen::MatrixXd> positions,
          std::optional<py::array_t<double>> poses, std::optional<Eigen::MatrixXd> torques, std::optional<Eigen::VectorXd> temperature,
          std::optional<Eigen::VectorXd> time, std::optional<std::vector<int>> session, const py::dict& noise,
-         const std::string& base, const std::string& marker) {
-        return fromArrays(robot, {q, positions, poses, torques, temperature, time, session}, noise, base, marker);
+         const std::string& base, const std::string& marker, std::optional<Eigen::Matrix4d> world_T_base,
+         std::optional<Eigen::Matrix4d> flange_T_marker) {
+        return fromArrays(robot, {q, positions, poses, torques, temperature, time, session, world_T_base, flange_T_marker}, noise,
+                          base, marker);
       },
       py::arg("robot"), py::kw_only(), py::arg("q"), py::arg("positions") = py::none(), py::arg("poses") = py::none(),
       py::arg("torques") = py::none(), py::arg("temperature") = py::none(), py::arg("time") = py::none(),
       py::arg("session") = py::none(), py::arg("noise") = py::dict(), py::arg("base") = "shared", py::arg("marker") = "shared",
+      py::arg("world_T_base") = py::none(), py::arg("flange_T_marker") = py::none(),
       "Measured data from arrays, without files: q (N x dof, rad), and positions (N x 3, m) or poses (N x 4 x 4, m), "
       "optional torques (N x dof, N m, actuator sense), temperature (N, degC), time (N, s), session (N ints from 0), noise "
       "{position_m, rotation_rad, joint_rad} (1 sigma per axis; absent ones are estimated from the fit), base and marker "
-      "'shared' | 'per_session' (the unknown frames). Approach directions follow from the sample order.");
+      "'shared' | 'per_session' (unknown frames, estimated) or 'known', with world_T_base / flange_T_marker (4x4, m) "
+      "given exactly then. Approach directions follow from the sample order.");
 
   m.def(
       "simulate",

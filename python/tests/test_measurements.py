@@ -56,6 +56,20 @@ def test_array_errors(iiwa7, tracker):
     poses[3, 0, 0] += 0.01
     with pytest.raises(orbcal.Error, match=r"^poses\[3\]: not a rigid transform"):
         orbcal.measurements_from_arrays(iiwa7, q=data.q, poses=poses)
+    torques = data.torques.copy()
+    torques[9, 0] = np.nan  # a NaN would read as "not measured"
+    with pytest.raises(orbcal.Error, match=r"^torques\[9\]: not a finite number$"):
+        orbcal.measurements_from_arrays(iiwa7, q=data.q, positions=data.positions, torques=torques)
+    hot = data.temperature.copy()
+    hot[0] = 250.0  # above a motor winding's insulation limit
+    with pytest.raises(orbcal.Error, match=r"^temperature\[0\]: 250 degC is outside -150 to 200 degC"):
+        orbcal.measurements_from_arrays(iiwa7, q=data.q, positions=data.positions, temperature=hot)
+    with pytest.raises(orbcal.Error, match="^world_T_base: given exactly when base is 'known' \\(base: 'shared'\\)$"):
+        orbcal.measurements_from_arrays(iiwa7, q=data.q, positions=data.positions, world_T_base=np.eye(4))
+    with pytest.raises(orbcal.Error, match="^flange_T_marker: given exactly when marker is 'known'"):
+        orbcal.measurements_from_arrays(iiwa7, q=data.q, positions=data.positions, marker="known")
+    known = orbcal.measurements_from_arrays(iiwa7, q=data.q, positions=data.positions, base="known", world_T_base=np.eye(4))
+    assert known.registration == {"base": "known", "marker": "shared"}
     with pytest.raises(orbcal.Error, match="noise: position_m: 1 is outside 1e-9 m to 0.1 m"):
         orbcal.measurements_from_arrays(iiwa7, q=data.q, positions=data.positions, noise={"position_m": 1.0})
 
