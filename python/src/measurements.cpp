@@ -229,7 +229,7 @@ sim::MeasuredData fromArrays(const sim::Arm& arm, const ArrayInput& in, const py
 
 /// `orbcal simulate`'s spec from the Python arguments, simulated; returns (data, truth).
 py::tuple simulateData(const sim::Arm& robot, int samples, std::uint64_t seed, const std::vector<std::string>& effects,
-                       const std::optional<Eigen::VectorXd>& values, int sessions, const std::vector<double>& payload_kg,
+                       const std::optional<Eigen::VectorXd>& values, int sessions, const py::object& payload_kg,
                        const py::dict& noise, const std::string& geometry, bool rotation, const std::string& base,
                        const std::string& marker) {
   sim::SimulationSpec s;
@@ -238,7 +238,9 @@ py::tuple simulateData(const sim::Arm& robot, int samples, std::uint64_t seed, c
   s.seed = seed;
   s.effects = parseEffects(effects, robot.numJoints(), "effects");
   if (values) s.effect_values = *values;
-  s.payload_kg = payload_kg;
+  // One payload for every session, or one per session.
+  s.payload_kg = py::isinstance<py::sequence>(payload_kg) ? payload_kg.cast<std::vector<double>>()
+                                                           : std::vector<double>{payload_kg.cast<double>()};
   s.geometry.name = geometry;
   s.geometry.seed = seed;
   s.rotation = rotation;
@@ -347,12 +349,12 @@ void bindMeasurements(py::module_& m) {
       &simulateData,
       py::arg("robot"), py::kw_only(), py::arg("samples") = 200, py::arg("seed") = 1,
       py::arg("effects") = std::vector<std::string>{}, py::arg("values") = py::none(), py::arg("sessions") = 1,
-      py::arg("payload_kg") = std::vector<double>{0.0}, py::arg("noise") = py::dict(), py::arg("geometry") = "random",
+      py::arg("payload_kg") = 0.0, py::arg("noise") = py::dict(), py::arg("geometry") = "random",
       py::arg("rotation") = true, py::arg("base") = "shared", py::arg("marker") = "per_session",
       "Simulates what a laser tracker records of `robot` with random DH errors ('random', 'zero' or 'table3') and the "
       "hidden `effects` ('compliance:2', 'cyclic:4', 'thermal', ...; joints from 1), seen in an unknown frame through an "
       "unknown marker, as `orbcal simulate` does. values: the effects' parameters (SI, layout order; default drawn). "
-      "payload_kg: per session (one value: all). noise {position_m, rotation_rad, joint_rad}: 1 sigma per axis "
+      "payload_kg: at the flange, one value or one per session. noise {position_m, rotation_rad, joint_rad}: 1 sigma per axis "
       "(default 0.05 mm, 0.01 deg, 0). rotation=False: position-only data. Returns (data, truth), truth an orbcal Model.");
 }
 

@@ -98,6 +98,15 @@ def test_bad_description_key(tmp_path):
         orbcal.load_measurements(str(tmp_path / "m.yaml"))
 
 
+def test_simulate_payload_per_session_loads_the_joints(iiwa7):
+    data, _ = orbcal.simulate(iiwa7, samples=40, sessions=2, seed=5, payload_kg=[0.0, 3.0], noise={"position_m": 1e-5})
+    assert data.sessions == 2 and data.session == [0] * 20 + [1] * 20
+    one, _ = orbcal.simulate(iiwa7, samples=40, sessions=2, seed=5, payload_kg=3.0, noise={"position_m": 1e-5})
+    # A payload adds torque on the shoulder (joint 2) at the same configurations: a heavier arm on session 0.
+    assert np.abs(one.torques[:20, 1]).mean() > np.abs(data.torques[:20, 1]).mean()
+    np.testing.assert_allclose(one.torques[20:], data.torques[20:])
+
+
 def test_simulate_refuses_an_unknown_effect(iiwa7):
     with pytest.raises(orbcal.Error, match="effects: .*wobble"):
         orbcal.simulate(iiwa7, samples=50, effects=["wobble:2"])
