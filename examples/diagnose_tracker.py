@@ -14,11 +14,15 @@ The figure goes to OUTPUT_FOLDER/diagnose_tracker.png (default: the current fold
 import os
 import sys
 
-import matplotlib
+try:
+    import matplotlib
+    import numpy as np
+except ImportError as e:
+    sys.exit(f"{e}: this example needs Debian's python3-numpy and python3-matplotlib (tools/install-deps.sh); where "
+             "another python3 comes first on the PATH (pyenv, conda), run it with /usr/bin/python3")
 
 matplotlib.use(os.environ.get("MPLBACKEND", "Agg"))  # no display needed
 import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
 
 import orbcal  # noqa: E402
 
