@@ -1,7 +1,7 @@
 #include <filesystem>
 
 #include "bench.hpp"
-#include "experiment.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "orbcal/calib/estimators.hpp"
 #include "orbcal/calib/observability.hpp"
 #include "orbcal/calib/synthetic.hpp"
@@ -57,14 +57,14 @@ void benchCalib() {
   }
 
   // The whole table4 preset: 50 + 200 images rendered (fresh folder), measured, 9 estimators, report.
-  ExperimentOptions o;
+  workflow::ExperimentOptions o;
   o.out = (std::filesystem::temp_directory_path() / "orbcal-bench-table4").string();
   o.quiet = true;
   o.plots = false;
   std::vector<double> t;
   for (int i = 0; i < 3; ++i) {
     std::filesystem::remove_all(o.out);
-    t.push_back(runTable4(o).seconds);
+    t.push_back(workflow::runTable4(o).seconds);
   }
   std::sort(t.begin(), t.end());
   printFigure("table4 preset: 250 rendered 1280x1024 images, 9 estimators", t, "s ", 1.0, "< 60 s");

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "orbcal/sim/io.hpp"
+#include "orbcal/workflow/experiment.hpp"
 
 namespace orbcal::tools {
 
@@ -22,6 +23,9 @@ void addRobotOptions(CLI::App& cmd, ArmSceneOptions& opt);
 /// --tip-link into the three strings of a sim::RobotSource.
 void addRobotOptions(CLI::App& cmd, std::string& robot, std::string& base_link, std::string& tip_link,
                      const std::string& robot_help = "robot description");
+
+/// The options shared by `orbcal run` and `orbcal experiment` (cmd_experiment.cpp).
+void addExperimentOptions(CLI::App& cmd, workflow::ExperimentOptions& o);
 
 /// Subcommands register themselves from their own cmd_*.cpp (no shared list to edit):
 ///   ORBCAL_COMMAND(30, addRenderCommand);

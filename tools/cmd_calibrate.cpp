@@ -3,9 +3,10 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "calibrate.hpp"
+#include "orbcal/workflow/calibrate.hpp"
 #include "cli.hpp"
-#include "measured.hpp"
+#include "figures.hpp"
+#include "orbcal/workflow/measured.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -14,10 +15,10 @@ namespace orbcal::tools {
 
 namespace {
 
-void printMeasured(const MeasuredCalibrateResult& r, const std::string& description) {
+void printMeasured(const workflow::MeasuredCalibrateResult& r, const std::string& description) {
   if (r.inconsistent) {
     std::fprintf(stderr, "orbcal: calibrate: %s: the fit is inconsistent with the given measurement noise: %s%s\n",
-                 description.c_str(), inconsistencyText(r).c_str(), r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "");
+                 description.c_str(), workflow::inconsistencyText(r).c_str(), r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "");
   }
   // Too few held-out configurations say nothing either way: that alone is said then.
   const bool worse = r.worse && r.gain.enough;
@@ -45,6 +46,61 @@ void printMeasured(const MeasuredCalibrateResult& r, const std::string& descript
   std::printf("report: %s\n", r.report_path.c_str());
 }
 
+/// What an image calibration prints: its refusals on stderr, then the split, the gain and the files.
+void printImages(const workflow::CalibrateResult& r) {
+  for (const std::string& line : r.refusals) std::fprintf(stderr, "orbcal: calibrate: %s\n", line.c_str());
+  if (!r.refusals.empty() && !r.written) {
+    std::fprintf(stderr, "orbcal: calibrate: no calibrated robot file written (--accept-worse writes it); report: %s\n",
+                 r.report_path.c_str());
+  }
+  std::printf("%d images, %d usable: %d for identification, %d held out; model %s (rank %d of %d)\n", r.images, r.usable,
+              r.identification, r.held_out, r.model.c_str(), r.classes.rank, static_cast<int>(r.classes.names.size()));
+  std::printf("%s\n", workflow::formatKeptAndHeld(r.classes).c_str());
+  if (r.held_out > 0) {
+    std::printf("held-out average position error against the measured poses: %.3f mm -> %.3f mm (%.1f%%)\n",
+                r.before.position_avg_m * 1e3, r.after.position_avg_m * 1e3,
+                100.0 * calib::improvement(r.before.position_avg_m, r.after.position_avg_m));
+  }
+  if (r.relative_before) {
+    std::printf("held-out pairs with the first identification image:");
+    if (r.relative_before->distance_pairs > 0) {
+      std::printf(" distance RMS %.4f -> %.4f mm", r.relative_before->distance_rms_m * 1e3, r.relative_after->distance_rms_m * 1e3);
+    }
+    if (r.relative_before->angle_pairs > 0) {
+      std::printf(" angle RMS %.5f -> %.5f deg", r.relative_before->angle_rms_rad * sim::kRadToDeg,
+                  r.relative_after->angle_rms_rad * sim::kRadToDeg);
+    }
+    std::printf("\n");
+  }
+  if (r.has_truth) {
+    std::printf("held-out average position error against the true poses: %.3f mm -> %.3f mm\n",
+                r.truth_before.position_avg_m * 1e3, r.truth_after.position_avg_m * 1e3);
+  }
+  if (r.frames) {
+    std::printf("with base_T_board and flange_T_camera estimated: held-out camera position RMS %.4f mm (nominal arm, frames "
+                "refitted: %.4f mm)\n",
+                r.frames->heldout_after.position_rms_m * 1e3, r.frames->heldout_before.position_rms_m * 1e3);
+  }
+  if (r.frames && r.frames->corners) {
+    const workflow::CornerEstimate& ce = *r.frames->corners;
+    std::printf("on the detected corners: residual RMS %.4f px (held out %.4f px)", ce.fit.rms_px, ce.heldout_rms_px);
+    if (ce.distortion) {
+      std::printf("; without the distortion block %.4f px (held out %.4f px)\n", ce.without.rms_px, ce.heldout_rms_px_without);
+      for (int i = 0; i < 4; ++i) {
+        std::printf("  %s %+.5f +- %.5f%s", ce.layout.param(ce.layout.size() - 4 + i).name.c_str(), ce.dk[i], ce.dk_sigma[i],
+                    ce.dk_true ? sim::formatNumber(" (injected %+.5f)", (*ce.dk_true)[i]).c_str() : "");
+        std::printf("\n");
+      }
+    } else {
+      std::printf("\n");
+    }
+  }
+  std::printf("consistency: %s\n", calib::formatConsistency(r.consistency).c_str());
+  if (r.written) std::printf("calibrated robot: %s\n", r.robot_path.c_str());
+  if (r.written && !r.urdf_path.empty()) std::printf("calibrated URDF: %s\n", r.urdf_path.c_str());
+  std::printf("report: %s\n", r.report_path.c_str());
+}
+
 /// Every estimator an image dataset can be calibrated with, for --help.
 std::string imageMethodNames() {
   std::string names;
@@ -54,8 +110,8 @@ std::string imageMethodNames() {
 
 void addCalibrateCommand(CLI::App& app) {
   struct Opts {
-    CalibrateOptions images;
-    MeasuredCalibrateOptions measured;
+    workflow::CalibrateOptions images;
+    workflow::MeasuredCalibrateOptions measured;
     std::string method;
     double holdout = 0.2;
     std::uint64_t seed = 1;
@@ -121,78 +177,29 @@ void addCalibrateCommand(CLI::App& app) {
         throw sim::InputError("--model/--pairs: for image datasets; a measurement description says what it measures "
                               "(pose, or position only) in its pose: section");
       }
-      MeasuredCalibrateOptions m = o->measured;
+      workflow::MeasuredCalibrateOptions m = o->measured;
       m.description = o->images.dataset;
-      m.method = parseFitMethod(o->method.empty() ? "LM" : o->method, "--method");
+      m.method = workflow::parseFitMethod(o->method.empty() ? "LM" : o->method, "--method");
       m.holdout = o->holdout;
       m.seed = o->seed;
       m.out = o->out;
       if (o->noise_position_mm > 0) m.noise_position_m = o->noise_position_mm * 1e-3;
       if (o->noise_rotation_deg > 0) m.noise_rotation_rad = o->noise_rotation_deg * sim::kDegToRad;
-      const MeasuredCalibrateResult r = runMeasuredCalibrate(m);
+      const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(m);
       printMeasured(r, m.description);
       if ((r.worse || r.inconsistent || !r.refusal.empty()) && !m.accept_worse) throw CLI::RuntimeError(1);
       return;
     }
-    CalibrateOptions c = o->images;
-    c.effects = o->measured.effects;  // with --estimate-frames (runCalibrate says so otherwise)
+    workflow::CalibrateOptions c = o->images;
+    c.effects = o->measured.effects;  // with --estimate-frames (workflow::runCalibrate says so otherwise)
     c.method = o->method.empty() ? "EKF" : o->method;
     c.holdout = o->holdout;
     c.seed = o->seed;
     c.out = o->out;
     c.accept_worse = o->measured.accept_worse;
-    const CalibrateResult r = runCalibrate(c);
-    for (const std::string& line : r.refusals) std::fprintf(stderr, "orbcal: calibrate: %s\n", line.c_str());
-    if (!r.refusals.empty() && !r.written) {
-      std::fprintf(stderr, "orbcal: calibrate: no calibrated robot file written (--accept-worse writes it); report: %s\n",
-                   r.report_path.c_str());
-    }
-    std::printf("%d images, %d usable: %d for identification, %d held out; model %s (rank %d of %d)\n", r.images, r.usable,
-                r.identification, r.held_out, r.model.c_str(), r.classes.rank, static_cast<int>(r.classes.names.size()));
-    std::printf("%s\n", formatKeptAndHeld(r.classes).c_str());
-    if (r.held_out > 0) {
-      std::printf("held-out average position error against the measured poses: %.3f mm -> %.3f mm (%.1f%%)\n",
-                  r.before.position_avg_m * 1e3, r.after.position_avg_m * 1e3,
-                  100.0 * calib::improvement(r.before.position_avg_m, r.after.position_avg_m));
-    }
-    if (r.relative_before) {
-      std::printf("held-out pairs with the first identification image:");
-      if (r.relative_before->distance_pairs > 0) {
-        std::printf(" distance RMS %.4f -> %.4f mm", r.relative_before->distance_rms_m * 1e3, r.relative_after->distance_rms_m * 1e3);
-      }
-      if (r.relative_before->angle_pairs > 0) {
-        std::printf(" angle RMS %.5f -> %.5f deg", r.relative_before->angle_rms_rad * sim::kRadToDeg,
-                    r.relative_after->angle_rms_rad * sim::kRadToDeg);
-      }
-      std::printf("\n");
-    }
-    if (r.has_truth) {
-      std::printf("held-out average position error against the true poses: %.3f mm -> %.3f mm\n",
-                  r.truth_before.position_avg_m * 1e3, r.truth_after.position_avg_m * 1e3);
-    }
-    if (r.frames) {
-      std::printf("with base_T_board and flange_T_camera estimated: held-out camera position RMS %.4f mm (nominal arm, frames "
-                  "refitted: %.4f mm)\n",
-                  r.frames->heldout_after.position_rms_m * 1e3, r.frames->heldout_before.position_rms_m * 1e3);
-    }
-    if (r.frames && r.frames->corners) {
-      const CornerEstimate& ce = *r.frames->corners;
-      std::printf("on the detected corners: residual RMS %.4f px (held out %.4f px)", ce.fit.rms_px, ce.heldout_rms_px);
-      if (ce.distortion) {
-        std::printf("; without the distortion block %.4f px (held out %.4f px)\n", ce.without.rms_px, ce.heldout_rms_px_without);
-        for (int i = 0; i < 4; ++i) {
-          std::printf("  %s %+.5f +- %.5f%s", ce.layout.param(ce.layout.size() - 4 + i).name.c_str(), ce.dk[i], ce.dk_sigma[i],
-                      ce.dk_true ? sim::formatNumber(" (injected %+.5f)", (*ce.dk_true)[i]).c_str() : "");
-          std::printf("\n");
-        }
-      } else {
-        std::printf("\n");
-      }
-    }
-    std::printf("consistency: %s\n", calib::formatConsistency(r.consistency).c_str());
-    if (r.written) std::printf("calibrated robot: %s\n", r.robot_path.c_str());
-    if (r.written && !r.urdf_path.empty()) std::printf("calibrated URDF: %s\n", r.urdf_path.c_str());
-    std::printf("report: %s\n", r.report_path.c_str());
+    c.callbacks = terminalCallbacks();
+    const workflow::CalibrateResult r = workflow::runCalibrate(c);
+    printImages(r);
     if (!r.refusals.empty() && !c.accept_worse) throw CLI::RuntimeError(1);
   });
 }

@@ -3,7 +3,8 @@
 #include <optional>
 
 #include "cli.hpp"
-#include "diagnose.hpp"
+#include "figures.hpp"
+#include "orbcal/workflow/diagnose.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/se3.hpp"
 
@@ -12,7 +13,7 @@ namespace orbcal::tools {
 namespace {
 
 void addDiagnoseCommand(CLI::App& app) {
-  auto o = std::make_shared<DiagnoseRunOptions>();
+  auto o = std::make_shared<workflow::DiagnoseRunOptions>();
   CLI::App* cmd = app.add_subcommand(
       "diagnose",
       "From measured data (a measurement description, .yaml) or an image dataset (folder): does the geometry + "
@@ -47,7 +48,9 @@ void addDiagnoseCommand(CLI::App& app) {
   cmd->add_flag("--no-plots", [o](std::int64_t) { o->plots = false; }, "skip the PNG figures");
   cmd->add_flag("--quiet", o->quiet, "no progress output");
   cmd->callback([o] {
-    const DiagnoseRunResult r = runDiagnose(*o);
+    workflow::DiagnoseRunOptions options = *o;
+    options.callbacks = terminalCallbacks();
+    const workflow::DiagnoseRunResult r = workflow::runDiagnose(options);
     std::printf("%s\n", r.diagnosis.verdict.c_str());
     for (const calib::ConfoundedSet& c : r.diagnosis.confounded) {
       std::printf("confounded in this data:");
@@ -60,7 +63,7 @@ void addDiagnoseCommand(CLI::App& app) {
 }
 
 void addStudyCommand(CLI::App& app) {
-  auto o = std::make_shared<StudyOptions>();
+  auto o = std::make_shared<workflow::StudyOptions>();
   CLI::App* cmd = app.add_subcommand(
       "diagnose-study",
       "The power of orbcal diagnose: N seeded simulated tracker datasets per catalog effect (random joint; each "
@@ -73,18 +76,12 @@ void addStudyCommand(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "seed of the draws")->capture_default_str();
   cmd->add_option("--effects", o->effects, "effects to inject (catalog names)")->capture_default_str();
   cmd->add_flag("--quiet", o->quiet, "no progress output");
-  auto out = std::make_shared<std::string>();
-  cmd->add_option("-o,--out", *out, "also write the confusion table to DIR/diagnose_study.csv and DIR/report.md");
-  cmd->callback([o, out] {
-    std::optional<sim::OutputFolder> folder;  // claimed before the study runs: no earlier table stays beside a failed run
-    if (!out->empty()) folder.emplace(*out, "orbcal diagnose-study");
-    const StudyResult r = runDiagnoseStudy(*o);
-    if (folder) {
-      sim::writeFileAtomic(folder->path() + "/diagnose_study.csv", formatStudyCsv(r));
-      sim::writeFileAtomic(folder->path() + "/report.md", "# orbcal diagnose-study: what the detector names\n\n" + formatStudy(r));
-      folder->commit();
-    }
-    std::printf("%s\n%.1f s\n", formatStudy(r).c_str(), r.seconds);
+  cmd->add_option("-o,--out", o->out, "also write the confusion table to DIR/diagnose_study.csv and DIR/report.md");
+  cmd->callback([o] {
+    workflow::StudyOptions options = *o;
+    options.callbacks = terminalCallbacks();
+    const workflow::StudyResult r = workflow::runDiagnoseStudy(options);
+    std::printf("%s\n%.1f s\n", workflow::formatStudy(r).c_str(), r.seconds);
   });
 }
 

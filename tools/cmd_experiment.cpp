@@ -2,14 +2,15 @@
 #include <iostream>
 
 #include "cli.hpp"
+#include "figures.hpp"
 #include "interrupt.hpp"
-#include "experiment.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::tools {
 
-void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o) {
+void addExperimentOptions(CLI::App& cmd, workflow::ExperimentOptions& o) {
   addRobotOptions(cmd, o.robot, o.base_link, o.tip_link);
   cmd.add_option("--scene", o.scene, "scene (YAML; or builtin:default_scene.yaml)")->capture_default_str();
   cmd.add_option("-o,--out", o.out, "output folder (reports under <out>/<preset>, datasets under <out>/datasets)")
@@ -54,7 +55,7 @@ void refuseUnused(const CLI::App& cmd, const std::string& preset, std::initializ
 
 void addExperimentCommand(CLI::App& app) {
   struct Opts {
-    ExperimentOptions e;
+    workflow::ExperimentOptions e;
     std::string preset;
   };
   auto opt = std::make_shared<Opts>();
@@ -72,7 +73,7 @@ void addExperimentCommand(CLI::App& app) {
                   "liu2012: Liu et al. 2012, laser ranger to a plane: 50 and 100 of 101 configurations by O3, 20 validation\n"
                   "  (--valid), repeated; robot default builtin:puma_hayati.yaml; --scene, --errors, --ident, --joint-noise-deg unused)")
       ->required()
-      ->check(CLI::IsMember(kExperimentPresets));
+      ->check(CLI::IsMember(workflow::kExperimentPresets));
   addExperimentOptions(*cmd, opt->e);
   cmd->add_option("-r,--repetitions", opt->e.repetitions, "repetitions (table5, fig8, floor, selection, jia2019, liu2012)")
       ->capture_default_str()
@@ -81,32 +82,33 @@ void addExperimentCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::IsMember({"images", "synthetic"}));
   cmd->callback([opt, cmd] {
-    ExperimentOptions e = opt->e;
+    workflow::ExperimentOptions e = opt->e;
+    e.callbacks = terminalCallbacks();
     setInterruptNote("the datasets and images rendered so far are kept under " + e.out +
                      "/datasets: rerun the same command to resume from them");
     if (opt->preset == "table4") {
-      const Table4Result r = runTable4(e);
-      std::cout << table4Headline(r);
+      const workflow::Table4Result r = workflow::runTable4(e);
+      std::cout << workflow::table4Headline(r);
     } else if (opt->preset == "table5") {
-      runTable5(e);
+      workflow::runTable5(e);
     } else if (opt->preset == "fig8") {
       if (cmd->count("--ident") == 0) e.identification = 200;  // the paper's range: 10 to 200
-      runFig8(e);
+      workflow::runFig8(e);
     } else if (opt->preset == "selection") {
       refuseUnused(*cmd, "selection", {"--methods"});
-      runSelection(e);
+      workflow::runSelection(e);
     } else if (opt->preset == "jia2019") {
       refuseUnused(*cmd, "jia2019", {"--scene", "--errors", "--ident", "--valid", "--methods"});
       if (cmd->count("--robot") == 0) e.robot = "builtin:ssrms_hayati.yaml";  // Jia et al. 2019's Hayati model
-      runJia2019(e);
+      workflow::runJia2019(e);
     } else if (opt->preset == "liu2012") {
       refuseUnused(*cmd, "liu2012", {"--scene", "--errors", "--ident", "--joint-noise-deg", "--methods"});
       if (cmd->count("--robot") == 0) e.robot = "builtin:puma_hayati.yaml";
       if (cmd->count("--valid") == 0) e.validation = 20;  // the paper's 20 validation configurations
-      runLiu2012(e);
+      workflow::runLiu2012(e);
     } else {
       refuseUnused(*cmd, "floor", {"--methods"});
-      runFloor(e);
+      workflow::runFloor(e);
     }
   });
 }

@@ -3,7 +3,7 @@
 #include <cstdio>
 
 #include "cli.hpp"
-#include "measured.hpp"
+#include "orbcal/workflow/measured.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -26,7 +26,7 @@ void addEvaluateCommand(CLI::App& app) {
   cmd->add_option("--data", o->data, "measurement description (.yaml) of the data to predict")->required();
   cmd->add_option("-o,--out", o->out, "output folder")->required();
   cmd->callback([o] {
-    const EvaluateResult r = runEvaluate(o->model, o->data, o->out);
+    const workflow::EvaluateResult r = workflow::runEvaluate(o->model, o->data, o->out);
     const calib::ResidualStats& s = r.fit.residuals;
     std::printf("%d samples: position mean %.4f mm, RMS %.4f mm, max %.4f mm; rotation RMS %.4f deg\n", s.samples,
                 s.position_mean_m * 1e3, s.position_rms_m * 1e3, s.position_max_m * 1e3, s.rotation_rms_rad * sim::kRadToDeg);
@@ -98,7 +98,7 @@ void addSimulateCommand(CLI::App& app) {
     };
     s.base = sharing(o->base);
     s.marker = sharing(o->marker);
-    const sim::SimulatedData d = runSimulate(arm, s, o->out);
+    const sim::SimulatedData d = workflow::runSimulate(arm, s, o->out);
     std::printf("%d samples in %d session(s)%s: %s\ntruth: %s/truth/model.yaml\n", s.samples, s.sessions,
                 d.data.has_torque ? " with torques" : " (no masses in the robot file: no torques)", d.data.description.c_str(),
                 o->out.c_str());

@@ -4,8 +4,9 @@
 #include <iostream>
 
 #include "cli.hpp"
+#include "figures.hpp"
 #include "interrupt.hpp"
-#include "experiment.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "orbcal/sim/io.hpp"
 
 namespace orbcal::tools {
@@ -13,7 +14,7 @@ namespace orbcal::tools {
 namespace {
 
 void addRunCommand(CLI::App& app) {
-  auto opt = std::make_shared<ExperimentOptions>();
+  auto opt = std::make_shared<workflow::ExperimentOptions>();
   CLI::App* cmd = app.add_subcommand(
       "run",
       "The main job: render the identification and validation views of the arm with injected errors, "
@@ -33,8 +34,10 @@ void addRunCommand(CLI::App& app) {
     std::printf("Errors: %s; %d identification + %d validation configurations; output %s/\n", opt->errors.name.c_str(),
                 opt->identification, opt->validation, opt->out.c_str());
     std::fflush(stdout);
-    const Table4Result r = runTable4(*opt, "main");
-    std::cout << "\n" << table4Headline(r);
+    workflow::ExperimentOptions e = *opt;
+    e.callbacks = terminalCallbacks();
+    const workflow::Table4Result r = workflow::runTable4(e, "main");
+    std::cout << "\n" << workflow::table4Headline(r);
   });
 }
 

@@ -19,6 +19,7 @@
 #include "orbcal/sim/identifiability.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "orbcal/workflow/planning.hpp"
 #include "progress.hpp"
 
 namespace orbcal::tools {
@@ -104,58 +105,22 @@ void addConfigsCommand(CLI::App& app) {
   cmd->add_option("--joint-noise-deg", opt->joint_noise_deg, "--select: joint control noise carried into R")
       ->capture_default_str()->check(CLI::NonNegativeNumber);
   cmd->callback([opt] {
-    const sim::Arm arm = sim::loadArm(opt->as.robotSource());
-    const sim::Scene scene = sim::loadScene(opt->as.scene);
-    std::optional<calib::ObservabilityIndex> index;
-    if (!opt->select.empty()) index = calib::parseObservabilityIndex(opt->select);
-    if (index && opt->pool < opt->gen.count) {
-      throw sim::InputError("--pool: " + std::to_string(opt->pool) + " is smaller than -n " + std::to_string(opt->gen.count));
-    }
-    sim::GeneratorSettings gen = opt->gen;
-    if (index) gen.count = opt->pool;
-    sim::GeneratorStats stats;
-    Progress bar(index ? "pool configurations" : "configurations", gen.count);
-    auto configs = sim::generateConfigurations(arm, scene, gen, &stats, [&](int d, int) { bar.update(d); });
-    bar.finish();
-    std::string selection_report;
-    if (index) {
-      calib::PoseNoiseModel noise;
-      noise.sigma_position_m = opt->sigma_position_mm * 1e-3;
-      noise.sigma_orientation_rad = opt->sigma_orientation_deg * sim::kDegToRad;
-      noise.joint_noise_sigma_rad = opt->joint_noise_deg * sim::kDegToRad;
-      const calib::PoseMeasurementModel model = calib::posePlanningModel(arm, configs, noise);
-      const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
-      const std::vector<int> held = calib::unidentifiableToFix(model, zero, 1e-6);
-      const auto blocks = calib::observabilityBlocks(model, zero, held);
-      calib::SelectionOptions so;
-      so.index = *index;
-      so.seed = opt->gen.seed;
-      const calib::Selection sel = calib::selectConfigurations(blocks, opt->gen.count, so);
-      const double random =
-          calib::meanRandomIndex(blocks, opt->gen.count, *index, opt->random_subsets, opt->gen.seed);
-      std::vector<Eigen::VectorXd> chosen;
-      for (int k : sel.chosen) chosen.push_back(configs[static_cast<std::size_t>(k)]);
-      configs = std::move(chosen);
-      const std::string name = calib::observabilityIndexName(*index);
-      std::string held_names;
-      for (int p : held) held_names += (held_names.empty() ? "" : ", ") + model.paramName(p);
-      const calib::ObservabilityIndices& r = sel.indices;
-      char line[512];
-      std::snprintf(line, sizeof line,
-                    "selected %d of %d by %s in %.2f s (%d exchanges): %s = %.6g; random subsets of %d (mean of %d): "
-                    "%s = %.6g (selected / random = %.2f)\n"
-                    "selected set: O1 %.6g, O2 %.6g, O3 %.6g, O4 %.6g, O5 %.6g; rank %d of %d (held: %s)\n",
-                    opt->gen.count, opt->pool, name.c_str(), sel.seconds, sel.exchanges, name.c_str(), r.value(*index),
-                    opt->gen.count, opt->random_subsets, name.c_str(), random,
-                    random > 0 ? r.value(*index) / random : 0.0, r.o1, r.o2, r.o3, r.o4, r.o5, r.rank, r.num_params,
-                    held_names.empty() ? "none" : held_names.c_str());
-      selection_report = line;
-    }
-    sim::writeFileAtomic(opt->out, sim::formatConfigurationsCsv(configs));
-    std::printf("%d configurations (%d attempts: IK failed %d, singular %d, board not visible %d) -> %s\n",
-                static_cast<int>(configs.size()), stats.attempts, stats.ik_failed, stats.singular, stats.not_visible,
-                opt->out.c_str());
-    if (index) std::printf("pool of %d generated; %s", stats.accepted, selection_report.c_str());
+    workflow::ConfigsOptions c;
+    c.robot = opt->as.robotSource();
+    c.scene = opt->as.scene;
+    c.gen = opt->gen;
+    c.out = opt->out;
+    if (!opt->select.empty()) c.select = calib::parseObservabilityIndex(opt->select);
+    c.pool = opt->pool;
+    c.noise.sigma_position_m = opt->sigma_position_mm * 1e-3;
+    c.noise.sigma_orientation_rad = opt->sigma_orientation_deg * sim::kDegToRad;
+    c.noise.joint_noise_sigma_rad = opt->joint_noise_deg * sim::kDegToRad;
+    c.random_subsets = opt->random_subsets;
+    c.callbacks.progress = terminalProgress();
+    const workflow::ConfigsResult r = workflow::runConfigs(c);
+    std::printf("%d configurations (%d attempts: IK failed %d, singular %d, board not visible %d) -> %s\n", r.written,
+                r.stats.attempts, r.stats.ik_failed, r.stats.singular, r.stats.not_visible, c.out.c_str());
+    if (c.select) std::printf("pool of %d generated; %s", r.stats.accepted, r.selection.c_str());
   });
 }
 
@@ -236,32 +201,14 @@ void addIdentifiabilityCommand(CLI::App& app) {
       }
       setup.plane.identified.push_back(i);
     }
-    const sim::Arm arm = sim::loadArm(opt->as.robotSource());
-    const sim::KinematicModel km =
-        opt->base == "known" ? sim::flangeModel(arm)
-                             : sim::makeKinematicModel(arm, 1, sim::FrameSharing::kShared, sim::FrameSharing::kKnown,
-                                                       {Eigen::Isometry3d::Identity()}, {Eigen::Isometry3d::Identity()}, {});
-    std::vector<sim::JointSample> samples;
-    if (!opt->configs.empty()) {
-      samples = calib::samplesOf(sim::parseConfigurationsCsv(sim::readTextSource(opt->configs), opt->configs, arm.numJoints()));
-    } else if (setup.kind == calib::MeasurementKind::kRange) {  // random, non-singular, the beam meeting the plane
-      auto rng = sim::makeRng(opt->gen.seed, 0x72616e6765ULL);
-      samples = calib::rangeConfigurations(calib::PlaneRangeModel(km, setup.beam, setup.plane, {}), {}, opt->gen.count, rng);
-    } else {  // the eye-in-hand camera sees the board
-      samples = calib::samplesOf(sim::generateConfigurations(arm, sim::loadScene(opt->as.scene), opt->gen));
-    }
-    const auto model = calib::planningModel(setup, km, samples);
-    if (model->numSamples() == 0) throw sim::InputError("--configs: no configuration gives a measurement of this kind");
-    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model->numParams());
-    const calib::ParameterClasses classes = calib::classifyParameters(*model, zero);
-    int rows = 0;
-    for (int k = 0; k < model->numSamples(); ++k) rows += model->rows(k);
-    std::printf("Measurement: %s\nArm: %s (%s), %d configurations -> %d samples, %d rows; %d parameters%s\n\n",
-                calib::measurementKindDescription(setup.kind).c_str(), arm.name.c_str(), arm.source.c_str(),
-                static_cast<int>(samples.size()), model->numSamples(), rows, model->numParams(),
-                opt->base == "known" ? "" : " (the measuring system's frame unknown: base_*)");
-    std::printf("%s\nObservability of the minimal set: %s\n", classes.table().c_str(),
-                calib::formatIndices(calib::observability(*model, zero, classes.held)).c_str());
+    workflow::IdentifiabilityOptions io;
+    io.robot = opt->as.robotSource();
+    io.scene = opt->as.scene;
+    io.configs = opt->configs;
+    io.gen = opt->gen;
+    io.setup = setup;
+    io.base_known = opt->base == "known";
+    std::printf("%s", workflow::runIdentifiability(io).c_str());
   });
 }
 

@@ -1,18 +1,16 @@
 // `orbcal study run|submit|status|merge|task`: a grid of orbcal jobs over seeds, locally or on Slurm (study.hpp).
-#include <atomic>
-#include <chrono>
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <mutex>
-#include <thread>
 
 #include "cli.hpp"
+#include "figures.hpp"
 #include "interrupt.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/cores.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "progress.hpp"
-#include "study.hpp"
+#include "orbcal/workflow/study.hpp"
 
 namespace fs = std::filesystem;
 
@@ -37,7 +35,7 @@ std::string optionValueError(CLI::Option& o, const std::vector<std::string>& val
 }
 
 /// Checks a study's option names and values against this program's own commands.
-StudyOptionCheck programOptions() {
+workflow::StudyOptionCheck programOptions() {
   auto probe = std::make_shared<CLI::App>();  // built once, asked for every option of the study
   addRegisteredCommands(*probe);
   return [probe](const std::string& job, const std::string& option, bool flag, const std::vector<std::string>& values) -> std::string {
@@ -57,66 +55,20 @@ StudyOptionCheck programOptions() {
 
 /// Reads the study file and prepares its folder; returns the number of tasks.
 int prepare(const std::string& study_file, const std::string& dir) {
-  const StudySpec s = parseStudy(sim::readTextSource(study_file), study_file, programOptions());
-  const std::string origin = fs::absolute(fs::path(study_file)).parent_path().lexically_normal().string();
-  initStudyFolder(s, dir, origin);
-  return static_cast<int>(expandStudy(s).size());
+  return static_cast<int>(workflow::expandStudy(workflow::prepareStudy(study_file, dir, programOptions())).size());
 }
 
-struct Counts {
-  std::map<TaskState, std::vector<int>> by_state;
-  int done() const { return by_state.count(TaskState::kDone) ? static_cast<int>(by_state.at(TaskState::kDone).size()) : 0; }
-};
-Counts count(const std::vector<TaskState>& states) {
-  Counts c;
-  for (std::size_t i = 0; i < states.size(); ++i) c.by_state[states[i]].push_back(static_cast<int>(i));
-  return c;
-}
-
-void printStatus(const std::string& dir, const std::vector<TaskState>& states) {
-  const Counts c = count(states);
-  std::printf("%s: %zu tasks:", dir.c_str(), states.size());
-  for (TaskState s : {TaskState::kDone, TaskState::kRunning, TaskState::kQueued, TaskState::kFailed, TaskState::kMissing}) {
-    const auto it = c.by_state.find(s);
-    std::printf(" %zu %s%s", it == c.by_state.end() ? 0 : it->second.size(), taskStateName(s),
-                s == TaskState::kMissing ? "\n" : ",");
-  }
-  for (TaskState s : {TaskState::kRunning, TaskState::kQueued, TaskState::kFailed, TaskState::kMissing}) {
-    const auto it = c.by_state.find(s);
-    if (it != c.by_state.end()) std::printf("  %s: %s\n", taskStateName(s), arrayRanges(it->second).c_str());
-  }
-  if (c.by_state.count(TaskState::kDone)) {
-    // The done tasks' wall times (task.yaml): what the study's slurm.time must cover.
-    double total = 0, longest = 0;
-    int longest_task = 0;
-    for (int i : c.by_state.at(TaskState::kDone)) {
-      const double t = sim::ConfigNode::load(taskFolder(dir, i) + "/task.yaml")["seconds"].asDouble();
-      total += t;
-      if (t > longest) longest = t, longest_task = i;
-    }
-    std::printf("  done tasks' wall time: mean %.1f s, longest %.1f s (task %d), sum %.1f s\n",
-                total / c.by_state.at(TaskState::kDone).size(), longest, longest_task, total);
-  }
-  if (c.by_state.count(TaskState::kFailed)) {
-    const std::string folder = taskFolder(dir, c.by_state.at(TaskState::kFailed).front());
-    const bool killed = !fs::exists(folder + ".failed") && fs::exists(folder + ".tmp");
-    std::printf("  the first failed task's output: %s/log.txt%s (Slurm's logs: %s/slurm/logs)\n",
-                (folder + (killed ? ".tmp" : ".failed")).c_str(), killed ? ", killed while running" : "", dir.c_str());
-  }
+int doneCount(const std::vector<workflow::TaskState>& states) {
+  return static_cast<int>(std::count(states.begin(), states.end(), workflow::TaskState::kDone));
 }
 
 void mergeAndPrint(const std::string& dir, const std::string& out, bool plots) {
-  const MergeReport r = mergeStudy(dir, out, plots);
+  const workflow::MergeReport r = workflow::mergeStudy(dir, out, plots, terminalCallbacks());
   std::printf("merged: %zu files; report: %s\n", r.files.size(), r.report_path.c_str());
 }
 
-void addStudyCommand(CLI::App& app) {
-  CLI::App* study = app.add_subcommand(
-      "study",
-      "Studies: one job (an experiment preset, run, diagnose-study or render) over a grid of options and a list of seeds, "
-      "as independent tasks run locally on every core or as a Slurm job array, merged into one report (README, 'Studies')");
-  study->require_subcommand(1);
-
+/// `orbcal study run`: every task here, several at once, then the merge.
+void addStudyRun(CLI::App* study) {
   struct RunOpts {
     std::string file, dir;
     int jobs = sim::availableCores();
@@ -135,44 +87,12 @@ void addStudyCommand(CLI::App& app) {
     const int n = prepare(ro->file, ro->dir);
     sim::FolderLock lock(ro->dir, "orbcal study run");
     setInterruptNote("finished tasks are kept in " + ro->dir + "/shards: rerun the same command to run the missing and failed ones");
-    std::vector<int> todo;
-    const std::vector<TaskState> before = studyTaskStates(ro->dir, n);
-    for (int i = 0; i < n; ++i) {
-      if (before[i] == TaskState::kRunning || before[i] == TaskState::kQueued) {
-        throw sim::InputError(ro->dir + ": task " + std::to_string(i) + " is " + taskStateName(before[i]) +
-                              " elsewhere (Slurm or another process); wait for it, see `orbcal study status " + ro->dir + "`");
-      }
-      if (before[i] != TaskState::kDone) todo.push_back(i);
-    }
-    const std::string program = selfProgram();
+    const std::vector<int> todo = workflow::tasksToRun(ro->dir, n);
     std::printf("%s: %d tasks, %d done before, %zu to run, %d at once\n", ro->dir.c_str(), n, n - static_cast<int>(todo.size()),
                 todo.size(), std::max(1, std::min<int>(ro->jobs, static_cast<int>(todo.size()))));
     std::fflush(stdout);
-    Progress bar("study tasks", n);
-    std::atomic<int> next{0}, done{n - static_cast<int>(todo.size())};
-    std::mutex m;
-    std::vector<std::string> failures;
-    bar.update(done);
-    std::vector<std::thread> workers;
-    for (int w = 0; w < std::min<int>(ro->jobs, static_cast<int>(todo.size())); ++w) {
-      workers.emplace_back([&] {
-        for (int k; (k = next++) < static_cast<int>(todo.size());) {
-          std::string failure;
-          try {
-            const int status = runStudyTask(ro->dir, todo[k], program);
-            if (status != 0) failure = "task " + std::to_string(todo[k]) + ": exit status " + std::to_string(status) + ", see " +
-                                       taskFolder(ro->dir, todo[k]) + ".failed/log.txt";
-          } catch (const std::exception& e) {
-            failure = "task " + std::to_string(todo[k]) + ": " + e.what();
-          }
-          const std::lock_guard<std::mutex> g(m);
-          if (!failure.empty()) failures.push_back(failure);
-          bar.update(++done);
-        }
-      });
-    }
-    for (std::thread& t : workers) t.join();
-    bar.finish();
+    const std::vector<std::string> failures =
+        workflow::runStudyTasks(ro->dir, n, todo, ro->jobs, workflow::selfProgram(), terminalProgress());
     for (const std::string& f : failures) std::fprintf(stderr, "orbcal: %s\n", f.c_str());
     if (!failures.empty()) {
       std::fprintf(stderr, "orbcal: %zu of %d tasks failed; rerun the same command to run them again\n", failures.size(), n);
@@ -180,10 +100,13 @@ void addStudyCommand(CLI::App& app) {
     }
     if (ro->merge) mergeAndPrint(ro->dir, "", ro->plots);
   });
+}
 
+/// `orbcal study submit`: an sbatch job array of the tasks not done.
+void addStudySubmit(CLI::App* study) {
   struct SubmitOpts {
     std::string file, dir;
-    SlurmSubmitOptions slurm;
+    workflow::SlurmSubmitOptions slurm;
     bool wait = false;
   };
   auto so = std::make_shared<SubmitOpts>();
@@ -202,10 +125,10 @@ void addStudyCommand(CLI::App& app) {
   submit->add_flag("--wait", so->wait, "wait until the submitted tasks have finished (progress from the shard folders)");
   submit->callback([so] {
     const int n = prepare(so->file, so->dir);
-    SlurmSubmission sub;
+    workflow::SlurmSubmission sub;
     {
       sim::FolderLock lock(so->dir, "orbcal study submit");
-      sub = submitStudy(so->dir, so->slurm);
+      sub = workflow::submitStudy(so->dir, so->slurm);
     }
     if (sub.tasks.empty()) {
       std::printf("%s: nothing to submit (every task is done, running or queued)\n", so->dir.c_str());
@@ -214,36 +137,33 @@ void addStudyCommand(CLI::App& app) {
       std::printf("%s%s%s\n", sub.scripts[k].c_str(), k < sub.job_ids.size() ? ": submitted as job " : " (not submitted)",
                   k < sub.job_ids.size() ? sub.job_ids[k].c_str() : "");
     }
-    if (!sub.tasks.empty()) std::printf("tasks %s of %d\n", arrayRanges(sub.tasks).c_str(), n);
+    if (!sub.tasks.empty()) std::printf("tasks %s of %d\n", workflow::arrayRanges(sub.tasks).c_str(), n);
     std::fflush(stdout);
     if (!so->wait || so->slurm.dry_run) return;
     setInterruptNote("the Slurm jobs go on; `orbcal study status " + so->dir + "` shows where they stand");
-    Progress bar("study tasks", n);
-    std::vector<TaskState> states;
-    for (;;) {
-      states = studyTaskStates(so->dir, n);
-      const Counts c = count(states);
-      bar.update(c.done());
-      if (!c.by_state.count(TaskState::kRunning) && !c.by_state.count(TaskState::kQueued)) break;
-      std::this_thread::sleep_for(std::chrono::seconds(2));
-    }
-    bar.finish();
-    printStatus(so->dir, states);
-    if (count(states).done() != n) throw CLI::RuntimeError(1);
+    const std::vector<workflow::TaskState> states = workflow::waitForStudy(so->dir, n, terminalProgress());
+    std::printf("%s", workflow::formatStudyStatus(so->dir, states).c_str());
+    if (doneCount(states) != n) throw CLI::RuntimeError(1);
   });
+}
 
+/// `orbcal study status`: where each task stands.
+void addStudyStatus(CLI::App* study) {
   auto status_dir = std::make_shared<std::string>();
   CLI::App* status = study->add_subcommand(
       "status", "Per task: done, running, queued, failed or missing, from the shard folders and from Slurm (squeue, and sacct "
                 "where accounting is on). Exit status 0 when every task is done, 3 otherwise.");
   status->add_option("dir", *status_dir, "the study folder")->required();
   status->callback([status_dir] {
-    const StudySpec s = loadStudyFolder(*status_dir);
-    const std::vector<TaskState> states = studyTaskStates(*status_dir, static_cast<int>(expandStudy(s).size()));
-    printStatus(*status_dir, states);
-    if (count(states).done() != static_cast<int>(states.size())) throw CLI::RuntimeError(3);
+    const workflow::StudySpec s = workflow::loadStudyFolder(*status_dir);
+    const std::vector<workflow::TaskState> states = workflow::studyTaskStates(*status_dir, static_cast<int>(workflow::expandStudy(s).size()));
+    std::printf("%s", workflow::formatStudyStatus(*status_dir, states).c_str());
+    if (doneCount(states) != static_cast<int>(states.size())) throw CLI::RuntimeError(3);
   });
+}
 
+/// `orbcal study merge`: the merged report of a finished study.
+void addStudyMerge(CLI::App* study) {
   struct MergeOpts {
     std::string dir, out;
     bool plots = true;
@@ -260,7 +180,10 @@ void addStudyCommand(CLI::App& app) {
     sim::FolderLock lock(mo->dir, "orbcal study merge");
     mergeAndPrint(mo->dir, mo->out, mo->plots);
   });
+}
 
+/// `orbcal study task`: one task (what each Slurm array task and local worker runs).
+void addStudyTask(CLI::App* study) {
   struct TaskOpts {
     std::string dir;
     int index = -1;
@@ -272,13 +195,26 @@ void addStudyCommand(CLI::App& app) {
   task->add_option("dir", to->dir, "the study folder")->required();
   task->add_option("--index", to->index, "the task (0-based; tasks.csv)")->required()->check(CLI::NonNegativeNumber);
   task->callback([to] {
-    const int status = runStudyTask(to->dir, to->index, selfProgram());
+    const int status = workflow::runStudyTask(to->dir, to->index, workflow::selfProgram());
     if (status != 0) {
       std::fprintf(stderr, "orbcal: task %d failed (exit status %d): %s.failed/log.txt\n", to->index, status,
-                   taskFolder(to->dir, to->index).c_str());
+                   workflow::taskFolder(to->dir, to->index).c_str());
       throw CLI::RuntimeError(1);
     }
   });
+}
+
+void addStudyCommand(CLI::App& app) {
+  CLI::App* study = app.add_subcommand(
+      "study",
+      "Studies: one job (an experiment preset, run, diagnose-study or render) over a grid of options and a list of seeds, "
+      "as independent tasks run locally on every core or as a Slurm job array, merged into one report (README, 'Studies')");
+  study->require_subcommand(1);
+  addStudyRun(study);
+  addStudySubmit(study);
+  addStudyStatus(study);
+  addStudyMerge(study);
+  addStudyTask(study);
 }
 
 }  // namespace

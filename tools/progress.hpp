@@ -4,9 +4,12 @@
 
 #include <chrono>
 #include <cstdio>
+#include <map>
+#include <memory>
 #include <string>
 
 #include "interrupt.hpp"
+#include "orbcal/workflow/callbacks.hpp"
 
 namespace orbcal::tools {
 
@@ -49,5 +52,20 @@ class Progress {
   bool shown_ = false;
   std::chrono::steady_clock::time_point start_, last_{};
 };
+
+/// A workflow's progress callback (workflow/callbacks.hpp) drawn as these bars: one per open stage,
+/// closed when the stage ends (done = -1).
+inline workflow::ProgressFn terminalProgress() {
+  auto bars = std::make_shared<std::map<std::string, std::unique_ptr<Progress>>>();
+  return [bars](const std::string& stage, int done, int total) {
+    if (done < 0) {
+      bars->erase(stage);
+      return;
+    }
+    auto& bar = (*bars)[stage];
+    if (!bar) bar = std::make_unique<Progress>(stage, total);
+    bar->update(done);
+  };
+}
 
 }  // namespace orbcal::tools

@@ -233,9 +233,11 @@ class Diagnoser {
         fold_options.analyze = !o_.lean_fits;
         const Fit fit = fitMarkerModel(start, train, fold_options, warm_model ? warm_p : Eigen::VectorXd());
         const MarkerPoseModel held(start, test, noise_, fit.p);
+        std::vector<Eigen::VectorXd> nu;  // the held-out residuals, at fit.p
+        const double sse = 2.0 * weightedCost(held, Eigen::VectorXd::Zero(held.numParams()), &nu);
         std::vector<std::pair<int, Eigen::VectorXd>> residuals;
-        for (std::size_t t = 0; t < test.size(); ++t) residuals.emplace_back(test_index[t], markerResidual(start, fit.p, test[t]));
-        return std::make_pair(2.0 * weightedCost(held, Eigen::VectorXd::Zero(held.numParams())), residuals);
+        for (std::size_t t = 0; t < test.size(); ++t) residuals.emplace_back(test_index[t], std::move(nu[t]));
+        return std::make_pair(sse, residuals);
       }));
     }
     CvResult r;
@@ -315,8 +317,9 @@ class Diagnoser {
       Eigen::VectorXd p = full.p;
       for (Eigen::Index c = 0; c < nf; ++c) p[free[static_cast<std::size_t>(c)]] += step[c] * scale[c];
       const MarkerPoseModel held(model, test, noise_, p);
-      r.sse += 2.0 * weightedCost(held, Eigen::VectorXd::Zero(held.numParams()));
-      for (std::size_t t = 0; t < test.size(); ++t) r.residual[test_index[t]] = markerResidual(model, p, test[t]);
+      std::vector<Eigen::VectorXd> nu;  // the held-out residuals, at p
+      r.sse += 2.0 * weightedCost(held, Eigen::VectorXd::Zero(held.numParams()), &nu);
+      for (std::size_t t = 0; t < test.size(); ++t) r.residual[test_index[t]] = std::move(nu[t]);
     }
     return r;
   }

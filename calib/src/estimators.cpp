@@ -102,11 +102,13 @@ Eigen::MatrixXd whitenedJacobian(const MeasurementModel& m, const Eigen::VectorX
   return A;
 }
 
-double weightedCost(const MeasurementModel& m, const Eigen::VectorXd& y) {
+double weightedCost(const MeasurementModel& m, const Eigen::VectorXd& y, std::vector<Eigen::VectorXd>* innovations) {
   double c = 0.0;
+  if (innovations) innovations->clear();
   for (int k = 0; k < m.numSamples(); ++k) {
-    const Linearization lin = m.linearize(k, y);
+    Linearization lin = m.innovationAndCovariance(k, y);
     c += 0.5 * lin.innovation.dot(lin.R.ldlt().solve(lin.innovation));
+    if (innovations) innovations->push_back(std::move(lin.innovation));
   }
   return c;
 }
@@ -265,8 +267,11 @@ namespace {
 /// as with a SubsetManifold on all of y, without multiplying every Jacobian by the manifold's.
 class SampleCost : public ceres::CostFunction {
  public:
-  SampleCost(const MeasurementModel& m, int k, Eigen::MatrixXd W, const std::vector<int>& free)
-      : m_(m), k_(k), W_(std::move(W)), free_(free) {
+  /// `start` (the linearization at y = 0, its rows from `first_row`) is reused where Ceres asks for
+  /// the Jacobian at the starting point, as it always does first.
+  SampleCost(const MeasurementModel& m, int k, Eigen::MatrixXd W, const std::vector<int>& free,
+             const StackedLinearization& start, Eigen::Index first_row)
+      : m_(m), k_(k), W_(std::move(W)), free_(free), start_(start), first_row_(first_row) {
     set_num_residuals(m.rows(k));
     mutable_parameter_block_sizes()->push_back(static_cast<int>(free.size()));
   }
@@ -282,10 +287,10 @@ class SampleCost : public ceres::CostFunction {
       Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = r;
       return true;
     }
-    const Linearization lin = m_.linearize(k_, y);
+    const Linearization lin = y.isZero(0.0) ? startLinearization() : m_.linearize(k_, y);
     if (!lin.innovation.allFinite() || !lin.H.allFinite()) return false;
     Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = W_ * lin.innovation;
-    const Eigen::MatrixXd WH = W_ * lin.H;
+    const Eigen::MatrixXd WH = W_.lazyProduct(lin.H);  // 3 or 6 rows: no blocked GEMM
     Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jacobians[0], m_.rows(k_),
                                                                                          static_cast<Eigen::Index>(free_.size()));
     for (std::size_t c = 0; c < free_.size(); ++c) J.col(static_cast<Eigen::Index>(c)) = -WH.col(free_[c]);
@@ -293,10 +298,19 @@ class SampleCost : public ceres::CostFunction {
   }
 
  private:
+  Linearization startLinearization() const {
+    Linearization lin;
+    lin.innovation = start_.innovation.segment(first_row_, m_.rows(k_));
+    lin.H = start_.H.middleRows(first_row_, m_.rows(k_));
+    return lin;
+  }
+
   const MeasurementModel& m_;
   int k_;
   Eigen::MatrixXd W_;
   const std::vector<int>& free_;
+  const StackedLinearization& start_;
+  Eigen::Index first_row_;
 };
 
 /// LmOptions' Gaussian prior on the free parameters that have one, as one residual block
@@ -343,11 +357,13 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   }
   // Ceres works on the free parameters alone (x; y = x on them, 0 elsewhere).
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(free.size()));
-  for (int k = 0; k < m.numSamples() && !free.empty(); ++k) {
+  Eigen::Index first_row = 0;
+  for (int k = 0; k < m.numSamples() && !free.empty(); first_row += m.rows(k), ++k) {
     ceres::LossFunction* loss = nullptr;
     if (o.loss == LmOptions::Loss::kHuber) loss = new ceres::HuberLoss(o.loss_scale);
     if (o.loss == LmOptions::Loss::kCauchy) loss = new ceres::CauchyLoss(o.loss_scale);
-    problem.AddResidualBlock(new SampleCost(m, k, whitener(start.R[static_cast<std::size_t>(k)]), free), loss, x.data());
+    problem.AddResidualBlock(new SampleCost(m, k, whitener(start.R[static_cast<std::size_t>(k)]), free, start, first_row), loss,
+                             x.data());
   }
   addPrior(o, free, problem, x.data());
   ceres::Solver::Options so;

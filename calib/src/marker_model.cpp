@@ -29,17 +29,21 @@ Eigen::VectorXd markerResidual(const sim::KinematicModel& model, const Eigen::Ve
   return residualOf(o, sim::predictMarkerPose(model, p, o.sample));
 }
 
-Linearization MarkerPoseModel::linearize(int k, const Eigen::VectorXd& y) const {
+Linearization MarkerPoseModel::linearize(int k, const Eigen::VectorXd& y) const { return linearized(k, y, true); }
+
+Linearization MarkerPoseModel::innovationAndCovariance(int k, const Eigen::VectorXd& y) const { return linearized(k, y, false); }
+
+Linearization MarkerPoseModel::linearized(int k, const Eigen::VectorXd& y, bool with_H) const {
   const MarkerObservation& o = observations_.at(static_cast<std::size_t>(k));
   Eigen::MatrixXd J_e_p, J_e_q;
-  const Eigen::Isometry3d predicted =
-      sim::predictMarkerPose(model_, p0_ + y, o.sample, &J_e_p, noise_.joint_noise_sigma_rad > 0.0 ? &J_e_q : nullptr);
+  const Eigen::Isometry3d predicted = sim::predictMarkerPose(model_, p0_ + y, o.sample, with_H ? &J_e_p : nullptr,
+                                                             noise_.joint_noise_sigma_rad > 0.0 ? &J_e_q : nullptr);
   Linearization lin;
   lin.innovation = residualOf(o, predicted);
   const int m = rows(k);
   // Position-only: the marker-frame translation rows rotated into the measuring system's frame.
   const Eigen::Matrix3d R = predicted.linear();
-  lin.H = o.has_rotation ? J_e_p : Eigen::MatrixXd(R * J_e_p.topRows(3));
+  if (with_H) lin.H = o.has_rotation ? J_e_p : Eigen::MatrixXd(R * J_e_p.topRows(3));
   if (o.covariance.size() > 0) {
     lin.R = o.has_rotation ? o.covariance : Eigen::MatrixXd(R * o.covariance.topLeftCorner(3, 3) * R.transpose());
   } else {

@@ -358,11 +358,18 @@ Eigen::VectorXd jointCorrections(const KinematicModel& m, const Eigen::VectorXd&
 
 namespace {
 
+/// The chain at p, scaled: only what chainFrames and identificationJacobian read (convention, fixed
+/// end transforms, rows). The arm's name, source, limits, masses and URDF record are left out: copying
+/// them for every sample at every evaluation was most of a fit's memory traffic.
 Arm scaledArm(const KinematicModel& m, const Eigen::VectorXd& p, double length_scale) {
-  Arm arm = m.arm;
+  Arm arm;
+  arm.convention = m.arm.convention;
+  arm.base_T_first = m.arm.base_T_first;
+  arm.joints = m.arm.joints;
+  arm.last_T_flange = m.arm.last_T_flange;
   if (m.geometry) {
     const ParamBlock& g = m.layout.block(m.layout.find("geometry"));
-    arm = withErrors(m.arm, p.segment(g.offset, g.size()));
+    arm = withErrors(arm, p.segment(g.offset, g.size()));
   }
   if (length_scale != 1.0) {
     for (DhRow& r : arm.joints) {
@@ -466,14 +473,16 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   const Matrix6d Ad_marker_flange = adjoint((Xf * MY).inverse());
   Matrix6Xd J_flange(6, arm.numParams());
   identificationJacobian(arm, q, ErrorFrame::kTool, J_flange, inserts.links);
-  const Matrix6Xd J_geo = Ad_marker_flange * J_flange;
+  // Products of 6-row matrices, coefficient by coefficient: the blocked GEMM path costs more than the
+  // arithmetic at these sizes (lazyProduct).
+  const Matrix6Xd J_geo = Ad_marker_flange.lazyProduct(J_flange);
   Matrix6Xd J_q(6, n);
   for (int j = 0; j < n; ++j) J_q.col(j) = J_geo.col(paramIndex(arm, j, kTheta));
   if (J_e_q) *J_e_q = J_q;
   if (!J_e_p) return world_T_marker;
 
   Eigen::MatrixXd& J = *J_e_p;
-  J = J_q * J_dq_p;  // joint-angle effects
+  J = J_q.lazyProduct(J_dq_p);  // joint-angle effects
   if (b_blk >= 0) {
     J.middleCols(m.layout.block(b_blk).offset, 6) += adjoint((D * F * MY).inverse()) * frameDeltaJacobian(seg(b_blk));
   }

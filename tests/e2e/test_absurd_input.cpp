@@ -10,8 +10,8 @@
 #include <filesystem>
 #include <functional>
 
-#include "calibrate.hpp"
-#include "measured.hpp"
+#include "orbcal/workflow/calibrate.hpp"
+#include "orbcal/workflow/measured.hpp"
 #include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/dataset.hpp"
@@ -20,7 +20,7 @@
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/truth.hpp"
 #include "orbcal/vision/measurement.hpp"
-#include "study.hpp"
+#include "orbcal/workflow/study.hpp"
 #include "dataset_fixture.hpp"
 #include "test_util.hpp"
 
@@ -75,7 +75,7 @@ std::string simulated(const std::string& dir, int samples = 40, std::vector<sim:
   s.payload_kg = {0.0, 1.25};
   s.seed = 5;
   s.effects = std::move(effects);
-  return tools::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir).data.description;
+  return workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir).data.description;
 }
 
 struct Run {
@@ -161,7 +161,7 @@ TEST_CASE("absurd input: JSON orbcal writes never holds a non-finite number, str
   calib::ResidualStats s;
   s.samples = 3;
   s.position_rms_m = std::numeric_limits<double>::infinity();
-  CHECK_THROWS_WITH(tools::residualJson(s, "evaluation.json"), StartsWith("evaluation.json.position_rms_mm: inf"));
+  CHECK_THROWS_WITH(workflow::residualJson(s, "evaluation.json"), StartsWith("evaluation.json.position_rms_mm: inf"));
   CHECK(sim::jsonString("a\"b\\c\nd\x01") == "\"a\\\"b\\\\c\\u000ad\\u0001\"");
 }
 
@@ -334,11 +334,11 @@ TEST_CASE("absurd input: a manifest's joint_noise_deg of -1 or 1e6 and a negativ
   // calibrate refuses it before writing anything (the manifest's joint noise enters R).
   datasetWithoutImages(dir, 6);
   editFile(manifest, "joint_noise_deg: 0", "joint_noise_deg: 1e6");
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = dir + "/dataset";
   o.out = dir + "/out";
   o.quiet = true;
-  CHECK_THAT(inputError([&] { tools::runCalibrate(o); }), StartsWith(manifest + ": joint_noise_deg: "));
+  CHECK_THAT(inputError([&] { workflow::runCalibrate(o); }), StartsWith(manifest + ": joint_noise_deg: "));
   CHECK_FALSE(fs::exists(o.out));
 }
 
@@ -447,11 +447,11 @@ TEST_CASE("clear messages: orbcal's own line breaks never print as a literal \\x
   // report prints on several lines.
   const std::string dir = test::tempDir("absurd-one-line");
   datasetWithoutImages(dir, 6);
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = dir + "/dataset";
   o.out = dir + "/out";
   o.quiet = true;
-  const std::string msg = inputError([&] { tools::runCalibrate(o); });
+  const std::string msg = inputError([&] { workflow::runCalibrate(o); });
   CHECK(msg.find("\\x0A") == std::string::npos);
   CHECK_THAT(msg, Contains("(6 images: 0 used, 0 not found, 0 rejected, 6 unreadable; 6 x unreadable"));
   vision::MeasurementSummary s;

@@ -6,7 +6,8 @@
 #include <regex>
 #include <sstream>
 
-#include "calibrate.hpp"
+#include "figures.hpp"
+#include "orbcal/workflow/calibrate.hpp"
 #include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/fileio.hpp"
@@ -33,10 +34,10 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
           "[e2e][calibrate]") {
   render::DatasetJob job = renderQuick("calibrate");
 
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = job.out;
   o.quiet = true;
-  const tools::CalibrateResult r = tools::runCalibrate(o);
+  const workflow::CalibrateResult r = workflow::runCalibrate(o);
   CHECK(r.images == 40);
   CHECK(r.usable >= 38);  // clean rendered views; the planner keeps a 20 px margin
   CHECK(r.held_out == static_cast<int>(0.2 * r.usable));
@@ -58,9 +59,9 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
     sim::writeFileAtomic(copy + "/" + d.manifest.robot_file, sim::formatArm(sim::withErrors(d.arm, *d.manifest.true_errors)));
     d.manifest.true_errors = Eigen::VectorXd::Zero(d.arm.numParams());
     sim::writeDatasetTables(d, d.arm.numJoints());
-    tools::CalibrateOptions fo = o;
+    workflow::CalibrateOptions fo = o;
     fo.dataset = copy;
-    const tools::CalibrateResult at_truth = tools::runCalibrate(fo);
+    const workflow::CalibrateResult at_truth = workflow::runCalibrate(fo);
     REQUIRE(at_truth.usable == r.usable);
     REQUIRE(at_truth.held_out == r.held_out);
     REQUIRE(at_truth.has_truth);
@@ -92,7 +93,7 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
   manifest = manifest.substr(0, manifest.find("true_errors:"));
   std::ofstream(job.out + "/manifest.yaml") << manifest;
   o.out = job.out + "/calibration-real";
-  const tools::CalibrateResult real = tools::runCalibrate(o);
+  const workflow::CalibrateResult real = workflow::runCalibrate(o);
   CHECK_FALSE(real.has_truth);
   CHECK(calib::improvement(real.before.position_avg_m, real.after.position_avg_m) >= 0.90);
   CHECK(slurp(real.report_path).find("true poses") == std::string::npos);
@@ -104,7 +105,7 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
   job.out = test::tempDir("calibrate-few") + "/dataset";
   render::renderDataset(job);
   o.dataset = job.out;
-  CHECK_THROWS_WITH(tools::runCalibrate(o), Catch::StartsWith(job.out + ": only "));
+  CHECK_THROWS_WITH(workflow::runCalibrate(o), Catch::StartsWith(job.out + ": only "));
 }
 
 namespace {
@@ -123,18 +124,19 @@ void misplaceBoard(const std::string& dataset) {
 TEST_CASE("calibrate --estimate-frames: a wrong base_T_board in the scene no longer spoils the calibration",
           "[e2e][calibrate]") {
   const render::DatasetJob job = renderQuick("calibrate-frames");
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = job.out;
   o.quiet = true;
   o.estimate_frames = true;
   o.out = job.out + "/../right";
-  const tools::CalibrateResult right = tools::runCalibrate(o);
+  o.callbacks.figure = tools::plotReportFigure;  // the program's figure drawer
+  const workflow::CalibrateResult right = workflow::runCalibrate(o);
   REQUIRE(right.frames);
 
   // The scene's board placement off by 5 mm and 0.3 deg (a board re-mounted, a tape-measure error).
   misplaceBoard(job.out);
   o.out = job.out + "/../wrong";
-  const tools::CalibrateResult wrong = tools::runCalibrate(o);
+  const workflow::CalibrateResult wrong = workflow::runCalibrate(o);
   REQUIRE(wrong.frames);
   // The frames start from the camera poses alone, so the scene's placement does not enter the fit.
   CHECK(wrong.frames->heldout_after.position_rms_m == Approx(right.frames->heldout_after.position_rms_m).epsilon(1e-9));
@@ -152,13 +154,14 @@ TEST_CASE("calibrate --model dr: frame-free pairs of camera poses, a wrong base_
   // between the ground calibration and use; distances and rotation angles between camera poses do not
   // depend on it.
   const render::DatasetJob job = renderQuick("calibrate-dr");
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = job.out;
   o.quiet = true;
   o.method = "LSE (weighted)";
   o.model = "dr";
   o.out = job.out + "/../right";
-  const tools::CalibrateResult right = tools::runCalibrate(o);
+  o.callbacks.figure = tools::plotReportFigure;  // the program's figure drawer
+  const workflow::CalibrateResult right = workflow::runCalibrate(o);
   REQUIRE(right.relative_before);
   // A rigid motion of the whole arm is invisible to both rows (Jia et al. 2019, digest 2.6): theta1
   // and d1, and in modified DH alpha_0 and a_0 (alpha1, a1 here), which precede q1.
@@ -171,33 +174,34 @@ TEST_CASE("calibrate --model dr: frame-free pairs of camera poses, a wrong base_
   // by tens of mm and tenths of a degree; the joint noise (0.01 deg on a 20 m arm) leaves a few mm.
   CHECK(right.relative_after->distance_rms_m < 0.15 * right.relative_before->distance_rms_m);
   CHECK(right.relative_after->angle_rms_rad < 0.15 * right.relative_before->angle_rms_rad);
-  tools::CalibrateOptions pose = o;
+  workflow::CalibrateOptions pose = o;
   pose.model = "pose";
   pose.out = job.out + "/../right-pose";
-  const tools::CalibrateResult pose_right = tools::runCalibrate(pose);
+  const workflow::CalibrateResult pose_right = workflow::runCalibrate(pose);
   CHECK_FALSE(pose_right.relative_before);
 
   misplaceBoard(job.out);
   o.out = job.out + "/../wrong";
-  const tools::CalibrateResult wrong = tools::runCalibrate(o);
+  const workflow::CalibrateResult wrong = workflow::runCalibrate(o);
   // The same estimate (to round-off) and the same errors against the true poses.
   CHECK((wrong.estimate.y - right.estimate.y).cwiseAbs().maxCoeff() < 1e-9);
   CHECK(wrong.truth_after.position_avg_m == Approx(right.truth_after.position_avg_m).epsilon(1e-6));
   // The absolute model takes the wrong placement as exact and absorbs it into the arm's parameters
   // (5 mm and 0.3 deg at the board move the estimate by far more than its round-off).
   pose.out = job.out + "/../wrong-pose";
-  const tools::CalibrateResult pose_wrong = tools::runCalibrate(pose);
+  const workflow::CalibrateResult pose_wrong = workflow::runCalibrate(pose);
   CHECK((pose_wrong.estimate.y - pose_right.estimate.y).cwiseAbs().maxCoeff() > 1e-4);
 }
 
 TEST_CASE("calibrate: an inconsistent fit is refused, named, and writes no robot file unless --accept-worse",
           "[e2e][calibrate]") {
   const render::DatasetJob job = renderQuick("calibrate-refuse");
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = job.out;
   o.quiet = true;
   o.out = job.out + "/../right";
-  const tools::CalibrateResult right = tools::runCalibrate(o);
+  o.callbacks.figure = tools::plotReportFigure;  // the program's figure drawer
+  const workflow::CalibrateResult right = workflow::runCalibrate(o);
   INFO(calib::formatConsistency(right.consistency));
   CHECK(right.consistency.consistent());  // the vision covariance plus the joint noise is honest
   CHECK(right.refusals.empty());
@@ -212,7 +216,7 @@ TEST_CASE("calibrate: an inconsistent fit is refused, named, and writes no robot
 
   misplaceBoard(job.out);
   o.out = job.out + "/../wrong";
-  const tools::CalibrateResult wrong = tools::runCalibrate(o);
+  const workflow::CalibrateResult wrong = workflow::runCalibrate(o);
   CHECK_FALSE(wrong.consistency.consistent());
   REQUIRE_FALSE(wrong.refusals.empty());
   // The frames explain it: with both estimated the fit is consistent again.
@@ -224,7 +228,7 @@ TEST_CASE("calibrate: an inconsistent fit is refused, named, and writes no robot
 
   o.accept_worse = true;
   o.out = job.out + "/../accepted";
-  const tools::CalibrateResult accepted = tools::runCalibrate(o);
+  const workflow::CalibrateResult accepted = workflow::runCalibrate(o);
   CHECK_FALSE(accepted.refusals.empty());
   CHECK(accepted.written);
   CHECK(std::filesystem::exists(o.out + "/robot_calibrated.yaml"));

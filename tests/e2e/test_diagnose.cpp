@@ -7,7 +7,7 @@
 #include <random>
 #include <regex>
 
-#include "diagnose.hpp"
+#include "orbcal/workflow/diagnose.hpp"
 #include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/simulate.hpp"
@@ -16,16 +16,16 @@
 using namespace orbcal;
 
 TEST_CASE("diagnose names each hidden effect with its joint, and says clean on clean data", "[e2e][diagnose]") {
-  tools::StudyOptions o;
+  workflow::StudyOptions o;
   o.robot = test::sourcePath("scenes/iiwa7.yaml");
   o.per_effect = 1;  // the full study (orbcal diagnose-study, 20 per effect) is in the README
   o.clean = 20;
   o.seed = 2026;
   o.quiet = true;
-  const tools::StudyResult r = tools::runDiagnoseStudy(o);
+  const workflow::StudyResult r = workflow::runDiagnoseStudy(o);
   REQUIRE(r.rows.size() == o.effects.size() + 1);  // every catalog kind drawn, and clean
   int wrong_joint = 0;
-  for (const tools::StudyRow& row : r.rows) {
+  for (const workflow::StudyRow& row : r.rows) {
     CAPTURE(row.injected, row.named, row.wrong_joint, row.other, row.clean_verdict, row.misses);
     if (row.injected == "clean") {
       CHECK(row.datasets == 20);
@@ -42,7 +42,7 @@ TEST_CASE("diagnose names each hidden effect with its joint, and says clean on c
 
 TEST_CASE("diagnose writes its report, diagnosis.json and a model evaluate can read", "[e2e][diagnose]") {
   const std::string dir = test::tempDir("diagnose-files");
-  tools::DiagnoseRunOptions o;
+  workflow::DiagnoseRunOptions o;
   o.input = test::sourcePath("scenes/iiwa7_0kg.yaml");
   if (!std::filesystem::exists(test::sharedDataPath("iiwa7/run1_0kg.csv"))) {
     WARN("skipped: the real iiwa7 data is not at " << test::sharedDataPath("iiwa7"));
@@ -51,7 +51,7 @@ TEST_CASE("diagnose writes its report, diagnosis.json and a model evaluate can r
   o.out = dir;
   o.plots = false;
   o.quiet = true;
-  const tools::DiagnoseRunResult r = tools::runDiagnose(o);
+  const workflow::DiagnoseRunResult r = workflow::runDiagnose(o);
   const calib::Diagnosis& d = r.diagnosis;
   CHECK_FALSE(d.clean);
   CHECK(d.heldout.selected.position_rms_m < d.heldout.base.position_rms_m);
@@ -88,12 +88,12 @@ TEST_CASE("diagnose names a cyclic error of joint 2 from rendered images alone, 
     job.errors.name = errors;
     job.out = dir + "/" + name;
     render::renderDataset(job);
-    tools::DiagnoseRunOptions o;
+    workflow::DiagnoseRunOptions o;
     o.input = job.out;
     o.out = job.out + "/diagnosis";
     o.plots = false;
     o.quiet = true;
-    return tools::runDiagnose(o);
+    return workflow::runDiagnose(o);
   };
   const calib::Diagnosis hidden = renderAndDiagnose("cyclic", dir + "/errors.yaml").diagnosis;
   CAPTURE(amplitude, hidden.verdict);
@@ -103,7 +103,7 @@ TEST_CASE("diagnose names a cyclic error of joint 2 from rendered images alone, 
   const std::string named = sim::formatEffect(hidden.selected.front());
   CAPTURE(named);
   CHECK((named == "cyclic:2/1" || named == "cyclic:2"));
-  const tools::DiagnoseRunResult clean = renderAndDiagnose("clean", "table3");
+  const workflow::DiagnoseRunResult clean = renderAndDiagnose("clean", "table3");
   CAPTURE(clean.diagnosis.verdict);
   CHECK(clean.diagnosis.clean);
   CHECK(clean.distortion.tested);
@@ -116,7 +116,7 @@ TEST_CASE("diagnose names a cyclic error of joint 2 from rendered images alone, 
   const double dk2 = 0.04 * std::uniform_real_distribution<double>(0.0, 1.0)(rng);
   test::write(dir + "/lens.yaml", "format: orbcal-errors-1\ngeometry: table3\neffects:\n  - {spec: distortion, parameters: {dk1: " +
                                       std::to_string(dk1) + ", dk2: " + std::to_string(dk2) + ", dp1: 0, dp2: 0}}\n");
-  const tools::DiagnoseRunResult lens = renderAndDiagnose("lens", dir + "/lens.yaml");
+  const workflow::DiagnoseRunResult lens = renderAndDiagnose("lens", dir + "/lens.yaml");
   CAPTURE(dk1, dk2, lens.diagnosis.verdict, lens.distortion.dk[0], lens.distortion.dk_sigma[0]);
   CHECK(lens.distortion.selected);
   CHECK_FALSE(lens.diagnosis.clean);

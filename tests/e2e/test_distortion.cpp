@@ -5,7 +5,7 @@
 #include <catch2/catch.hpp>
 #include <random>
 
-#include "calibrate.hpp"
+#include "orbcal/workflow/calibrate.hpp"
 #include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "test_util.hpp"
@@ -14,7 +14,7 @@ using namespace orbcal;
 
 namespace {
 
-tools::CalibrateResult renderAndCalibrate(const std::string& dir, const std::string& errors) {
+workflow::CalibrateResult renderAndCalibrate(const std::string& dir, const std::string& errors) {
   render::DatasetJob job;
   job.scene = test::sourcePath("scenes/quick_scene.yaml");  // no distortion in its camera
   job.count = 60;
@@ -24,12 +24,12 @@ tools::CalibrateResult renderAndCalibrate(const std::string& dir, const std::str
   job.joint_noise_sigma_rad = 0.0;
   job.out = dir + "/dataset";
   render::renderDataset(job);
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = job.out;
   o.quiet = true;
   o.estimate_frames = true;
   o.effects = {"distortion"};
-  return tools::runCalibrate(o);
+  return workflow::runCalibrate(o);
 }
 
 }  // namespace
@@ -46,10 +46,10 @@ TEST_CASE("calibrate --effects distortion recovers lens distortion injected into
   test::write(dir + "/errors.yaml", "format: orbcal-errors-1\ngeometry: table3\neffects:\n  - {spec: distortion, parameters: "
                                     "{dk1: " + sim::formatNumber("%.17g", dk1) + ", dk2: " + sim::formatNumber("%.17g", dk2) +
                                     ", dp1: 0, dp2: 0}}\n");
-  const tools::CalibrateResult r = renderAndCalibrate(dir, dir + "/errors.yaml");
+  const workflow::CalibrateResult r = renderAndCalibrate(dir, dir + "/errors.yaml");
   REQUIRE(r.frames);
   REQUIRE(r.frames->corners);
-  const tools::CornerEstimate& c = *r.frames->corners;
+  const workflow::CornerEstimate& c = *r.frames->corners;
   REQUIRE(c.dk_true);
   CAPTURE(dk1, dk2, c.dk.transpose(), c.dk_sigma.transpose(), c.fit.rms_px, c.without.rms_px, c.heldout_rms_px,
           c.heldout_rms_px_without, c.fit.sigma_px);
@@ -66,10 +66,10 @@ TEST_CASE("calibrate --effects distortion recovers lens distortion injected into
   CHECK(c.without.rms_px > 1.5 * c.fit.rms_px);
   CHECK(c.heldout_rms_px_without > 1.5 * c.heldout_rms_px);
 
-  const tools::CalibrateResult clean = renderAndCalibrate(dir + "/clean", "table3");
+  const workflow::CalibrateResult clean = renderAndCalibrate(dir + "/clean", "table3");
   REQUIRE(clean.frames);
   REQUIRE(clean.frames->corners);
-  const tools::CornerEstimate& z = *clean.frames->corners;
+  const workflow::CornerEstimate& z = *clean.frames->corners;
   CAPTURE(z.dk.transpose(), z.dk_sigma.transpose(), z.fit.rms_px, z.without.rms_px);
   WARN("clean: fitted " << z.dk.transpose() << " +- " << z.dk_sigma.transpose() << "; corner RMS " << z.fit.rms_px
                         << " px (without distortion " << z.without.rms_px << " px)");
@@ -80,11 +80,11 @@ TEST_CASE("calibrate --effects distortion recovers lens distortion injected into
 }
 
 TEST_CASE("calibrate --effects on an image dataset needs --estimate-frames", "[e2e][calibrate][distortion]") {
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = test::tempDir("distortion-flags");
   o.effects = {"distortion"};
-  CHECK_THAT(test::inputError([&] { tools::runCalibrate(o); }), Catch::Contains("--estimate-frames"));
+  CHECK_THAT(test::inputError([&] { workflow::runCalibrate(o); }), Catch::Contains("--estimate-frames"));
   o.estimate_frames = true;
   o.effects = {"distortion:2"};
-  CHECK_THAT(test::inputError([&] { tools::runCalibrate(o); }), Catch::Contains("distortion takes no joints"));
+  CHECK_THAT(test::inputError([&] { workflow::runCalibrate(o); }), Catch::Contains("distortion takes no joints"));
 }

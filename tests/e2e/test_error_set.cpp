@@ -4,8 +4,8 @@
 #include <cmath>
 #include <filesystem>
 
-#include "calibrate.hpp"
-#include "experiment.hpp"
+#include "orbcal/workflow/calibrate.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/sim/configurations.hpp"
 #include "orbcal/sim/dataset.hpp"
@@ -85,10 +85,10 @@ TEST_CASE("render with an error-set file: the camera sees the geared arm, errors
   CHECK(again.skipped == 20);
 
   // The truth comparison of `orbcal calibrate` uses the true arm with its effect.
-  tools::CalibrateOptions co;
+  workflow::CalibrateOptions co;
   co.dataset = job.out;
   co.quiet = true;
-  const tools::CalibrateResult cal = tools::runCalibrate(co);
+  const workflow::CalibrateResult cal = workflow::runCalibrate(co);
   REQUIRE(cal.has_truth);
   CHECK_THAT(slurp(cal.report_path), Contains("effects of `errors.yaml`") && Contains("cyclic2_sin1 +0.05"));
 
@@ -114,7 +114,7 @@ TEST_CASE("render with an error-set file: the camera sees the geared arm, errors
 TEST_CASE("orbcal run with an error-set file: the report lists the effect, the floor is the true model's",
           "[e2e][error-set]") {
   const std::string dir = test::tempDir("error-set-run");
-  tools::ExperimentOptions o;
+  workflow::ExperimentOptions o;
   o.scene = test::sourcePath("scenes/quick_scene.yaml");
   o.errors.name = dir + "/cyclic.yaml";
   test::write(o.errors.name, cyclicFile(kA1));
@@ -123,7 +123,7 @@ TEST_CASE("orbcal run with an error-set file: the report lists the effect, the f
   o.validation = 20;
   o.plots = false;
   o.quiet = true;
-  const tools::Table4Result r = tools::runTable4(o, "main");
+  const workflow::Table4Result r = workflow::runTable4(o, "main");
   const calib::Comparison& c = r.comparison;
 
   // The floor is the true model with its effect at the commanded joints: what the control noise alone

@@ -9,7 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "measured.hpp"
+#include "orbcal/workflow/measured.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/measured.hpp"
 #include "run_orbcal.hpp"
@@ -65,25 +65,25 @@ TEST_CASE("calibrate DESC.yaml: rows repeated three times do not turn a refused 
   const std::string dir = test::tempDir("heldout-repeated");
   sim::SimulationSpec s = spec(80, 4);
   s.geometry.name = "zero";  // the nominal arm is the truth: every parameter fitted beyond the frames fits noise
-  const sim::SimulatedData d = tools::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
+  const sim::SimulatedData d = workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
   const std::string effects = "cyclic:1,2,3,4,5,6/3 backlash:1,2,3,4,5,6";
   checkRefused(dir, d.data.description, effects, "cal-once", "");
   const std::string thrice = repeatedRows(d.data, 3, dir + "/thrice", dir + "/data/robot.yaml");
   checkRefused(dir, thrice, effects, "cal-thrice", "");
   // The same configurations are held out with the rows once and thrice, and the copies add nothing: the
   // held-out errors agree (the nominal arm's exactly, the calibrated model's to the fits' convergence).
-  tools::MeasuredCalibrateOptions once;
+  workflow::MeasuredCalibrateOptions once;
   once.description = d.data.description;
   once.effects = {"cyclic:1,2,3,4,5,6/3", "backlash:1,2,3,4,5,6"};
   once.out = dir + "/library-once";
-  const tools::MeasuredCalibrateResult r1 = tools::runMeasuredCalibrate(once);
+  const workflow::MeasuredCalibrateResult r1 = workflow::runMeasuredCalibrate(once);
 
   // Through the library: the held-out rows are whole configurations (3 rows each), none of them fitted.
-  tools::MeasuredCalibrateOptions o;
+  workflow::MeasuredCalibrateOptions o;
   o.description = thrice;
   o.effects = {"cyclic:1,2,3,4,5,6/3", "backlash:1,2,3,4,5,6"};
   o.out = dir + "/library";
-  const tools::MeasuredCalibrateResult r = tools::runMeasuredCalibrate(o);
+  const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(o);
   CHECK(r.samples == 240);
   CHECK(r.gain.configurations == 16);  // 20 % of the 80 configurations
   CHECK(r.held_out == 3 * r.gain.configurations);
@@ -96,14 +96,14 @@ TEST_CASE("calibrate DESC.yaml: rows repeated three times do not turn a refused 
 TEST_CASE("calibrate DESC.yaml: 15 samples for 86 parameters are refused: too few held-out configurations",
           "[e2e][measured][heldout]") {
   const std::string dir = test::tempDir("heldout-few");
-  const sim::SimulatedData d = tools::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), spec(15, 6), dir + "/data");
+  const sim::SimulatedData d = workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), spec(15, 6), dir + "/data");
   // 28 DH errors + 6 base + 6 marker + cyclic on joints 1-7 with 3 harmonics (42) + scale on joints 1-4 (4) = 86.
   const std::string effects = "cyclic:1,2,3,4,5,6,7/3 scale:1,2,3,4";
-  tools::MeasuredCalibrateOptions o;
+  workflow::MeasuredCalibrateOptions o;
   o.description = d.data.description;
   o.effects = {"cyclic:1,2,3,4,5,6,7/3", "scale:1,2,3,4"};
   o.out = dir + "/library";
-  const tools::MeasuredCalibrateResult r = tools::runMeasuredCalibrate(o);
+  const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(o);
   REQUIRE(r.fit.model.layout.size() == 86);
   CHECK(r.gain.configurations == 3);
   CHECK(r.model_path.empty());
@@ -117,11 +117,11 @@ TEST_CASE("calibrate DESC.yaml: a tiny gain that the held-out noise does not sup
   // draws a gain: most draw a loss, refused as worse).
   sim::SimulationSpec s = spec(60, 5);
   s.geometry = {"random", 0.001 * sim::kDegToRad, 0.005e-3, 5};
-  const sim::SimulatedData d = tools::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
-  tools::MeasuredCalibrateOptions o;
+  const sim::SimulatedData d = workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
+  workflow::MeasuredCalibrateOptions o;
   o.description = d.data.description;
   o.out = dir + "/library";
-  const tools::MeasuredCalibrateResult r = tools::runMeasuredCalibrate(o);
+  const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(o);
   CAPTURE(r.heldout_before.position_rms_m, r.heldout_after.position_rms_m, r.gain.t, r.gain.p_value);
   REQUIRE(r.gain.configurations >= 10);
   REQUIRE(r.heldout_after.position_rms_m < r.heldout_before.position_rms_m);  // a gain, ...

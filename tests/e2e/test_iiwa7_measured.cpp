@@ -4,7 +4,7 @@
 #include <catch2/catch.hpp>
 #include <filesystem>
 
-#include "measured.hpp"
+#include "orbcal/workflow/measured.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
@@ -21,20 +21,20 @@ TEST_CASE("iiwa7: compliance fitted on 0 kg predicts 1.25 kg better than geometr
   if (!haveData()) return;
   const std::string dir = test::tempDir("iiwa7-measured");
   const auto calibrate = [&](const std::vector<std::string>& effects, const std::string& name, bool accept) {
-    tools::MeasuredCalibrateOptions o;
+    workflow::MeasuredCalibrateOptions o;
     o.description = test::sourcePath("scenes/iiwa7_0kg.yaml");
     o.effects = effects;
     o.out = dir + "/" + name;
     o.accept_worse = accept;
-    return tools::runMeasuredCalibrate(o);
+    return workflow::runMeasuredCalibrate(o);
   };
   // Geometry alone barely beats the nominal arm on the held-out configurations (gravity's sag is what
   // is left): not significant, refused; written with --accept-worse to compare on the other payload.
-  const tools::MeasuredCalibrateResult refused = calibrate({}, "refused", false);
+  const workflow::MeasuredCalibrateResult refused = calibrate({}, "refused", false);
   CHECK(refused.model_path.empty());
   CHECK_THAT(refused.refusal, Catch::Contains("the held-out gain is not significant"));
-  const tools::MeasuredCalibrateResult geometry = calibrate({}, "geometry", true);
-  const tools::MeasuredCalibrateResult compliance = calibrate({"compliance:2,4"}, "compliance", false);
+  const workflow::MeasuredCalibrateResult geometry = calibrate({}, "geometry", true);
+  const workflow::MeasuredCalibrateResult compliance = calibrate({"compliance:2,4"}, "compliance", false);
   REQUIRE(geometry.samples == 198);
   REQUIRE_FALSE(geometry.model_path.empty());
   REQUIRE_FALSE(compliance.model_path.empty());
@@ -45,8 +45,8 @@ TEST_CASE("iiwa7: compliance fitted on 0 kg predicts 1.25 kg better than geometr
   CHECK(compliance.heldout_after.position_rms_m < geometry.heldout_after.position_rms_m);
 
   const std::string data = test::sourcePath("scenes/iiwa7_1.25kg.yaml");
-  const tools::EvaluateResult eg = tools::runEvaluate(geometry.model_path, data, dir + "/eval-geometry");
-  const tools::EvaluateResult ec = tools::runEvaluate(compliance.model_path, data, dir + "/eval-compliance");
+  const workflow::EvaluateResult eg = workflow::runEvaluate(geometry.model_path, data, dir + "/eval-geometry");
+  const workflow::EvaluateResult ec = workflow::runEvaluate(compliance.model_path, data, dir + "/eval-compliance");
   CHECK(eg.fit.residuals.samples == 198);
   CHECK(ec.fit.residuals.position_rms_m < eg.fit.residuals.position_rms_m);
   const std::string json = test::slurp(ec.json_path);

@@ -3,7 +3,7 @@
 #include <cmath>
 #include <map>
 
-#include "experiment.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "test_util.hpp"
@@ -11,13 +11,13 @@
 using namespace orbcal;
 
 TEST_CASE("jia2019 preset: relative models blind to the board's move, the stale absolute model is not", "[e2e][jia2019]") {
-  tools::ExperimentOptions o;
+  workflow::ExperimentOptions o;
   o.robot = test::sourcePath("scenes/ssrms_hayati.yaml");
   o.out = test::tempDir("jia2019");
   o.repetitions = 2;
   o.plots = false;
   o.quiet = true;
-  tools::runJia2019(o);
+  workflow::runJia2019(o);
   const std::string path = o.out + "/jia2019/runs.csv";
   const sim::CsvTable t = sim::CsvTable::parse(sim::readTextSource(path), path);
   const int model = t.requireColumn("model"), change = t.requireColumn("frame_change_mm"),

@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "measured.hpp"
+#include "orbcal/workflow/measured.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/model_io.hpp"
@@ -31,14 +31,14 @@ TEST_CASE("simulate, calibrate with the hidden effect, evaluate on a second simu
   const std::string dir = test::tempDir("measured-tools");
   sim::SimulationSpec s = spec(200, 3);
   s.effects = {sim::Compliance{{1}}};
-  const sim::SimulatedData d = tools::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
+  const sim::SimulatedData d = workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
   REQUIRE(std::filesystem::exists(dir + "/data/truth/model.yaml"));
 
-  tools::MeasuredCalibrateOptions o;
+  workflow::MeasuredCalibrateOptions o;
   o.description = d.data.description;
   o.effects = {"compliance:2"};
   o.out = dir + "/cal";
-  const tools::MeasuredCalibrateResult r = tools::runMeasuredCalibrate(o);
+  const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(o);
   REQUIRE_FALSE(r.worse);
   // Held-out error of the calibrated model: the tracker noise (0.05 mm per axis: 0.087 mm RMS of the
   // 3-D error) plus a small estimation error; 0.12 mm allows 40% for the latter.
@@ -51,9 +51,9 @@ TEST_CASE("simulate, calibrate with the hidden effect, evaluate on a second simu
   s2.seed = 4;
   s2.base = sim::FrameSharing::kPerSession;
   s2.effect_values = d.p_true.tail(1);
-  const sim::SimulatedData d2 = tools::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s2, dir + "/data2");
-  const tools::EvaluateResult truth = tools::runEvaluate(dir + "/data/truth/model.yaml", d2.data.description, dir + "/eval-truth");
-  const tools::EvaluateResult fitted = tools::runEvaluate(r.model_path, d2.data.description, dir + "/eval-fit");
+  const sim::SimulatedData d2 = workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s2, dir + "/data2");
+  const workflow::EvaluateResult truth = workflow::runEvaluate(dir + "/data/truth/model.yaml", d2.data.description, dir + "/eval-truth");
+  const workflow::EvaluateResult fitted = workflow::runEvaluate(r.model_path, d2.data.description, dir + "/eval-fit");
   CHECK(truth.fit.residuals.position_rms_m < 0.1e-3);
   CHECK(fitted.fit.residuals.position_rms_m < 0.12e-3);
 }
@@ -64,25 +64,25 @@ TEST_CASE("a calibration that predicts held-out samples worse is refused and wri
   s.sessions = 1;
   s.payload_kg = {0.0};
   s.geometry.name = "zero";  // the nominal arm is the truth: every added parameter can only fit noise
-  const sim::SimulatedData d = tools::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
-  tools::MeasuredCalibrateOptions o;
+  const sim::SimulatedData d = workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
+  workflow::MeasuredCalibrateOptions o;
   o.description = d.data.description;
   o.effects = {"cyclic:1,2,3,4,5,6/3", "backlash:1,2,3,4,5,6"};
   o.out = dir + "/cal";
-  const tools::MeasuredCalibrateResult r = tools::runMeasuredCalibrate(o);
+  const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(o);
   CHECK(r.worse);
   CHECK(r.model_path.empty());
   CHECK_FALSE(std::filesystem::exists(dir + "/cal/model.yaml"));
   CHECK(test::slurp(r.report_path).find("WORSE") != std::string::npos);
   o.accept_worse = true;
-  CHECK_FALSE(tools::runMeasuredCalibrate(o).model_path.empty());
+  CHECK_FALSE(workflow::runMeasuredCalibrate(o).model_path.empty());
 }
 
 TEST_CASE("model files: errors name the file and the key", "[e2e][measured]") {
   const std::string dir = test::tempDir("model-file");
   sim::SimulationSpec s = spec(20, 1);
   s.effects = {sim::Scale{{0}}};
-  tools::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir);
+  workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir);
   const std::string good = test::slurp(dir + "/truth/model.yaml");
   const auto messageFor = [&](const std::string& from, const std::string& to) {
     std::string text = good;
@@ -109,13 +109,13 @@ TEST_CASE("measured data: a fit inconsistent with the given noise is refused, wi
   const std::string dir = test::tempDir("measured-inconsistent");
   sim::SimulationSpec s = spec(120, 7);
   s.effects = {sim::Compliance{{1}}};  // joint 2's compliance, drawn from the seed: hidden in the data
-  const sim::SimulatedData d = tools::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
-  tools::MeasuredCalibrateOptions o;
+  const sim::SimulatedData d = workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
+  workflow::MeasuredCalibrateOptions o;
   o.description = d.data.description;
   o.noise_position_m = s.noise_position_m;  // the tracker's true noise, given
   o.noise_rotation_rad = s.noise_rotation_rad;
   o.out = dir + "/geometry-only";
-  const tools::MeasuredCalibrateResult bad = tools::runMeasuredCalibrate(o);
+  const workflow::MeasuredCalibrateResult bad = workflow::runMeasuredCalibrate(o);
   CHECK(bad.inconsistent);  // geometry alone cannot absorb the compliance: residuals far above the noise
   CHECK(bad.consistency_p < 1e-3);
   CHECK(bad.fit.chi2 > 2.0 * bad.fit.dof);
@@ -127,7 +127,7 @@ TEST_CASE("measured data: a fit inconsistent with the given noise is refused, wi
   CHECK(said < report.find("Description `"));  // said first, before anything else of the report
   o.effects = {"compliance:2"};
   o.out = dir + "/with-compliance";
-  const tools::MeasuredCalibrateResult good = tools::runMeasuredCalibrate(o);
+  const workflow::MeasuredCalibrateResult good = workflow::runMeasuredCalibrate(o);
   CHECK_FALSE(good.inconsistent);  // chi-square(dof) at the true noise: p >= 0.001 but for 1 run in 1000
   CHECK(good.fit.chi2 / good.fit.dof == Approx(1.0).margin(0.2));
   CHECK_FALSE(good.model_path.empty());
@@ -135,7 +135,7 @@ TEST_CASE("measured data: a fit inconsistent with the given noise is refused, wi
   o.effects.clear();
   o.accept_worse = true;
   o.out = dir + "/accepted";
-  const tools::MeasuredCalibrateResult accepted = tools::runMeasuredCalibrate(o);
+  const workflow::MeasuredCalibrateResult accepted = workflow::runMeasuredCalibrate(o);
   CHECK_FALSE(accepted.model_path.empty());
   CHECK(test::slurp(accepted.report_path).find("model.yaml was written because --accept-worse was given") != std::string::npos);
 }
@@ -147,7 +147,7 @@ TEST_CASE("measured data name a URDF's chain: robot {file, base_link, tip_link} 
   // Tip iiwa_link_7, not the URDF's only leaf (iiwa_link_ee, 0.126 m further): a description that
   // ignored tip_link would put the flange elsewhere.
   const sim::Arm arm = sim::loadArm(sim::RobotSource{urdf, "iiwa_link_0", "iiwa_link_7"});
-  const sim::SimulatedData d = tools::runSimulate(arm, spec(40, 5), dir + "/data");
+  const sim::SimulatedData d = workflow::runSimulate(arm, spec(40, 5), dir + "/data");
   // The description as a user with the URDF writes it: robot names the chain instead of robot.yaml.
   const std::string text = test::slurp(d.data.description);
   const std::size_t at = text.find("\nrobot: ");

@@ -15,7 +15,7 @@
 #include <map>
 #include <thread>
 
-#include "calibrate.hpp"
+#include "orbcal/workflow/calibrate.hpp"
 #include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/dataset.hpp"
@@ -92,11 +92,11 @@ std::string calibrateError(const std::string& dir, const std::string& name,
   const std::string ds = datasetWithoutImages(dir, 8);
   write(ds + "/" + name, edit(slurp(ds + "/" + name)));
   const Snapshot before = snapshot(ds);
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = ds;
   o.out = dir + "/out";
   o.quiet = true;
-  const std::string msg = inputError([&] { tools::runCalibrate(o); });
+  const std::string msg = inputError([&] { workflow::runCalibrate(o); });
   CHECK(snapshot(ds) == before);
   CHECK_FALSE(fs::exists(o.out));
   return msg;
@@ -333,11 +333,11 @@ TEST_CASE("safe files: calibrate -o on a read-only dataset writes everything to 
   }
   fs::permissions(job.out, fs::perms::owner_write | fs::perms::group_write | fs::perms::others_write, fs::perm_options::remove);
   const Snapshot before = snapshot(job.out);
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = job.out;
   o.out = dir + "/out";
   o.quiet = true;
-  tools::runCalibrate(o);
+  workflow::runCalibrate(o);
   // Tests run as root here, where permissions do not stop writes: compare content and times instead.
   CHECK(snapshot(job.out) == before);
   CHECK(vision::parseMeasurementsCsv(slurp(o.out + "/measurements.csv"), "m").size() == 12);
@@ -365,10 +365,10 @@ TEST_CASE("safe files: a second writer of a dataset folder is refused, naming th
           job.out + ": another command is writing this folder (lock " + job.out +
               "/.orbcal.lock held by process " + std::to_string(::getpid()) +
               " (orbcal render --seed 1)); wait for it to finish, or use another folder");
-    tools::CalibrateOptions o;  // calibrate without -o writes into the dataset folder too
+    workflow::CalibrateOptions o;  // calibrate without -o writes into the dataset folder too
     o.dataset = job.out;
     o.quiet = true;
-    CHECK_THAT(inputError([&] { tools::runCalibrate(o); }), StartsWith(job.out + ": another command is writing this folder"));
+    CHECK_THAT(inputError([&] { workflow::runCalibrate(o); }), StartsWith(job.out + ": another command is writing this folder"));
     CHECK(snapshot(job.out) == before);
   }
   // Released: the lock file is gone and the next writer proceeds (here: a resume of the same dataset).

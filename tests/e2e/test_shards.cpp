@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <string>
 
-#include "calibrate.hpp"
+#include "orbcal/workflow/calibrate.hpp"
 #include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "test_util.hpp"
@@ -35,10 +35,10 @@ TEST_CASE("a shard folder alone is measured and calibrated like any dataset", "[
   job.out = test::tempDir("shard-calibrate") + "/shard";
   render::renderDataset(job);
 
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = job.out;
   o.quiet = true;
-  const tools::CalibrateResult r = tools::runCalibrate(o);
+  const workflow::CalibrateResult r = workflow::runCalibrate(o);
   CHECK(r.images == 40);
   CHECK(r.usable >= 38);  // clean rendered views; the planner keeps a 20 px margin
   REQUIRE(r.has_truth);

@@ -1,13 +1,13 @@
 // The whole pipeline on a standard-DH arm (the KUKA iiwa7 and its bench-top scene), not only the SSRMS.
 #include <catch2/catch.hpp>
 
-#include "experiment.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
 
 TEST_CASE("a standard-DH arm goes through render -> detect -> estimators -> validation", "[e2e][standard-dh]") {
-  tools::ExperimentOptions o;
+  workflow::ExperimentOptions o;
   o.robot = test::sourcePath("scenes/iiwa7.yaml");
   o.scene = test::sourcePath("scenes/iiwa7_scene.yaml");
   o.out = test::tempDir("standard-dh");
@@ -15,7 +15,7 @@ TEST_CASE("a standard-DH arm goes through render -> detect -> estimators -> vali
   o.validation = 30;
   o.plots = false;
   o.quiet = true;
-  const tools::Table4Result r = tools::runTable4(o);
+  const workflow::Table4Result r = workflow::runTable4(o);
   REQUIRE(r.identification.dataset.arm.convention == sim::DhConvention::kStandard);
   CHECK(r.identification.observations.size() >= 28);
   const calib::MethodOutcome* ekf = calib::bestOfKind(r.comparison, calib::MethodSpec::Kind::kEkf);

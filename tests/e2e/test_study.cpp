@@ -16,7 +16,7 @@
 
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/sim/csv.hpp"
-#include "study.hpp"
+#include "orbcal/workflow/study.hpp"
 #include "test_util.hpp"
 
 namespace fs = std::filesystem;
@@ -45,8 +45,8 @@ const char* kFloorStudy =
 }  // namespace
 
 TEST_CASE("a study file's grid and seeds give one task per cell and seed, each with its own seed", "[study]") {
-  const tools::StudySpec s = tools::parseStudy(kFloorStudy, "floor.yaml");
-  const std::vector<tools::StudyTask> tasks = tools::expandStudy(s);
+  const workflow::StudySpec s = workflow::parseStudy(kFloorStudy, "floor.yaml");
+  const std::vector<workflow::StudyTask> tasks = workflow::expandStudy(s);
   REQUIRE(tasks.size() == 2 * 2 * 3);
   // The first grid key varies slowest, the seeds fastest.
   CHECK(tasks[0].cell_values == std::vector<std::string>{"20", "0.01"});
@@ -61,21 +61,21 @@ TEST_CASE("a study file's grid and seeds give one task per cell and seed, each w
   std::set<std::uint64_t> seeds;
   for (const auto& t : tasks) {
     seeds.insert(t.seed);
-    CHECK(t.seed == tools::deriveSeed(s.seeds[t.replicate], t.cell_values));
+    CHECK(t.seed == workflow::deriveSeed(s.seeds[t.replicate], t.cell_values));
     CHECK(t.seed >= 1);
     CHECK(t.seed < (1ULL << 31));
   }
   CHECK(seeds.size() == tasks.size());
-  CHECK(tools::deriveSeed(1, {"20", "0.01"}) != tools::deriveSeed(1, {"20", "0.02"}));
+  CHECK(workflow::deriveSeed(1, {"20", "0.01"}) != workflow::deriveSeed(1, {"20", "0.02"}));
   // seed_derivation: common: the listed seeds themselves, the same in every cell.
-  const tools::StudySpec c = tools::parseStudy(std::string(kFloorStudy) + "seed_derivation: common\n", "c.yaml");
-  for (const auto& t : tools::expandStudy(c)) CHECK(t.seed == 1 + static_cast<std::uint64_t>(t.replicate));
-  CHECK(tools::arrayRanges({0, 1, 2, 3, 7, 9, 10, 11}) == "0-3,7,9-11");
-  CHECK(tools::arrayRanges({5}) == "5");
+  const workflow::StudySpec c = workflow::parseStudy(std::string(kFloorStudy) + "seed_derivation: common\n", "c.yaml");
+  for (const auto& t : workflow::expandStudy(c)) CHECK(t.seed == 1 + static_cast<std::uint64_t>(t.replicate));
+  CHECK(workflow::arrayRanges({0, 1, 2, 3, 7, 9, 10, 11}) == "0-3,7,9-11");
+  CHECK(workflow::arrayRanges({5}) == "5");
 }
 
 TEST_CASE("a bad study file is refused at its own key", "[study]") {
-  const auto error = [](const std::string& text) { return inputError([&] { tools::parseStudy(text, "s.yaml"); }); };
+  const auto error = [](const std::string& text) { return inputError([&] { workflow::parseStudy(text, "s.yaml"); }); };
   const std::string head = "format: orbcal-study-1\njob: experiment\npreset: floor\n";
   CHECK(error(head + "seeds: [1]\nbogus: 1\n").find("s.yaml: bogus: unknown key") == 0);
   CHECK(error("format: orbcal-study-1\njob: paint\nseeds: [1]\n").find("s.yaml: job: expected experiment") == 0);
@@ -100,9 +100,9 @@ TEST_CASE("orbcal study run: every task, resumable, merged the same on one or tw
   CHECK(test::slurp(dir + "/a/merged/summary/floor.csv") == test::slurp(dir + "/b/merged/summary/floor.csv"));
 
   // A task is the job run by hand with the task's seed: its CSV rows are that run's, after the task columns.
-  const tools::StudySpec s = tools::parseStudy(kFloorStudy, "floor.yaml");
-  const auto tasks = tools::expandStudy(s);
-  const tools::StudyTask& t = tasks[7];
+  const workflow::StudySpec s = workflow::parseStudy(kFloorStudy, "floor.yaml");
+  const auto tasks = workflow::expandStudy(s);
+  const workflow::StudyTask& t = tasks[7];
   std::string args;
   for (const std::string& a : t.args) args += a + " ";
   REQUIRE(runOrbcal(args + "-o " + dir + "/by-hand", dir + "/hand.log") == 0);
@@ -237,8 +237,8 @@ TEST_CASE("orbcal study: a failed task is named, the merge refuses, and a killed
   while (std::chrono::steady_clock::now() < until) {
     bool running = false, finished = false;
     for (int i = 0; i < 6; ++i) {
-      running = running || fs::exists(tools::taskFolder(dir + "/killed", i) + ".tmp/log.txt");
-      finished = finished || fs::exists(tools::taskFolder(dir + "/killed", i) + "/task.yaml");
+      running = running || fs::exists(workflow::taskFolder(dir + "/killed", i) + ".tmp/log.txt");
+      finished = finished || fs::exists(workflow::taskFolder(dir + "/killed", i) + "/task.yaml");
     }
     if (running && finished) {
       ::kill(-pid, SIGKILL);  // the runner (its job processes die with it)
@@ -266,8 +266,8 @@ TEST_CASE("orbcal study: a render study in shards merges into the dataset one re
   test::write(dir + "/render.yaml", "format: orbcal-study-1\njob: render\noptions: {scene: '" + scene +
                                         "', count: 7, errors: random}\nseeds: [4]\nshards: 3\n");
   REQUIRE(runOrbcal("study run " + dir + "/render.yaml -o " + dir + "/s -j 2", dir + "/s.log") == 0);
-  const tools::StudySpec s = tools::parseStudy(test::slurp(dir + "/render.yaml"), "render.yaml");
-  const auto tasks = tools::expandStudy(s);
+  const workflow::StudySpec s = workflow::parseStudy(test::slurp(dir + "/render.yaml"), "render.yaml");
+  const auto tasks = workflow::expandStudy(s);
   REQUIRE(tasks.size() == 3);
   CHECK(tasks[2].args.back() == "2/3");
   CHECK(tasks[0].seed == tasks[2].seed);  // the shards of one dataset share its seed
@@ -292,15 +292,15 @@ TEST_CASE("orbcal study submit --dry-run: array scripts, in chunks past the arra
   const std::string dir = test::tempDir("study-dry");
   const std::string text = "format: orbcal-study-1\nname: dry\njob: experiment\npreset: floor\nseeds: {first: 1, count: 7}\n"
                            "slurm: {throttle: 2, time: \"00:05:00\", mem: 1G}\n";
-  const tools::StudySpec s = tools::parseStudy(text, dir + "/dry.yaml");
-  tools::initStudyFolder(s, dir + "/s", dir);
-  tools::SlurmSubmitOptions o;
+  const workflow::StudySpec s = workflow::parseStudy(text, dir + "/dry.yaml");
+  workflow::initStudyFolder(s, dir + "/s", dir);
+  workflow::SlurmSubmitOptions o;
   o.dry_run = true;
   o.max_array_size = 3;  // Slurm's MaxArraySize - 1, made small: 7 tasks go in arrays of 3, 3 and 1
   o.program = "/opt/orbcal/bin/orbcal";
   o.partition = "batch";
   o.extra = {"--qos=long"};
-  const tools::SlurmSubmission sub = tools::submitStudy(dir + "/s", o);
+  const workflow::SlurmSubmission sub = workflow::submitStudy(dir + "/s", o);
   CHECK(sub.tasks == std::vector<int>{0, 1, 2, 3, 4, 5, 6});
   CHECK(sub.job_ids.empty());
   REQUIRE(sub.scripts.size() == 3);
@@ -313,16 +313,16 @@ TEST_CASE("orbcal study submit --dry-run: array scripts, in chunks past the arra
                     "' --index $((SLURM_ARRAY_TASK_ID + 3))") != std::string::npos);
   CHECK(test::slurp(sub.scripts[2]).find("#SBATCH --array=0%2\n") != std::string::npos);  // task 6 = 0 + 6
   // Tasks done are not submitted again: after task 4 is done, the chunk of 3..5 holds 3 and 5.
-  fs::create_directories(tools::taskFolder(dir + "/s", 4));
-  test::write(tools::taskFolder(dir + "/s", 4) + "/task.yaml", "index: 4\n");
-  const tools::SlurmSubmission again = tools::submitStudy(dir + "/s", o);
+  fs::create_directories(workflow::taskFolder(dir + "/s", 4));
+  test::write(workflow::taskFolder(dir + "/s", 4) + "/task.yaml", "index: 4\n");
+  const workflow::SlurmSubmission again = workflow::submitStudy(dir + "/s", o);
   CHECK(again.tasks == std::vector<int>{0, 1, 2, 3, 5, 6});
   REQUIRE(again.scripts.size() == 3);
   CHECK(test::slurp(again.scripts[1]).find("#SBATCH --array=0,2%2\n") != std::string::npos);
   // Without `name:`, the job is named after the study file, not after the folder's copy of it.
-  const tools::StudySpec unnamed = tools::parseStudy("format: orbcal-study-1\njob: experiment\npreset: floor\nseeds: [1]\n",
+  const workflow::StudySpec unnamed = workflow::parseStudy("format: orbcal-study-1\njob: experiment\npreset: floor\nseeds: [1]\n",
                                                      dir + "/my-floor.yaml");
-  tools::initStudyFolder(unnamed, dir + "/u", dir);
-  CHECK(test::slurp(tools::submitStudy(dir + "/u", o).scripts.at(0)).find("#SBATCH --job-name=orbcal-my-floor\n") !=
+  workflow::initStudyFolder(unnamed, dir + "/u", dir);
+  CHECK(test::slurp(workflow::submitStudy(dir + "/u", o).scripts.at(0)).find("#SBATCH --job-name=orbcal-my-floor\n") !=
         std::string::npos);
 }

@@ -2,20 +2,20 @@
 #include <catch2/catch.hpp>
 #include <fstream>
 
-#include "experiment.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
 
 TEST_CASE("reduced table4 from rendered images: the EKF improves every error by 90%", "[e2e][table4]") {
-  tools::ExperimentOptions o;
+  workflow::ExperimentOptions o;
   o.scene = test::sourcePath("scenes/quick_scene.yaml");  // the default scene at 640 x 512
   o.out = test::tempDir("table4");
   o.identification = 30;
   o.validation = 50;
   o.plots = false;
   o.quiet = true;
-  const tools::Table4Result r = tools::runTable4(o);
+  const workflow::Table4Result r = workflow::runTable4(o);
   const calib::Comparison& c = r.comparison;
 
   // Every image of the clean rendered views gives a pose (the generator keeps a 20 px margin).

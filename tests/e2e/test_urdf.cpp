@@ -2,8 +2,8 @@
 // tests/data, derived from scenes/iiwa7.yaml's DH table.
 #include <catch2/catch.hpp>
 
-#include "calibrate.hpp"
-#include "experiment.hpp"
+#include "orbcal/workflow/calibrate.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/io.hpp"
@@ -31,11 +31,11 @@ TEST_CASE("a URDF robot renders, calibrates, and its calibrated URDF reloads to 
   CHECK(d.arm.urdf.file == job.out + "/robot.urdf");
   CHECK(d.arm.numParams() == 49);
 
-  tools::CalibrateOptions o;
+  workflow::CalibrateOptions o;
   o.dataset = job.out;
   o.out = dir + "/calibration";
   o.quiet = true;
-  const tools::CalibrateResult r = tools::runCalibrate(o);
+  const workflow::CalibrateResult r = workflow::runCalibrate(o);
   REQUIRE(r.has_truth);
   CHECK(r.usable >= 28);
   // 7 errors a joint are redundant: the identifiability analysis keeps a minimal set, and LSE/LM hold
@@ -69,7 +69,7 @@ TEST_CASE("a URDF robot renders, calibrates, and its calibrated URDF reloads to 
 
 TEST_CASE("experiments take a URDF's chain by --base-link and --tip-link", "[e2e][urdf]") {
   const std::string dir = test::tempDir("urdf-experiment");
-  tools::ExperimentOptions o;
+  workflow::ExperimentOptions o;
   o.robot = test::sourcePath("tests/data/iiwa7.urdf");
   o.scene = test::sourcePath("scenes/iiwa7_scene.yaml");
   o.errors.name = "zero";
@@ -77,16 +77,16 @@ TEST_CASE("experiments take a URDF's chain by --base-link and --tip-link", "[e2e
   o.repetitions = 1;
   o.quiet = true;
   o.out = dir + "/default";
-  tools::runFloor(o);  // the root link to the only leaf link
+  workflow::runFloor(o);  // the root link to the only leaf link
   o.base_link = "world";
   o.tip_link = "iiwa_link_ee";
   o.out = dir + "/named";
-  tools::runFloor(o);  // the same chain, named
+  workflow::runFloor(o);  // the same chain, named
   const std::string floor = test::slurp(dir + "/default/floor/floor.csv");
   CHECK(floor.size() > 40);
   CHECK(floor == test::slurp(dir + "/named/floor/floor.csv"));
   // A shorter chain is the arm the experiment gets: Table 3's errors are for 7 joints.
   o.tip_link = "iiwa_link_6";
   o.errors.name = "table3";
-  CHECK_THAT(test::inputError([&] { tools::runFloor(o); }), Contains("has 6 joints"));
+  CHECK_THAT(test::inputError([&] { workflow::runFloor(o); }), Contains("has 6 joints"));
 }

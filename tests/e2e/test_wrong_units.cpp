@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "measured.hpp"
+#include "orbcal/workflow/measured.hpp"
 #include "orbcal/calib/plausibility.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/measured.hpp"
@@ -81,7 +81,7 @@ TEST_CASE("wrong units and quaternion order are refused by calibrate, diagnose a
   sim::SimulationSpec s;
   s.samples = 60;
   s.seed = 21;
-  const sim::SimulatedData d = tools::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
+  const sim::SimulatedData d = workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
   const std::string truth = dir + "/data/truth/model.yaml";
   const std::string good = test::slurp(d.data.description);
 
@@ -124,7 +124,7 @@ TEST_CASE("a wrong robot file whose calibration would move a link beyond its tol
   s.samples = 60;
   s.seed = 22;
   sim::Arm arm = sim::loadArm(test::sourcePath("scenes/iiwa7.yaml"));
-  const sim::SimulatedData d = tools::runSimulate(arm, s, dir + "/data");
+  const sim::SimulatedData d = workflow::runSimulate(arm, s, dir + "/data");
   // The robot file of an arm whose third link (d3 = 0.4 m) is 30 mm longer: the registration residual
   // stays within its bound, but the fit must shorten d3 by 30 mm, beyond 5 % of the link (20 mm).
   REQUIRE(arm.joints[2].d_m == Approx(0.4));

@@ -95,8 +95,9 @@ Eigen::MatrixXd whitenedJacobian(const MeasurementModel& model, const Eigen::Vec
 /// The same with the whitened stacked innovation b = W nu(y).
 void whitenedSystem(const MeasurementModel& model, const Eigen::VectorXd& y, Eigen::MatrixXd& A, Eigen::VectorXd& b);
 
-/// 0.5 sum_k nu_k(y)^T R_k^-1 nu_k(y).
-double weightedCost(const MeasurementModel& model, const Eigen::VectorXd& y);
+/// 0.5 sum_k nu_k(y)^T R_k^-1 nu_k(y); `innovations` (if given) gets every nu_k(y), from the same
+/// predictions.
+double weightedCost(const MeasurementModel& model, const Eigen::VectorXd& y, std::vector<Eigen::VectorXd>* innovations = nullptr);
 
 /// Parameters to hold so that the rest are identifiable, from the SVD of the whitened Jacobian at y
 /// with the `held` parameters left out: the ineffective ones (ineffectiveColumns with the layout's

@@ -48,6 +48,7 @@ class MarkerPoseModel : public MeasurementModel {
   const sim::ParamLayout& layout() const override { return model_.layout; }
   Linearization linearize(int k, const Eigen::VectorXd& y) const override;
   Eigen::VectorXd innovation(int k, const Eigen::VectorXd& y) const override;
+  Linearization innovationAndCovariance(int k, const Eigen::VectorXd& y) const override;
   /// d(residual k)/d(joint readings) at y (rows(k) x joints): how joint noise enters the residual,
   /// R_k's term joint_noise_sigma^2 Jq Jq^T. `residual` (if given) gets the residual at y, from the
   /// same pose prediction.
@@ -59,6 +60,9 @@ class MarkerPoseModel : public MeasurementModel {
   const MarkerNoise& noise() const { return noise_; }
 
  private:
+  /// linearize (with H) or innovationAndCovariance (without): one prediction per sample.
+  Linearization linearized(int k, const Eigen::VectorXd& y, bool with_H) const;
+
   sim::KinematicModel model_;
   std::vector<MarkerObservation> observations_;
   MarkerNoise noise_;

@@ -34,6 +34,9 @@ class MeasurementModel {
   /// The innovation alone (what linearize gives as `innovation`): models override it where the
   /// Jacobian costs more than the prediction (the LM's trial steps need only the residual).
   virtual Eigen::VectorXd innovation(int k, const Eigen::VectorXd& y) const { return linearize(k, y).innovation; }
+  /// The innovation and its covariance R (what linearize gives), H possibly left empty: what a cost
+  /// needs. Models override it where H costs more than the prediction.
+  virtual Linearization innovationAndCovariance(int k, const Eigen::VectorXd& y) const { return linearize(k, y); }
 
   int numParams() const { return layout().size(); }
   const std::string& paramName(int i) const { return layout().param(i).name; }

@@ -11,7 +11,7 @@
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/simulate.hpp"
 
-namespace orbcal::tools {
+namespace orbcal::workflow {
 
 struct MeasuredCalibrateOptions {
   std::string description;
@@ -64,4 +64,4 @@ std::vector<sim::ParameterRow> parameterRows(const calib::Fit& fit);
 /// the file and the field for the message of a non-finite number (sim::jsonNumber).
 std::string residualJson(const calib::ResidualStats& s, const std::string& key);
 
-}  // namespace orbcal::tools
+}  // namespace orbcal::workflow

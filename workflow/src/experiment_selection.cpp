@@ -9,7 +9,7 @@
 #include <optional>
 #include <sstream>
 
-#include "experiment.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "orbcal/calib/observability.hpp"
 #include "orbcal/calib/planning.hpp"
 #include "orbcal/calib/relative_models.hpp"
@@ -19,9 +19,8 @@
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
-#include "progress.hpp"
 
-namespace orbcal::tools {
+namespace orbcal::workflow {
 
 namespace {
 
@@ -98,7 +97,7 @@ std::vector<SyntheticRow> syntheticPart(const ExperimentOptions& o, const sim::A
   const sim::KinematicModel km = sim::flangeModel(nominal);
   const sim::Arm true_arm = sim::withErrors(nominal, y_true);
   std::vector<SyntheticRow> rows;
-  Progress bar(o.quiet ? "" : "selection: synthetic trials", o.quiet ? 0 : o.repetitions * static_cast<int>(kinds.size()));
+  Progress bar(o.callbacks.progress, o.quiet ? "" : "selection: synthetic trials", o.quiet ? 0 : o.repetitions * static_cast<int>(kinds.size()));
   int done = 0;
   for (int r = 0; r < o.repetitions; ++r) {
     const std::vector<Eigen::VectorXd> pool = generate(nominal, scene, pool_size + 1, o.seed + r);
@@ -155,7 +154,7 @@ std::vector<SyntheticRow> rangePart(const ExperimentOptions& o, int pool_size) {
   setup.kind = calib::MeasurementKind::kRange;
   const calib::PlaneRangeModel probe(km, setup.beam, setup.plane, {});
   std::vector<SyntheticRow> rows;
-  Progress bar(o.quiet ? "" : "selection: range trials", o.quiet ? 0 : o.repetitions);
+  Progress bar(o.callbacks.progress, o.quiet ? "" : "selection: range trials", o.quiet ? 0 : o.repetitions);
   for (int r = 0; r < o.repetitions; ++r) {
     Eigen::VectorXd p_true = Eigen::VectorXd::Zero(probe.numParams());
     p_true.head(arm.numParams()) = sim::thermalErrors(arm, 3.49e-3, 1e-3, o.seed + r);
@@ -362,4 +361,4 @@ void runSelection(const ExperimentOptions& o) {
   std::cout << md.str();
 }
 
-}  // namespace orbcal::tools
+}  // namespace orbcal::workflow

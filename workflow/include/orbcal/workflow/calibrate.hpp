@@ -16,9 +16,10 @@
 #include "orbcal/calib/relative_models.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/vision/measurement.hpp"
+#include "orbcal/workflow/callbacks.hpp"
 #include <optional>
 
-namespace orbcal::tools {
+namespace orbcal::workflow {
 
 struct CalibrateOptions {
   std::string dataset;
@@ -43,6 +44,7 @@ struct CalibrateOptions {
   /// grows (the report and the exit status say so all the same).
   bool accept_worse = false;
   bool plots = true;  ///< draw the report's figures (python3 + matplotlib)
+  Callbacks callbacks;  ///< progress and figures (callbacks.hpp)
 };
 
 /// With CalibrateOptions::effects: geometry + both frames + the chain effects + the distortion block,
@@ -118,4 +120,4 @@ std::vector<calib::CornerObservation> cornerObservations(const std::vector<calib
 ImageMeasuredData imageMeasuredData(const sim::Dataset& d, const std::vector<vision::Measurement>& meas,
                                     const std::vector<std::size_t>& which);
 
-}  // namespace orbcal::tools
+}  // namespace orbcal::workflow

@@ -1,4 +1,4 @@
-#include "experiment.hpp"
+#include "orbcal/workflow/experiment.hpp"
 
 #include <sys/wait.h>
 #include <unistd.h>
@@ -12,7 +12,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "calibrate.hpp"
+#include "orbcal/workflow/calibrate.hpp"
 #include "orbcal/calib/observability.hpp"
 #include "orbcal/calib/synthetic.hpp"
 #include "orbcal/render/dataset_writer.hpp"
@@ -23,9 +23,8 @@
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/truth.hpp"
-#include "progress.hpp"
 
-namespace orbcal::tools {
+namespace orbcal::workflow {
 
 namespace {
 
@@ -89,25 +88,7 @@ std::string injectedEffects(const sim::TrueArm& truth, const std::string& source
 
 std::string drawFigure(const ExperimentOptions& o, const std::string& folder, const std::string& args,
                        const std::string& png, const std::string& caption) {
-  if (!o.plots) return "(figures not drawn: --no-plots)\n";
-  const char* env = std::getenv("ORBCAL_PLOT_SCRIPT");
-  const std::string script = env ? env : ORBCAL_PLOT_SCRIPT;
-  // Debian's python3 (with python3-matplotlib) first: another python3 may come first on PATH.
-  const char* python = std::getenv("ORBCAL_PYTHON");
-  const std::string interpreter = python ? python : (access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3");
-  const std::string cmd = interpreter + " '" + script + "' " + args + " '" + folder + "/" + png + "' 2>&1";
-  auto [status, output] = shellOutput(cmd);
-  if (status == 0) return "![" + caption + "](" + png + ")\n";
-  // The last line of a Python error is its message (e.g. "ModuleNotFoundError: No module named ...").
-  while (!output.empty() && output.back() == '\n') output.pop_back();
-  const std::string last = sim::printable(output.substr(output.find_last_of('\n') + 1), 300);
-  const bool no_python = status == -1 || (WIFEXITED(status) && WEXITSTATUS(status) == 127);
-  if (no_python || output.find("No module named") != std::string::npos) {  // figures are optional: a warning
-    std::cerr << "orbcal: warning: figure " << png << " not drawn (python3 with matplotlib is needed): " << last << "\n";
-    return "(figure " + png + " not drawn: python3 with matplotlib is needed)\n";
-  }
-  // Anything else (a full disk, an unwritable folder, a plotting error): the run is not complete.
-  throw std::runtime_error("figure " + png + " not drawn: " + (last.empty() ? "the plot script failed" : last) + " (" + script + ")");
+  return drawFigure(o.callbacks, o.plots, folder, args, png, caption);
 }
 
 std::vector<calib::MethodSpec> chosenMethods(const ExperimentOptions& o, std::vector<calib::MethodSpec> preset) {
@@ -173,7 +154,7 @@ MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& pref
   job.out = o.out + "/datasets/" + name;
   auto t0 = Clock::now();
   {
-    Progress bar(o.quiet ? "" : "render " + what, o.quiet ? 0 : count);
+    Progress bar(o.callbacks.progress, o.quiet ? "" : "render " + what, o.quiet ? 0 : count);
     render::renderDataset(job, [&](int done, int) { bar.update(done); });
   }
   m.render_seconds = since(t0);
@@ -182,7 +163,7 @@ MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& pref
     m.dataset = sim::loadDataset(job.out);
     t0 = Clock::now();
     {
-      Progress bar(o.quiet ? "" : "measure " + what, o.quiet ? 0 : count);
+      Progress bar(o.callbacks.progress, o.quiet ? "" : "measure " + what, o.quiet ? 0 : count);
       m.measurements = vision::measureDataset(m.dataset, {}, [&](int done, int) { bar.update(done); });
     }
     m.measure_seconds = since(t0);
@@ -319,4 +300,4 @@ std::string table4Headline(const Table4Result& r) {
   return s.str();
 }
 
-}  // namespace orbcal::tools
+}  // namespace orbcal::workflow

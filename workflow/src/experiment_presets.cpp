@@ -5,15 +5,14 @@
 #include <map>
 #include <sstream>
 
-#include "experiment.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "orbcal/calib/synthetic.hpp"
 #include "orbcal/sim/configurations.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
-#include "progress.hpp"
 
-namespace orbcal::tools {
+namespace orbcal::workflow {
 
 namespace {
 
@@ -228,4 +227,4 @@ void runFloor(const ExperimentOptions& o) {
   std::cout << md.str();
 }
 
-}  // namespace orbcal::tools
+}  // namespace orbcal::workflow

@@ -5,16 +5,15 @@
 #include <iostream>
 #include <sstream>
 
-#include "experiment.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "orbcal/calib/range_experiment.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
-#include "progress.hpp"
 
-namespace orbcal::tools {
+namespace orbcal::workflow {
 
 namespace {
 
@@ -67,6 +66,53 @@ void poolErrors(std::ostringstream& out, const std::string& model, const calib::
   }
 }
 
+/// The models' names in the tables and CSVs.
+const char* const kModels[3] = {"Nominal", "Case 1", "Case 2"};
+
+/// The report's setup paragraph and the validation pose errors against the paper's Table 5.
+std::string introAndTable5(const ExperimentOptions& o, const sim::Arm& nominal, const calib::RangeExperimentSettings& settings,
+                           const std::string& identifiability, const AxisTable& table) {
+  std::ostringstream md;
+  md << "# Liu et al. 2012: laser-ranger identification against a plane (Table 5 layout)\n\n"
+     << "Robot: `" << o.robot << "` (" << nominal.name << "). A laser ranger on the flange measures the range along +Z6 "
+     << "to the plane y + c z - 0.69 = 0; the model starts at c = " << kNominalC << ", the truth is c = " << kNominalC
+     << " + " << kCError << ". Each range is the mean of " << settings.repeats << " readings with N(0, "
+     << fmt("%.1f", settings.sigma_m * 1e3) << " mm) noise. Injected errors (per repetition, seeded): lengths a, d "
+     << "positive and proportional to their nominal lengths (" << fmt("%.0f", kLengthPerMetre * 1e3)
+     << " mm per metre, thermal expansion), angles theta, alpha, beta N(0, " << fmt("%.2f", kAngleSigmaRad * 1e3)
+     << " mrad). " << settings.candidates << " non-singular candidate configurations whose beam meets the plane at "
+     << fmt("%.1f", settings.configurations.min_range_m) << "-" << fmt("%.0f", settings.configurations.max_range_m)
+     << " m with |n.b| >= " << fmt("%.1f", settings.configurations.min_cosine) << "; case 1 = "
+     << settings.case_sizes[0] << " of them and case 2 = " << settings.case_sizes[1]
+     << " chosen by O3 = sigma_min; identification by weighted Gauss-Newton least squares on the identifiable "
+     << "columns; " << settings.validation << " independent validation configurations anywhere in the workspace. "
+     << o.repetitions << " repetitions, seeds " << o.seed << ".." << o.seed + o.repetitions - 1
+     << " (each: its own errors, configurations and noise).\n\n"
+     << "Identifiability over the candidates (repetition 1): " << identifiability
+     << ". Liu et al. 2012: at most 25 robot parameters are identifiable with a ranger. On scenes/puma_hayati.yaml the "
+     << "lost directions are the parameterization's own (beta_i of a joint at +-90 deg duplicates theta_i; d2 + d3; "
+     << "theta3, beta3, d4): they move no flange pose (full-pose data lose them too; tests/calib/test_liu2012.cpp), "
+     << "so holding them costs no pose accuracy.\n\n"
+     << "## Validation pose errors (Table 5)\n\n"
+     << "Per base-frame axis: RMS (eq. 16) and largest absolute error over the validation configurations, "
+     << "position in mm, orientation in mrad (small-angle components of log(R_true R_model^T)). Ours: mean over "
+     << "the repetitions (+- standard deviation); paper: its single run.\n\n"
+     << "| model | axis | RMS pos (mm) | paper | RMS ori (mrad) | paper | max pos (mm) | paper | max ori (mrad) | paper |\n"
+     << "|---|---|---|---|---|---|---|---|---|---|\n";
+  const char* kAxes[3] = {"x", "y", "z"};
+  for (int m = 0; m < 3; ++m) {
+    for (int a = 0; a < 3; ++a) {
+      md << "| " << (a == 0 ? kModels[m] : "") << " | " << kAxes[a] << " |";
+      for (int c = 0; c < 4; ++c) {
+        md << " " << fmt("%.4f", table[m][a][c].mean()) << " +- " << fmt("%.4f", table[m][a][c].sd()) << " | "
+           << fmt("%.4f", kPaperTable5[m][a][c]) << " |";
+      }
+      md << "\n";
+    }
+  }
+  return md.str();
+}
+
 }  // namespace
 
 void runLiu2012(const ExperimentOptions& o) {
@@ -79,7 +125,6 @@ void runLiu2012(const ExperimentOptions& o) {
   calib::RangeExperimentSettings settings;
   settings.plane = calib::Plane::seed004(kNominalC, -0.69);
   settings.validation = o.validation;
-  const char* kModels[3] = {"Nominal", "Case 1", "Case 2"};
 
   AxisTable table{};
   Stats o3[2], random_o3[2], plane[2], plane_sigma[2], res[2][4], seconds;
@@ -97,7 +142,7 @@ void runLiu2012(const ExperimentOptions& o) {
     return out;
   };
   std::string held_names, identifiability;
-  Progress progress("liu2012", o.quiet ? 0 : o.repetitions);
+  Progress progress(o.callbacks.progress, "liu2012", o.quiet ? 0 : o.repetitions);
   for (int r = 0; r < o.repetitions; ++r) {
     progress.update(r);
     const std::uint64_t seed = o.seed + static_cast<std::uint64_t>(r);
@@ -138,43 +183,7 @@ void runLiu2012(const ExperimentOptions& o) {
   sim::writeFileAtomic(folder + "/validation_errors.csv", pooled.str());
 
   std::ostringstream md;
-  md << "# Liu et al. 2012: laser-ranger identification against a plane (Table 5 layout)\n\n"
-     << "Robot: `" << o.robot << "` (" << nominal.name << "). A laser ranger on the flange measures the range along +Z6 "
-     << "to the plane y + c z - 0.69 = 0; the model starts at c = " << kNominalC << ", the truth is c = " << kNominalC
-     << " + " << kCError << ". Each range is the mean of " << settings.repeats << " readings with N(0, "
-     << fmt("%.1f", settings.sigma_m * 1e3) << " mm) noise. Injected errors (per repetition, seeded): lengths a, d "
-     << "positive and proportional to their nominal lengths (" << fmt("%.0f", kLengthPerMetre * 1e3)
-     << " mm per metre, thermal expansion), angles theta, alpha, beta N(0, " << fmt("%.2f", kAngleSigmaRad * 1e3)
-     << " mrad). " << settings.candidates << " non-singular candidate configurations whose beam meets the plane at "
-     << fmt("%.1f", settings.configurations.min_range_m) << "-" << fmt("%.0f", settings.configurations.max_range_m)
-     << " m with |n.b| >= " << fmt("%.1f", settings.configurations.min_cosine) << "; case 1 = "
-     << settings.case_sizes[0] << " of them and case 2 = " << settings.case_sizes[1]
-     << " chosen by O3 = sigma_min; identification by weighted Gauss-Newton least squares on the identifiable "
-     << "columns; " << settings.validation << " independent validation configurations anywhere in the workspace. "
-     << o.repetitions << " repetitions, seeds " << o.seed << ".." << o.seed + o.repetitions - 1
-     << " (each: its own errors, configurations and noise).\n\n"
-     << "Identifiability over the candidates (repetition 1): " << identifiability
-     << ". Liu et al. 2012: at most 25 robot parameters are identifiable with a ranger. On scenes/puma_hayati.yaml the "
-     << "lost directions are the parameterization's own (beta_i of a joint at +-90 deg duplicates theta_i; d2 + d3; "
-     << "theta3, beta3, d4): they move no flange pose (full-pose data lose them too; tests/calib/test_liu2012.cpp), "
-     << "so holding them costs no pose accuracy.\n\n"
-     << "## Validation pose errors (Table 5)\n\n"
-     << "Per base-frame axis: RMS (eq. 16) and largest absolute error over the validation configurations, "
-     << "position in mm, orientation in mrad (small-angle components of log(R_true R_model^T)). Ours: mean over "
-     << "the repetitions (+- standard deviation); paper: its single run.\n\n"
-     << "| model | axis | RMS pos (mm) | paper | RMS ori (mrad) | paper | max pos (mm) | paper | max ori (mrad) | paper |\n"
-     << "|---|---|---|---|---|---|---|---|---|---|\n";
-  const char* kAxes[3] = {"x", "y", "z"};
-  for (int m = 0; m < 3; ++m) {
-    for (int a = 0; a < 3; ++a) {
-      md << "| " << (a == 0 ? kModels[m] : "") << " | " << kAxes[a] << " |";
-      for (int c = 0; c < 4; ++c) {
-        md << " " << fmt("%.4f", table[m][a][c].mean()) << " +- " << fmt("%.4f", table[m][a][c].sd()) << " | "
-           << fmt("%.4f", kPaperTable5[m][a][c]) << " |";
-      }
-      md << "\n";
-    }
-  }
+  md << introAndTable5(o, nominal, settings, identifiability, table);
   md << "\n## Configuration selection, plane coefficient and range residuals\n\n"
      << "O3 here is sigma_min of the whitened Jacobian (rows divided by the averaged reading's sigma, "
      << fmt("%.4f", settings.sigma_m / std::sqrt(settings.repeats) * 1e3) << " mm) with each column in units of its "
@@ -206,4 +215,4 @@ void runLiu2012(const ExperimentOptions& o) {
   std::cout << md.str();
 }
 
-}  // namespace orbcal::tools
+}  // namespace orbcal::workflow

@@ -1,4 +1,4 @@
-#include "measured.hpp"
+#include "orbcal/workflow/measured.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -17,7 +17,7 @@
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/se3.hpp"
 
-namespace orbcal::tools {
+namespace orbcal::workflow {
 
 using sim::formatNumber;
 
@@ -257,4 +257,4 @@ sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& s
   return s;
 }
 
-}  // namespace orbcal::tools
+}  // namespace orbcal::workflow

@@ -15,12 +15,9 @@
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/truth.hpp"
 #include "orbcal/vision/measurement.hpp"
+#include "orbcal/workflow/callbacks.hpp"
 
-namespace CLI {
-class App;
-}
-
-namespace orbcal::tools {
+namespace orbcal::workflow {
 
 /// The presets of `orbcal experiment --preset`.
 inline const std::vector<std::string> kExperimentPresets{"table4", "table5", "fig8", "floor", "selection", "jia2019", "liu2012"};
@@ -43,6 +40,7 @@ struct ExperimentOptions {
   /// Estimators to compare (names from calib::comparisonMethods, e.g. "LM", "EKF (paper)"); empty: the
   /// preset's own (table4 / run: all of them; table5, fig8: LSE (paper), EKF (paper), EKF, LM).
   std::vector<std::string> methods;
+  Callbacks callbacks;  ///< progress and figures (callbacks.hpp)
 };
 
 /// o.methods when given (each checked: an unknown name is an InputError listing the names), else `preset`.
@@ -57,9 +55,6 @@ struct MeasuredSet {
   std::vector<calib::PoseObservation> observations;  ///< the found ones, with the vision covariance
   double render_seconds = 0, measure_seconds = 0;
 };
-
-/// The options shared by `orbcal run` and `orbcal experiment` (cmd_experiment.cpp).
-void addExperimentOptions(CLI::App& cmd, ExperimentOptions& o);
 
 /// Renders (or resumes) <out>/datasets/<prefix>-n<count>-s<seed>-<fingerprint of the inputs> and measures it.
 MeasuredSet renderAndMeasure(const ExperimentOptions& o, const std::string& prefix, int count, std::uint64_t seed);
@@ -95,11 +90,6 @@ using sim::formatNumber;  // printf-style formatting of one number (sim/csv.hpp)
 /// The injected effects of a plant for a report (a paragraph naming `source`, the error-set file, and a
 /// code block); "" without effects.
 std::string injectedEffects(const sim::TrueArm& truth, const std::string& source);
-/// Draws <folder>/<png> with tools/plot_report.py (`args` = its kind and CSV path, quoted); returns the
-/// Markdown image line, or, where python3 or matplotlib is missing (figures are optional), a line saying
-/// so (also warned on stderr). Any other failure (a full disk, an unwritable folder, an error of the
-/// script) throws std::runtime_error naming the figure and the script's last line: the run is not
-/// complete, and the command exits non-zero.
 /// Runs a shell command line (its own redirections included) and returns its exit status (pclose's:
 /// 0 for success, -1 when it cannot start) and what it printed on standard output.
 std::pair<int, std::string> shellOutput(const std::string& command);
@@ -111,7 +101,8 @@ std::pair<double, double> meanAndStd(const std::vector<double>& v);
 /// FNV-1a, 64 bit: a stable fingerprint of a text (the same on every run and machine).
 std::uint64_t fingerprint(const std::string& text);
 
+/// drawFigure (callbacks.hpp) with the options' callbacks and plots switch.
 std::string drawFigure(const ExperimentOptions& o, const std::string& folder, const std::string& args,
                        const std::string& png, const std::string& caption);
 
-}  // namespace orbcal::tools
+}  // namespace orbcal::workflow

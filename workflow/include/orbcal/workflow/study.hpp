@@ -22,7 +22,9 @@
 #include <string>
 #include <vector>
 
-namespace orbcal::tools {
+#include "orbcal/workflow/callbacks.hpp"
+
+namespace orbcal::workflow {
 
 inline constexpr const char* kStudyFormat = "orbcal-study-1";
 
@@ -116,6 +118,27 @@ int waitProcess(int pid);
 /// This program's path (/proc/self/exe).
 std::string selfProgram();
 
+// --- Running here --------------------------------------------------------------------------------
+/// Reads a study file, checks it (`check`: option names and values, as parseStudy), and creates or checks
+/// its folder DIR (relative paths in the study resolve against the study file's folder).
+StudySpec prepareStudy(const std::string& study_file, const std::string& dir, const StudyOptionCheck& check = {});
+/// The tasks of DIR not done yet, in index order; InputError naming DIR and the task when one is running or
+/// queued elsewhere (Slurm or another process).
+std::vector<int> tasksToRun(const std::string& dir, int count);
+/// Runs the tasks `todo` of DIR, `jobs` at once, each as runStudyTask with `program`; progress as the
+/// stage "study tasks" of `count`, counting those done before. Returns one line per failed task (its exit
+/// status and log, or its error).
+std::vector<std::string> runStudyTasks(const std::string& dir, int count, const std::vector<int>& todo, int jobs,
+                                       const std::string& program, const ProgressFn& progress = {});
+/// Polls DIR's task states (studyTaskStates) every 2 s until none is running or queued, with progress as
+/// the stage "study tasks"; returns the last states.
+std::vector<TaskState> waitForStudy(const std::string& dir, int count, const ProgressFn& progress = {});
+/// Task indices by state.
+std::map<TaskState, std::vector<int>> tasksByState(const std::vector<TaskState>& states);
+/// What `orbcal study status` prints: the counts per state, the tasks of each unfinished state, the done
+/// tasks' wall times (what slurm.time must cover) and where the first failed task's output is.
+std::string formatStudyStatus(const std::string& dir, const std::vector<TaskState>& states);
+
 // --- Slurm ---------------------------------------------------------------------------------------
 struct SlurmSubmitOptions {
   std::string partition, account;
@@ -152,6 +175,6 @@ struct MergeReport {
 /// over the seeds, per cell and key; render studies: each dataset's shards merged into one dataset with
 /// one manifest. The merged files depend only on the tasks' results. Throws InputError naming the tasks
 /// not done.
-MergeReport mergeStudy(const std::string& dir, const std::string& out, bool plots);
+MergeReport mergeStudy(const std::string& dir, const std::string& out, bool plots, const Callbacks& callbacks = {});
 
-}  // namespace orbcal::tools
+}  // namespace orbcal::workflow

@@ -6,8 +6,9 @@
 
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/sim/io.hpp"
+#include "orbcal/workflow/callbacks.hpp"
 
-namespace orbcal::tools {
+namespace orbcal::workflow {
 
 struct DiagnoseRunOptions {
   std::string input;  ///< a measurement description (.yaml) or an image dataset folder
@@ -15,6 +16,7 @@ struct DiagnoseRunOptions {
   calib::DiagnoseOptions diagnose;
   bool plots = true;
   bool quiet = false;
+  Callbacks callbacks;  ///< progress and figures (callbacks.hpp)
 };
 
 /// Image datasets: the camera effect `distortion` (lens distortion the scene's camera does not model),
@@ -56,6 +58,10 @@ struct StudyOptions {
                                    "drift",      "mount",        "coupling", "link_bending"};
   calib::DiagnoseOptions diagnose;
   bool quiet = false;
+  /// Where the confusion table also goes (diagnose_study.csv and report.md, written as one folder whether
+  /// the study finishes or not); empty: nowhere.
+  std::string out;
+  Callbacks callbacks;  ///< progress (callbacks.hpp)
 };
 struct StudyRow {
   std::string injected;   ///< effect name, or "clean"
@@ -80,4 +86,4 @@ std::string formatStudyCsv(const StudyResult& r);
 /// diagnosis.json (the machine-readable result).
 std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& distortion = {});
 
-}  // namespace orbcal::tools
+}  // namespace orbcal::workflow

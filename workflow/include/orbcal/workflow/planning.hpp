@@ -1,0 +1,48 @@
+#pragma once
+// Configurations and their identifiability, as `orbcal configs` and `orbcal identifiability` run them:
+// generated (and chosen by an observability index) configurations written to a CSV, and the
+// identifiability report of a configuration set for a measurement kind.
+#include <optional>
+#include <string>
+
+#include "orbcal/calib/observability.hpp"
+#include "orbcal/calib/planning.hpp"
+#include "orbcal/sim/configurations.hpp"
+#include "orbcal/sim/io.hpp"
+#include "orbcal/workflow/callbacks.hpp"
+
+namespace orbcal::workflow {
+
+struct ConfigsOptions {
+  sim::RobotSource robot;
+  std::string scene = "builtin:default_scene.yaml";
+  sim::GeneratorSettings gen;                       ///< gen.count: the configurations kept
+  std::string out = "configurations.csv";           ///< written atomically
+  std::optional<calib::ObservabilityIndex> select;  ///< choose gen.count of a pool by this index
+  int pool = 1000;                                  ///< with select: the pool generated
+  calib::PoseNoiseModel noise;                      ///< with select: R of the whitened pose Jacobian
+  int random_subsets = 100;                         ///< with select: random subsets the choice is compared with
+  Callbacks callbacks;                              ///< progress (callbacks.hpp)
+};
+struct ConfigsResult {
+  int written = 0;
+  sim::GeneratorStats stats;  ///< of the generation (the pool's with select)
+  std::string selection;      ///< with select: what was chosen, its indices against random subsets (lines)
+};
+/// Generates configurations in which the camera sees the whole board (with select: a pool, of which the
+/// gen.count that maximise the index are kept) and writes them to o.out. InputError when pool < count.
+ConfigsResult runConfigs(const ConfigsOptions& o);
+
+struct IdentifiabilityOptions {
+  sim::RobotSource robot;
+  std::string scene = "builtin:default_scene.yaml";
+  std::string configs;          ///< configurations CSV; empty: generated with gen
+  sim::GeneratorSettings gen;
+  calib::MeasurementSetup setup;
+  bool base_known = true;       ///< else the measuring system's frame is estimated with the arm
+};
+/// The identifiability report of `orbcal identifiability`: every parameter's class, the minimal set and
+/// its observability indices. InputError when no configuration gives a measurement of the kind.
+std::string runIdentifiability(const IdentifiabilityOptions& o);
+
+}  // namespace orbcal::workflow

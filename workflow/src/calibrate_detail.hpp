@@ -1,0 +1,42 @@
+#pragma once
+// What the image calibration's steps share (calibrate.cpp fits, calibrate_report.cpp reports); not part
+// of the library's interface.
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "orbcal/calib/planning.hpp"
+#include "orbcal/sim/truth.hpp"
+#include "orbcal/workflow/calibrate.hpp"
+
+namespace orbcal::workflow::calibrate_detail {
+
+/// One image calibration in progress: its inputs, the split and the fit.
+struct CalibrationRun {
+  explicit CalibrationRun(const CalibrateOptions& options) : o(options) {}
+  const CalibrateOptions& o;
+  sim::Dataset d;
+  calib::MeasurementKind kind = calib::MeasurementKind::kPose;
+  std::string out;                ///< the output folder being written
+  std::string measurements_path;  ///< where measurements.csv ends up
+  std::vector<vision::Measurement> meas;
+  std::vector<std::size_t> ident, hold;  ///< sample indices, sorted
+  calib::MethodSpec method;
+  std::unique_ptr<calib::MeasurementModel> model;  ///< of the identification samples
+  std::optional<sim::TrueArm> true_arm;            ///< a simulated dataset's plant
+  sim::Arm calibrated;
+};
+
+/// "a, b, c".
+std::string joinWords(const std::vector<std::string>& words);
+/// The parameters `which` by name, or "none".
+std::string parameterList(const calib::ParameterClasses& classes, const std::vector<int>& which);
+/// report.md of an image calibration; `figure_lines` are the figures' Markdown.
+std::string calibrationReport(const CalibrationRun& run, const CalibrateResult& r, const std::string& figure_lines);
+/// robot_calibrated.yaml (and .urdf for a URDF robot) and estimates.csv into run.out.
+void writeCalibratedFiles(const CalibrationRun& run, CalibrateResult& r);
+/// samples.csv: per-image errors against the measured poses, nominal and calibrated, outliers marked.
+void writeSampleErrors(const CalibrationRun& run, const CalibrateResult& r);
+
+}  // namespace orbcal::workflow::calibrate_detail
