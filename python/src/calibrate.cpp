@@ -7,7 +7,7 @@
 #include "bindings.hpp"
 #include "orbcal/calib/measured_fit.hpp"
 #include "orbcal/sim/config.hpp"
-#include "workflow_api.hpp"
+#include "orbcal/workflow/measured.hpp"
 
 namespace orbcal::python {
 

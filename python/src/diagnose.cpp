@@ -3,7 +3,8 @@
 // predicts held-out data (calib/diagnose.hpp), with diagnosis.json as `orbcal diagnose` writes it.
 #include "bindings.hpp"
 #include "orbcal/calib/diagnose.hpp"
-#include "workflow_api.hpp"
+#include "orbcal/workflow/diagnose.hpp"
+#include "orbcal/workflow/measured.hpp"
 
 namespace orbcal::python {
 
