@@ -1,0 +1,153 @@
+// orbcal.calibrate, orbcal.evaluate, orbcal.load_model and the Model class: the measured-data fit
+// (calib/measured_fit.hpp) of geometry + registration + chosen effects, the prediction of other data with a
+// calibrated model, and the model file (sim/model_io.hpp), as `orbcal calibrate DESC.yaml` and `orbcal
+// evaluate` run them.
+#include <filesystem>
+
+#include "bindings.hpp"
+#include "orbcal/calib/measured_fit.hpp"
+#include "orbcal/sim/config.hpp"
+#include "orbcal/workflow/measured.hpp"
+
+namespace orbcal::python {
+
+namespace {
+
+/// The fit's statistics: residuals at the fit, chi-square and its degrees of freedom, the noise used.
+py::dict fitStatistics(const calib::Fit& fit) {
+  py::dict d = residualDict(fit.residuals);
+  d["chi2"] = fit.chi2;
+  d["dof"] = fit.dof;
+  d["noise"] = py::dict(py::arg("position_m") = fit.noise.sigma_position_m, py::arg("rotation_rad") = fit.noise.sigma_rotation_rad,
+                        py::arg("joint_rad") = fit.noise.joint_noise_sigma_rad);
+  d["noise_estimated"] = fit.noise_estimated;
+  std::vector<std::string> weak;
+  for (int i : fit.weak) weak.push_back(fit.model.layout.param(i).name);
+  d["weak"] = weak;
+  return d;
+}
+
+/// The fit's noise settings as `orbcal calibrate DESC.yaml` makes them: the stated noise, else estimated.
+calib::FitOptions fitOptions(const sim::MeasuredData& data, const std::string& method) {
+  calib::FitOptions fo;
+  fo.method = workflow::parseFitMethod(method, "method");
+  fo.sigma_position_m = data.noise_position_m;
+  fo.sigma_rotation_rad = data.noise_rotation_rad;
+  fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
+  return fo;
+}
+
+/// The model file's path split as sim::writeModelFile takes it: model.yaml goes with robot.yaml (as the
+/// command line writes them), NAME.yaml with NAME.robot.yaml.
+std::string saveModel(const PyModel& m, const std::string& path) {
+  const std::filesystem::path p(path);
+  const std::string folder = p.parent_path().empty() ? "." : p.parent_path().string();
+  const std::string name = p.filename().string();
+  const std::string robot = name == "model.yaml" ? "robot.yaml" : p.stem().string() + ".robot.yaml";
+  return sim::writeModelFile(m.model, m.p, m.rows, folder, "Written by orbcal " ORBCAL_VERSION " from Python", name, robot);
+}
+
+py::dict parameterDict(const PyModel& m) {
+  py::dict out;
+  for (const sim::ParameterRow& r : m.rows) {
+    out[py::str(r.name)] = py::dict(py::arg("value") = r.value, py::arg("sigma") = r.sigma, py::arg("unit") = r.unit,
+                                    py::arg("effect") = r.effect, py::arg("held") = r.held);
+  }
+  return out;
+}
+
+}  // namespace
+
+py::dict residualDict(const calib::ResidualStats& s) {
+  return py::dict(py::arg("samples") = s.samples, py::arg("position_mean_m") = s.position_mean_m,
+                  py::arg("position_rms_m") = s.position_rms_m, py::arg("position_max_m") = s.position_max_m,
+                  py::arg("rotation_rms_rad") = s.rotation_rms_rad, py::arg("rotation_max_rad") = s.rotation_max_rad);
+}
+
+void bindCalibrate(py::module_& m) {
+  py::class_<PyModel>(m, "Model",
+                      "A kinematic model: the geometry (DH rows with the identified errors folded in), the registration "
+                      "frames, the effects with their parameters (SI), and every fitted parameter with its 1-sigma.")
+      .def_property_readonly("robot", [](const PyModel& pm) { return pm.model.arm; }, "the model's arm (calibrated geometry)")
+      .def_property_readonly("effects", [](const PyModel& pm) {
+            std::vector<std::string> specs;
+            for (const sim::Effect& e : pm.model.effects) specs.push_back(sim::formatEffect(e));
+            return specs;
+          }, "the effects' specs ('compliance:2', joints from 1)")
+      .def_property_readonly("parameters", &parameterDict,
+                             "every parameter by name: {value, sigma (NaN: not known), unit (SI), effect (its block), held}")
+      .def_property_readonly("parameter_names", [](const PyModel& pm) {
+            std::vector<std::string> n;
+            for (const sim::ParameterRow& r : pm.rows) n.push_back(r.name);
+            return n;
+          }, "parameter names, in the layout's order")
+      .def_property_readonly("parameter_units", [](const PyModel& pm) {
+            std::vector<std::string> u;
+            for (const sim::ParameterRow& r : pm.rows) u.push_back(r.unit);
+            return u;
+          }, "their SI units")
+      .def_property_readonly("values", [](const PyModel& pm) {
+            Eigen::VectorXd v(static_cast<Eigen::Index>(pm.rows.size()));
+            for (std::size_t i = 0; i < pm.rows.size(); ++i) v[static_cast<Eigen::Index>(i)] = pm.rows[i].value;
+            return v;
+          }, "parameter values (SI), in the layout's order")
+      .def_property_readonly("sigmas", [](const PyModel& pm) {
+            Eigen::VectorXd v(static_cast<Eigen::Index>(pm.rows.size()));
+            for (std::size_t i = 0; i < pm.rows.size(); ++i) v[static_cast<Eigen::Index>(i)] = pm.rows[i].sigma;
+            return v;
+          }, "their 1-sigma (SI; NaN where not known, 0 where held)")
+      .def_readonly("statistics", &PyModel::statistics,
+                    "of the fit that made it: residuals (samples, position_mean_m, position_rms_m, position_max_m, "
+                    "rotation_rms_rad, rotation_max_rad), chi2, dof, noise, noise_estimated, weak; empty for a loaded or true model")
+      .def("save", &saveModel, py::arg("path"),
+           "Writes the model file (format orbcal-model-2, as orbcal calibrate writes model.yaml) and its robot file beside "
+           "it (robot.yaml for model.yaml, else NAME.robot.yaml), each atomically. Returns the model file's path.")
+      .def("__repr__", [](const PyModel& pm) {
+        return "<orbcal.Model of " + pm.model.arm.name + ": " + std::to_string(pm.rows.size()) + " parameters, " +
+               std::to_string(pm.model.effects.size()) + " effect(s)>";
+      });
+
+  m.def(
+      "calibrate",
+      [](const sim::MeasuredData& data, const std::vector<std::string>& effects, const std::string& method) {
+        const std::vector<sim::Effect> fx = parseEffects(effects, data.arm.numJoints(), "effects");
+        const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(data, calib::needsTorque(fx));
+        const calib::Fit fit = calib::fitMarkerModel(calib::startingModel(data, obs, fx), obs, fitOptions(data, method));
+        const calib::CalibratedModel cm = calib::calibratedModel(fit);
+        return PyModel{cm.model, cm.p, workflow::parameterRows(fit), fitStatistics(fit)};
+      },
+      py::arg("data"), py::arg("effects") = std::vector<std::string>{}, py::arg("method") = "LM",
+      "Calibrates geometry + registration + the chosen effects ('compliance:2', 'cyclic:4', ...; joints from 1) on all "
+      "of `data`, with the noise the data states (else estimated from the residuals). method: 'LM', 'LSE' or 'EKF'. "
+      "Returns the calibrated Model (no hold-out here: orbcal.evaluate predicts other data with it).");
+
+  m.def(
+      "evaluate",
+      [](const PyModel& model, const sim::MeasuredData& data_in) {
+        sim::MeasuredData data = data_in;
+        if (data.arm.numJoints() != model.model.arm.numJoints()) {
+          throw sim::InputError(data.description + ": robot: " + std::to_string(data.arm.numJoints()) + " joints, but the model has " +
+                                std::to_string(model.model.arm.numJoints()));
+        }
+        if (!model.model.arm.masses.empty()) data.arm.masses = model.model.arm.masses;
+        const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(data, calib::needsTorque(model.model.effects));
+        const calib::Fit fit = calib::predictWithModel({model.model, model.p}, data, obs, fitOptions(data, "LM"));
+        py::dict d = residualDict(fit.residuals);
+        d["warnings"] = calib::outsideTrustedRange(model.model, obs);
+        return d;
+      },
+      py::arg("model"), py::arg("data"),
+      "Predicts `data` with `model` as `orbcal evaluate` does: every geometric and effect parameter is the model's, only "
+      "the frames the data calls per_session are refitted. Returns the prediction errors' statistics (samples, "
+      "position_mean_m, position_rms_m, position_max_m, rotation_rms_rad, rotation_max_rad) and warnings.");
+
+  m.def(
+      "load_model",
+      [](const std::string& path) {
+        const sim::LoadedModel lm = sim::loadModelFile(path);
+        return PyModel{lm.model, lm.p, exactRows(lm.model, lm.p), py::dict()};
+      },
+      py::arg("path"), "Reads a model file (model.yaml of orbcal calibrate or diagnose, a simulation's truth/model.yaml).");
+}
+
+}  // namespace orbcal::python

@@ -1,0 +1,76 @@
+"""orbcal.calibrate, orbcal.evaluate, Model.save and orbcal.load_model on simulated tracker data, whose noise
+is known: the truth predicts the data to the noise, and a calibration on half the samples predicts the
+other half nearly as well."""
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+import orbcal
+
+NOISE_POSITION_M = 0.05e-3  # orbcal.simulate's default tracker noise, 1 sigma per axis
+
+
+def split(robot, data, rows):
+    return orbcal.measurements_from_arrays(robot, q=data.q[rows], poses=data.poses[rows], torques=data.torques[rows],
+                                           temperature=data.temperature[rows], time=data.time[rows])
+
+
+def test_the_truth_predicts_its_data_to_the_noise(tracker):
+    data, truth = tracker
+    stats = orbcal.evaluate(truth, data)
+    assert stats["samples"] == 200 and stats["warnings"] == []
+    # 3-D position error of pure noise: RMS sqrt(3) sigma; 200 samples put the estimate within ~5 % (1 sigma of
+    # a chi-square RMS with 600 dof is 1/sqrt(2 * 600) ~ 3 %), the refitted frames take a little less.
+    assert stats["position_rms_m"] == pytest.approx(math.sqrt(3) * NOISE_POSITION_M, rel=0.15)
+
+
+def test_calibration_predicts_held_out_samples_near_the_noise(iiwa7, tracker, tmp_path):
+    data, truth = tracker
+    fit_rows, held_rows = np.arange(0, 200, 2), np.arange(1, 200, 2)
+    model = orbcal.calibrate(split(iiwa7, data, fit_rows), effects=[])
+    assert model.statistics["samples"] == 100
+    held = split(iiwa7, data, held_rows)
+    after = orbcal.evaluate(model, held)
+    # ~40 parameters from 100 samples of 6 rows: the estimate adds about p / n = 7 % to the held-out mean square;
+    # 1.5x the noise's RMS leaves room for the sampling scatter, while the DH errors (0.05 deg, 0.5 mm) cost mm.
+    assert after["position_rms_m"] < 1.5 * math.sqrt(3) * NOISE_POSITION_M
+    assert after["position_rms_m"] < 2 * orbcal.evaluate(truth, held)["position_rms_m"]
+    names, values, sigmas = model.parameter_names, model.values, model.sigmas
+    assert len(names) == len(values) == len(sigmas) == len(model.parameters)
+    assert model.parameters["theta2"]["unit"] == "rad" and model.parameters["d1"]["unit"] == "m"
+    identified = [n for n in names if model.parameters[n]["effect"] == "geometry" and not model.parameters[n]["held"]]
+    assert identified
+    path = model.save(str(tmp_path / "model.yaml"))
+    assert (tmp_path / "robot.yaml").is_file()
+    loaded = orbcal.load_model(path)
+    # The file lists every fitted parameter for people; loaded, the geometry is folded into the robot file.
+    assert "name: theta2," in pathlib.Path(path).read_text()
+    assert set(loaded.parameter_names) < set(names) and "theta2" not in loaded.parameter_names
+    assert orbcal.evaluate(loaded, held)["position_rms_m"] == pytest.approx(after["position_rms_m"], rel=1e-6)
+
+
+def test_calibration_finds_a_hidden_compliance(iiwa7):
+    data, truth = orbcal.simulate(iiwa7, samples=150, seed=8, effects=["compliance:2"], values=[2e-5])
+    model = orbcal.calibrate(data, effects=["compliance:2"])
+    c = model.parameters["c2"]
+    assert c["unit"] == "rad/(N*m)"
+    assert abs(c["value"] - 2e-5) < 4 * c["sigma"]  # within 4 sigma of the injected value
+
+
+def test_unknown_method_and_effect_are_refused(tracker):
+    data, _ = tracker
+    with pytest.raises(orbcal.Error, match="method: 'GN': expected LM, LSE or EKF"):
+        orbcal.calibrate(data, method="GN")
+    with pytest.raises(orbcal.Error, match="effects: "):
+        orbcal.calibrate(data, effects=["compliance:9"])
+
+
+def test_a_model_that_cannot_be_written_leaves_nothing(iiwa7, tracker, tmp_path):
+    data, truth = tracker
+    (tmp_path / "file").write_text("not a folder")
+    with pytest.raises(orbcal.Error) as e:
+        truth.save(str(tmp_path / "file" / "model.yaml"))
+    assert "\n" not in str(e.value) and str(tmp_path / "file") in str(e.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["file"]
