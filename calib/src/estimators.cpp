@@ -7,6 +7,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <set>
 
 #include "orbcal/sim/identifiability.hpp"
@@ -119,8 +120,12 @@ Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
   Estimate e;
   e.method = "EKF";
   e.y = Eigen::VectorXd::Zero(n);
-  Eigen::MatrixXd P = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m, 1.0).array().square().matrix().asDiagonal();
-  const Eigen::VectorXd Q = diagonalSigmas(m, o.process_sigma_angle_rad, o.process_sigma_length_m, 0.0).array().square();
+  e.held = sortedUnique(o.hold);
+  // A held parameter has no prior and no process variance: its rows of P, and so of every gain, are zero.
+  Eigen::VectorXd P0 = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m, 1.0).array().square();
+  Eigen::VectorXd Q = diagonalSigmas(m, o.process_sigma_angle_rad, o.process_sigma_length_m, 0.0).array().square();
+  for (int p : e.held) P0[p] = Q[p] = 0.0;
+  Eigen::MatrixXd P = P0.asDiagonal();
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
   for (int k = 0; k < m.numSamples(); ++k) {
     P.diagonal() += Q;  // (12); (11) leaves y unchanged
@@ -152,9 +157,18 @@ Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
   }
   e.seconds = since(t0);
   e.covariance = P;
-  // Rank of the information the data added: eigenvalues of P0^-1/2 P P0^-1/2 well below 1.
-  const Eigen::VectorXd s0 = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m, 1.0);
-  const Eigen::MatrixXd Pn = s0.cwiseInverse().asDiagonal() * P * s0.cwiseInverse().asDiagonal();
+  // Rank of the information the data added: eigenvalues of P0^-1/2 P P0^-1/2 well below 1, over the
+  // free parameters (a held one has P0 = P = 0 and gained nothing).
+  std::vector<int> free;
+  for (int p = 0; p < n; ++p) {
+    if (!std::binary_search(e.held.begin(), e.held.end(), p)) free.push_back(p);
+  }
+  Eigen::MatrixXd Pn(static_cast<Eigen::Index>(free.size()), static_cast<Eigen::Index>(free.size()));
+  for (std::size_t r = 0; r < free.size(); ++r) {
+    for (std::size_t c = 0; c < free.size(); ++c) {
+      Pn(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) = P(free[r], free[c]) / std::sqrt(P0[free[r]] * P0[free[c]]);
+    }
+  }
   const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Pn).eigenvalues();
   e.rank = static_cast<int>((ev.array() < 0.5).count());
   e.converged = true;

@@ -147,8 +147,11 @@ Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o, const sim:
       lo.fix_unidentifiable = o.fix_unidentifiable;
       return runLse(m, lo);
     }
-    case FitOptions::Method::kEkf:
-      return runEkf(m, EkfOptions{});
+    case FitOptions::Method::kEkf: {
+      EkfOptions eo;
+      eo.hold = o.hold;
+      return runEkf(m, eo);
+    }
     case FitOptions::Method::kLm:
     default: {
       LmOptions lo;

@@ -23,7 +23,7 @@ struct Estimate {
   int rank = 0;                ///< rank used (LSE/LM: of the stacked Jacobian; EKF: of the information gained)
   double seconds = 0.0;        ///< wall time of the estimation
   bool converged = false;
-  std::vector<int> held;       ///< parameters held at zero as unidentifiable (LSE, LM)
+  std::vector<int> held;       ///< parameters held at zero: the options' hold, and (LSE, LM) the unidentifiable ones
   double cost = 0.0;           ///< 0.5 sum nu^T R^-1 nu at the estimate (all methods, for comparison)
 };
 
@@ -37,6 +37,9 @@ struct EkfOptions {
   double process_sigma_length_m = 0.0;
   bool relinearize = true;       ///< true: extended KF (J and innovation at the estimate); false: paper-literal
   int iterations_per_update = 1; ///< > 1: iterated EKF (re-linearizes within each update)
+  /// Parameters held at zero whatever the data says: their prior and process variances are zero, so
+  /// no gain ever reaches them (Estimate::held lists them, sorted).
+  std::vector<int> hold;
   /// Seed 000 as written: P0 sigma 0.01 deg / 0.01 mm, Q = 0, J at the nominal parameters.
   static EkfOptions paperLiteral();
 };
