@@ -317,7 +317,7 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
       std::vector<std::string> names;
       for (int i = 0; i < m.numParams(); ++i) names.push_back(m.paramName(i));
       fit.identifiability = sim::analyzeJacobian(whitenedJacobian(m, Eigen::VectorXd::Zero(m.numParams())), names,
-                                                 m.numSamples(), 1e-6);
+                                                 m.numSamples(), sim::kRankTolerance);
     }
     fit.estimate = runFitMethod(m, o, start.layout, fit.p0);
     fit.p = fit.p0 + fit.estimate.y;

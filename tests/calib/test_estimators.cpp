@@ -58,7 +58,7 @@ void recoverNoiseFree(const Fixture& f, const Eigen::VectorXd& y_true, double re
   for (auto& o : obs) o.covariance = sim::Matrix6d::Identity() * 1e-12;  // weights must exist; data are exact
   const calib::PoseMeasurementModel model(f.nominal, obs, {});
   // The unidentifiable ones are reported as such: two of d3, d4, d5 are held, the third carries the sum.
-  const std::vector<int> held = calib::unidentifiableToFix(model, Eigen::VectorXd::Zero(28), 1e-6);
+  const std::vector<int> held = calib::unidentifiableToFix(model, Eigen::VectorXd::Zero(28));
   CHECK(held == std::vector<int>{kD4, kD5});
   calib::LseOptions lse;
   for (bool weighted : {false, true}) {
