@@ -49,7 +49,7 @@ void benchCalib() {
     pn.joint_noise_sigma_rad = joint_sigma;
     const calib::PoseMeasurementModel pool = calib::posePlanningModel(arm, sim::generateConfigurations(arm, scene, pg), pn);
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(pool.numParams());
-    const auto blocks = calib::observabilityBlocks(pool, zero, calib::unidentifiableToFix(pool, zero, 1e-6));
+    const auto blocks = calib::observabilityBlocks(pool, zero, calib::unidentifiableToFix(pool, zero));
     std::vector<double> ts;
     for (int i = 0; i < 3; ++i) ts.push_back(calib::selectConfigurations(blocks, 50, {}).seconds);
     std::sort(ts.begin(), ts.end());

@@ -269,11 +269,9 @@ class Diagnoser {
     }
     Eigen::MatrixXd Af(A.rows(), static_cast<Eigen::Index>(free.size()));
     for (std::size_t c = 0; c < free.size(); ++c) Af.col(static_cast<Eigen::Index>(c)) = A.col(free[c]);
-    const Eigen::VectorXd norms = Af.colwise().norm().transpose().cwiseMax(1e-300);
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(Af * norms.cwiseInverse().asDiagonal(), Eigen::ComputeThinU);
-    int rank = 0;
-    for (Eigen::Index i = 0; i < svd.singularValues().size(); ++i) rank += svd.singularValues()[i] > 1e-9 * svd.singularValues()[0];
-    const Eigen::MatrixXd Q = svd.matrixU().leftCols(rank);
+    const sim::ScaledSvd svd = sim::scaledSvd(Af, sim::kRankTolerance);
+    const int rank = svd.rank;
+    const Eigen::MatrixXd Q = rank > 0 ? Eigen::MatrixXd(svd.U.leftCols(rank)) : Eigen::MatrixXd::Zero(A.rows(), 0);
     const Eigen::VectorXd e = b - Q * (Q.transpose() * b);  // the residual (orthogonal to the model at its optimum)
     const double dof = std::max(1.0, static_cast<double>(A.rows() - rank));
     const double s2 = e.squaredNorm() / dof;  // residual variance in whitened units (1 when the noise is right)

@@ -7,6 +7,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <set>
 
 #include "orbcal/sim/identifiability.hpp"
@@ -49,8 +50,8 @@ struct TruncatedSolve {
   Eigen::MatrixXd covariance;
   int rank = 0;
 };
-TruncatedSolve truncatedSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b, double cut) {
-  const sim::ScaledSvd svd = sim::scaledSvd(A, cut);
+TruncatedSolve truncatedSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
+  const sim::ScaledSvd svd = sim::scaledSvd(A, sim::kRankTolerance);
   TruncatedSolve out;
   out.rank = svd.rank;
   // Keep the first `rank` singular triplets: dy = D V_r S_r^-1 U_r^T b, covariance D V_r S_r^-2 V_r^T D.
@@ -119,8 +120,12 @@ Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
   Estimate e;
   e.method = "EKF";
   e.y = Eigen::VectorXd::Zero(n);
-  Eigen::MatrixXd P = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m, 1.0).array().square().matrix().asDiagonal();
-  const Eigen::VectorXd Q = diagonalSigmas(m, o.process_sigma_angle_rad, o.process_sigma_length_m, 0.0).array().square();
+  e.held = sortedUnique(o.hold);
+  // A held parameter has no prior and no process variance: its rows of P, and so of every gain, are zero.
+  Eigen::VectorXd P0 = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m, 1.0).array().square();
+  Eigen::VectorXd Q = diagonalSigmas(m, o.process_sigma_angle_rad, o.process_sigma_length_m, 0.0).array().square();
+  for (int p : e.held) P0[p] = Q[p] = 0.0;
+  Eigen::MatrixXd P = P0.asDiagonal();
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
   for (int k = 0; k < m.numSamples(); ++k) {
     P.diagonal() += Q;  // (12); (11) leaves y unchanged
@@ -152,9 +157,18 @@ Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
   }
   e.seconds = since(t0);
   e.covariance = P;
-  // Rank of the information the data added: eigenvalues of P0^-1/2 P P0^-1/2 well below 1.
-  const Eigen::VectorXd s0 = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m, 1.0);
-  const Eigen::MatrixXd Pn = s0.cwiseInverse().asDiagonal() * P * s0.cwiseInverse().asDiagonal();
+  // Rank of the information the data added: eigenvalues of P0^-1/2 P P0^-1/2 well below 1, over the
+  // free parameters (a held one has P0 = P = 0 and gained nothing).
+  std::vector<int> free;
+  for (int p = 0; p < n; ++p) {
+    if (!std::binary_search(e.held.begin(), e.held.end(), p)) free.push_back(p);
+  }
+  Eigen::MatrixXd Pn(static_cast<Eigen::Index>(free.size()), static_cast<Eigen::Index>(free.size()));
+  for (std::size_t r = 0; r < free.size(); ++r) {
+    for (std::size_t c = 0; c < free.size(); ++c) {
+      Pn(static_cast<Eigen::Index>(r), static_cast<Eigen::Index>(c)) = P(free[r], free[c]) / std::sqrt(P0[free[r]] * P0[free[c]]);
+    }
+  }
   const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(Pn).eigenvalues();
   e.rank = static_cast<int>((ev.array() < 0.5).count());
   e.converged = true;
@@ -167,14 +181,14 @@ Estimate runLse(const MeasurementModel& m, const LseOptions& o) {
   Estimate e;
   e.method = o.weighted ? "LSE (weighted)" : "LSE (unweighted)";
   e.y = Eigen::VectorXd::Zero(m.numParams());
-  e.held = o.fix_unidentifiable ? unidentifiableToFix(m, e.y, o.svd_cut, o.hold) : sortedUnique(o.hold);
+  e.held = o.fix_unidentifiable ? unidentifiableToFix(m, e.y, o.hold) : sortedUnique(o.hold);
   Eigen::MatrixXd A;
   Eigen::VectorXd b;
   TruncatedSolve step;
   for (int it = 0; it < o.max_iterations; ++it) {
     stackedSystem(m, e.y, o.weighted, A, b);
     for (int p : e.held) A.col(p).setZero();
-    step = truncatedSolve(A, b, o.svd_cut);
+    step = truncatedSolve(A, b);
     e.y += step.dy;
     ++e.iterations;
     if (step.dy.norm() < o.step_tolerance) {
@@ -196,68 +210,15 @@ Estimate runLse(const MeasurementModel& m, const LseOptions& o) {
   return e;
 }
 
-std::vector<int> ineffectiveColumns(const Eigen::MatrixXd& A, const Eigen::VectorXd& typical, double zero_tolerance) {
-  Eigen::VectorXd effect(A.cols());
-  for (Eigen::Index c = 0; c < A.cols(); ++c) effect[c] = A.col(c).norm() * (typical.size() ? typical[c] : 1.0);
-  const double largest = effect.size() ? effect.maxCoeff() : 0.0;
-  std::vector<int> out;
-  for (Eigen::Index c = 0; c < A.cols(); ++c) {
-    if (effect[c] <= zero_tolerance * largest) out.push_back(static_cast<int>(c));
-  }
-  return out;
+std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::VectorXd& y, const std::vector<int>& held) {
+  return unidentifiableToFix(m, linearizeAll(m, y), held);
 }
 
-std::vector<int> unidentifiableToFix(const Eigen::MatrixXd& A_all, double cut, const std::vector<int>& held) {
-  const std::vector<int> fixed_already = sortedUnique(held);
-  std::vector<int> free;  // columns of A -> parameters
-  for (int p = 0; p < static_cast<int>(A_all.cols()); ++p) {
-    if (!std::binary_search(fixed_already.begin(), fixed_already.end(), p)) free.push_back(p);
-  }
-  Eigen::MatrixXd A(A_all.rows(), static_cast<Eigen::Index>(free.size()));
-  for (std::size_t c = 0; c < free.size(); ++c) A.col(static_cast<Eigen::Index>(c)) = A_all.col(free[c]);
-  const sim::ScaledSvd svd = sim::scaledSvd(A, cut, false);
-  const int lost = static_cast<int>(A.cols()) - svd.rank;
-  std::vector<int> fixed = fixed_already;
-  if (lost == 0) return fixed;
-  // Greedily hold the parameter most involved in the remaining null space (scaled coordinates), last
-  // ones first on ties, until the free columns have full rank.
-  Eigen::MatrixXd N = svd.V.rightCols(lost);
-  for (int k = 0; k < lost; ++k) {
-    Eigen::Index best = 0;
-    double best_w = -1.0;
-    for (Eigen::Index p = N.rows() - 1; p >= 0; --p) {
-      const double w = N.row(p).norm();
-      if (w > best_w + 1e-9) {
-        best_w = w;
-        best = p;
-      }
-    }
-    fixed.push_back(free[static_cast<std::size_t>(best)]);
-    // The null directions left once it is held: those with no component along it.
-    const Eigen::JacobiSVD<Eigen::MatrixXd> nsvd(N.row(best), Eigen::ComputeFullV);
-    N = (N * nsvd.matrixV().rightCols(N.cols() - 1)).eval();
-    if (N.cols() == 0) break;
-  }
-  std::sort(fixed.begin(), fixed.end());
-  return fixed;
-}
-
-std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::VectorXd& y, double cut,
-                                     const std::vector<int>& held) {
-  return unidentifiableToFix(m, linearizeAll(m, y), cut, held);
-}
-
-std::vector<int> unidentifiableToFix(const MeasurementModel& m, const StackedLinearization& at, double cut,
-                                     const std::vector<int>& held) {
+std::vector<int> unidentifiableToFix(const MeasurementModel& m, const StackedLinearization& at, const std::vector<int>& held) {
   Eigen::MatrixXd A;
   Eigen::VectorXd b;
   stackedSystem(m, at, true, A, b);
-  // Ineffective parameters first: a column that is zero up to round-off (a rigid motion of the whole
-  // chain seen by a frame-invariant measurement) would be scaled to unit norm by the SVD and look
-  // independent.
-  std::vector<int> fixed = held;
-  for (int p : ineffectiveColumns(A, m.layout().typical(), kIneffectiveTolerance)) fixed.push_back(p);
-  return unidentifiableToFix(A, cut, fixed);
+  return sim::numericalRank(A, m.layout().typical(), held).held;
 }
 
 namespace {
@@ -349,7 +310,7 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   // One linearization at the start gives both the whiteners and the system the unidentifiable
   // parameters are found from (each linearization costs a Jacobian per sample).
   const StackedLinearization start = linearizeAll(m, zero);
-  e.held = o.fix_unidentifiable ? unidentifiableToFix(m, start, o.svd_cut, o.hold) : sortedUnique(o.hold);
+  e.held = o.fix_unidentifiable ? unidentifiableToFix(m, start, o.hold) : sortedUnique(o.hold);
   const std::vector<int>& fixed = e.held;
   std::vector<int> free;
   for (int p = 0; p < n; ++p) {
@@ -389,7 +350,7 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
     Eigen::VectorXd b;
     stackedSystem(m, e.y, true, A, b);
     for (int p : fixed) A.col(p).setZero();
-    const TruncatedSolve ts = truncatedSolve(A, b, o.svd_cut);
+    const TruncatedSolve ts = truncatedSolve(A, b);
     e.rank = ts.rank;
     e.covariance = ts.covariance;
   } else {

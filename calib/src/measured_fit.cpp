@@ -147,8 +147,11 @@ Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o, const sim:
       lo.fix_unidentifiable = o.fix_unidentifiable;
       return runLse(m, lo);
     }
-    case FitOptions::Method::kEkf:
-      return runEkf(m, EkfOptions{});
+    case FitOptions::Method::kEkf: {
+      EkfOptions eo;
+      eo.hold = o.hold;
+      return runEkf(m, eo);
+    }
     case FitOptions::Method::kLm:
     default: {
       LmOptions lo;
@@ -314,7 +317,7 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
       std::vector<std::string> names;
       for (int i = 0; i < m.numParams(); ++i) names.push_back(m.paramName(i));
       fit.identifiability = sim::analyzeJacobian(whitenedJacobian(m, Eigen::VectorXd::Zero(m.numParams())), names,
-                                                 m.numSamples(), 1e-6);
+                                                 m.numSamples(), sim::kRankTolerance);
     }
     fit.estimate = runFitMethod(m, o, start.layout, fit.p0);
     fit.p = fit.p0 + fit.estimate.y;

@@ -17,7 +17,7 @@ const char* paramClassName(ParamClass c) {
 }
 
 ParameterClasses classifyParameters(const Eigen::MatrixXd& J, const std::vector<std::string>& names,
-                                    const Eigen::VectorXd& typical, double rank_tolerance, double zero_tolerance) {
+                                    const Eigen::VectorXd& typical) {
   const int n = static_cast<int>(J.cols());
   if (static_cast<int>(names.size()) != n) throw std::invalid_argument("classifyParameters: names and columns differ");
   ParameterClasses out;
@@ -26,9 +26,9 @@ ParameterClasses classifyParameters(const Eigen::MatrixXd& J, const std::vector<
   out.group.assign(static_cast<std::size_t>(n), -1);
   // Zero the ineffective columns exactly, so that the column scaling of the SVD leaves them zero.
   Eigen::MatrixXd A = J;
-  std::vector<int> zero = ineffectiveColumns(J, typical, zero_tolerance);
+  std::vector<int> zero = sim::ineffectiveColumns(J, typical);
   for (int c : zero) A.col(c).setZero();
-  const sim::IdentifiabilityReport report = sim::analyzeJacobian(A, names, 0, rank_tolerance);
+  const sim::IdentifiabilityReport report = sim::analyzeJacobian(A, names, 0);
   out.rank = report.rank;
   for (const sim::Redundancy& red : report.redundancies) {
     // A group of one is a column the others do not need to explain: zero to the rank tolerance.
@@ -51,17 +51,17 @@ ParameterClasses classifyParameters(const Eigen::MatrixXd& J, const std::vector<
     }
   }
   for (int p : zero) A.col(p).setZero();
-  out.held = unidentifiableToFix(A, rank_tolerance, zero);
+  out.held = sim::numericalRank(A, typical, zero).held;
   for (int p = 0; p < n; ++p) {
     if (!std::binary_search(out.held.begin(), out.held.end(), p)) out.minimal.push_back(p);
   }
   return out;
 }
 
-ParameterClasses classifyParameters(const MeasurementModel& model, const Eigen::VectorXd& y, double rank_tolerance) {
+ParameterClasses classifyParameters(const MeasurementModel& model, const Eigen::VectorXd& y) {
   std::vector<std::string> names;
   for (int i = 0; i < model.numParams(); ++i) names.push_back(model.paramName(i));
-  return classifyParameters(whitenedJacobian(model, y), names, model.layout().typical(), rank_tolerance);
+  return classifyParameters(whitenedJacobian(model, y), names, model.layout().typical());
 }
 
 std::string ParameterClasses::describe() const {

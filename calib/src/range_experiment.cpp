@@ -72,7 +72,7 @@ RangeExperimentResult runRangeExperiment(const sim::Arm& nominal, const Eigen::V
       simulateRanges(probe, p_true, samples, settings.sigma_m, settings.repeats, noise_rng);
   const PlaneRangeModel pool(km, settings.beam, settings.plane, observations);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(pool.numParams());
-  result.held = unidentifiableToFix(pool, zero, settings.svd_cut);
+  result.held = unidentifiableToFix(pool, zero);
   const std::vector<Eigen::MatrixXd> blocks = observabilityBlocks(pool, zero, result.held);
   result.pool_indices = observabilityIndices(stackBlocks(blocks), settings.candidates);
   result.rank = result.pool_indices.rank;
@@ -101,7 +101,6 @@ RangeExperimentResult runRangeExperiment(const sim::Arm& nominal, const Eigen::V
     const PlaneRangeModel model(km, settings.beam, settings.plane, chosen);
     LseOptions lse;
     lse.weighted = true;
-    lse.svd_cut = settings.svd_cut;
     lse.hold = result.held;
     c.estimate = runLse(model, lse);
     c.plane_estimate = c.estimate.y.tail(c.estimate.y.size() - kinematic);

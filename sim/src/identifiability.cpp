@@ -2,6 +2,7 @@
 
 #include <Eigen/QR>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <numeric>
@@ -39,6 +40,57 @@ ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance, bool with_u
   }
   const double smax = out.singular_values.size() ? out.singular_values[0] : 0.0;
   for (Eigen::Index i = 0; i < out.singular_values.size(); ++i) out.rank += out.singular_values[i] > rank_tolerance * smax;
+  return out;
+}
+
+std::vector<int> ineffectiveColumns(const Eigen::MatrixXd& A, const Eigen::VectorXd& typical, double zero_tolerance) {
+  Eigen::VectorXd effect(A.cols());
+  for (Eigen::Index c = 0; c < A.cols(); ++c) effect[c] = A.col(c).norm() * (typical.size() ? typical[c] : 1.0);
+  const double largest = effect.size() ? effect.maxCoeff() : 0.0;
+  std::vector<int> out;
+  for (Eigen::Index c = 0; c < A.cols(); ++c) {
+    if (effect[c] <= zero_tolerance * largest) out.push_back(static_cast<int>(c));
+  }
+  return out;
+}
+
+NumericalRank numericalRank(const Eigen::MatrixXd& A_all, const Eigen::VectorXd& typical, const std::vector<int>& held) {
+  NumericalRank out;
+  out.held = held;
+  // Ineffective columns first: a column that is zero up to round-off (a rigid motion of the whole
+  // chain seen by a frame-invariant measurement) would be scaled to unit norm by the SVD and look
+  // independent.
+  for (int p : ineffectiveColumns(A_all, typical)) out.held.push_back(p);
+  std::sort(out.held.begin(), out.held.end());
+  out.held.erase(std::unique(out.held.begin(), out.held.end()), out.held.end());
+  std::vector<int> free;  // columns of A -> parameters
+  for (int p = 0; p < static_cast<int>(A_all.cols()); ++p) {
+    if (!std::binary_search(out.held.begin(), out.held.end(), p)) free.push_back(p);
+  }
+  Eigen::MatrixXd A(A_all.rows(), static_cast<Eigen::Index>(free.size()));
+  for (std::size_t c = 0; c < free.size(); ++c) A.col(static_cast<Eigen::Index>(c)) = A_all.col(free[c]);
+  const ScaledSvd svd = scaledSvd(A, kRankTolerance, false);
+  out.rank = svd.rank;
+  const int lost = static_cast<int>(A.cols()) - svd.rank;
+  // Greedily hold the parameter most involved in the remaining null space (scaled coordinates), last
+  // ones first on ties, until the free columns have full rank.
+  Eigen::MatrixXd N = svd.V.rightCols(lost);
+  for (int k = 0; k < lost && N.cols() > 0; ++k) {
+    Eigen::Index best = 0;
+    double best_w = -1.0;
+    for (Eigen::Index p = N.rows() - 1; p >= 0; --p) {
+      const double w = N.row(p).norm();
+      if (w > best_w + 1e-9) {
+        best_w = w;
+        best = p;
+      }
+    }
+    out.held.push_back(free[static_cast<std::size_t>(best)]);
+    // The null directions left once it is held: those with no component along it.
+    const Eigen::JacobiSVD<Eigen::MatrixXd> nsvd(N.row(best), Eigen::ComputeFullV);
+    N = (N * nsvd.matrixV().rightCols(N.cols() - 1)).eval();
+  }
+  std::sort(out.held.begin(), out.held.end());
   return out;
 }
 

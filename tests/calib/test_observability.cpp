@@ -41,7 +41,7 @@ struct Pool {
     configs = sim::generateConfigurations(nominal, sim::loadScene(sim::kDefaultScene), g);
     const calib::PoseMeasurementModel model = calib::posePlanningModel(nominal, configs, seed000Noise());
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
-    held = calib::unidentifiableToFix(model, zero, 1e-6);
+    held = calib::unidentifiableToFix(model, zero);
     blocks = calib::observabilityBlocks(model, zero, held);
   }
 };

@@ -97,8 +97,8 @@ TEST_CASE("observability: the marker model of a pose kind and seed 000's pose mo
   const calib::PoseMeasurementModel seed000 = calib::posePlanningModel(arm, configs, noise);
   REQUIRE(marker->numParams() == seed000.numParams());
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(seed000.numParams());
-  const std::vector<int> held = calib::unidentifiableToFix(seed000, zero, 1e-6);
-  CHECK(calib::unidentifiableToFix(*marker, zero, 1e-6) == held);
+  const std::vector<int> held = calib::unidentifiableToFix(seed000, zero);
+  CHECK(calib::unidentifiableToFix(*marker, zero) == held);
   const calib::ObservabilityIndices a = calib::observability(*marker, zero, held);
   const calib::ObservabilityIndices b = calib::observability(seed000, zero, held);
   CHECK(a.rank == b.rank);

@@ -292,6 +292,10 @@ void fitImages(CalibrationRun& run, CalibrateResult& r) {
   }
   const calib::MeasurementModel& model = *run.model;
   r.model = calib::measurementKindName(run.kind);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
+  // One decision of what this data cannot identify: the report's classes, and what every estimator holds.
+  r.classes = calib::classifyParameters(model, zero);
+  run.method.ekf.hold = run.method.lse.hold = run.method.lm.hold = r.classes.held;
   r.estimate = calib::runMethod(run.method, model);
   r.estimate.method = run.method.name;
   r.consistency = calib::consistencyTest(model, r.estimate.y,
@@ -304,8 +308,6 @@ void fitImages(CalibrationRun& run, CalibrateResult& r) {
   // A pose model's parameters are the DH errors; the others' layout starts with them too (known frames).
   r.estimate.y = Eigen::VectorXd(r.estimate.y.head(d.arm.numParams()));
   r.estimate.covariance = Eigen::MatrixXd(r.estimate.covariance.topLeftCorner(d.arm.numParams(), d.arm.numParams()));
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
-  r.classes = calib::classifyParameters(model, zero);
   r.observability = calib::observability(model, zero, r.classes.held);
   if (!run.hold.empty() && calib::isRelativeKind(run.kind)) {
     std::vector<std::size_t> which{run.ident.front()};

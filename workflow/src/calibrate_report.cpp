@@ -138,7 +138,7 @@ std::string estimateSection(const CalibrationRun& run, const CalibrateResult& r)
      << (kind == calib::MeasurementKind::kPose ? "" : (o.pairs == "reference" ? "; every image against the first" : "; consecutive images"))
      << ". " << model->numSamples() << " samples.\n\n" << r.classes.table() << "\nHeld as unidentifiable (" << r.classes.held.size()
      << "): " << parameterList(r.classes, r.classes.held)
-     << (method.kind == calib::MethodSpec::Kind::kEkf ? " (the EKF estimates every parameter under its prior; LSE and LM hold these)" : "")
+     << " (every estimator holds these at their nominal values)"
      << ".\n"
      << "\nObservability indices (Borm & Menq 1991 O1 to Sun & Hollerbach 2008 O5; whitened rows, columns in typical "
         "magnitudes, held parameters left out; larger is better): " << calib::formatIndices(r.observability) << ".\n\n"

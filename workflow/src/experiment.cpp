@@ -69,7 +69,7 @@ std::string identificationObservability(const sim::Arm& nominal, const std::vect
   noise.joint_noise_sigma_rad = joint_noise_sigma_rad;
   const calib::PoseMeasurementModel model(nominal, obs, noise);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
-  return calib::formatIndices(calib::observability(model, zero, calib::unidentifiableToFix(model, zero, 1e-6)));
+  return calib::formatIndices(calib::observability(model, zero, calib::unidentifiableToFix(model, zero)));
 }
 
 std::string methodsLegend(const std::vector<calib::MethodSpec>& methods) {

@@ -112,7 +112,7 @@ std::vector<SyntheticRow> syntheticPart(const ExperimentOptions& o, const sim::A
       if (!calib::isRelativeKind(kind)) candidates.erase(candidates.begin());
       const auto planning = calib::planningModel(setup, km, calib::samplesOf(candidates));
       const Eigen::VectorXd zero = Eigen::VectorXd::Zero(planning->numParams());
-      const std::vector<int> held = calib::unidentifiableToFix(*planning, zero, 1e-6);
+      const std::vector<int> held = calib::unidentifiableToFix(*planning, zero);
       const auto blocks = calib::observabilityBlocks(*planning, zero, held);
       const std::vector<int> config_of = sampleConfigurations(*planning, kind, candidates);
       for (int n : kCounts) {
@@ -170,7 +170,7 @@ std::vector<SyntheticRow> rangePart(const ExperimentOptions& o, int pool_size) {
     const calib::PlantSamples plant = calib::simulatePlant(sim::withErrors(arm, p_true.head(arm.numParams())), valid, 0.0, no_noise);
     const auto planning = calib::planningModel(setup, km, pool);
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(planning->numParams());
-    const auto blocks = calib::observabilityBlocks(*planning, zero, calib::unidentifiableToFix(*planning, zero, 1e-6));
+    const auto blocks = calib::observabilityBlocks(*planning, zero, calib::unidentifiableToFix(*planning, zero));
     for (int n : kCounts) {
       for (std::size_t c = 0; c < choosers().size(); ++c) {
         SyntheticRow row;
@@ -224,7 +224,7 @@ std::vector<RenderedRow> renderedPart(const ExperimentOptions& o, const sim::Arm
     const std::vector<Eigen::VectorXd>& configs = pool.plant.q_commanded;
     const calib::PoseMeasurementModel planning = calib::posePlanningModel(nominal, configs, planning_noise);
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(planning.numParams());
-    const auto blocks = calib::observabilityBlocks(planning, zero, calib::unidentifiableToFix(planning, zero, 1e-6));
+    const auto blocks = calib::observabilityBlocks(planning, zero, calib::unidentifiableToFix(planning, zero));
     for (const Chooser& c : choosers()) {
       calib::ObservabilityIndices indices;
       const std::vector<int> chosen = choose(c, blocks, o.identification, o.seed + r, &indices);

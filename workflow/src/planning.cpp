@@ -21,7 +21,7 @@ std::string selectFromPool(const ConfigsOptions& o, const sim::Arm& arm, std::ve
   const calib::ObservabilityIndex index = *o.select;
   const calib::PoseMeasurementModel model = calib::posePlanningModel(arm, configs, o.noise);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
-  const std::vector<int> held = calib::unidentifiableToFix(model, zero, 1e-6);
+  const std::vector<int> held = calib::unidentifiableToFix(model, zero);
   const auto blocks = calib::observabilityBlocks(model, zero, held);
   calib::SelectionOptions so;
   so.index = index;

@@ -23,7 +23,7 @@ struct Estimate {
   int rank = 0;                ///< rank used (LSE/LM: of the stacked Jacobian; EKF: of the information gained)
   double seconds = 0.0;        ///< wall time of the estimation
   bool converged = false;
-  std::vector<int> held;       ///< parameters held at zero as unidentifiable (LSE, LM)
+  std::vector<int> held;       ///< parameters held at zero: the options' hold, and (LSE, LM) the unidentifiable ones
   double cost = 0.0;           ///< 0.5 sum nu^T R^-1 nu at the estimate (all methods, for comparison)
 };
 
@@ -37,6 +37,9 @@ struct EkfOptions {
   double process_sigma_length_m = 0.0;
   bool relinearize = true;       ///< true: extended KF (J and innovation at the estimate); false: paper-literal
   int iterations_per_update = 1; ///< > 1: iterated EKF (re-linearizes within each update)
+  /// Parameters held at zero whatever the data says: their prior and process variances are zero, so
+  /// no gain ever reaches them (Estimate::held lists them, sorted).
+  std::vector<int> hold;
   /// Seed 000 as written: P0 sigma 0.01 deg / 0.01 mm, Q = 0, J at the nominal parameters.
   static EkfOptions paperLiteral();
 };
@@ -45,7 +48,7 @@ struct LseOptions {
   bool weighted = false;        ///< false: the paper's unweighted LSE
   int max_iterations = 50;
   double step_tolerance = 1e-12;  ///< stop when |dy| (scaled: rad and m) falls below this
-  double svd_cut = 1e-6;        ///< singular values below svd_cut * sigma_max (columns scaled) are dropped
+  // Each step's truncation and the held set: sim::numericalRank's decision at sim::kRankTolerance.
   /// Hold the parameters that are unidentifiable at the nominal model (see LmOptions). Off, the
   /// truncation alone decides, and the rank found can change between iterations: with Table 3's
   /// alpha errors the d3/d4/d5 axes are slightly non-parallel at the estimate, so a weak direction
@@ -68,7 +71,6 @@ struct LmOptions {
   /// then carried by the others), found from the SVD at the start; otherwise LM's damping alone
   /// picks a point on the unidentifiable manifold.
   bool fix_unidentifiable = true;
-  double svd_cut = 1e-6;
   std::vector<int> hold;        ///< parameters held at zero whatever the data says
   /// The covariance of the estimate (an SVD of the whitened Jacobian at the solution); without it
   /// Estimate::covariance stays empty and Estimate::rank is that of the start's.
@@ -99,25 +101,12 @@ void whitenedSystem(const MeasurementModel& model, const Eigen::VectorXd& y, Eig
 /// predictions.
 double weightedCost(const MeasurementModel& model, const Eigen::VectorXd& y, std::vector<Eigen::VectorXd>* innovations = nullptr);
 
-/// Parameters to hold so that the rest are identifiable, from the SVD of the whitened Jacobian at y
-/// with the `held` parameters left out: the ineffective ones (ineffectiveColumns with the layout's
-/// typical magnitudes and kIneffectiveTolerance), then within each unidentifiable group, the last
-/// `lost` members. The result includes `held`, sorted.
-std::vector<int> unidentifiableToFix(const MeasurementModel& model, const Eigen::VectorXd& y, double svd_cut,
-                                     const std::vector<int>& held = {});
-/// The same on a stacked (whitened) Jacobian A, without the ineffective-column step.
-std::vector<int> unidentifiableToFix(const Eigen::MatrixXd& A, double svd_cut, const std::vector<int>& held = {});
+/// Parameters to hold so that the rest are identifiable: sim::numericalRank of the whitened Jacobian
+/// at y with the layout's typical magnitudes, the `held` parameters left out (they are in the result,
+/// sorted).
+std::vector<int> unidentifiableToFix(const MeasurementModel& model, const Eigen::VectorXd& y, const std::vector<int>& held = {});
 /// The same from a linearization of `model` already at hand (linearizeAll), saving its Jacobians.
-std::vector<int> unidentifiableToFix(const MeasurementModel& model, const StackedLinearization& at, double svd_cut,
+std::vector<int> unidentifiableToFix(const MeasurementModel& model, const StackedLinearization& at,
                                      const std::vector<int>& held = {});
-
-/// Columns of A that are zero up to round-off: |A_c| typical_c <= zero_tolerance max_c' |A_c'| typical_c'
-/// (typical empty: 1). With A whitened and `typical` the layout's, |A_c| typical_c is the measurement
-/// change, in sigmas, of a typical error of parameter c, so the columns compare.
-std::vector<int> ineffectiveColumns(const Eigen::MatrixXd& A, const Eigen::VectorXd& typical, double zero_tolerance);
-/// A column this far below the largest is round-off of an exactly zero one (1e-16 relative, e.g. a rigid
-/// motion of the whole chain under a frame-invariant measurement), not a weak parameter: a weak one
-/// whose typical error moves the measurement by 1e-10 of the strongest's is beyond any data anyway.
-constexpr double kIneffectiveTolerance = 1e-10;
 
 }  // namespace orbcal::calib

@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "orbcal/calib/model.hpp"
+#include "orbcal/sim/identifiability.hpp"
 
 namespace orbcal::calib {
 
@@ -54,7 +55,7 @@ ObservabilityIndices indicesFromSingularValues(const Eigen::VectorXd& sigma, int
 
 /// The indices of a stacked Jacobian A (whitened rows, scaled columns, as above) over num_samples
 /// samples; the rank from sim::scaledSvd(A, rank_tolerance).
-ObservabilityIndices observabilityIndices(const Eigen::MatrixXd& A, int num_samples, double rank_tolerance = 1e-6);
+ObservabilityIndices observabilityIndices(const Eigen::MatrixXd& A, int num_samples, double rank_tolerance = sim::kRankTolerance);
 
 /// Per-sample blocks of the model at y: R_k^-1/2 H_k with the `held` columns left out and the others
 /// multiplied by their typical magnitudes. The input of observabilityIndices (stacked) and selection.
@@ -65,7 +66,7 @@ Eigen::MatrixXd stackBlocks(const std::vector<Eigen::MatrixXd>& blocks, const st
 
 /// The indices of `model` at y with `held` left out (observabilityBlocks, stacked).
 ObservabilityIndices observability(const MeasurementModel& model, const Eigen::VectorXd& y, const std::vector<int>& held,
-                                   double rank_tolerance = 1e-6);
+                                   double rank_tolerance = sim::kRankTolerance);
 
 /// A pose model for planning, before anything is measured: one sample per configuration, its
 /// observation the nominal flange pose (the innovation is zero at y = 0 and never used), the noise
@@ -78,7 +79,7 @@ struct SelectionOptions {
   std::uint64_t seed = 1;       ///< the order candidates are tried in, which breaks ties
   int max_exchange_passes = 5;  ///< pair-exchange passes after DETMAX (each: n x pool evaluations)
   /// Full rank during the greedy start: every eigenvalue of A^T A above (rank_tolerance sigma_max)^2.
-  double rank_tolerance = 1e-6;
+  double rank_tolerance = sim::kRankTolerance;
   /// Sets whose index values lie within this relative distance count as tied and are ordered by log
   /// det(A^T A) (O1's ordering). This matters for the extreme-value indices O2, O3, O4: on the SSRMS
   /// with joint noise in R, sigma_min has a ceiling that many sets reach (O3 = 1.59 for 15 of 300 in

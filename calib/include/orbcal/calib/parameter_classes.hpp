@@ -7,7 +7,7 @@
 //    the group's observable combinations are determined (e.g. d3 + d4 + d5 of the SSRMS);
 //  - independent: identifiable on its own.
 // The minimal identifiable set is what remains after holding the ineffective parameters and one
-// parameter per lost direction of each group (unidentifiableToFix's choice, which LSE and LM hold).
+// parameter per lost direction of each group (sim::numericalRank's choice, which LSE and LM hold).
 #include <Eigen/Core>
 #include <string>
 #include <vector>
@@ -37,16 +37,15 @@ struct ParameterClasses {
 };
 
 /// J: stacked Jacobian (rows whitened where their units differ), columns the parameters `names` in
-/// their own units. A column is ineffective when |J_c| typical_c <= zero_tolerance max |J_c'| typical_c'
-/// (ineffectiveColumns; typical empty: 1), i.e. zero up to round-off; the others are analysed by
-/// sim::analyzeJacobian at rank_tolerance (columns scaled to unit norm), so groups and their observable
-/// combinations are in the parameters' own units, as sim::formatIdentifiability prints them.
+/// their own units. A column is ineffective when |J_c| typical_c <= sim::kIneffectiveTolerance max
+/// |J_c'| typical_c' (sim::ineffectiveColumns; typical empty: 1), i.e. zero up to round-off; the others
+/// are analysed by sim::analyzeJacobian at sim::kRankTolerance (columns scaled to unit norm), so groups
+/// and their observable combinations are in the parameters' own units, as sim::formatIdentifiability
+/// prints them. The held set is sim::numericalRank's, the one the estimators hold.
 ParameterClasses classifyParameters(const Eigen::MatrixXd& J, const std::vector<std::string>& names,
-                                    const Eigen::VectorXd& typical = {}, double rank_tolerance = 1e-9,
-                                    double zero_tolerance = kIneffectiveTolerance);
+                                    const Eigen::VectorXd& typical = {});
 
 /// The classes of a model's parameters at y: its whitened Jacobian with the layout's typical magnitudes.
-ParameterClasses classifyParameters(const MeasurementModel& model, const Eigen::VectorXd& y,
-                                    double rank_tolerance = 1e-9);
+ParameterClasses classifyParameters(const MeasurementModel& model, const Eigen::VectorXd& y);
 
 }  // namespace orbcal::calib

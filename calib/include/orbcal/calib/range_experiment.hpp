@@ -27,7 +27,6 @@ struct RangeExperimentSettings {
   std::vector<int> case_sizes{50, 100};
   int validation = 20;               ///< independent configurations, anywhere in the workspace
   RangeConfigurationSettings configurations;  ///< which candidates are kept (beam_must_hit is set)
-  double svd_cut = 1e-6;             ///< rank decisions (unidentifiableToFix, runLse)
 };
 
 /// One case: `size` configurations of the pool.

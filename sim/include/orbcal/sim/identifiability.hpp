@@ -20,8 +20,24 @@ namespace orbcal::sim {
 Eigen::MatrixXd stackedJacobian(const Arm& arm, const std::vector<Eigen::VectorXd>& configs,
                                 ErrorFrame frame = ErrorFrame::kTool);
 
+/// The relative tolerance of every numerical rank orbcal decides (the estimators' held sets and
+/// truncations, the reports' identifiability classes, diagnose's projections): a singular value of a
+/// Jacobian with unit-norm columns below kRankTolerance times the largest counts as zero. Such a
+/// direction is determined a million times worse than the best-determined one, so the data say
+/// nothing about it that a parameter's typical magnitude does not; kept, it is what the LSE step and
+/// the LM's normal equations (condition number squared: 1e12, leaving about four of the sixteen
+/// digits of a double) amplify noise and round-off along. The exact redundancies of a chain (parallel
+/// axes, a frame seen only up to a rigid motion) fall to round-off, far below it.
+constexpr double kRankTolerance = 1e-6;
+
+/// A column this far below the largest is round-off of an exactly zero one (1e-16 relative, e.g. a rigid
+/// motion of the whole chain under a frame-invariant measurement), not a weak parameter: a weak one
+/// whose typical error moves the measurement by 1e-10 of the strongest's is beyond any data anyway.
+constexpr double kIneffectiveTolerance = 1e-10;
+
 /// SVD of J with its columns scaled to unit norm (zero columns stay zero): J D = U S V^T, D = diag(scale).
-/// The one place where orbcal decides numerical rank; identifiability, LSE and LM all use it.
+/// The one place where orbcal decides numerical rank (at kRankTolerance everywhere outside tests);
+/// numericalRank, identifiability, LSE, LM and diagnose all use it.
 struct ScaledSvd {
   Eigen::VectorXd scale;            ///< D: 1 / column norm (1 for a zero column)
   Eigen::VectorXd singular_values;  ///< descending
@@ -35,6 +51,25 @@ struct ScaledSvd {
 /// alone) a tall J is first reduced to the R factor of its QR decomposition, whose singular values and
 /// right vectors are J's: several times cheaper for the stacked Jacobians of hundreds of samples.
 ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance, bool with_u = true);
+
+/// Columns of A that are zero up to round-off: |A_c| typical_c <= zero_tolerance max_c' |A_c'| typical_c'
+/// (typical empty: 1). With A whitened and `typical` the layout's, |A_c| typical_c is the measurement
+/// change, in sigmas, of a typical error of parameter c, so the columns compare.
+std::vector<int> ineffectiveColumns(const Eigen::MatrixXd& A, const Eigen::VectorXd& typical,
+                                    double zero_tolerance = kIneffectiveTolerance);
+
+/// What a stacked (whitened) Jacobian determines: the parameters to hold so that the rest are
+/// identifiable, and the rank of the rest.
+struct NumericalRank {
+  int rank = 0;           ///< of the free columns (A's columns less `held`), which is their number
+  std::vector<int> held;  ///< sorted: the given ones, the ineffective ones, one per lost direction
+};
+/// The one decision of numerical rank and of what to hold, at kRankTolerance. With the `held`
+/// parameters left out: the ineffective columns (ineffectiveColumns with `typical`; typical empty: 1),
+/// then, greedily, the parameter most involved in the remaining null space of the unit-norm-column SVD
+/// (the last one on ties) until the free columns have full rank. LSE, LM, the identifiability classes
+/// of the reports and the planners all hold this set.
+NumericalRank numericalRank(const Eigen::MatrixXd& A, const Eigen::VectorXd& typical = {}, const std::vector<int>& held = {});
 
 struct Redundancy {
   std::vector<int> params;        ///< parameter indices of the group
@@ -59,12 +94,12 @@ struct IdentifiabilityReport {
 
 /// rank_tolerance: singular values below rank_tolerance * sigma_max count as zero.
 IdentifiabilityReport analyzeIdentifiability(const Arm& arm, const std::vector<Eigen::VectorXd>& configs,
-                                             double rank_tolerance = 1e-9, ErrorFrame frame = ErrorFrame::kTool);
+                                             double rank_tolerance = kRankTolerance, ErrorFrame frame = ErrorFrame::kTool);
 
 /// The same analysis of any stacked (and, where rows have different units, whitened) Jacobian whose
 /// columns are the parameters `names`; `num_configs` is for the report only.
 IdentifiabilityReport analyzeJacobian(const Eigen::MatrixXd& J, const std::vector<std::string>& names, int num_configs,
-                                      double rank_tolerance = 1e-9);
+                                      double rank_tolerance = kRankTolerance);
 
 /// Human-readable report (what the main job prints).
 std::string formatIdentifiability(const IdentifiabilityReport& report);
