@@ -188,10 +188,13 @@ MassModel massesFromInertials(const urdf::LinkConstSharedPtr& base, const Arm& a
   while (!stack.empty()) {
     const Visit v = stack.back();
     stack.pop_back();
-    if (v.joint >= 0 && v.link->inertial) {  // a point mass at the COM, the inertial origin's position
-      addPointMass(sums[static_cast<std::size_t>(v.joint)], inertialMass(*v.link, urdf_errors, source),
-                   v.frame_T_link * poseOf(v.link->inertial->origin).translation());
-      any = true;
+    if (v.link->inertial) {  // checked on the base side too, where no joint moves it (the base link's)
+      const double mass_kg = inertialMass(*v.link, urdf_errors, source);
+      if (v.joint >= 0) {  // a point mass at the COM, the inertial origin's position
+        addPointMass(sums[static_cast<std::size_t>(v.joint)], mass_kg,
+                     v.frame_T_link * poseOf(v.link->inertial->origin).translation());
+        any = true;
+      }
     }
     for (const auto& child : v.link->child_links) {
       const urdf::JointConstSharedPtr joint = child->parent_joint;

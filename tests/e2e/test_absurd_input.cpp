@@ -393,6 +393,15 @@ TEST_CASE("absurd input: a URDF joint origin 1e9 m away or a limit of 1e308 is r
         dir + "/arm.urdf: joint 'iiwa_joint_2': <limit upper>: 1e+308 rad is outside -62.83 rad to 62.83 rad (ten turns)");
 }
 
+TEST_CASE("absurd input: the base link's inertial origin 1e9 m away is refused though no joint moves it", "[e2e][absurd][urdf]") {
+  const std::string dir = test::tempDir("absurd-urdf-base-inertial");
+  const std::string good = slurp(test::sourcePath("tests/data/iiwa7_inertial.urdf"));
+  write(dir + "/arm.urdf", edited(good, "<origin xyz=\"-0.1 0 0.07\"", "<origin xyz=\"1e9 0 0.07\""));
+  checkRefused(runOrbcal(dir, "simulate --robot arm.urdf -o out -n 10 --quiet"),
+               "arm.urdf: link 'iiwa_link_0': <inertial>: <origin xyz>: 1e+09 m is outside -10000 m to 10000 m");
+  CHECK_FALSE(fs::exists(dir + "/out"));  // no measured data, no truth
+}
+
 // ---- simulate's settings ----
 
 TEST_CASE("absurd input: simulate refuses a payload of NaN kg and an effect value of 1e308, writing nothing", "[e2e][absurd]") {
