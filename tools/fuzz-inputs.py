@@ -296,7 +296,7 @@ def c_special(text, rng, ctx):
 
 def c_empty(text, rng, ctx):
     rows = parse_csv(text)
-    cell = data_cell(rows, rng)
+    cell = data_cell(rows, rng, [r"(?!index$).*"])  # not the index: some readers do not read it (a valid empty)
     if not cell:
         return None
     r, c = cell
