@@ -64,8 +64,12 @@ def code_spans(text):
     return spans
 
 
+FREE_TEXT = re.compile(r"[ \t]*(?:-[ \t]*)?name:")
+
+
 def numbers(text):
-    return [m for s, e in code_spans(text) for m in NUMBER.finditer(text, s, e)]
+    """Numbers outside comments, and not inside a block `name:` (free text: "scene at 640 x 512")."""
+    return [m for s, e in code_spans(text) if not FREE_TEXT.match(text, s, e) for m in NUMBER.finditer(text, s, e)]
 
 
 def replace_span(text, start, end, new):
