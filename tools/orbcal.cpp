@@ -10,6 +10,8 @@
 #include <opencv2/core/utility.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <cstdlib>
 #include <vector>
 
 namespace orbcal::tools {
@@ -23,10 +25,33 @@ int registerCommand(int order, CommandAdder adder) {
   registry().emplace_back(order, adder);
   return 0;
 }
+namespace {
+/// The check every option value of every command gets: a value that reads as a number is finite (CLI11's
+/// Range compares, and every comparison with NaN is false, so NaN passed them), and a --seed is not
+/// negative (it would wrap to a huge unsigned seed). Study files' option values go through it too.
+std::string finiteNumber(const CLI::Option& o, const std::string& value) {
+  char* end = nullptr;
+  const double v = std::strtod(value.c_str(), &end);
+  if (value.empty() || end != value.c_str() + value.size()) return "";  // not a number: the option's own check
+  if (!std::isfinite(v)) return "'" + value + "' is not a finite number";
+  if (o.check_name("--seed") && v < 0.0) return "'" + value + "': a seed is a whole number from 0";
+  return "";
+}
+
+void checkNumbersOf(CLI::App& cmd) {
+  for (CLI::Option* o : cmd.get_options()) {
+    if (o->get_expected_max() == 0) continue;  // a flag
+    o->check(CLI::Validator([o](std::string& value) { return finiteNumber(*o, value); }, ""));
+  }
+  for (CLI::App* sub : cmd.get_subcommands({})) checkNumbersOf(*sub);
+}
+}  // namespace
+
 void addRegisteredCommands(CLI::App& app) {
   auto r = registry();
   std::stable_sort(r.begin(), r.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   for (const auto& [order, adder] : r) adder(app);
+  checkNumbersOf(app);
 }
 void addArmSceneOptions(CLI::App& cmd, ArmSceneOptions& opt) {
   addRobotOptions(cmd, opt);
@@ -39,6 +64,7 @@ void addRobotOptions(CLI::App& cmd, std::string& robot, std::string& base_link, 
   cmd.add_option("--base-link", base_link, "URDF robot: the link the arm's chain starts from (default: the root link)");
   cmd.add_option("--tip-link", tip_link, "URDF robot: the link the chain ends at, the flange (default: the only leaf link)");
 }
+
 }  // namespace orbcal::tools
 
 int main(int argc, char** argv) {

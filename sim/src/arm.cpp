@@ -3,6 +3,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::sim {
@@ -57,6 +59,15 @@ void checkVector(const Eigen::VectorXd& v, int expected, const char* what, const
 
 void checkJointVector(const Arm& arm, const Eigen::VectorXd& q, const char* context) {
   checkVector(q, arm.numJoints(), "joint angles", context);
+  if (arm.lower_rad.size() != q.size() || arm.upper_rad.size() != q.size()) return;  // an arm without limits
+  for (Eigen::Index j = 0; j < q.size(); ++j) {
+    if (q[j] >= arm.lower_rad[j] - kMaxJointAngleRad && q[j] <= arm.upper_rad[j] + kMaxJointAngleRad) continue;
+    throw std::invalid_argument(std::string(context) + ": joint " + std::to_string(j + 1) + " of " + arm.source + ": " +
+                                formatNumber("%.9g", q[j]) + " rad (" + formatNumber("%.6g", q[j] * kRadToDeg) +
+                                " deg) is more than ten turns outside its limits [" +
+                                formatNumber("%.6g", arm.lower_rad[j] * kRadToDeg) + ", " +
+                                formatNumber("%.6g", arm.upper_rad[j] * kRadToDeg) + "] deg: no pose of the arm");
+  }
 }
 
 void checkParamVector(const Arm& arm, const Eigen::VectorXd& y, const char* context) {

@@ -69,6 +69,23 @@ void readDistortion(const std::vector<double>& d, const ConfigNode& data, Camera
   }
 }
 
+/// A ROS rectification matrix R (a rotation: every entry within -1 to 1) and projection matrix
+/// P = [fx' 0 cx' Tx; 0 fy' cy' Ty; 0 0 1 0] (sensor_msgs/CameraInfo): fx', fy' within K's focal range,
+/// Tx, Ty = -f' B within f' times a baseline of 10 km (kMaxLengthM), every other entry a pixel
+/// coordinate within 1e6 px. orbcal uses neither; they are checked so that the file says nothing absurd.
+void checkRectification(const ConfigNode& R, const ConfigNode& P) {
+  for (std::size_t i = 0; i < 9; ++i) R["data"][i].asDoubleWithin(-1.0, 1.0, "-1 to 1 (an entry of a rotation)");
+  const ConfigNode p = P["data"];
+  const double fx = p[0].asDoubleWithin(1.0, 1e6, "1 px to 1e6 px (a focal length in pixels)");
+  const double fy = p[5].asDoubleWithin(1.0, 1e6, "1 px to 1e6 px (a focal length in pixels)");
+  const std::string baseline = " (f' times a baseline within 10 km)";
+  p[3].asDoubleWithin(-fx * kMaxLengthM, fx * kMaxLengthM, formatNumber("%.6g", -fx * kMaxLengthM) + " to " +
+                                                               formatNumber("%.6g", fx * kMaxLengthM) + baseline);
+  p[7].asDoubleWithin(-fy * kMaxLengthM, fy * kMaxLengthM, formatNumber("%.6g", -fy * kMaxLengthM) + " to " +
+                                                               formatNumber("%.6g", fy * kMaxLengthM) + baseline);
+  for (int i : {1, 2, 4, 6, 8, 9, 10, 11}) p[static_cast<std::size_t>(i)].asDoubleWithin(-1e6, 1e6, "-1e6 px to 1e6 px");
+}
+
 std::vector<std::pair<int, int>> vectorShapes(const std::vector<int>& lengths) {
   std::vector<std::pair<int, int>> s;
   for (int n : lengths) {
@@ -114,6 +131,7 @@ Camera parseRos(const ConfigNode& root) {
   readDistortion(readMatrix(D, false, vectorShapes(lengths)), D["data"], c);
   readMatrix(root["rectification_matrix"], false, {{3, 3}});
   readMatrix(root["projection_matrix"], false, {{3, 4}});
+  checkRectification(root["rectification_matrix"], root["projection_matrix"]);
   checkFileCamera(c, root, K, D);
   return c;
 }

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 
@@ -86,6 +87,14 @@ double CsvTable::number(std::size_t row, int col) const {
   return v;
 }
 
+int CsvTable::wholeNumber(std::size_t row, int col) const {
+  const double v = number(row, col);
+  if (!(v >= 0 && v <= 1e9 && v == std::floor(v))) {
+    throw InputError(where(row) + ": " + header_[col] + ": expected a whole number from 0, got " + quoteInput(rows_[row][col]));
+  }
+  return static_cast<int>(v);
+}
+
 std::optional<Eigen::VectorXd> CsvTable::numbers(std::size_t row, const std::vector<int>& cols) const {
   if (cols.empty()) return std::nullopt;
   bool all_empty = true;
@@ -152,10 +161,24 @@ std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, con
     throw InputError(source + ": header: column 'q" + std::to_string(n + 1) + "_rad' but the robot has " +
                      std::to_string(n) + " joints");
   }
+  const int c_index = t.column("index");
+  std::map<int, int> index_line;  // index -> line of its first row
   std::vector<Eigen::VectorXd> configs;
   for (std::size_t r = 0; r < t.rows(); ++r) {
+    if (c_index >= 0) {
+      const auto [it, fresh] = index_line.emplace(t.wholeNumber(r, c_index), t.line(r));
+      if (!fresh) {
+        throw InputError(t.where(r) + ": index: configuration " + std::to_string(it->first) + " given twice (first on line " +
+                         std::to_string(it->second) + ")");
+      }
+    }
     const auto q = t.numbers(r, cols);
     if (!q) throw InputError(t.where(r) + ": q1_rad: joint angles are empty");
+    for (int j = 0; j < n; ++j) {
+      if (std::abs((*q)[j]) <= kMaxJointAngleRad) continue;
+      throw InputError(t.where(r) + ": q" + std::to_string(j + 1) + "_rad: " + formatNumber("%.9g", (*q)[j]) +
+                       " rad is outside " + kMaxJointAngleText + ": no robot's joint reaches it");
+    }
     configs.push_back(*q);
   }
   return configs;

@@ -324,11 +324,7 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
   std::map<std::string, int> image_line;   // image -> line of its first row
   for (std::size_t r = 0; r < t.rows(); ++r) {
     DatasetSample s;
-    const double index = t.number(r, c_index);
-    if (!(index >= 0 && index <= 1e9 && index == std::floor(index))) {
-      throw InputError(t.where(r) + ": index: expected a whole number from 0, got " + quoteInput(t.cell(r, c_index)));
-    }
-    s.index = static_cast<int>(index);
+    s.index = t.wholeNumber(r, c_index);
     const int line = t.line(r);
     if (const auto [it, fresh] = index_line.emplace(s.index, line); !fresh) {
       throw InputError(t.where(r) + ": index: sample " + std::to_string(s.index) + " given twice (first on line " +

@@ -419,7 +419,14 @@ void checkTimeOrder(const CsvTable& t, std::size_t r, const ColumnGroup& time, d
 
 void readSession(const std::string& path, int session, const Layout& layout, MeasuredData& d) {
   const std::string named_by = d.description + ": files[" + std::to_string(session) + "]";
-  const CsvTable t = CsvTable::parse(readTextNamedBy(path, named_by), path);
+  const CsvTable t = [&] {
+    const std::string text = readTextNamedBy(path, named_by);
+    try {
+      return CsvTable::parse(text, path);
+    } catch (const InputError& e) {  // a file that is no table at all (a wrong path?): named with the key, too
+      throw InputError(named_by + ": " + e.what());
+    }
+  }();
   if (t.rows() == 0) throw InputError(path + ": no data rows (expected one sample per line after the header)");
   const Layout bound = bindColumns(layout, t);
   for (std::size_t r = 0; r < t.rows(); ++r) {

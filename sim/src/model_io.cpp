@@ -20,7 +20,12 @@ std::string transformList(const std::vector<Eigen::Isometry3d>& frames) {
   return s + "]";
 }
 
-std::string number(double v) { return std::isfinite(v) ? exactNumber(v) : std::string(".nan"); }
+/// A value or 1-sigma of the parameter list, written only when finite (loadModelFile reads no other):
+/// std::runtime_error naming the file and the row otherwise, before anything is written.
+std::string number(double v, const std::string& where) {
+  if (!std::isfinite(v)) throw std::runtime_error(where + ": " + exactNumber(v) + " is not a finite number; nothing written");
+  return exactNumber(v);
+}
 
 }  // namespace
 
@@ -56,7 +61,9 @@ std::string writeModelFile(const KinematicModel& m, const Eigen::VectorXd& p, co
   }
   s << "parameters:" << (rows.empty() ? " []" : "") << "\n";
   for (const ParameterRow& r : rows) {
-    s << "  - {name: " << r.name << ", effect: " << r.effect << ", value: " << number(r.value) << ", sigma: " << number(r.sigma)
+    const std::string where = folder + "/" + model_name + ": parameters: " + r.name;
+    s << "  - {name: " << r.name << ", effect: " << r.effect << ", value: " << number(r.value, where + ".value")
+      << ", sigma: " << number(r.sigma, where + ".sigma")
       << ", unit: \"" << r.unit << "\", held: " << (r.held ? "true" : "false") << "}\n";
   }
   const std::string path = folder + "/" + model_name;
@@ -86,9 +93,8 @@ Eigen::VectorXd readEffectValues(const ConfigNode& list, const KinematicModel& m
   return p;
 }
 
-/// A 1-sigma of the parameter list: '.nan' (not known) or a finite number from 0.
+/// A 1-sigma of the parameter list: a finite number from 0 (asDouble refuses '.nan' and infinities).
 void checkSigma(const ConfigNode& sigma) {
-  if (sigma.isScalar() && sigma.asString() == ".nan") return;
   if (!(sigma.asDouble() >= 0.0)) sigma.fail("a 1-sigma must not be negative");
 }
 

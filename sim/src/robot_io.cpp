@@ -116,9 +116,24 @@ Arm loadArm(const std::string& path) { return loadArm(RobotSource{path, "", ""})
 
 Arm loadArm(const RobotSource& robot) { return loadArm(robot, ""); }
 
+namespace {
+Arm parseArm(const RobotSource& robot, const std::string& text);
+}  // namespace
+
 Arm loadArm(const RobotSource& robot, const std::string& named_by) {
+  const std::string text = readTextNamedBy(robot.path, named_by);
+  try {
+    return parseArm(robot, text);
+  } catch (const InputError& e) {  // named with the file and key that named it, as readTextNamedBy does
+    if (named_by.empty()) throw;
+    throw InputError(named_by + ": " + e.what());
+  }
+}
+
+namespace {
+/// The arm of robot file `robot` (its text): a URDF or a robot YAML, told by the content.
+Arm parseArm(const RobotSource& robot, const std::string& text) {
   const std::string& path = robot.path;
-  const std::string text = readTextNamedBy(path, named_by);
   const std::string ext = lowerExtension(path);
   const bool xml = looksLikeXml(text);
   if ((ext == ".urdf" || ext == ".xml") && !xml) {
@@ -187,6 +202,7 @@ Arm loadArm(const RobotSource& robot, const std::string& named_by) {
   arm.masses = readMasses(root.optional("masses"), arm.numJoints());
   return arm;
 }
+}  // namespace
 
 std::string transformYaml(const Eigen::Isometry3d& T) {
   // R = Rz(yaw) Ry(pitch) Rx(roll), as ConfigNode::asTransform reads it.

@@ -87,11 +87,9 @@ void checkOrigin(const urdf::Pose& p, const std::string& what) {
 /// max_deg), lower < upper.
 std::pair<double, double> readLimits(const urdf::Joint& joint, const std::string& what) {
   if (!joint.limits) throw InputError(what + ": a revolute joint needs <limit lower=.. upper=..>");
-  constexpr double kTenTurnsRad = 20.0 * kPi;
   for (const auto& [name, v] : {std::pair<const char*, double>{"lower", joint.limits->lower}, {"upper", joint.limits->upper}}) {
-    if (!(std::abs(v) <= kTenTurnsRad)) {
-      throw InputError(what + ": <limit " + name + ">: " + formatNumber("%.9g", v) +
-                       " rad is outside -62.83 rad to 62.83 rad (ten turns)");
+    if (!(std::abs(v) <= kMaxJointAngleRad)) {
+      throw InputError(what + ": <limit " + name + ">: " + formatNumber("%.9g", v) + " rad is outside " + kMaxJointAngleText);
     }
   }
   if (!(joint.limits->lower < joint.limits->upper)) {
@@ -100,6 +98,21 @@ std::pair<double, double> readLimits(const urdf::Joint& joint, const std::string
   }
   return {joint.limits->lower, joint.limits->upper};
 }
+
+/// Throws unless the <axis> of movable joint `what` is finite and a unit vector (to 1e-3; the URDF
+/// specification asks for a normalized axis: "0 0 1e9" is no direction a file means).
+void checkAxis(const urdf::Vector3& a, const std::string& what) {
+  const Eigen::Vector3d axis(a.x, a.y, a.z);
+  if (!axis.allFinite() || !(std::abs(axis.norm() - 1.0) <= 1e-3)) {
+    throw InputError(what + ": <axis xyz>: '" + formatNumber("%.9g", a.x) + " " + formatNumber("%.9g", a.y) + " " +
+                     formatNumber("%.9g", a.z) + "' is not a unit vector (length 1 within 1e-3)");
+  }
+}
+
+/// Every element of the file with a physical value, on the arm's chain or not: each joint's origin
+/// (within 10 km, a finite rotation) and axis (movable joints: a unit vector), each link's <inertial>
+/// (mass and origin) and its <visual> and <collision> origins. A named element stays named.
+void checkAllElements(const urdf::ModelInterface& model, const std::string& urdf_errors, const std::string& source);
 
 const char* jointTypeName(int type) {
   switch (type) {
@@ -188,10 +201,13 @@ MassModel massesFromInertials(const urdf::LinkConstSharedPtr& base, const Arm& a
   while (!stack.empty()) {
     const Visit v = stack.back();
     stack.pop_back();
-    if (v.joint >= 0 && v.link->inertial) {  // a point mass at the COM, the inertial origin's position
-      addPointMass(sums[static_cast<std::size_t>(v.joint)], inertialMass(*v.link, urdf_errors, source),
-                   v.frame_T_link * poseOf(v.link->inertial->origin).translation());
-      any = true;
+    if (v.link->inertial) {  // checked on the base side too, where no joint moves it (the base link's)
+      const double mass_kg = inertialMass(*v.link, urdf_errors, source);
+      if (v.joint >= 0) {  // a point mass at the COM, the inertial origin's position
+        addPointMass(sums[static_cast<std::size_t>(v.joint)], mass_kg,
+                     v.frame_T_link * poseOf(v.link->inertial->origin).translation());
+        any = true;
+      }
     }
     for (const auto& child : v.link->child_links) {
       const urdf::JointConstSharedPtr joint = child->parent_joint;
@@ -210,11 +226,25 @@ MassModel massesFromInertials(const urdf::LinkConstSharedPtr& base, const Arm& a
   return masses;
 }
 
+void checkAllElements(const urdf::ModelInterface& model, const std::string& urdf_errors, const std::string& source) {
+  for (const auto& [name, joint] : model.joints_) {
+    const std::string what = source + ": joint '" + name + "'";
+    checkOrigin(joint->parent_to_joint_origin_transform, what);
+    if (joint->type != urdf::Joint::FIXED && joint->type != urdf::Joint::FLOATING) checkAxis(joint->axis, what);
+  }
+  for (const auto& [name, link] : model.links_) {
+    if (link->inertial) (void)inertialMass(*link, urdf_errors, source);
+    for (const auto& v : link->visual_array) checkOrigin(v->origin, source + ": link '" + name + "': <visual>");
+    for (const auto& c : link->collision_array) checkOrigin(c->origin, source + ": link '" + name + "': <collision>");
+  }
+}
+
 }  // namespace
 
 Arm armFromUrdf(const std::string& xml, const std::string& source, const std::string& base_link, const std::string& tip_link) {
   const ParsedUrdf parsed = parseUrdf(xml, source);
   const urdf::ModelInterfaceSharedPtr& model = parsed.model;
+  checkAllElements(*model, parsed.errors, source);
   const urdf::LinkConstSharedPtr base = base_link.empty() ? model->getRoot() : model->getLink(base_link);
   if (!base) throw InputError(source + ": no link '" + base_link + "' (the base link) in the URDF");
   const std::string tip_name = tip_link.empty() ? onlyLeaf(base, source) : tip_link;
@@ -244,8 +274,7 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
   std::vector<double> lower, upper;
   Eigen::Isometry3d pending = Eigen::Isometry3d::Identity();  // fixed joints not yet folded
   for (const urdf::JointConstSharedPtr& joint : chain) {
-    const std::string what = source + ": joint '" + joint->name + "'";
-    checkOrigin(joint->parent_to_joint_origin_transform, what);
+    const std::string what = source + ": joint '" + joint->name + "'";  // origin and axis checked above
     const Eigen::Isometry3d origin = poseOf(joint->parent_to_joint_origin_transform);
     if (joint->type == urdf::Joint::FIXED) {
       pending = pending * origin;
@@ -255,7 +284,6 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
       throw InputError(what + " is " + jointTypeName(joint->type) + ": an orbcal arm has revolute (or continuous) joints only");
     }
     const Eigen::Vector3d axis(joint->axis.x, joint->axis.y, joint->axis.z);
-    if (!axis.allFinite() || !(axis.norm() > 1e-9)) throw InputError(what + ": <axis xyz>: zero or not finite");
     const Eigen::Isometry3d combined = pending * origin;
     DhRow row;
     row.xyz_m = combined.translation();

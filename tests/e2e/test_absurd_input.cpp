@@ -393,17 +393,27 @@ TEST_CASE("absurd input: a URDF joint origin 1e9 m away or a limit of 1e308 is r
         dir + "/arm.urdf: joint 'iiwa_joint_2': <limit upper>: 1e+308 rad is outside -62.83 rad to 62.83 rad (ten turns)");
 }
 
+TEST_CASE("absurd input: the base link's inertial origin 1e9 m away is refused though no joint moves it", "[e2e][absurd][urdf]") {
+  const std::string dir = test::tempDir("absurd-urdf-base-inertial");
+  const std::string good = slurp(test::sourcePath("tests/data/iiwa7_inertial.urdf"));
+  write(dir + "/arm.urdf", edited(good, "<origin xyz=\"-0.1 0 0.07\"", "<origin xyz=\"1e9 0 0.07\""));
+  checkRefused(runOrbcal(dir, "simulate --robot arm.urdf -o out -n 10 --quiet"),
+               "arm.urdf: link 'iiwa_link_0': <inertial>: <origin xyz>: 1e+09 m is outside -10000 m to 10000 m");
+  CHECK_FALSE(fs::exists(dir + "/out"));  // no measured data, no truth
+}
+
 // ---- simulate's settings ----
 
-TEST_CASE("absurd input: simulate refuses a payload of NaN kg and an effect value of 1e308, writing nothing", "[e2e][absurd]") {
+// (NaN stops earlier, at the command line: test_fuzz_findings.cpp)
+TEST_CASE("absurd input: simulate refuses a payload of -1 kg and an effect value of 1e308, writing nothing", "[e2e][absurd]") {
   const std::string dir = test::tempDir("absurd-simulate");
-  checkRefused(runOrbcal(dir, "simulate -o a -n 10 --inject compliance:2 --payload-kg nan"),
-               "simulate: payload_kg: value 1, nan kg, is outside 0 kg to 1e6 kg");
+  checkRefused(runOrbcal(dir, "simulate -o a -n 10 --inject compliance:2 --payload-kg -1"),
+               "simulate: payload_kg: value 1, -1 kg, is outside 0 kg to 1e6 kg");
   checkRefused(runOrbcal(dir, "simulate -o b -n 10 --inject compliance:2 --values 1e308"),
                "simulate: effect values: value 1 (c2), 1e+308 rad/(N*m), is outside -1 to 1 rad/(N*m) (1e4 times its typical "
                "magnitude, 0.0001 rad/(N*m))");
-  checkRefused(runOrbcal(dir, "simulate -o c -n 10 --error-angle-deg nan"),
-               "simulate: geometry: an angle error spread of nan deg is outside 0 deg to 180 deg");
+  checkRefused(runOrbcal(dir, "simulate -o c -n 10 --error-angle-deg 1e9"),
+               "simulate: geometry: an angle error spread of 1e+09 deg is outside 0 deg to 180 deg");
   for (const char* out : {"a", "b", "c"}) CHECK_FALSE(fs::exists(dir + "/" + out));
 }
 

@@ -194,10 +194,12 @@ TEST_CASE("measured data: every bad cell is named by file, line and column", "[s
   }
   SECTION("a duplicate column name") {
     CHECK(csvError("duplicate", kRowB, with(kHeader, ",t2", ",t1")) ==
-          csvPath("duplicate") + ": header: duplicate column 't1'");
+          folderOf("duplicate") + "/desc.yaml: files[0]: " + csvPath("duplicate") + ": header: duplicate column 't1'");
   }
   SECTION("a row with the wrong cell count") {
-    CHECK(csvError("count", kRowB + ",7") == csvPath("count") + ": line 3: expected 20 columns, got 21");
+    // A file that is no table at all: named with the description's key too (it may be a wrong path).
+    CHECK(csvError("count", kRowB + ",7") ==
+          folderOf("count") + "/desc.yaml: files[0]: " + csvPath("count") + ": line 3: expected 20 columns, got 21");
   }
   SECTION("a rotation that is not orthonormal, or a reflection") {
     CHECK_THAT(csvError("orthonormal", with(kRowB, "30,40,0,", "30,40,0.1,")),

@@ -249,7 +249,7 @@ StudySpec parseStudy(const std::string& text, const std::string& source, const S
     const sim::ConfigNode sl = root["slurm"];
     sl.requireOnlyKeys({"throttle", "time", "mem", "cpus_per_task"});
     s.slurm.throttle = sl.optional("throttle").asInt(0);
-    if (s.slurm.throttle < 0) sl["throttle"].fail("expected 0 (no limit) or more");
+    if (sl.has("throttle") && s.slurm.throttle < 1) sl["throttle"].fail("expected 1 or more (leave it out for no limit)");
     s.slurm.time = sl.optional("time").asString(s.slurm.time);
     if (s.slurm.time.find_first_not_of("0123456789:-") != std::string::npos) {
       sl["time"].fail("expected sbatch's --time: MINUTES, HH:MM:SS or D-HH:MM:SS");

@@ -107,7 +107,9 @@ std::string paramName(const Arm& arm, int index);
 /// Unit of parameter `index` as printed at the edges: true for angles (deg), false for lengths (mm).
 bool isAngleParam(const Arm& arm, int index);
 
-/// Throws std::invalid_argument("<context>: expected N joint angles, got M") or on a NaN/inf angle.
+/// Throws std::invalid_argument("<context>: expected N joint angles, got M"), on a NaN/inf angle, and
+/// on an angle more than ten turns (kMaxJointAngleRad) outside its joint's limits: no pose of any arm
+/// (a reading beyond the limits by joint noise, or an IK step past them, stays far inside that margin).
 void checkJointVector(const Arm& arm, const Eigen::VectorXd& q, const char* context);
 /// Same for a parameter-error vector of arm.numParams() entries.
 void checkParamVector(const Arm& arm, const Eigen::VectorXd& y, const char* context);

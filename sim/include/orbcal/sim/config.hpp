@@ -13,6 +13,11 @@ namespace orbcal::sim {
 
 /// The largest length a robot, scene or error file may give (m): 10 km; an arm in space is tens of metres.
 inline constexpr double kMaxLengthM = 1e4;
+/// The largest joint angle a robot file's limits may give, and so any joint angle orbcal reads (rad):
+/// ten turns, 20 pi (a robot YAML's min_deg / max_deg within +-3600 deg, a URDF's <limit>).
+inline constexpr double kMaxJointAngleRad = 62.831853071795865;
+/// That bound as messages state it.
+inline constexpr const char* kMaxJointAngleText = "-62.83 rad to 62.83 rad (ten turns)";
 /// An arm's temperature (degC), measured or simulated: from a space arm in the shade (-150 degC) to
 /// above a motor winding's insulation limit (class H, 180 degC).
 inline constexpr double kMinTemperatureC = -150.0, kMaxTemperatureC = 200.0;

@@ -23,6 +23,8 @@ class CsvTable {
   const std::string& cell(std::size_t row, int col) const { return rows_[row][col]; }
   /// Finite number; throws "<file>: line L: <column>: expected a finite number, got '<cell>'".
   double number(std::size_t row, int col) const;
+  /// A whole number from 0 (an index); throws "<file>: line L: <column>: expected a whole number from 0, got '<cell>'".
+  int wholeNumber(std::size_t row, int col) const;
   /// The cells of `cols` as numbers, or nullopt when all of them are empty.
   std::optional<Eigen::VectorXd> numbers(std::size_t row, const std::vector<int>& cols) const;
   std::string where(std::size_t row) const;  ///< "<file>: line L"
@@ -51,6 +53,9 @@ std::string jsonString(const std::string& text);
 
 /// Joint configurations: header "index,q1_rad,...,qN_rad", one row each.
 std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs);
+/// Reads them back: every angle finite and within kMaxJointAngleRad (ten turns: no robot file's joint
+/// limits reach beyond), the index column (optional) whole numbers from 0, none given twice. Throws
+/// InputError naming the file, the line and the column.
 std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, const std::string& source, int num_joints);
 
 }  // namespace orbcal::sim

@@ -15,7 +15,7 @@
 //     flange_T_marker: [{...}, {...}]
 //   effects:
 //     - {spec: "compliance:2,4", parameters: {c2: 1.2e-05, c4: 3.1e-06}}   # SI values; c > 0 sags
-//   parameters:                        # for people: every fitted parameter (SI) and its 1-sigma (.nan: unknown)
+//   parameters:                        # for people: every fitted parameter (SI) and its 1-sigma (finite, >= 0)
 //     - {name: theta2, effect: geometry, value: 1e-4, sigma: 2e-6, unit: rad, held: false}
 //
 // loadModelFile checks `parameters:` against the model above it, so the file cannot say two things:
@@ -37,8 +37,8 @@ struct ParameterRow {
 };
 
 /// Writes `robot_name` (the model's arm) and `model_name` into `folder` atomically. `p` holds the
-/// effect parameters (sim::foldParameters' p); `rows` are listed under `parameters:`. Returns the path
-/// of the model file.
+/// effect parameters (sim::foldParameters' p); `rows` are listed under `parameters:` (a value or sigma
+/// that is not finite: std::runtime_error, nothing written). Returns the path of the model file.
 std::string writeModelFile(const KinematicModel& model, const Eigen::VectorXd& p, const std::vector<ParameterRow>& rows,
                            const std::string& folder, const std::string& header, const std::string& model_name = "model.yaml",
                            const std::string& robot_name = "robot.yaml");
