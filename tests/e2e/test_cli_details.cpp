@@ -9,6 +9,8 @@
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/measured.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "orbcal/workflow/callbacks.hpp"
+#include "orbcal/workflow/experiment.hpp"
 #include "run_orbcal.hpp"
 #include "test_util.hpp"
 
@@ -70,4 +72,14 @@ TEST_CASE("orbcal simulate --quiet: as the other commands take it, the same data
   CHECK(test::slurp(dir + "/stderr.txt").empty());
   CHECK(test::slurp(dir + "/quiet/session_0.csv") == test::slurp(dir + "/loud/session_0.csv"));
   CHECK(test::slurp(dir + "/quiet/truth/model.yaml") == test::slurp(dir + "/loud/truth/model.yaml"));
+}
+
+TEST_CASE("figure arguments are quoted for the shell whatever they hold (a label with an apostrophe)", "[e2e][figures]") {
+  // A revealing variable's label such as "link 3's load" once ended the plot script's quoted argument.
+  for (const std::string word : {"link 3's load (N)", "it's 'quoted'", "plain", "", "a\"b $HOME `x`"}) {
+    const auto [status, out] = orbcal::workflow::shellOutput("printf %s " + orbcal::workflow::shellQuote(word));
+    CAPTURE(word);
+    CHECK(status == 0);
+    CHECK(out == word);
+  }
 }

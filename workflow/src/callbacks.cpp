@@ -26,6 +26,12 @@ void Progress::finish() {
   fn_(stage_, -1, total_);
 }
 
+std::string shellQuote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
 std::string drawFigure(const Callbacks& callbacks, bool plots, const std::string& folder, const std::string& args,
                        const std::string& png, const std::string& caption) {
   if (!plots) return "(figures not drawn: --no-plots)\n";

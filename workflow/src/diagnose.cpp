@@ -334,18 +334,18 @@ std::string writeResiduals(const calib::Diagnosis& dg, const sim::MeasuredData& 
     csv << "," << (axis.size() == static_cast<Eigen::Index>(obs.size()) ? axis[static_cast<Eigen::Index>(i)] : 0.0) << "\n";
   }
   sim::writeFileAtomic(out + "/residuals.csv", csv.str());
-  std::string figures = drawFigure(o.callbacks, o.plots, out, "residuals '" + out + "/residuals.csv' index 'sample'", "samples.png",
+  std::string figures = drawFigure(o.callbacks, o.plots, out, "residuals " + shellQuote(out + "/residuals.csv") + " index sample", "samples.png",
                                    "held-out position error per sample, before and after");
   for (const sim::Effect& e : dg.selected) {
     const auto [column, label] = e.kind().revealingVariable(e);
     const std::string png = "residuals_" + sim::effectName(e) + std::to_string(sim::effectJoints(e).empty() ? 0 : sim::effectJoints(e)[0] + 1) + ".png";
-    figures += drawFigure(o.callbacks, o.plots, out, "residuals '" + out + "/residuals.csv' " + column + " '" + label + "'", png,
+    figures += drawFigure(o.callbacks, o.plots, out, "residuals " + shellQuote(out + "/residuals.csv") + " " + shellQuote(column) + " " + shellQuote(label), png,
                           "held-out position error against " + label);
   }
 
   const calib::LackOfFit& lof = dg.lack_of_fit;
   if (!lof.unexplained.empty()) {
-    figures += drawFigure(o.callbacks, o.plots, out, "components '" + out + "/residuals.csv' unexplained_axis '" + lof.axis_label + "'", "unexplained.png",
+    figures += drawFigure(o.callbacks, o.plots, out, "components " + shellQuote(out + "/residuals.csv") + " unexplained_axis " + shellQuote(lof.axis_label), "unexplained.png",
                           "held-out residual components of the selected model against " + lof.unexplained.front().variable);
   }
 

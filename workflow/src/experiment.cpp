@@ -37,7 +37,7 @@ void log(const ExperimentOptions& o, const std::string& line) {
   if (!o.quiet) std::cerr << line << "\n";
 }
 
-std::string quote(const std::string& s) { return "'" + s + "'"; }
+std::string quote(const std::string& s) { return shellQuote(s); }
 
 /// The plant of a rendered dataset (its true_errors and errors.yaml).
 sim::TrueArm trueArm(const sim::Dataset& d) {

@@ -501,7 +501,7 @@ std::string sweepSection(const ExperimentOptions& o, const std::string& folder, 
   auto sweepFigure = [&](const std::string& column, const std::string& label, const std::string& png) {
     return drawFigure(o, folder,
                       "curve '" + folder + "/frame_change.csv' --x frame_change_mm 'board-to-base change (mm)' --y " + column +
-                          " '" + label + "'",
+                          " " + shellQuote(label),
                       png, label + " against the board-to-base change");
   };
   md << "\n"

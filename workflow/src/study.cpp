@@ -117,12 +117,6 @@ bool isTiming(const std::string& column) {
   return column == "seconds" || (column.size() > 8 && column.compare(column.size() - 8, 8, "_seconds") == 0);
 }
 
-std::string shellQuote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
-}
-
 /// A command line as a shell reads it back: arguments with other characters than [A-Za-z0-9_./:=+-] quoted.
 std::string joinArgs(const std::vector<std::string>& args) {
   std::string out;

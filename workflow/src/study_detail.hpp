@@ -15,8 +15,6 @@ std::vector<std::pair<std::string, std::string>> builtinFigures(const StudySpec&
 std::string taskName(int index);
 /// Columns that hold wall times, not results: left out of merged CSVs (they differ from run to run).
 bool isTiming(const std::string& column);
-/// A word quoted for a POSIX shell.
-std::string shellQuote(const std::string& s);
 /// A command line as a shell reads it back: arguments with other characters than [A-Za-z0-9_./:=+-] quoted.
 std::string joinArgs(const std::vector<std::string>& args);
 /// A YAML double-quoted scalar.

@@ -47,6 +47,10 @@ class Progress {
   bool open_;
 };
 
+/// One argument quoted for a POSIX shell ('...', an apostrophe as '\''): what FigureRequest::args
+/// and the study's command lines are made of, whatever the paths and labels hold.
+std::string shellQuote(const std::string& s);
+
 /// The Markdown line of a figure: drawn by `callbacks.figure`; "(figures not drawn: --no-plots)" when
 /// `plots` is off; a "not drawn" line without a drawer. Throws what the drawer throws.
 std::string drawFigure(const Callbacks& callbacks, bool plots, const std::string& folder, const std::string& args,
