@@ -120,7 +120,7 @@ TEST_CASE("O3 selection on the SSRMS beats 20 random subsets of the same size", 
   }
 }
 
-TEST_CASE("O3-selected configurations validate better than random ones over 10 seeds", "[calib][observability][selection]") {
+TEST_CASE("O3-selected configurations validate better than random ones over 10 seeds", "[calib][observability][selection][slow]") {
   // Issue 10's done-when: seed 000's Table 3 errors and noise (0.3 mm / 0.5 deg pose, 0.01 deg joint
   // control noise, the latter in R as well), 15 identification configurations chosen from a pool of 300
   // by O3, by O1, or at random; weighted LSE; average position error over 200 validation

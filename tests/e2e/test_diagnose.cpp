@@ -72,7 +72,7 @@ TEST_CASE("diagnose writes its report, diagnosis.json and a model evaluate can r
 }
 
 TEST_CASE("diagnose names a cyclic error of joint 2 from rendered images alone, clean images stay clean",
-          "[e2e][diagnose][images]") {
+          "[e2e][diagnose][images][slow]") {
   const std::string dir = test::tempDir("diagnose-images");
   // A seeded amplitude of 0.04..0.08 deg (random sign) on sin(q2): 4 to 8 times the 0.01 deg control
   // noise of the plant; the 0.01 deg of scenes/errors_cyclic.yaml is below what 100 views resolve.

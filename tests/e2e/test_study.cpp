@@ -191,7 +191,7 @@ TEST_CASE("orbcal study run: every task, resumable, merged the same on one or tw
   CHECK_FALSE(fs::exists(dir + "/bad"));
 }
 
-TEST_CASE("orbcal study: a failed task is named, the merge refuses, and a killed run resumes to the same result", "[study]") {
+TEST_CASE("orbcal study: a failed task is named, the merge refuses, and a killed run resumes to the same result", "[study][slow]") {
   const std::string dir = test::tempDir("study-kill");
   // Failing tasks: one cell's error set does not exist.
   test::write(dir + "/fails.yaml",

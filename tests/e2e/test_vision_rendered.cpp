@@ -77,7 +77,7 @@ TEST_CASE("rendered default scene: the recovered camera pose is within 0.2 mm / 
 }
 
 TEST_CASE("rendered default scene with image noise: the pose covariance is honest (NEES in [4, 8])",
-          "[e2e][vision][rendered][nees]") {
+          "[e2e][vision][rendered][nees][slow]") {
   const sim::Arm arm = sim::loadArm(sim::kDefaultRobot);
   const sim::Scene scene = sim::loadScene(sim::kDefaultScene);
   render::RenderSettings settings = render::loadRenderSettings(sim::kDefaultScene);
