@@ -63,6 +63,13 @@ inline std::string slurp(const std::string& path) {
 /// Writes `text` to `path` as it is (binary: no newline translation).
 inline void write(const std::string& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
 
+/// `text` with its first `from` replaced by `to` (which must be there).
+inline std::string edited(std::string text, const std::string& from, const std::string& to) {
+  const auto at = text.find(from);
+  REQUIRE(at != std::string::npos);
+  return text.replace(at, from.size(), to);
+}
+
 /// The message of the InputError that fn throws, checked to be one line; fails the test if fn throws
 /// nothing or something else.
 template <class Fn>

@@ -35,12 +35,7 @@ using test::inputError;
 using test::slurp;
 using test::write;
 
-/// `text` with its first `from` replaced by `to` (which must be there).
-std::string edited(std::string text, const std::string& from, const std::string& to) {
-  const auto at = text.find(from);
-  REQUIRE(at != std::string::npos);
-  return text.replace(at, from.size(), to);
-}
+using test::edited;
 void editFile(const std::string& path, const std::string& from, const std::string& to) { write(path, edited(slurp(path), from, to)); }
 
 /// Sets the cell of column `column` on data row `row` (0-based, after the header) of a CSV file.

@@ -19,12 +19,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-/// `text` with its first `from` replaced by `to` (which must be there).
-std::string edited(std::string text, const std::string& from, const std::string& to) {
-  const auto at = text.find(from);
-  REQUIRE(at != std::string::npos);
-  return text.replace(at, from.size(), to);
-}
+using test::edited;
 
 /// Refused by orbcal's own check: exit 1, stderr exactly "orbcal: <line>".
 void checkRefused(const test::OrbcalRun& r, const std::string& line) {

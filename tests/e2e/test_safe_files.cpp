@@ -48,12 +48,7 @@ Snapshot snapshot(const std::string& folder) {
   return s;
 }
 
-/// `text` with its first `from` replaced by `to` (which must be there).
-std::string edited(std::string text, const std::string& from, const std::string& to) {
-  const auto at = text.find(from);
-  REQUIRE(at != std::string::npos);
-  return text.replace(at, from.size(), to);
-}
+using test::edited;
 
 /// A copy of a shipped file under `dir`, edited.
 std::string editedCopy(const std::string& dir, const std::string& shipped, const std::string& from, const std::string& to) {

@@ -22,12 +22,7 @@ namespace {
 using Run = test::OrbcalRun;
 using test::runOrbcal;
 
-/// `text` with `from` replaced by `to` (present exactly where expected).
-std::string replaced(std::string text, const std::string& from, const std::string& to) {
-  const std::size_t at = text.find(from);
-  REQUIRE(at != std::string::npos);
-  return text.replace(at, from.size(), to);
-}
+using test::edited;
 
 /// The description without its noise line (the noise then estimated from the residuals).
 std::string withoutNoise(const std::string& text) {
@@ -92,10 +87,10 @@ TEST_CASE("wrong units and quaternion order are refused by calibrate, diagnose a
   const std::string mm_as_m = test::slurp(dir + "/data_mm/measurements.yaml");
 
   const std::vector<std::pair<Case, std::string>> cases = {
-      {{"m_as_mm", "pose.length_unit (mm)", "pose.length_unit: m"}, replaced(good, "length_unit: m}", "length_unit: mm}")},
-      {{"rad_as_deg", "joints.unit (deg)", "joints.unit: rad"}, replaced(good, "unit: rad}", "unit: deg}")},
+      {{"m_as_mm", "pose.length_unit (mm)", "pose.length_unit: m"}, edited(good, "length_unit: m}", "length_unit: mm}")},
+      {{"rad_as_deg", "joints.unit (deg)", "joints.unit: rad"}, edited(good, "unit: rad}", "unit: deg}")},
       {{"xyzw_as_wxyz", "pose.quaternion_wxyz", "the quaternion columns read as x, y, z, w"},
-       replaced(good, "quaternion_wxyz: [qw, qx, qy, qz]", "quaternion_wxyz: [qx, qy, qz, qw]")},
+       edited(good, "quaternion_wxyz: [qw, qx, qy, qz]", "quaternion_wxyz: [qx, qy, qz, qw]")},
       {{"mm_as_m", "pose.length_unit (m)", "pose.length_unit: mm"}, mm_as_m}};
   for (const auto& [c, text] : cases) {
     const std::string folder = c.name == "mm_as_m" ? dir + "/data_mm" : dir + "/data";
@@ -133,7 +128,7 @@ TEST_CASE("a wrong robot file whose calibration would move a link beyond its tol
   const calib::PlausibilityBounds bounds = calib::plausibilityBounds(arm);
   REQUIRE(bounds.lengthMove(arm, sim::paramIndex(arm, 2, sim::kD)) < 0.03);
   const std::string good = test::slurp(d.data.description);
-  const std::string text = replaced(good, "robot: \"robot.yaml\"", "robot: \"robot_long.yaml\"");
+  const std::string text = edited(good, "robot: \"robot.yaml\"", "robot: \"robot_long.yaml\"");
   for (const bool stated : {true, false}) {
     const std::string desc = dir + "/data/long_" + (stated ? "stated" : "estimated") + ".yaml";
     test::write(desc, stated ? text : withoutNoise(text));
