@@ -107,23 +107,27 @@ Eigen::Isometry3d linkTransform(DhConvention convention, const DhRow& row, doubl
 }
 
 Arm withErrors(const Arm& nominal, const Eigen::VectorXd& y) {
-  checkParamVector(nominal, y, "withErrors");
   Arm out = nominal;
-  for (int j = 0; j < nominal.numJoints(); ++j) {
-    if (nominal.convention == DhConvention::kUrdf) {
-      const int b = paramIndex(nominal, j, kTheta);
-      out.joints[j].theta_rad += y[b];
-      out.joints[j].xyz_m += y.segment<3>(b + kOx);
-      out.joints[j].rpy_rad += y.segment<3>(b + kOroll);
+  addErrors(out, y);
+  return out;
+}
+
+void addErrors(Arm& arm, const Eigen::VectorXd& y) {
+  checkParamVector(arm, y, "withErrors");
+  for (int j = 0; j < arm.numJoints(); ++j) {
+    if (arm.convention == DhConvention::kUrdf) {
+      const int b = paramIndex(arm, j, kTheta);
+      arm.joints[j].theta_rad += y[b];
+      arm.joints[j].xyz_m += y.segment<3>(b + kOx);
+      arm.joints[j].rpy_rad += y.segment<3>(b + kOroll);
       continue;
     }
-    out.joints[j].theta_rad += y[paramIndex(nominal, j, kTheta)];
-    out.joints[j].alpha_rad += y[paramIndex(nominal, j, kAlpha)];
-    out.joints[j].a_m += y[paramIndex(nominal, j, kA)];
-    out.joints[j].d_m += y[paramIndex(nominal, j, kD)];
-    if (nominal.convention == DhConvention::kHayati) out.joints[j].beta_rad += y[paramIndex(nominal, j, kBeta)];
+    arm.joints[j].theta_rad += y[paramIndex(arm, j, kTheta)];
+    arm.joints[j].alpha_rad += y[paramIndex(arm, j, kAlpha)];
+    arm.joints[j].a_m += y[paramIndex(arm, j, kA)];
+    arm.joints[j].d_m += y[paramIndex(arm, j, kD)];
+    if (arm.convention == DhConvention::kHayati) arm.joints[j].beta_rad += y[paramIndex(arm, j, kBeta)];
   }
-  return out;
 }
 
 Eigen::Isometry3d forwardKinematics(const Arm& arm, const Eigen::VectorXd& q) {

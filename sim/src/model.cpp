@@ -369,7 +369,7 @@ Arm scaledArm(const KinematicModel& m, const Eigen::VectorXd& p, double length_s
   arm.last_T_flange = m.arm.last_T_flange;
   if (m.geometry) {
     const ParamBlock& g = m.layout.block(m.layout.find("geometry"));
-    arm = withErrors(arm, p.segment(g.offset, g.size()));
+    addErrors(arm, p.segment(g.offset, g.size()));  // in place: no second copy of the rows
   }
   if (length_scale != 1.0) {
     for (DhRow& r : arm.joints) {

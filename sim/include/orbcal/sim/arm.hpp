@@ -124,6 +124,8 @@ Eigen::Isometry3d linkTransform(DhConvention convention, const DhRow& row, doubl
 /// The arm with parameter errors y added to its DH rows (theta, alpha, a, d, and beta for Hayati; theta,
 /// xyz and rpy for the URDF convention).
 Arm withErrors(const Arm& nominal, const Eigen::VectorXd& y);
+/// The same in place: y added to `arm`'s rows (what withErrors does to its copy).
+void addErrors(Arm& arm, const Eigen::VectorXd& y);
 
 /// base_T_flange at joint angles q (rad).
 Eigen::Isometry3d forwardKinematics(const Arm& arm, const Eigen::VectorXd& q);
