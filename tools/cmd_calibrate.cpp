@@ -101,13 +101,6 @@ void printImages(const workflow::CalibrateResult& r) {
   std::printf("report: %s\n", r.report_path.c_str());
 }
 
-/// Every estimator an image dataset can be calibrated with, for --help.
-std::string imageMethodNames() {
-  std::string names;
-  for (const calib::MethodSpec& m : calib::comparisonMethods(0.0)) names += (names.empty() ? "" : ", ") + m.name;
-  return names;
-}
-
 void addCalibrateCommand(CLI::App& app) {
   struct Opts {
     workflow::CalibrateOptions images;
@@ -130,7 +123,8 @@ void addCalibrateCommand(CLI::App& app) {
       "geometry no real arm can show (wrong units or quaternion order) are refused at once.");
   cmd->add_option("dataset", o->images.dataset, "image dataset folder, or measurement description (.yaml)")->required();
   cmd->add_option("--method", o->method,
-                  "estimator. Images: " + imageMethodNames() + " (default EKF). Measured data: LM (default), LSE, EKF");
+                  "estimator, for images and measured data alike: " + calib::methodNames() + " (default " +
+                      calib::kDefaultMethod + ")");
   cmd->add_option("--effects", o->measured.effects,
                   "effects to fit, effect:joints (joints from 1): compliance:2,4 cyclic:2 (2 harmonics; "
                   "cyclic:2/3 for 3) scale:1 backlash:1 thermal drift mount; image datasets (with --estimate-frames, "
@@ -179,7 +173,7 @@ void addCalibrateCommand(CLI::App& app) {
       }
       workflow::MeasuredCalibrateOptions m = o->measured;
       m.description = o->images.dataset;
-      m.method = workflow::parseFitMethod(o->method.empty() ? "LM" : o->method, "--method");
+      m.method = workflow::parseFitMethod(o->method.empty() ? calib::kDefaultMethod : o->method, "--method");
       m.holdout = o->holdout;
       m.seed = o->seed;
       m.out = o->out;
@@ -192,7 +186,7 @@ void addCalibrateCommand(CLI::App& app) {
     }
     workflow::CalibrateOptions c = o->images;
     c.effects = o->measured.effects;  // with --estimate-frames (workflow::runCalibrate says so otherwise)
-    c.method = o->method.empty() ? "EKF" : o->method;
+    c.method = o->method.empty() ? calib::kDefaultMethod : o->method;
     c.holdout = o->holdout;
     c.seed = o->seed;
     c.out = o->out;

@@ -36,10 +36,9 @@ void addExperimentOptions(CLI::App& cmd, workflow::ExperimentOptions& o) {
       "--joint-noise-deg", [&o](double d) { o.joint_noise_sigma_rad = d * sim::kDegToRad; },
       "joint control noise, 1 sigma [deg] (default 0.01, Wang et al. 2023)");
   jn->check(CLI::Range(0.0, 10.0));
-  std::string names;
-  for (const calib::MethodSpec& m : calib::comparisonMethods(0.0)) names += (names.empty() ? "" : ", ") + m.name;
   cmd.add_option("--methods", o.methods,
-                 "estimators to compare, by name (repeatable; table4, table5, fig8 and run; default: the preset's own): " + names);
+                 "estimators to compare, by name (repeatable; table4, table5, fig8 and run; default: the preset's own): " +
+                     calib::methodNames());
 }
 
 namespace {

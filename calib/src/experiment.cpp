@@ -48,20 +48,42 @@ std::vector<MethodSpec> comparisonMethods(double joint_sigma) {
   return m;
 }
 
-MethodSpec findMethod(const std::vector<MethodSpec>& methods, const std::string& name) {
-  std::string names;
+MethodSpec findMethod(const std::vector<MethodSpec>& methods, const std::string& name, const std::string& what) {
+  const std::string wanted = name == "LSE" ? "LSE (weighted)" : name;
+  std::string others;
   for (const MethodSpec& m : methods) {
-    if (m.name == name) return m;
-    names += (names.empty() ? "'" : ", '") + m.name + "'";
+    if (m.name == wanted) return m;
+    if (m.name != "LM" && m.name != "EKF") others += (others.empty() ? "'" : ", '") + m.name + "'";
   }
-  throw sim::InputError("--method: unknown method '" + name + "' (expected one of " + names + ")");
+  throw sim::InputError(what + ": '" + name + "': expected LM, LSE or EKF, or one of " + others);
+}
+
+std::string methodNames() {
+  std::string names = "LM, LSE, EKF";
+  for (const MethodSpec& m : comparisonMethods(0.0)) {
+    if (m.name != "LM" && m.name != "EKF") names += ", " + m.name;
+  }
+  return names;
 }
 
 Estimate runMethod(const MethodSpec& method, const sim::Arm& nominal, const std::vector<PoseObservation>& obs) {
   return runMethod(method, PoseMeasurementModel(nominal, obs, method.noise));
 }
 
-Estimate runMethod(const MethodSpec& method, const MeasurementModel& model) {
+Estimate runMethod(MethodSpec method, const MeasurementModel& model, const FitControls& controls) {
+  for (std::vector<int>* hold : {&method.ekf.hold, &method.lse.hold, &method.lm.hold}) {
+    hold->insert(hold->end(), controls.hold.begin(), controls.hold.end());
+    std::sort(hold->begin(), hold->end());
+    hold->erase(std::unique(hold->begin(), hold->end()), hold->end());
+  }
+  method.lse.fix_unidentifiable = method.lse.fix_unidentifiable && controls.fix_unidentifiable;
+  method.lm.fix_unidentifiable = method.lm.fix_unidentifiable && controls.fix_unidentifiable;
+  method.lm.covariance = method.lm.covariance && controls.covariance;
+  method.lm.normal_equations = method.lm.normal_equations || controls.normal_equations;
+  if (controls.prior_sigma.size() > 0) {
+    method.lm.prior_sigma = controls.prior_sigma;
+    method.lm.prior_mean = controls.prior_mean;
+  }
   Estimate e;
   switch (method.kind) {
     case MethodSpec::Kind::kEkf: e = runEkf(model, method.ekf); break;

@@ -139,33 +139,16 @@ std::vector<Eigen::Isometry3d> framesFor(sim::FrameSharing sharing, int sessions
 }
 
 Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o, const sim::ParamLayout& layout, const Eigen::VectorXd& p0) {
-  switch (o.method) {
-    case FitOptions::Method::kLse: {
-      LseOptions lo;
-      lo.weighted = true;
-      lo.hold = o.hold;
-      lo.fix_unidentifiable = o.fix_unidentifiable;
-      return runLse(m, lo);
-    }
-    case FitOptions::Method::kEkf: {
-      EkfOptions eo;
-      eo.hold = o.hold;
-      return runEkf(m, eo);
-    }
-    case FitOptions::Method::kLm:
-    default: {
-      LmOptions lo;
-      lo.hold = o.hold;
-      lo.fix_unidentifiable = o.fix_unidentifiable;
-      lo.covariance = o.analyze;
-      lo.normal_equations = o.normal_equations;
-      if (o.geometry_prior) {
-        lo.prior_sigma = geometryPriorSigma(layout);
-        lo.prior_mean = -p0;  // centred on the starting model: p = p0 + y = 0
-      }
-      return runLm(m, lo);
-    }
+  FitControls controls;
+  controls.hold = o.hold;
+  controls.fix_unidentifiable = o.fix_unidentifiable;
+  controls.covariance = o.analyze;
+  controls.normal_equations = o.normal_equations;
+  if (o.geometry_prior) {
+    controls.prior_sigma = geometryPriorSigma(layout);
+    controls.prior_mean = -p0;  // centred on the starting model: p = p0 + y = 0
   }
+  return runMethod(findMethod(comparisonMethods(o.joint_noise_sigma_rad), o.method, "method"), m, controls);
 }
 
 /// Variance components of the residuals r_k of `m` at y (REML-type Fisher scoring; Koch, Parameter

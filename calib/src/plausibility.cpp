@@ -103,7 +103,7 @@ PlausibilityBounds plausibilityBounds(const sim::Arm& arm) {
 }
 
 Fit fitRegistration(const sim::KinematicModel& start, const std::vector<MarkerObservation>& obs, FitOptions options) {
-  options.method = FitOptions::Method::kLm;
+  options.method = "LM";
   for (const sim::ParamBlock& b : start.layout.blocks()) {
     if (b.effect == "base" || b.effect == "marker" || b.effect == "mount") continue;
     for (int i = 0; i < b.size(); ++i) options.hold.push_back(b.offset + i);

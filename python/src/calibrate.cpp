@@ -116,9 +116,9 @@ void bindCalibrate(py::module_& m) {
         const calib::CalibratedModel cm = calib::calibratedModel(fit);
         return PyModel{cm.model, cm.p, workflow::parameterRows(fit), fitStatistics(fit)};
       },
-      py::arg("data"), py::arg("effects") = std::vector<std::string>{}, py::arg("method") = "LM",
+      py::arg("data"), py::arg("effects") = std::vector<std::string>{}, py::arg("method") = calib::kDefaultMethod,
       "Calibrates geometry + registration + the chosen effects ('compliance:2', 'cyclic:4', ...; joints from 1) on all "
-      "of `data`, with the noise the data states (else estimated from the residuals). method: 'LM', 'LSE' or 'EKF'. "
+      "of `data`, with the noise the data states (else estimated from the residuals). method: 'LM', 'LSE', 'EKF' or a variant `orbcal calibrate --help` lists. "
       "Returns the calibrated Model (no hold-out here: orbcal.evaluate predicts other data with it).");
 
   m.def(

@@ -232,9 +232,8 @@ TEST_CASE("every estimator keeps a held parameter at its starting value", "[meas
   CAPTURE(L.param(held).name);
   Eigen::VectorXd p0 = Eigen::VectorXd::Zero(L.size());
   p0[held] = 1e-3;
-  using Method = calib::FitOptions::Method;
-  for (const Method method : {Method::kLm, Method::kLse, Method::kEkf}) {
-    CAPTURE(static_cast<int>(method));
+  for (const char* method : {"LM", "LSE", "EKF"}) {
+    CAPTURE(method);
     calib::FitOptions o;
     o.method = method;
     o.sigma_position_m = s.data.noise_position_m;

@@ -295,9 +295,9 @@ void fitImages(CalibrationRun& run, CalibrateResult& r) {
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
   // One decision of what this data cannot identify: the report's classes, and what every estimator holds.
   r.classes = calib::classifyParameters(model, zero);
-  run.method.ekf.hold = run.method.lse.hold = run.method.lm.hold = r.classes.held;
-  r.estimate = calib::runMethod(run.method, model);
-  r.estimate.method = run.method.name;
+  calib::FitControls controls;
+  controls.hold = r.classes.held;
+  r.estimate = calib::runMethod(run.method, model, controls);
   r.consistency = calib::consistencyTest(model, r.estimate.y,
                                          r.estimate.rank > 0 ? r.estimate.rank : model.numParams() - static_cast<int>(r.estimate.held.size()));
   for (int k : r.consistency.outliers) {

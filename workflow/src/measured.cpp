@@ -21,11 +21,9 @@ namespace orbcal::workflow {
 
 using sim::formatNumber;
 
-calib::FitOptions::Method parseFitMethod(const std::string& name, const std::string& what) {
-  if (name == "LM") return calib::FitOptions::Method::kLm;
-  if (name == "LSE") return calib::FitOptions::Method::kLse;
-  if (name == "EKF") return calib::FitOptions::Method::kEkf;
-  throw sim::InputError(what + ": '" + name + "': expected LM, LSE or EKF for measured data");
+std::string parseFitMethod(const std::string& name, const std::string& what) {
+  calib::findMethod(calib::comparisonMethods(0.0), name, what);
+  return name;
 }
 
 std::vector<sim::ParameterRow> parameterRows(const calib::Fit& fit) {

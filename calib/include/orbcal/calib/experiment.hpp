@@ -28,13 +28,27 @@ struct MethodSpec {
 /// defaults (wide prior, R from the measurement plus the joint noise, re-linearized), the iterated
 /// EKF, and LM with and without a robust loss. orbcal's default EKF is the one named "EKF".
 std::vector<MethodSpec> comparisonMethods(double joint_noise_sigma_rad);
-/// The method named `name` from comparisonMethods(); throws InputError listing the names.
-MethodSpec findMethod(const std::vector<MethodSpec>& methods, const std::string& name);
+/// The estimator of every calibration, from images and from measured data alike, unless told otherwise.
+inline constexpr const char* kDefaultMethod = "LM";
+/// The method named `name` from `methods` (comparisonMethods()); "LSE" is the weighted one, "LSE
+/// (weighted)". Throws InputError naming `what` and listing the names otherwise.
+MethodSpec findMethod(const std::vector<MethodSpec>& methods, const std::string& name, const std::string& what = "--method");
+/// Every name findMethod takes, the short ones first ("LM, LSE, EKF, LSE (paper), ..."), for --help.
+std::string methodNames();
+
+/// What a calibration sets on top of its method's own settings, whichever estimator that is.
+struct FitControls {
+  std::vector<int> hold;            ///< parameters held at zero whatever the data says (every estimator)
+  bool fix_unidentifiable = true;   ///< LSE, LM: also hold one parameter per unidentifiable group
+  bool covariance = true;           ///< LM: the estimate's covariance (LmOptions::covariance)
+  bool normal_equations = false;    ///< LM: LmOptions::normal_equations
+  Eigen::VectorXd prior_sigma, prior_mean;  ///< LM: a Gaussian prior (LmOptions::prior_sigma); empty: none
+};
 
 Estimate runMethod(const MethodSpec& method, const sim::Arm& nominal, const std::vector<PoseObservation>& observations);
-/// The method's estimator (its EKF, LSE or LM options) on any measurement model; method.noise is the
-/// model's business there.
-Estimate runMethod(const MethodSpec& method, const MeasurementModel& model);
+/// The one fitting entry point of both data paths: the method's estimator (its EKF, LSE or LM options)
+/// on any measurement model, with `controls` applied; method.noise is the model's business there.
+Estimate runMethod(MethodSpec method, const MeasurementModel& model, const FitControls& controls = {});
 
 struct MethodOutcome {
   MethodSpec method;

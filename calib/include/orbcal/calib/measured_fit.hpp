@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "orbcal/calib/estimators.hpp"
+#include "orbcal/calib/experiment.hpp"
 #include "orbcal/calib/marker_model.hpp"
 #include "orbcal/calib/observability.hpp"
 #include "orbcal/sim/identifiability.hpp"
@@ -41,8 +42,9 @@ ResidualStats residualStats(const sim::KinematicModel& model, const Eigen::Vecto
 ResidualStats residualStats(const std::vector<Eigen::VectorXd>& residuals);
 
 struct FitOptions {
-  enum class Method { kLm, kLse, kEkf };
-  Method method = Method::kLm;
+  /// The estimator, a name findMethod (calib/experiment.hpp) takes: the same list and default as an
+  /// image calibration's.
+  std::string method = kDefaultMethod;
   /// Measurement noise per axis; estimated from the residuals (variance components of position and
   /// rotation, two refits) when not given.
   std::optional<double> sigma_position_m, sigma_rotation_rad;

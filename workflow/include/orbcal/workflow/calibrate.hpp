@@ -23,7 +23,7 @@ namespace orbcal::workflow {
 
 struct CalibrateOptions {
   std::string dataset;
-  std::string method = "EKF";            ///< a name from calib::comparisonMethods
+  std::string method = calib::kDefaultMethod;  ///< a name calib::findMethod takes (as measured data)
   std::string out;                       ///< default: <dataset>/calibration
   double joint_noise_sigma_rad = -1.0;   ///< < 0: the manifest's, or seed 000's 0.01 deg if it has none
   double holdout = 0.2;                  ///< fraction of the usable samples kept out for validation

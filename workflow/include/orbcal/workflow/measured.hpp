@@ -17,7 +17,7 @@ struct MeasuredCalibrateOptions {
   std::string description;
   std::string out;                       ///< default: <description's folder>/calibration
   std::vector<std::string> effects;      ///< "compliance:2,4", ...
-  calib::FitOptions::Method method = calib::FitOptions::Method::kLm;
+  std::string method = calib::kDefaultMethod;  ///< a name calib::findMethod takes
   double holdout = 0.2;                  ///< share of the configurations kept out (seeded; calib/heldout.hpp)
   std::uint64_t seed = 1;
   std::optional<double> noise_position_m, noise_rotation_rad;  ///< override the description's
@@ -43,8 +43,9 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o);
 /// Why a measured-data fit is inconsistent with its given noise, one line (report and terminal).
 std::string inconsistencyText(const MeasuredCalibrateResult& r);
 
-/// "LM", "LSE", "EKF" (case as written); InputError naming `what` otherwise.
-calib::FitOptions::Method parseFitMethod(const std::string& name, const std::string& what);
+/// `name` if calib::findMethod takes it (the one estimator list of both data paths: LM, LSE, EKF and
+/// their variants; case as written); InputError naming `what` otherwise.
+std::string parseFitMethod(const std::string& name, const std::string& what);
 
 struct EvaluateResult {
   calib::Fit fit;  ///< per-session frames refitted; residuals = prediction errors
