@@ -96,6 +96,7 @@ void printImages(const workflow::CalibrateResult& r) {
     }
   }
   std::printf("consistency: %s\n", calib::formatConsistency(r.consistency).c_str());
+  if (r.written) std::printf("model: %s\n", r.model_path.c_str());
   if (r.written) std::printf("calibrated robot: %s\n", r.robot_path.c_str());
   if (r.written && !r.urdf_path.empty()) std::printf("calibrated URDF: %s\n", r.urdf_path.c_str());
   std::printf("report: %s\n", r.report_path.c_str());

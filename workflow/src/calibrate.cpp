@@ -131,6 +131,21 @@ ImageMeasuredData imageMeasuredData(const sim::Dataset& d, const std::vector<vis
   return out;
 }
 
+sim::KinematicModel calibrate_detail::sceneModel(const sim::Dataset& d) {
+  return sim::makeKinematicModel(d.arm, 1, sim::FrameSharing::kKnown, sim::FrameSharing::kKnown, {d.scene.base_T_board.inverse()},
+                                 {d.scene.flange_T_camera}, {});
+}
+
+calib::Fit calibrate_detail::imageFit(const CalibrationRun& run, const CalibrateResult& r) {
+  if (r.frames) return r.frames->fit;
+  calib::Fit fit;
+  fit.model = sceneModel(run.d);
+  fit.p0 = Eigen::VectorXd::Zero(fit.model.layout.size());
+  fit.p = r.estimate.y;
+  fit.estimate = r.estimate;
+  return fit;
+}
+
 namespace {
 
 /// The model of a measurement kind other than the absolute pose from an image dataset's camera poses
@@ -142,8 +157,7 @@ std::unique_ptr<calib::MeasurementModel> imageKindModel(const sim::Dataset& d, c
                                                         const std::vector<std::size_t>& ident, calib::MeasurementKind kind,
                                                         const std::string& pairs, double joint_sigma_rad) {
   ImageMeasuredData data = imageMeasuredData(d, meas, ident);
-  const sim::KinematicModel km = sim::makeKinematicModel(d.arm, 1, sim::FrameSharing::kKnown, sim::FrameSharing::kKnown,
-                                                         {d.scene.base_T_board.inverse()}, {d.scene.flange_T_camera}, {});
+  const sim::KinematicModel km = sceneModel(d);
   calib::MeasurementSetup setup;
   setup.kind = kind;
   setup.pairing = pairs == "reference" ? calib::Pairing::kReference : calib::Pairing::kConsecutive;
@@ -337,7 +351,7 @@ void validateHeldOut(CalibrationRun& run, CalibrateResult& r) {
           run.true_arm->flangePose(static_cast<int>(k), *q_true, previous && *previous ? &**previous : nullptr));
     }
   }
-  run.calibrated = sim::withErrors(d.arm, r.estimate.y);
+  run.calibrated = calib::calibratedModel(imageFit(run, r)).model.arm;  // before the frames' fit: the estimate's
   if (!run.hold.empty()) {
     r.before = calib::summarize(calib::poseErrors(d.arm, measured));
     r.after = calib::summarize(calib::poseErrors(run.calibrated, measured));
@@ -395,6 +409,7 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
     writeCalibratedFiles(run, r);
     r.robot_path = folder.published(r.robot_path);
     r.urdf_path = folder.published(r.urdf_path);
+    r.model_path = folder.published(r.model_path);
   }
   writeSampleErrors(run, r);
   std::string figure_lines = drawFigure(o.callbacks, o.plots, run.out, "samples '" + run.out + "/samples.csv'", "samples.png",

@@ -28,13 +28,20 @@ struct CalibrationRun {
   sim::Arm calibrated;
 };
 
+/// The arm with world = the board and marker = the camera, the scene's base_T_board and flange_T_camera
+/// known: the layout of an image calibration's DH errors.
+sim::KinematicModel sceneModel(const sim::Dataset& d);
+/// What an image calibration estimated, as a fit of a kinematic model: with --estimate-frames the fit
+/// of geometry and both frames, else the DH errors on sceneModel.
+calib::Fit imageFit(const CalibrationRun& run, const CalibrateResult& r);
 /// "a, b, c".
 std::string joinWords(const std::vector<std::string>& words);
 /// The parameters `which` by name, or "none".
 std::string parameterList(const calib::ParameterClasses& classes, const std::vector<int>& which);
 /// report.md of an image calibration; `figure_lines` are the figures' Markdown.
 std::string calibrationReport(const CalibrationRun& run, const CalibrateResult& r, const std::string& figure_lines);
-/// robot_calibrated.yaml (and .urdf for a URDF robot) and estimates.csv into run.out.
+/// model.yaml (imageFit, sim/model_io.hpp), robot_calibrated.yaml (its arm; and .urdf for a URDF robot) and
+/// estimates.csv into run.out.
 void writeCalibratedFiles(const CalibrationRun& run, CalibrateResult& r);
 /// samples.csv: per-image errors against the measured poses, nominal and calibrated, outliers marked.
 void writeSampleErrors(const CalibrationRun& run, const CalibrateResult& r);

@@ -10,9 +10,11 @@
 #include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/io.hpp"
+#include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/urdf.hpp"
 #include "orbcal/workflow/experiment.hpp"
+#include "orbcal/workflow/measured.hpp"
 
 namespace orbcal::workflow {
 
@@ -242,29 +244,32 @@ std::string calibrate_detail::calibrationReport(const CalibrationRun& run, const
 
 void calibrate_detail::writeCalibratedFiles(const CalibrationRun& run, CalibrateResult& r) {
   const sim::Dataset& d = run.d;
-  const sim::Arm& calibrated = run.calibrated;
+  const calib::Fit fit = imageFit(run, r);
+  calib::CalibratedModel cm = calib::calibratedModel(fit);
+  sim::Arm& named = cm.model.arm;
   std::ostringstream header;
   header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate) from " << run.o.dataset << "\n"
          << "method " << run.method.name << "; " << r.identification << " identification images of " << r.images << "; nominal: "
          << d.manifest.robot_file << " (" << d.arm.name << ")\n"
-         << "Identified parameter errors are added to the nominal DH rows; base and tool are the nominal ones.";
+         << (r.frames ? "Fitted with base_T_board and flange_T_camera (world = the board, marker = the camera); the identified "
+                        "parameter errors are added to the nominal DH rows; base and tool are the nominal ones."
+                      : "Identified parameter errors are added to the nominal DH rows; base and tool are the nominal ones.");
   calib::Comparison single;
   single.methods.push_back({run.method, r.estimate, {}, {}});
   const Eigen::VectorXd* y_true = d.manifest.true_errors ? &*d.manifest.true_errors : nullptr;
-  r.robot_path = run.out + "/robot_calibrated.yaml";
-  sim::Arm named = calibrated;
   named.name = d.arm.name + " (calibrated)";
-  if (calibrated.convention == sim::DhConvention::kUrdf && !calibrated.urdf.empty()) {
+  if (named.convention == sim::DhConvention::kUrdf && !named.urdf.empty()) {
     // A URDF robot: the URDF it came from with the chain joints' origins replaced by the calibrated
     // ones (zero offsets folded in), beside the YAML, which names it.
     r.urdf_path = run.out + "/robot_calibrated.urdf";
-    named.urdf.file = "robot_calibrated.urdf";
-    sim::writeFileAtomic(r.urdf_path, sim::replaceUrdfOrigins(sim::readTextSource(calibrated.urdf.file), calibrated,
-                                                              "Joint origins of the chain " + calibrated.urdf.base_link + " -> " +
-                                                                  calibrated.urdf.tip_link + " calibrated by orbcal " + ORBCAL_VERSION +
+    sim::writeFileAtomic(r.urdf_path, sim::replaceUrdfOrigins(sim::readTextSource(named.urdf.file), named,
+                                                              "Joint origins of the chain " + named.urdf.base_link + " -> " +
+                                                                  named.urdf.tip_link + " calibrated by orbcal " + ORBCAL_VERSION +
                                                                   " (orbcal calibrate, method " + run.method.name + ") from " + run.o.dataset));
+    named.urdf.file = "robot_calibrated.urdf";
   }
-  sim::writeFileAtomic(r.robot_path, sim::formatArm(named, header.str()));
+  r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(fit), run.out, header.str(), "model.yaml", "robot_calibrated.yaml");
+  r.robot_path = run.out + "/robot_calibrated.yaml";
   sim::writeFileAtomic(run.out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true));
 }
 

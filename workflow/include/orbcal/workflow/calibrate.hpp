@@ -83,13 +83,16 @@ struct CalibrateResult {
   bool worse = false;                       ///< the held-out error against the measured poses grew
   /// The problems, one line each, first in the report and on the terminal; empty when all went well.
   std::vector<std::string> refusals;
-  bool written = false;                     ///< robot_calibrated.yaml and estimates.csv were written
+  bool written = false;                     ///< model.yaml, robot_calibrated.yaml and estimates.csv were written
   int images = 0, usable = 0, identification = 0, held_out = 0;
   calib::ErrorSummary before, after;     ///< hold-out errors against the measured poses
   bool has_truth = false;
   calib::ErrorSummary truth_before, truth_after;  ///< hold-out errors against the true poses (simulation)
   std::string robot_path, report_path;
   std::string urdf_path;                 ///< the calibrated URDF (a URDF robot only)
+  /// model.yaml (sim/model_io.hpp, as measured data's): the DH errors with the scene's frames known, or
+  /// with estimate_frames the fit of geometry and both frames; robot_calibrated.yaml is its arm.
+  std::string model_path;
   double joint_noise_sigma_rad = 0.0;
   std::optional<FrameEstimate> frames;   ///< with estimate_frames
 };

@@ -1,0 +1,71 @@
+// One model file for both data paths: an image calibration writes model.yaml (sim/model_io.hpp) as a
+// measured-data calibration does, its robot_calibrated.yaml is that model's arm, and `orbcal evaluate`
+// predicts measured data of the same arm with it.
+#include <catch2/catch.hpp>
+
+#include "orbcal/render/dataset_writer.hpp"
+#include "orbcal/sim/dataset.hpp"
+#include "orbcal/sim/io.hpp"
+#include "orbcal/sim/model_io.hpp"
+#include "run_orbcal.hpp"
+#include "test_util.hpp"
+
+using namespace orbcal;
+
+namespace {
+
+/// The parameter names of `m`'s geometry block, in the layout's order.
+std::vector<std::string> geometryNames(const sim::KinematicModel& m) {
+  std::vector<std::string> names;
+  for (const sim::ParamInfo& p : m.layout.block(m.layout.find("geometry")).params) names.push_back(p.name);
+  return names;
+}
+
+}  // namespace
+
+TEST_CASE("an image calibration and a measured-data calibration of the same arm write the same kind of model.yaml",
+          "[e2e][calibrate][model]") {
+  const std::string dir = test::tempDir("image-model");
+  render::DatasetJob job;
+  job.scene = test::sourcePath("scenes/quick_scene.yaml");
+  job.count = 40;
+  job.out = dir + "/dataset";
+  render::renderDataset(job);
+  const sim::Dataset d = sim::loadDataset(job.out);
+  const test::OrbcalRun images = test::runOrbcal(dir, "calibrate dataset -o cal-images --quiet --no-plots");
+  REQUIRE(images.status == 0);
+  CHECK(images.out.find("model: cal-images/model.yaml\n") != std::string::npos);
+
+  // Measured data of the same arm (its frames refitted per session by evaluate), calibrated as such.
+  const std::string robot = d.path(d.manifest.robot_file);
+  REQUIRE(test::runOrbcal(dir, "simulate --robot '" + robot + "' -o data -n 60 --sessions 1 --seed 3 --base per_session "
+                               "--marker per_session --quiet").status == 0);
+  REQUIRE(test::runOrbcal(dir, "calibrate data/measurements.yaml -o cal-measured").status == 0);
+
+  // The one loader reads both, to models of the same arm with the same geometry parameters.
+  const sim::LoadedModel from_images = sim::loadModelFile(dir + "/cal-images/model.yaml");
+  const sim::LoadedModel from_measured = sim::loadModelFile(dir + "/cal-measured/model.yaml");
+  CHECK(test::slurp(dir + "/cal-images/model.yaml").find("format: orbcal-model-2\n") != std::string::npos);
+  CHECK(from_images.model.arm.numJoints() == from_measured.model.arm.numJoints());
+  CHECK(geometryNames(from_images.model) == geometryNames(from_measured.model));
+  // The image model's registration: world = the board, marker = the camera, as the scene has them.
+  REQUIRE(from_images.model.world_T_base.size() == 1);
+  CHECK((from_images.model.world_T_base.front().matrix() - d.scene.base_T_board.inverse().matrix()).norm() < 1e-9);
+  CHECK((from_images.model.flange_T_marker.front().matrix() - d.scene.flange_T_camera.matrix()).norm() < 1e-9);
+
+  // robot_calibrated.yaml is the model's arm: the same forward kinematics (and not the nominal arm's).
+  const sim::Arm calibrated = sim::loadArm(dir + "/cal-images/robot_calibrated.yaml");
+  double same = 0.0, moved = 0.0;
+  for (const Eigen::VectorXd& q : test::randomConfigs(d.arm, 20, 5)) {
+    const Eigen::Vector3d p = sim::forwardKinematics(calibrated, q).translation();
+    same = std::max(same, (sim::forwardKinematics(from_images.model.arm, q).translation() - p).norm());
+    moved = std::max(moved, (sim::forwardKinematics(d.arm, q).translation() - p).norm());
+  }
+  CHECK(same < 1e-9);   // both printed with exact numbers
+  CHECK(moved > 1e-5);  // 10 um: the rendered arm's errors were identified into it
+
+  // evaluate takes the image path's model on measured data of the same arm.
+  const test::OrbcalRun eval = test::runOrbcal(dir, "evaluate --model cal-images/model.yaml --data data/measurements.yaml -o eval");
+  CAPTURE(eval.err);
+  CHECK(eval.status == 0);
+}
