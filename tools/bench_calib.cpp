@@ -21,7 +21,7 @@ void benchCalib() {
   const double joint_sigma = 0.01 * sim::kDegToRad;
   auto rng = sim::makeRng(1);
   const calib::PlantSamples plant =
-      calib::simulatePlant(sim::withErrors(arm, y_true), sim::generateConfigurations(arm, scene, g), joint_sigma, rng);
+      calib::simulatePlant(calib::calibratedArm(arm, y_true), sim::generateConfigurations(arm, scene, g), joint_sigma, rng);
   const auto obs = calib::syntheticObservations(plant, 0.1e-3, 0.01 * sim::kDegToRad, rng);
   calib::PoseNoiseModel noise;
   noise.joint_noise_sigma_rad = joint_sigma;

@@ -111,7 +111,7 @@ Comparison compareMethods(const sim::Arm& nominal, const sim::TrueArm& truth, co
     MethodOutcome o;
     o.method = m;
     o.estimate = runMethod(m, nominal, obs);
-    o.errors = poseErrors(sim::withErrors(nominal, o.estimate.y), validation);
+    o.errors = poseErrors(calibratedArm(nominal, o.estimate.y), validation);
     o.summary = summarize(o.errors);
     c.methods.push_back(std::move(o));
   }
@@ -131,7 +131,7 @@ Comparison revalidate(const Comparison& c, const sim::Arm& nominal, const sim::T
   out.initial = summarize(out.initial_errors);
   out.floor = summarize(out.floor_errors);
   for (MethodOutcome& m : out.methods) {
-    m.errors = poseErrors(sim::withErrors(nominal, m.estimate.y), validation);
+    m.errors = poseErrors(calibratedArm(nominal, m.estimate.y), validation);
     m.summary = summarize(m.errors);
   }
   return out;
@@ -188,15 +188,15 @@ std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, con
   std::ostringstream out;
   out << "method,parameter,unit,estimate,sigma,truth,held\n";
   char buf[200];
+  const sim::ParamBlock g = sim::geometryBlock(nominal);
   for (const MethodOutcome& m : c.methods) {
     const Estimate& e = m.estimate;
     for (Eigen::Index i = 0; i < e.y.size(); ++i) {
-      const bool angle = sim::isAngleParam(nominal, static_cast<int>(i));
-      const double s = angle ? sim::kRadToDeg : 1e3;
+      const sim::ParamInfo& info = g.params[static_cast<std::size_t>(i)];
+      const double s = info.display_scale;
       const bool held = std::find(e.held.begin(), e.held.end(), static_cast<int>(i)) != e.held.end();
       const std::string truth = y_true ? formatNumber("%.6f", (*y_true)[i] * s) : "";
-      std::snprintf(buf, sizeof buf, ",%s,%s,%.6f,%.6f,%s,%d\n", sim::paramName(nominal, static_cast<int>(i)).c_str(),
-                    angle ? "deg" : "mm", e.y[i] * s, std::sqrt(std::max(0.0, e.covariance(i, i))) * s, truth.c_str(),
+      std::snprintf(buf, sizeof buf, ",%s,%s,%.6f,%.6f,%s,%d\n", info.name.c_str(), info.display_unit.c_str(), e.y[i] * s, std::sqrt(std::max(0.0, e.covariance(i, i))) * s, truth.c_str(),
                     held ? 1 : 0);
       out << m.method.name << buf;
     }
@@ -207,10 +207,11 @@ std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, con
 namespace {
 /// RMS over the length parameters (a and d) of y, mm.
 double lengthRmsMm(const sim::Arm& nominal, const Eigen::VectorXd& y) {
+  const sim::ParamBlock g = sim::geometryBlock(nominal);
   double sum = 0.0;
   int n = 0;
   for (Eigen::Index i = 0; i < y.size(); ++i) {
-    if (sim::isAngleParam(nominal, static_cast<int>(i))) continue;
+    if (g.params[static_cast<std::size_t>(i)].quantity != sim::Quantity::kLength) continue;
     sum += y[i] * y[i];
     ++n;
   }
@@ -281,9 +282,8 @@ bool suspicious(double estimate, double typical, const double* truth) {
   if (truth) return std::abs(estimate - *truth) > 10.0 * std::max(std::abs(*truth), 0.1 * typical);
   return std::abs(estimate) > 10.0 * typical;
 }
-std::string displayValue(const sim::Arm& nominal, int i, double v) {
-  return sim::formatNumber("%+.3f", v * (sim::isAngleParam(nominal, i) ? sim::kRadToDeg : 1e3));
-}
+/// v [info.unit] in info's display unit, signed, 3 decimals.
+std::string displayValue(const sim::ParamInfo& info, double v) { return sim::formatNumber("%+.3f", v * info.display_scale); }
 }  // namespace
 
 std::vector<std::string> suspiciousEstimates(const sim::Arm& nominal, const Estimate& e, const Eigen::VectorXd* y_true) {
@@ -291,9 +291,10 @@ std::vector<std::string> suspiciousEstimates(const sim::Arm& nominal, const Esti
   std::vector<std::string> out;
   for (int i = 0; i < nominal.numParams(); ++i) {
     const double* truth = y_true ? &(*y_true)[i] : nullptr;
-    if (!suspicious(e.y[i], g.params[static_cast<std::size_t>(i)].typical, truth)) continue;
-    out.push_back(sim::paramName(nominal, i) + " = " + displayValue(nominal, i, e.y[i]) +
-                  (sim::isAngleParam(nominal, i) ? " deg" : " mm") + (truth ? " (injected " + displayValue(nominal, i, *truth) + ")" : ""));
+    const sim::ParamInfo& info = g.params[static_cast<std::size_t>(i)];
+    if (!suspicious(e.y[i], info.typical, truth)) continue;
+    out.push_back(info.name + " = " + displayValue(info, e.y[i]) + " " + info.display_unit +
+                  (truth ? " (injected " + displayValue(info, *truth) + ")" : ""));
   }
   return out;
 }
@@ -315,15 +316,14 @@ std::string formatEstimatesAgainstTruth(const sim::Arm& nominal, const Compariso
   }
   out += "\n" + rule + "\n";
   for (int i = 0; i < nominal.numParams(); ++i) {
-    const double scale = sim::isAngleParam(nominal, i) ? sim::kRadToDeg : 1e3;
-    out += "| " + sim::paramName(nominal, i) + (sim::isAngleParam(nominal, i) ? " (deg)" : " (mm)") + " | " +
-           displayValue(nominal, i, y_true[i]) + " |";
+    const sim::ParamInfo& info = g.params[static_cast<std::size_t>(i)];
+    out += "| " + info.name + " (" + info.display_unit + ") | " + displayValue(info, y_true[i]) + " |";
     for (const MethodOutcome* m : shown) {
       const Estimate& e = m->estimate;
       const bool held = std::find(e.held.begin(), e.held.end(), i) != e.held.end();
-      std::string cell = displayValue(nominal, i, e.y[i]) +
-                         (held ? " (held)" : " +- " + sim::formatNumber("%.3f", std::sqrt(std::max(0.0, e.covariance(i, i))) * scale));
-      if (suspicious(e.y[i], g.params[static_cast<std::size_t>(i)].typical, &y_true[i])) cell = "**" + cell + "**";
+      std::string cell = displayValue(info, e.y[i]) +
+                         (held ? " (held)" : " +- " + sim::formatNumber("%.3f", std::sqrt(std::max(0.0, e.covariance(i, i))) * info.display_scale));
+      if (suspicious(e.y[i], info.typical, &y_true[i])) cell = "**" + cell + "**";
       out += " " + cell + " |";
     }
     out += "\n";

@@ -3,8 +3,13 @@
 #include <stdexcept>
 
 #include "orbcal/sim/jacobian.hpp"
+#include "orbcal/sim/model.hpp"
 
 namespace orbcal::calib {
+
+sim::Arm calibratedArm(const sim::Arm& nominal, const Eigen::VectorXd& y) {
+  return sim::foldParameters(sim::flangeModel(nominal), y).model.arm;
+}
 
 PoseMeasurementModel::PoseMeasurementModel(sim::Arm nominal, std::vector<PoseObservation> observations,
                                            PoseNoiseModel noise)
@@ -15,7 +20,7 @@ PoseMeasurementModel::PoseMeasurementModel(sim::Arm nominal, std::vector<PoseObs
 
 Linearization PoseMeasurementModel::linearize(int k, const Eigen::VectorXd& y) const {
   const PoseObservation& o = observations_.at(static_cast<std::size_t>(k));
-  const sim::Arm arm = sim::withErrors(nominal_, y);
+  const sim::Arm arm = calibratedArm(nominal_, y);
   Linearization lin;
   lin.innovation = sim::poseMinus(o.base_T_flange, sim::forwardKinematics(arm, o.q_rad));
   const sim::Matrix6Xd J = sim::identificationJacobian(arm, o.q_rad, sim::ErrorFrame::kTool);

@@ -166,7 +166,7 @@ void requirePlausibleGeometry(const sim::MeasuredData& data, const Fit& fit) {
     const int k = block.offset + i;
     const double move = fit.p[k];
     const double sigma = fit.estimate.covariance.rows() > k ? std::sqrt(std::max(0.0, fit.estimate.covariance(k, k))) : 0.0;
-    const bool angle = sim::isAngleParam(arm, i);
+    const bool angle = block.params[static_cast<std::size_t>(i)].quantity == sim::Quantity::kAngle;
     const double bound = angle ? b.angle_move_rad : b.lengthMove(arm, i);
     if (std::abs(move) <= bound + kMoveSigmas * sigma) continue;
     const auto in = [angle](double v) { return angle ? deg(v) : mm(v); };

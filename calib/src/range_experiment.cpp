@@ -81,7 +81,7 @@ RangeExperimentResult runRangeExperiment(const sim::Arm& nominal, const Eigen::V
   cs.beam_must_hit = false;
   auto validation_rng = sim::makeRng(seed, kValidationStream);
   PlantSamples plant;
-  const sim::Arm true_arm = sim::withErrors(nominal, p_true.head(kinematic));
+  const sim::Arm true_arm = calibratedArm(nominal, p_true.head(kinematic));
   for (const sim::JointSample& s : rangeConfigurations(probe, {}, settings.validation, validation_rng, cs)) {
     plant.q_commanded.push_back(s.q_rad);
     plant.q_true.push_back(s.q_rad);
@@ -114,7 +114,7 @@ RangeExperimentResult runRangeExperiment(const sim::Arm& nominal, const Eigen::V
     }
     c.residual_rms_before_m = std::sqrt(c.residual_rms_before_m);
     c.residual_rms_after_m = std::sqrt(c.residual_rms_after_m);
-    c.validation_errors = poseErrors(sim::withErrors(nominal, c.estimate.y.head(kinematic)), plant);
+    c.validation_errors = poseErrors(calibratedArm(nominal, c.estimate.y.head(kinematic)), plant);
     c.validation = summarizeAxes(c.validation_errors);
     result.cases.push_back(std::move(c));
   }

@@ -24,10 +24,11 @@ ParameterColumns parameterColumns(const sim::Arm& arm) {
   ParameterColumns c;
   c.header = "| joint |";
   std::string rule = "|---|";
+  const sim::ParamBlock g = sim::geometryBlock(arm);
   for (int k = 0; k < arm.paramsPerJoint(); ++k) {
     std::string key = sim::paramKey(arm, k);
     const std::string stem = key.substr(0, key.rfind('_'));
-    std::string& list = sim::isAngleParam(arm, k) ? c.angles : c.lengths;
+    std::string& list = g.params[static_cast<std::size_t>(k)].display_unit == "deg" ? c.angles : c.lengths;
     list += (list.empty() ? "" : ", ") + stem;
     c.header += " " + stem + " |";
     rule += "---|";
@@ -149,22 +150,22 @@ std::string estimateSection(const CalibrationRun& run, const CalibrateResult& r)
      << " ms" << (r.estimate.converged ? "" : ", NOT converged") << ". Per joint, " << columns.angles << " in deg, " << columns.lengths
      << " in mm, +- 1 sigma" << (y_true ? "; truth in brackets" : "") << ":\n\n"
      << columns.header;
-  for (int j = 0; j < d.arm.numJoints(); ++j) {
-    md << "| " << j + 1 << " |";
-    for (int k = 0; k < d.arm.paramsPerJoint(); ++k) {
-      const int i = sim::paramIndex(d.arm, j, static_cast<sim::ParamKind>(k));
-      const double s = sim::isAngleParam(d.arm, i) ? sim::kRadToDeg : 1e3;
-      const bool held = std::find(r.estimate.held.begin(), r.estimate.held.end(), i) != r.estimate.held.end();
-      md << " " << formatNumber("%+.4f", r.estimate.y[i] * s);
-      if (held) {
-        md << " (held)";
-      } else {
-        md << " +- " << formatNumber("%.4f", std::sqrt(std::max(0.0, r.estimate.covariance(i, i))) * s);
-      }
-      if (y_true) md << " [" << formatNumber("%+.4f", (*y_true)[i] * s) << "]";
-      md << " |";
+  // One row per joint: the layout's parameters of that joint, each in its display unit.
+  const sim::ParamBlock g = sim::geometryBlock(d.arm);
+  const auto jointOf = [&d](int i) { return i / d.arm.paramsPerJoint(); };
+  for (int i = 0; i < g.size(); ++i) {
+    if (i == 0 || jointOf(i) != jointOf(i - 1)) md << "| " << jointOf(i) + 1 << " |";
+    const double s = g.params[static_cast<std::size_t>(i)].display_scale;
+    const bool held = std::find(r.estimate.held.begin(), r.estimate.held.end(), i) != r.estimate.held.end();
+    md << " " << formatNumber("%+.4f", r.estimate.y[i] * s);
+    if (held) {
+      md << " (held)";
+    } else {
+      md << " +- " << formatNumber("%.4f", std::sqrt(std::max(0.0, r.estimate.covariance(i, i))) * s);
     }
-    md << "\n";
+    if (y_true) md << " [" << formatNumber("%+.4f", (*y_true)[i] * s) << "]";
+    md << " |";
+    if (i + 1 == g.size() || jointOf(i + 1) != jointOf(i)) md << "\n";
   }
   return md.str();
 }

@@ -60,10 +60,11 @@ const std::vector<ModelSpec>& models() {
 Eigen::VectorXd jiaErrors(const sim::Arm& arm, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   Eigen::VectorXd y = Eigen::VectorXd::Zero(arm.numParams());
+  const sim::ParamBlock g = sim::geometryBlock(arm);
   for (int i = arm.paramsPerJoint(); i < arm.numParams(); ++i) {
     const int joint = i / arm.paramsPerJoint();
     if (sim::paramKind(arm, i) == sim::kBeta && std::abs(arm.joints[static_cast<std::size_t>(joint)].alpha_rad) > 1e-9) continue;
-    const double mag = sim::isAngleParam(arm, i) ? (0.2 + 0.1 * u(rng)) * sim::kDegToRad : (0.5 + 0.5 * u(rng)) * 1e-3;
+    const double mag = g.params[static_cast<std::size_t>(i)].quantity == sim::Quantity::kAngle ? (0.2 + 0.1 * u(rng)) * sim::kDegToRad : (0.5 + 0.5 * u(rng)) * 1e-3;
     y[i] = (u(rng) < 0.5 ? -1.0 : 1.0) * mag;
   }
   return y;
@@ -216,7 +217,7 @@ JiaPlant simulateRepetition(const ExperimentOptions& o, const JiaSetup& s, int r
   auto rng_errors = sim::makeRng(seed, 0x6a696165ULL);
   const Eigen::VectorXd y_true = jiaErrors(s.nominal, rng_errors);
   if (r == 0) stats.first_errors = sim::formatErrorSet(s.nominal, y_true);
-  p.true_arm = sim::withErrors(s.nominal, y_true);
+  p.true_arm = calib::calibratedArm(s.nominal, y_true);
   auto rng_ident = sim::makeRng(seed, 0x6a696964ULL);
   p.ident = calib::simulatePlant(p.true_arm, s.q_ident, o.joint_noise_sigma_rad, rng_ident);
   // The camera's noise (right perturbation of board_T_flange) and the direction of the frame change:
@@ -314,7 +315,7 @@ void fitAtChange(const ExperimentOptions& o, const JiaSetup& s, const JiaPlant& 
     const bool classify = r == 0 && c == 0;
     const Fit fit = fitModel(spec.kind, s, ob, classify);
     if (classify) st.classes[mi] = fit.classes;
-    const sim::Arm calibrated = sim::withErrors(s.nominal, fit.y_geometry);
+    const sim::Arm calibrated = calib::calibratedArm(s.nominal, fit.y_geometry);
     const Validation v = validate(calibrated, p.valid), vl = validate(calibrated, p.valid_local);
     st.local_pos[c][mi].v.push_back(vl.position_mean);
     st.local_rot[c][mi].v.push_back(vl.rotation_mean);

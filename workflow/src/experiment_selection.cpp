@@ -95,7 +95,7 @@ std::vector<SyntheticRow> syntheticPart(const ExperimentOptions& o, const sim::A
   const std::vector<calib::MeasurementKind> kinds{calib::MeasurementKind::kPose, calib::MeasurementKind::kPosition,
                                                   calib::MeasurementKind::kDistanceRotation};
   const sim::KinematicModel km = sim::flangeModel(nominal);
-  const sim::Arm true_arm = sim::withErrors(nominal, y_true);
+  const sim::Arm true_arm = calib::calibratedArm(nominal, y_true);
   std::vector<SyntheticRow> rows;
   Progress bar(o.callbacks.progress, o.quiet ? "" : "selection: synthetic trials", o.quiet ? 0 : o.repetitions * static_cast<int>(kinds.size()));
   int done = 0;
@@ -133,7 +133,7 @@ std::vector<SyntheticRow> syntheticPart(const ExperimentOptions& o, const sim::A
           lse.weighted = true;
           const calib::Estimate e = calib::runLse(*model, lse);
           const Eigen::VectorXd y = e.y.head(nominal.numParams());
-          row.validation_avg_m = calib::summarize(calib::poseErrors(sim::withErrors(nominal, y), plant)).position_avg_m;
+          row.validation_avg_m = calib::summarize(calib::poseErrors(calib::calibratedArm(nominal, y), plant)).position_avg_m;
           rows.push_back(row);
         }
       }
@@ -167,7 +167,7 @@ std::vector<SyntheticRow> rangePart(const ExperimentOptions& o, int pool_size) {
     std::vector<Eigen::VectorXd> valid;
     for (const sim::JointSample& s : calib::rangeConfigurations(probe, {}, o.validation, valid_rng, anywhere)) valid.push_back(s.q_rad);
     std::mt19937_64 no_noise;
-    const calib::PlantSamples plant = calib::simulatePlant(sim::withErrors(arm, p_true.head(arm.numParams())), valid, 0.0, no_noise);
+    const calib::PlantSamples plant = calib::simulatePlant(calib::calibratedArm(arm, p_true.head(arm.numParams())), valid, 0.0, no_noise);
     const auto planning = calib::planningModel(setup, km, pool);
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(planning->numParams());
     const auto blocks = calib::observabilityBlocks(*planning, zero, calib::unidentifiableToFix(*planning, zero));
@@ -186,7 +186,7 @@ std::vector<SyntheticRow> rangePart(const ExperimentOptions& o, int pool_size) {
         calib::LseOptions lse;
         lse.weighted = true;
         const Eigen::VectorXd y = calib::runLse(model, lse).y.head(arm.numParams());
-        row.validation_avg_m = calib::summarize(calib::poseErrors(sim::withErrors(arm, y), plant)).position_avg_m;
+        row.validation_avg_m = calib::summarize(calib::poseErrors(calib::calibratedArm(arm, y), plant)).position_avg_m;
         rows.push_back(row);
       }
     }

@@ -63,6 +63,10 @@ struct PoseNoiseModel {
   double joint_noise_sigma_rad = 0.0;
 };
 
+/// The arm `nominal` with the geometry parameters y of its layout (sim::geometryBlock, its order) folded
+/// in (sim::foldParameters of sim::flangeModel): what a geometric calibration's estimate makes of it.
+sim::Arm calibratedArm(const sim::Arm& nominal, const Eigen::VectorXd& y);
+
 /// Seed 000's measurement: nu_k = poseMinus(measured base_T_flange, FK(nominal + y, q_k)), in the flange
 /// frame (eq. 13), H_k = the identification Jacobian at nominal + y.
 class PoseMeasurementModel : public MeasurementModel {
