@@ -25,7 +25,7 @@ void benchCalib() {
   const auto obs = calib::syntheticObservations(plant, 0.1e-3, 0.01 * sim::kDegToRad, rng);
   calib::PoseNoiseModel noise;
   noise.joint_noise_sigma_rad = joint_sigma;
-  const calib::PoseMeasurementModel model(arm, obs, noise);
+  const calib::MarkerPoseModel model = calib::poseModel(arm, obs, noise);
   // Each estimator times itself (Estimate::seconds: the estimation, not the final cost evaluation).
   const auto timed = [&](const std::string& name, auto run, int repeats, const std::string& target) {
     std::vector<double> t;
@@ -47,7 +47,7 @@ void benchCalib() {
     pg.count = 1000;
     calib::PoseNoiseModel pn;
     pn.joint_noise_sigma_rad = joint_sigma;
-    const calib::PoseMeasurementModel pool = calib::posePlanningModel(arm, sim::generateConfigurations(arm, scene, pg), pn);
+    const calib::MarkerPoseModel pool = calib::posePlanningModel(arm, sim::generateConfigurations(arm, scene, pg), pn);
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(pool.numParams());
     const auto blocks = calib::observabilityBlocks(pool, zero, calib::unidentifiableToFix(pool, zero));
     std::vector<double> ts;

@@ -1,4 +1,5 @@
 #include "orbcal/calib/experiment.hpp"
+#include "orbcal/calib/marker_model.hpp"
 #include "orbcal/sim/model.hpp"
 
 #include <algorithm>
@@ -67,7 +68,7 @@ std::string methodNames() {
 }
 
 Estimate runMethod(const MethodSpec& method, const sim::Arm& nominal, const std::vector<PoseObservation>& obs) {
-  return runMethod(method, PoseMeasurementModel(nominal, obs, method.noise));
+  return runMethod(method, poseModel(nominal, obs, method.noise));
 }
 
 Estimate runMethod(MethodSpec method, const MeasurementModel& model, const FitControls& controls) {

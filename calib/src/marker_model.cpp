@@ -25,6 +25,23 @@ Eigen::MatrixXd residualJointJacobian(const MarkerObservation& o, const Eigen::I
 }
 }  // namespace
 
+MarkerPoseModel poseModel(const sim::Arm& nominal, const std::vector<PoseObservation>& observations, const PoseNoiseModel& noise) {
+  std::vector<MarkerObservation> obs;
+  obs.reserve(observations.size());
+  for (const PoseObservation& o : observations) {
+    MarkerObservation m;
+    m.sample.q_rad = o.q_rad;
+    m.world_T_marker = o.base_T_flange;
+    if (noise.source == PoseNoiseModel::Source::kObservation) m.covariance = o.covariance;
+    obs.push_back(std::move(m));
+  }
+  MarkerNoise n;
+  n.sigma_position_m = noise.sigma_position_m;
+  n.sigma_rotation_rad = noise.sigma_orientation_rad;
+  n.joint_noise_sigma_rad = noise.joint_noise_sigma_rad;
+  return MarkerPoseModel(sim::flangeModel(nominal), std::move(obs), n);
+}
+
 Eigen::VectorXd markerResidual(const sim::KinematicModel& model, const Eigen::VectorXd& p, const MarkerObservation& o) {
   return residualOf(o, sim::predictMarkerPose(model, p, o.sample));
 }

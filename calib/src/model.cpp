@@ -2,44 +2,12 @@
 
 #include <stdexcept>
 
-#include "orbcal/sim/jacobian.hpp"
 #include "orbcal/sim/model.hpp"
 
 namespace orbcal::calib {
 
 sim::Arm calibratedArm(const sim::Arm& nominal, const Eigen::VectorXd& y) {
   return sim::foldParameters(sim::flangeModel(nominal), y).model.arm;
-}
-
-PoseMeasurementModel::PoseMeasurementModel(sim::Arm nominal, std::vector<PoseObservation> observations,
-                                           PoseNoiseModel noise)
-    : nominal_(std::move(nominal)), observations_(std::move(observations)), noise_(noise) {
-  for (const PoseObservation& o : observations_) sim::checkJointVector(nominal_, o.q_rad, "PoseMeasurementModel");
-  layout_.add(sim::geometryBlock(nominal_));
-}
-
-Linearization PoseMeasurementModel::linearize(int k, const Eigen::VectorXd& y) const {
-  const PoseObservation& o = observations_.at(static_cast<std::size_t>(k));
-  const sim::Arm arm = calibratedArm(nominal_, y);
-  Linearization lin;
-  lin.innovation = sim::poseMinus(o.base_T_flange, sim::forwardKinematics(arm, o.q_rad));
-  const sim::Matrix6Xd J = sim::identificationJacobian(arm, o.q_rad, sim::ErrorFrame::kTool);
-  lin.H = J;
-  if (noise_.source == PoseNoiseModel::Source::kObservation) {
-    lin.R = o.covariance;
-  } else {
-    sim::Vector6d d;
-    d << Eigen::Vector3d::Constant(noise_.sigma_position_m * noise_.sigma_position_m),
-        Eigen::Vector3d::Constant(noise_.sigma_orientation_rad * noise_.sigma_orientation_rad);
-    lin.R = d.asDiagonal();
-  }
-  if (noise_.joint_noise_sigma_rad > 0.0) {
-    // A joint angle and its theta offset are the same motion: J_q = the theta columns of J.
-    sim::Matrix6Xd J_e_q(6, nominal_.numJoints());
-    for (int j = 0; j < nominal_.numJoints(); ++j) J_e_q.col(j) = J.col(sim::paramIndex(nominal_, j, sim::kTheta));
-    lin.R += noise_.joint_noise_sigma_rad * noise_.joint_noise_sigma_rad * J_e_q * J_e_q.transpose();
-  }
-  return lin;
 }
 
 void requireFinite(const Linearization& lin, int k) {

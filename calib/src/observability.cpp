@@ -117,13 +117,13 @@ ObservabilityIndices observability(const MeasurementModel& model, const Eigen::V
   return observabilityIndices(stackBlocks(observabilityBlocks(model, y, held)), model.numSamples(), rank_tolerance);
 }
 
-PoseMeasurementModel posePlanningModel(const sim::Arm& nominal, const std::vector<Eigen::VectorXd>& configs,
-                                       PoseNoiseModel noise) {
+MarkerPoseModel posePlanningModel(const sim::Arm& nominal, const std::vector<Eigen::VectorXd>& configs,
+                                  PoseNoiseModel noise) {
   std::vector<PoseObservation> obs;
   obs.reserve(configs.size());
   for (const Eigen::VectorXd& q : configs) obs.push_back({q, sim::forwardKinematics(nominal, q)});
   noise.source = PoseNoiseModel::Source::kFixed;
-  return PoseMeasurementModel(nominal, std::move(obs), noise);
+  return poseModel(nominal, obs, noise);
 }
 
 namespace {

@@ -56,7 +56,7 @@ void recoverNoiseFree(const Fixture& f, const Eigen::VectorXd& y_true, double re
   const calib::PlantSamples plant = calib::simulatePlant(sim::withErrors(f.nominal, y_true), f.configs(50, 1), 0.0, rng);
   std::vector<calib::PoseObservation> obs = calib::syntheticObservations(plant, 0.0, 0.0, rng);
   for (auto& o : obs) o.covariance = sim::Matrix6d::Identity() * 1e-12;  // weights must exist; data are exact
-  const calib::PoseMeasurementModel model(f.nominal, obs, {});
+  const calib::MarkerPoseModel model = calib::poseModel(f.nominal, obs, {});
   // The unidentifiable ones are reported as such: two of d3, d4, d5 are held, the third carries the sum.
   const std::vector<int> held = calib::unidentifiableToFix(model, Eigen::VectorXd::Zero(28));
   CHECK(held == std::vector<int>{kD4, kD5});
@@ -100,7 +100,7 @@ TEST_CASE("noise-free poses with all of Table 3: within 1e-3, limited by the wea
   for (auto& o : obs) o.covariance = sim::Matrix6d::Identity() * 1e-12;
   calib::EkfOptions iekf;
   iekf.iterations_per_update = 3;
-  checkIdentifiable(calib::runEkf(calib::PoseMeasurementModel(f.nominal, obs, {}), iekf).y, f.y_true, 2e-2);
+  checkIdentifiable(calib::runEkf(calib::poseModel(f.nominal, obs, {}), iekf).y, f.y_true, 2e-2);
 }
 
 TEST_CASE("the paper-literal EKF equals the batch information-form solution", "[calib][ekf]") {
@@ -110,7 +110,7 @@ TEST_CASE("the paper-literal EKF equals the batch information-form solution", "[
   auto rng = sim::makeRng(2);
   const calib::PlantSamples plant = calib::simulatePlant(f.truth, f.configs(30, 2), 0.01 * sim::kDegToRad, rng);
   const auto obs = calib::syntheticObservations(plant, 0.3e-3, 0.5 * sim::kDegToRad, rng);
-  const calib::PoseMeasurementModel model(f.nominal, obs, {});
+  const calib::MarkerPoseModel model = calib::poseModel(f.nominal, obs, {});
   const calib::EkfOptions paper = calib::EkfOptions::paperLiteral();
   const calib::Estimate e = calib::runEkf(model, paper);
 
@@ -141,7 +141,7 @@ TEST_CASE("the measurement covariance with joint noise is honest, without it, it
   const auto obs = calib::syntheticObservations(plant, 0.1e-3, 0.01 * sim::kDegToRad, rng);
   calib::PoseNoiseModel with_joints;
   with_joints.joint_noise_sigma_rad = joint_sigma;
-  const calib::PoseMeasurementModel honest(f.nominal, obs, with_joints), blind(f.nominal, obs, {});
+  const calib::MarkerPoseModel honest = calib::poseModel(f.nominal, obs, with_joints), blind(f.nominal, obs, {});
   const double mean_honest = 2.0 * calib::weightedCost(honest, f.y_true) / 300.0;
   const double mean_blind = 2.0 * calib::weightedCost(blind, f.y_true) / 300.0;
   CHECK(mean_honest > 5.2);
@@ -159,7 +159,7 @@ TEST_CASE("Table 3 errors, paper noise: EKF and LM improve position and every or
   const auto obs = calib::syntheticObservations(ident, 0.3e-3, 0.5 * sim::kDegToRad, rng);
   calib::PoseNoiseModel noise;
   noise.joint_noise_sigma_rad = joint_sigma;
-  const calib::PoseMeasurementModel model(f.nominal, obs, noise);
+  const calib::MarkerPoseModel model = calib::poseModel(f.nominal, obs, noise);
   const calib::ErrorSummary initial = calib::summarize(calib::poseErrors(f.nominal, valid));
   // The floor: what the true parameters leave on the same validation samples (the control noise alone).
   const calib::ErrorSummary floor = calib::summarize(calib::poseErrors(f.truth, valid));
@@ -211,7 +211,7 @@ TEST_CASE("every estimator of the comparison keeps a held parameter at zero", "[
   REQUIRE(f.y_true[held] != 0.0);
   for (calib::MethodSpec m : calib::comparisonMethods(joint_sigma)) {
     CAPTURE(m.name);
-    const calib::PoseMeasurementModel model(f.nominal, obs, m.noise);
+    const calib::MarkerPoseModel model = calib::poseModel(f.nominal, obs, m.noise);
     const calib::Estimate free = calib::runMethod(m, model);
     CHECK(std::abs(free.y[held]) > 1e-6);  // 1 um: the data do move it
     m.ekf.hold = m.lse.hold = m.lm.hold = {held};

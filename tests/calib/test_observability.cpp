@@ -39,7 +39,7 @@ struct Pool {
     g.count = count;
     g.seed = seed;
     configs = sim::generateConfigurations(nominal, sim::loadScene(sim::kDefaultScene), g);
-    const calib::PoseMeasurementModel model = calib::posePlanningModel(nominal, configs, seed000Noise());
+    const calib::MarkerPoseModel model = calib::posePlanningModel(nominal, configs, seed000Noise());
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
     held = calib::unidentifiableToFix(model, zero);
     blocks = calib::observabilityBlocks(model, zero, held);
@@ -162,7 +162,7 @@ TEST_CASE("O3-selected configurations validate better than random ones over 10 s
       const auto obs = calib::syntheticObservations(ident, noise.sigma_position_m, noise.sigma_orientation_rad, rng);
       calib::LseOptions lse;
       lse.weighted = true;
-      const calib::Estimate e = calib::runLse(calib::PoseMeasurementModel(pool.nominal, obs, noise), lse);
+      const calib::Estimate e = calib::runLse(calib::poseModel(pool.nominal, obs, noise), lse);
       const double error = calib::summarize(calib::poseErrors(sim::withErrors(pool.nominal, e.y), valid)).position_avg_m;
       const double o3 = calib::observabilityIndices(calib::stackBlocks(pool.blocks, subsets[which]), kCount).o3;
       std::printf("  %s: O3 %.3g, %.3f mm", kNames[which], o3, error * 1e3);

@@ -83,7 +83,7 @@ TEST_CASE("position only: rotations about the measured point are invisible, the 
 
 TEST_CASE("observability: the marker model of a pose kind and seed 000's pose model agree", "[calib][planning]") {
   // Two independent implementations of the same measurement (MarkerPoseModel over the kinematic model,
-  // PoseMeasurementModel over the identification Jacobian) must give the same whitened Jacobian's
+  // pose model over the identification Jacobian) must give the same whitened Jacobian's
   // singular values, so the same O1-O5.
   const sim::Arm arm = sim::loadArm(test::sourcePath("scenes/ssrms.yaml"));
   const auto configs = test::randomConfigs(arm, 30, 11);
@@ -94,7 +94,7 @@ TEST_CASE("observability: the marker model of a pose kind and seed 000's pose mo
   calib::PoseNoiseModel noise;
   noise.sigma_position_m = setup.noise.sigma_position_m;
   noise.sigma_orientation_rad = setup.noise.sigma_rotation_rad;
-  const calib::PoseMeasurementModel seed000 = calib::posePlanningModel(arm, configs, noise);
+  const calib::MarkerPoseModel seed000 = calib::posePlanningModel(arm, configs, noise);
   REQUIRE(marker->numParams() == seed000.numParams());
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(seed000.numParams());
   const std::vector<int> held = calib::unidentifiableToFix(seed000, zero);

@@ -300,7 +300,7 @@ void fitImages(CalibrationRun& run, CalibrateResult& r) {
   if (run.kind == calib::MeasurementKind::kPose) {
     std::vector<calib::PoseObservation> obs;
     for (std::size_t k : run.ident) obs.push_back({d.samples[k].q_rad, run.meas[k].base_T_flange, run.meas[k].covariance});
-    run.model = std::make_unique<calib::PoseMeasurementModel>(d.arm, std::move(obs), run.method.noise);
+    run.model = std::make_unique<calib::MarkerPoseModel>(calib::poseModel(d.arm, obs, run.method.noise));
   } else {
     run.model = imageKindModel(d, run.meas, run.ident, run.kind, o.pairs, r.joint_noise_sigma_rad);
   }

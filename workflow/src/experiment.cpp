@@ -67,7 +67,7 @@ std::string identificationObservability(const sim::Arm& nominal, const std::vect
                                         double joint_noise_sigma_rad) {
   calib::PoseNoiseModel noise;
   noise.joint_noise_sigma_rad = joint_noise_sigma_rad;
-  const calib::PoseMeasurementModel model(nominal, obs, noise);
+  const calib::MarkerPoseModel model = calib::poseModel(nominal, obs, noise);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
   return calib::formatIndices(calib::observability(model, zero, calib::unidentifiableToFix(model, zero)));
 }

@@ -222,7 +222,7 @@ std::vector<RenderedRow> renderedPart(const ExperimentOptions& o, const sim::Arm
     const calib::PlantSamples valid =
         calib::simulatePlant(truth, generate(nominal, scene, o.validation, o.seed + kValidationSeedOffset + r), o.joint_noise_sigma_rad, vrng);
     const std::vector<Eigen::VectorXd>& configs = pool.plant.q_commanded;
-    const calib::PoseMeasurementModel planning = calib::posePlanningModel(nominal, configs, planning_noise);
+    const calib::MarkerPoseModel planning = calib::posePlanningModel(nominal, configs, planning_noise);
     const Eigen::VectorXd zero = Eigen::VectorXd::Zero(planning.numParams());
     const auto blocks = calib::observabilityBlocks(planning, zero, calib::unidentifiableToFix(planning, zero));
     for (const Chooser& c : choosers()) {

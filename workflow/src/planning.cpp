@@ -19,7 +19,7 @@ namespace {
 /// Keeps the o.gen.count configurations of `configs` that maximise the index; returns what was chosen.
 std::string selectFromPool(const ConfigsOptions& o, const sim::Arm& arm, std::vector<Eigen::VectorXd>& configs) {
   const calib::ObservabilityIndex index = *o.select;
-  const calib::PoseMeasurementModel model = calib::posePlanningModel(arm, configs, o.noise);
+  const calib::MarkerPoseModel model = calib::posePlanningModel(arm, configs, o.noise);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
   const std::vector<int> held = calib::unidentifiableToFix(model, zero);
   const auto blocks = calib::observabilityBlocks(model, zero, held);

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "orbcal/calib/estimators.hpp"
+#include "orbcal/calib/marker_model.hpp"
 #include "orbcal/calib/model.hpp"
 #include "orbcal/calib/validation.hpp"
 

@@ -69,6 +69,13 @@ class MarkerPoseModel : public MeasurementModel {
   Eigen::VectorXd p0_;
 };
 
+/// The flange-pose measurement of Wang et al. (2023, eq. 13) as a marker model whose frames are known: the
+/// flange pose in the base frame (sim::flangeModel: world = base, marker = flange), geometry only, so
+/// nu_k = poseMinus(measured base_T_flange, FK(nominal + y, q_k)) in the flange frame. R_k: each
+/// observation's covariance (noise.source kObservation) or noise's fixed sigmas, plus the joint noise
+/// through the joint Jacobian.
+MarkerPoseModel poseModel(const sim::Arm& nominal, const std::vector<PoseObservation>& observations, const PoseNoiseModel& noise);
+
 /// Residual of one observation at parameters p (not y): [position (m); rotation (rad)] as the model
 /// defines nu (the rotation part empty for position-only observations).
 Eigen::VectorXd markerResidual(const sim::KinematicModel& model, const Eigen::VectorXd& p, const MarkerObservation& o);

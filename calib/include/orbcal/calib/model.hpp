@@ -67,25 +67,6 @@ struct PoseNoiseModel {
 /// in (sim::foldParameters of sim::flangeModel): what a geometric calibration's estimate makes of it.
 sim::Arm calibratedArm(const sim::Arm& nominal, const Eigen::VectorXd& y);
 
-/// Seed 000's measurement: nu_k = poseMinus(measured base_T_flange, FK(nominal + y, q_k)), in the flange
-/// frame (eq. 13), H_k = the identification Jacobian at nominal + y.
-class PoseMeasurementModel : public MeasurementModel {
- public:
-  PoseMeasurementModel(sim::Arm nominal, std::vector<PoseObservation> observations, PoseNoiseModel noise);
-  int numSamples() const override { return static_cast<int>(observations_.size()); }
-  int rows(int) const override { return 6; }
-  const sim::ParamLayout& layout() const override { return layout_; }
-  Linearization linearize(int k, const Eigen::VectorXd& y) const override;
-  const sim::Arm& nominal() const { return nominal_; }
-  const std::vector<PoseObservation>& observations() const { return observations_; }
-
- private:
-  sim::Arm nominal_;
-  std::vector<PoseObservation> observations_;
-  PoseNoiseModel noise_;
-  sim::ParamLayout layout_;
-};
-
 /// Stacked innovations and Jacobians over all samples at y (for the batch estimators and identifiability).
 struct StackedLinearization {
   Eigen::VectorXd innovation;

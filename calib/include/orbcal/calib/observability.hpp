@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "orbcal/calib/marker_model.hpp"
 #include "orbcal/calib/model.hpp"
 #include "orbcal/sim/identifiability.hpp"
 
@@ -71,8 +72,8 @@ ObservabilityIndices observability(const MeasurementModel& model, const Eigen::V
 /// A pose model for planning, before anything is measured: one sample per configuration, its
 /// observation the nominal flange pose (the innovation is zero at y = 0 and never used), the noise
 /// from `noise` (Source::kFixed: the observations carry no covariance of their own).
-PoseMeasurementModel posePlanningModel(const sim::Arm& nominal, const std::vector<Eigen::VectorXd>& configs,
-                                       PoseNoiseModel noise);
+MarkerPoseModel posePlanningModel(const sim::Arm& nominal, const std::vector<Eigen::VectorXd>& configs,
+                                  PoseNoiseModel noise);
 
 struct SelectionOptions {
   ObservabilityIndex index = ObservabilityIndex::kO3;
