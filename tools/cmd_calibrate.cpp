@@ -16,23 +16,20 @@ namespace orbcal::tools {
 namespace {
 
 void printMeasured(const workflow::MeasuredCalibrateResult& r, const std::string& description) {
-  if (r.inconsistent) {
-    std::fprintf(stderr, "orbcal: calibrate: %s: the fit is inconsistent with the given measurement noise: %s%s\n",
-                 description.c_str(), workflow::inconsistencyText(r).c_str(), r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "");
-  }
+  const char* not_written = r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "";
+  const auto refused = [&](const std::string& why) {
+    std::fprintf(stderr, "orbcal: calibrate: %s: %s%s\n", description.c_str(), why.c_str(), not_written);
+  };
+  if (r.inconsistent) refused("the fit is inconsistent with the given measurement noise: " + workflow::inconsistencyText(r));
   // Too few held-out configurations say nothing either way: that alone is said then.
   const bool worse = r.worse && r.gain.enough;
   if (worse) {
-    std::fprintf(stderr,
-                 "orbcal: calibrate: %s: the calibrated model predicts the %d held-out samples worse than the nominal arm "
-                 "(position RMS %.4f -> %.4f mm)%s\n",
-                 description.c_str(), r.held_out, r.heldout_before.position_rms_m * 1e3, r.heldout_after.position_rms_m * 1e3,
-                 r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "");
+    refused("the calibrated model predicts the " + std::to_string(r.held_out) + " held-out samples worse than the nominal arm "
+            "(position RMS " + sim::formatNumber("%.4f", r.heldout_before.position_rms_m * 1e3) + " -> " +
+            sim::formatNumber("%.4f", r.heldout_after.position_rms_m * 1e3) + " mm)");
   }
-  if (!worse && !r.refusal.empty()) {
-    std::fprintf(stderr, "orbcal: calibrate: %s: %s%s\n", description.c_str(), r.refusal.c_str(),
-                 r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "");
-  }
+  if (!worse && !r.refusal.empty()) refused(r.refusal);
+  if (!r.fit_refusal.empty()) refused(r.fit_refusal);
   std::printf("%d samples: %d fitted, %d held out; %d parameters, %zu held as unidentifiable\n", r.samples, r.identification,
               r.held_out, r.fit.model.layout.size(), r.fit.estimate.held.size());
   std::printf("noise (1 sigma per axis): position %.4f mm, rotation %.4f deg%s\n", r.fit.noise.sigma_position_m * 1e3,
@@ -182,7 +179,7 @@ void addCalibrateCommand(CLI::App& app) {
       if (o->noise_rotation_deg > 0) m.noise_rotation_rad = o->noise_rotation_deg * sim::kDegToRad;
       const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(m);
       printMeasured(r, m.description);
-      if ((r.worse || r.inconsistent || !r.refusal.empty()) && !m.accept_worse) throw CLI::RuntimeError(1);
+      if ((r.worse || r.inconsistent || !r.refusal.empty() || !r.fit_refusal.empty()) && !m.accept_worse) throw CLI::RuntimeError(1);
       return;
     }
     workflow::CalibrateOptions c = o->images;

@@ -156,6 +156,19 @@ void requirePlausibleResidual(const sim::MeasuredData& data, const ResidualStats
                         deg(b.rotation_rms_rad) + ")" + likelyCauses(data));
 }
 
+std::string fitRefusal(const Fit& fit, const std::vector<MarkerObservation>& observations, const FitOptions& options) {
+  if (options.method == "LM") return "";
+  FitOptions lm = options;
+  lm.method = "LM";
+  lm.analyze = false;
+  const Fit best = fitMarkerModel(fit.model, observations, lm, fit.p0);
+  if (fit.residuals.position_rms_m <= kFarAboveLeastSquares * best.residuals.position_rms_m) return "";
+  return "the fit leaves a position RMS of " + mm(fit.residuals.position_rms_m) + " on its own " +
+         std::to_string(fit.residuals.samples) + " samples, more than " + formatNumber("%g", kFarAboveLeastSquares) +
+         " times the " + mm(best.residuals.position_rms_m) + " the least-squares fit of the same model reaches there: " +
+         options.method + " did not converge to the fit; calibrate with --method LM";
+}
+
 void requirePlausibleGeometry(const sim::MeasuredData& data, const Fit& fit) {
   const int g = fit.model.layout.find("geometry");
   if (g < 0) return;

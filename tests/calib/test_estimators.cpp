@@ -141,7 +141,7 @@ TEST_CASE("the measurement covariance with joint noise is honest, without it, it
   const auto obs = calib::syntheticObservations(plant, 0.1e-3, 0.01 * sim::kDegToRad, rng);
   calib::PoseNoiseModel with_joints;
   with_joints.joint_noise_sigma_rad = joint_sigma;
-  const calib::MarkerPoseModel honest = calib::poseModel(f.nominal, obs, with_joints), blind(f.nominal, obs, {});
+  const calib::MarkerPoseModel honest = calib::poseModel(f.nominal, obs, with_joints), blind = calib::poseModel(f.nominal, obs, {});
   const double mean_honest = 2.0 * calib::weightedCost(honest, f.y_true) / 300.0;
   const double mean_blind = 2.0 * calib::weightedCost(blind, f.y_true) / 300.0;
   CHECK(mean_honest > 5.2);

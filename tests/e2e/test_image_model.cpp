@@ -14,10 +14,10 @@ using namespace orbcal;
 
 namespace {
 
-/// The parameter names of `m`'s geometry block, in the layout's order.
+/// The names of the geometric parameters of a model's arm (sim::geometryBlock), in the layout's order.
 std::vector<std::string> geometryNames(const sim::KinematicModel& m) {
   std::vector<std::string> names;
-  for (const sim::ParamInfo& p : m.layout.block(m.layout.find("geometry")).params) names.push_back(p.name);
+  for (const sim::ParamInfo& p : sim::geometryBlock(m.arm).params) names.push_back(p.name);
   return names;
 }
 

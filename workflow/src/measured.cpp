@@ -139,7 +139,9 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   r.heldout_after = calib::residualStats(after);
   r.worse = !held.empty() && r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
   r.gain = calib::heldoutGain(held, before, after);
-  r.refusal = calib::heldoutRefusal(r.gain, o.holdout, calib::countConfigurations(all));
+  // --holdout 0 measures no gain: the checks on the fit alone (consistency, fitRefusal) decide then.
+  r.refusal = o.holdout > 0.0 ? calib::heldoutRefusal(r.gain, o.holdout, calib::countConfigurations(all)) : "";
+  r.fit_refusal = calib::fitRefusal(r.fit, ident, fo);
 
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit);
   std::ostringstream header;
@@ -150,7 +152,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
     r.consistency_p = calib::chiSquareSurvival(r.fit.chi2, r.fit.dof);
     r.inconsistent = r.consistency_p < calib::Consistency{}.alpha;
   }
-  const bool write_model = (!r.worse && !r.inconsistent && r.refusal.empty()) || o.accept_worse;
+  const bool write_model = (!r.worse && !r.inconsistent && r.refusal.empty() && r.fit_refusal.empty()) || o.accept_worse;
   if (write_model) {
     r.model_path = folder.published(sim::writeModelFile(cm.model, cm.p, parameterRows(r.fit), out, header.str()));
   }
@@ -165,6 +167,10 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   }
   if ((!r.worse || !r.gain.enough) && !r.refusal.empty()) {
     md << "**The calibration is not accepted: " << r.refusal << ".** "
+       << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.") << "\n\n";
+  }
+  if (!r.fit_refusal.empty()) {
+    md << "**The calibration is not accepted: " << r.fit_refusal << ".** "
        << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.") << "\n\n";
   }
   if (r.inconsistent) {

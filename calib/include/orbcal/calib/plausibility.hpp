@@ -54,6 +54,19 @@ ResidualStats nominalRegistration(const sim::MeasuredData& data);
 /// nominal arm's registration residual", "the prediction residual of model.yaml".
 void requirePlausibleResidual(const sim::MeasuredData& data, const ResidualStats& residuals, const std::string& what);
 
+/// How far a fit's position RMS may lie above the least-squares fit's (LM) of the same model on the same
+/// samples: a robust loss or a prior moves it by tens of percent on data the model holds, while an
+/// estimator that stopped short of the fit (a linearized EKF with a tight prior, far from the data)
+/// stays where it started, orders of magnitude above.
+constexpr double kFarAboveLeastSquares = 2.0;
+
+/// Why `fit` (of `observations` with `options`) is refused on its own samples, whatever part of the data
+/// is held out (--holdout 0 too); empty when it is not. Its position residual RMS is compared with the
+/// least-squares fit's (refitted here with LM unless options.method is LM): more than
+/// kFarAboveLeastSquares times it, the residuals are far above the noise and what the model cannot hold,
+/// and the estimate is not a calibration. One sentence naming both figures and the way out.
+std::string fitRefusal(const Fit& fit, const std::vector<MarkerObservation>& observations, const FitOptions& options);
+
 /// Throws InputError when a geometric parameter of `fit` (a fit of `data` started at its nominal arm)
 /// moved beyond its bound by more than 3 of its 1-sigma (the fit's covariance; 0 without one).
 void requirePlausibleGeometry(const sim::MeasuredData& data, const Fit& fit);

@@ -31,7 +31,9 @@ struct MeasuredCalibrateResult {
   int samples = 0, identification = 0, held_out = 0;
   bool worse = false;                    ///< held-out position RMS grew
   calib::HeldoutGain gain;               ///< the held-out gain and its test (calib/heldout.hpp)
-  std::string refusal;                   ///< why the gain is not accepted (calib::heldoutRefusal); empty: accepted
+  std::string refusal;                   ///< why the gain is not accepted (calib::heldoutRefusal); empty: accepted or none held out
+  /// Why the fit itself is refused, whatever the split (calib::fitRefusal); empty: not.
+  std::string fit_refusal;
   /// With the noise given (not estimated): the fit's chi-square against chi-square(dof) at the alpha of
   /// calib::Consistency; inconsistent when P(chi-square(dof) > chi2) < alpha.
   bool inconsistent = false;
