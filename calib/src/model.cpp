@@ -31,7 +31,7 @@ Linearization PoseMeasurementModel::linearize(int k, const Eigen::VectorXd& y) c
   if (noise_.joint_noise_sigma_rad > 0.0) {
     // A joint angle and its theta offset are the same motion: J_q = the theta columns of J.
     sim::Matrix6Xd J_e_q(6, nominal_.numJoints());
-    for (int j = 0; j < nominal_.numJoints(); ++j) J_e_q.col(j) = J.col(sim::paramIndex(nominal_, j, sim::kTheta));
+    for (int j = 0; j < nominal_.numJoints(); ++j) J_e_q.col(j) = J.col(sim::jointParamIndex(nominal_, j));
     lin.R += noise_.joint_noise_sigma_rad * noise_.joint_noise_sigma_rad * J_e_q * J_e_q.transpose();
   }
   return lin;
