@@ -6,6 +6,8 @@
 #include <random>
 
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/gravity.hpp"
+#include "orbcal/sim/ik.hpp"
 #include "orbcal/sim/identifiability.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/jacobian.hpp"
@@ -263,4 +265,96 @@ TEST_CASE("robot YAML: prismatic joints round-trip, wrong limit keys are one-lin
   const std::string typo = orbcal::test::tempPath("slider_typo.yaml");
   orbcal::test::write(typo, orbcal::test::edited(orbcal::test::edited(kSliderYaml, "CONVENTION", "modified"), "type: prismatic", "type: linear"));
   CHECK_THAT(orbcal::test::inputError([&] { loadArm(typo); }), Catch::Contains("expected 'revolute' or 'prismatic', got 'linear'"));
+}
+
+TEST_CASE("joint effects on a prismatic joint: lengths, their Jacobians, a lead screw's period", "[sim][prismatic][model]") {
+  const Arm arm = mobileArm();
+  const std::vector<Effect> effects = {Scale{{0}}, Backlash{{0}}, Cyclic{{0}, 2}, Compliance{{0}}, Scale{{2}}};
+  const KinematicModel m = makeKinematicModel(arm, 1, FrameSharing::kShared, FrameSharing::kShared, {Eigen::Isometry3d::Identity()},
+                                              {fromXyzRpy({0.02, 0.01, 0.05}, Eigen::Vector3d(5, 0, 30) * kDegToRad)}, effects);
+  std::mt19937_64 rng(28);
+  std::normal_distribution<double> n01;
+  for (const Eigen::VectorXd& q : orbcal::test::randomConfigs(arm, 4, 29)) {
+    JointSample s;
+    s.q_rad = q;
+    s.tau_Nm = Eigen::VectorXd::Constant(arm.numJoints(), 20.0);
+    s.tau_Nm[0] = 400.0;  // N: the torso carries ~40 kg
+    s.direction = Eigen::VectorXd::Constant(arm.numJoints(), 1.0);
+    Eigen::VectorXd p(m.layout.size());
+    for (int i = 0; i < p.size(); ++i) p[i] = n01(rng) * m.layout.typical()[i];
+    Eigen::MatrixXd J;
+    const Eigen::Isometry3d T = predictMarkerPose(m, p, s, &J);
+    const auto f = [&](const Eigen::VectorXd& x) -> Eigen::VectorXd { return poseMinus(predictMarkerPose(m, x, s), T); };
+    REQUIRE(orbcal::test::requireJacobianMatches(f, J, p, m.layout.typical(), [&](int c) { return m.layout.param(c).name; }) > 1e-6);
+  }
+  // Units: the torso's backlash and cyclic amplitudes are lengths, its compliance m/N.
+  for (const ParamBlock& b : m.layout.blocks()) {
+    if (b.joints != std::vector<int>{0}) continue;
+    CAPTURE(b.effect);
+    const std::string unit = b.params[0].unit;
+    CHECK(unit == (b.effect == "scale" ? "1" : b.effect == "compliance" ? "m/N" : "m"));
+  }
+  // Defining formulas on the torso: dq = s q + b d + a sin(2 pi q / 5 mm) - c f.
+  JointSample s;
+  s.q_rad = Eigen::VectorXd::Zero(arm.numJoints());
+  s.q_rad[0] = 0.1234;
+  s.tau_Nm = Eigen::VectorXd::Zero(arm.numJoints());
+  s.tau_Nm[0] = 300.0;
+  s.direction = Eigen::VectorXd::Constant(arm.numJoints(), -1.0);
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(m.layout.size());
+  const auto at = [&](const std::string& name) {
+    for (int i = 0; i < m.layout.size(); ++i) {
+      if (m.layout.param(i).name == name) return i;
+    }
+    FAIL("no parameter " << name);
+    return -1;
+  };
+  p[at("s1")] = 1e-3, p[at("b1")] = 2e-5, p[at("cyclic1_sin1")] = 1e-5, p[at("c1")] = 1e-7;
+  const double expected = 1e-3 * 0.1234 - 2e-5 + 1e-5 * std::sin(2.0 * kPi * 0.1234 / 0.005) - 1e-7 * 300.0;
+  CHECK(jointCorrections(m, p, s)[0] == Approx(expected).epsilon(1e-12));
+}
+
+TEST_CASE("effects that do not apply to a prismatic joint are refused, naming the effect and the joint", "[sim][prismatic]") {
+  const Arm arm = mobileArm();
+  for (const char* spec : {"coupling:1,2", "coupling:3,1"}) {
+    CAPTURE(spec);
+    const Effect e = parseEffect(spec, arm.numJoints(), "--effects");
+    CHECK_FALSE(fitsJointTypes(e, arm));
+    const std::string msg = orbcal::test::inputError([&] { effectBlocks(e, arm, 1); });
+    CHECK_THAT(msg, Catch::Contains(std::string(spec) + " does not apply to joint 1, a prismatic joint"));
+  }
+  CHECK(fitsJointTypes(parseEffect("coupling:3,2", arm.numJoints(), "--effects"), arm));
+}
+
+TEST_CASE("gravity load of a prismatic joint is the weight above it along its axis", "[sim][prismatic]") {
+  const Arm arm = mobileArm();
+  // Everything the lift carries: the URDF's link masses after the base (torso 15 kg + the arm's).
+  double mass = 0.0;
+  for (const LinkMass& l : arm.masses.links) mass += l.mass_kg;
+  REQUIRE(mass > 15.0);
+  for (const Eigen::VectorXd& q : orbcal::test::randomConfigs(arm, 5, 30)) {
+    const Eigen::VectorXd tau = gravityTorques(arm, arm.masses, q);
+    CHECK(tau[0] == Approx(mass * 9.80665).epsilon(1e-12));  // the actuator pushes up (axis z, gravity -z)
+  }
+}
+
+TEST_CASE("IK reaches poses with the torso free, and with it locked", "[sim][prismatic][ik]") {
+  const Arm arm = mobileArm();
+  for (int locked : {-1, 0, 3}) {
+    for (const Eigen::VectorXd& q_true : orbcal::test::randomConfigs(arm, 5, 31 + static_cast<std::uint64_t>(locked))) {
+      Eigen::VectorXd q_start = q_true;
+      for (int j = 0; j < arm.numJoints(); ++j) {
+        if (j != locked) q_start[j] += j == 0 ? 0.05 : 0.2;  // 5 cm of lift, 0.2 rad elsewhere
+      }
+      IkOptions o;
+      o.locked_joint = locked;
+      const IkResult r = inverseKinematics(arm, forwardKinematics(arm, q_true), q_start, o);
+      CAPTURE(locked, q_true.transpose(), r.q.transpose());
+      REQUIRE(r.converged);
+      CHECK((forwardKinematics(arm, r.q).matrix() - forwardKinematics(arm, q_true).matrix()).cwiseAbs().maxCoeff() < 1e-9);
+      if (locked >= 0) CHECK(r.q[locked] == q_start[locked]);
+      CHECK(r.q[0] >= arm.lower_rad[0]);
+      CHECK(r.q[0] <= arm.upper_rad[0]);
+    }
+  }
 }
