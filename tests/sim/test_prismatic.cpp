@@ -11,6 +11,7 @@
 #include "orbcal/sim/identifiability.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/jacobian.hpp"
+#include "orbcal/sim/measured.hpp"
 #include "orbcal/sim/model.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "jacobian_check.hpp"
@@ -82,43 +83,30 @@ Eigen::Matrix4d mobileByHand(const Eigen::VectorXd& q) {
 
 Arm mobileArm() { return loadArm(orbcal::test::sourcePath("scenes/mobile_manipulator.urdf")); }
 
-// Central differences of the pose error (numericIdentificationJacobian): step and tolerance as in
-// test_jacobian.cpp (truncation ~1e-12 x 2 m, round-off ~1e-16 x 2 m / 1e-6; entries O(1)).
-constexpr double kStep = 1e-6;
-constexpr double kJacobianTol = 1e-7;
 // Poses built two ways agree to round-off of a few products of unit-size matrices on a ~2 m arm.
 constexpr double kPoseTol = 1e-12;
 
-void checkIdentificationJacobian(const Arm& arm, const Eigen::VectorXd& q) {
-  for (ErrorFrame frame : {ErrorFrame::kTool, ErrorFrame::kBase}) {
-    const Matrix6Xd J = identificationJacobian(arm, q, frame);
-    const Matrix6Xd J_num = numericIdentificationJacobian(arm, q, frame, kStep);
-    REQUIRE(J_num.norm() > 1.0);  // a harness returning zeros must not pass
-    for (int c = 0; c < arm.numParams(); ++c) {
-      Eigen::Index r = 0;
-      const double err = (J.col(c) - J_num.col(c)).cwiseAbs().maxCoeff(&r);
-      CAPTURE(q.transpose(), paramName(arm, c), r, J(r, c), J_num(r, c));
-      REQUIRE(err < kJacobianTol);
-    }
-  }
+/// Pose error of T against T0: in the tool frame (poseMinus), or in the base frame [dp; log(R R0^T)].
+Eigen::VectorXd poseError(const Eigen::Isometry3d& T, const Eigen::Isometry3d& T0, ErrorFrame frame) {
+  if (frame == ErrorFrame::kTool) return poseMinus(T, T0);
+  Eigen::VectorXd e(6);
+  e << T.translation() - T0.translation(), logSO3(T.linear() * T0.linear().transpose());
+  return e;
 }
 
-/// The manipulator Jacobian's column of joint j against central differences of FK in q_j.
-void checkManipulatorJacobian(const Arm& arm, const Eigen::VectorXd& q) {
-  const Matrix6Xd J = manipulatorJacobian(arm, q);
-  const Eigen::Isometry3d T = forwardKinematics(arm, q);
-  for (int j = 0; j < arm.numJoints(); ++j) {
-    Eigen::VectorXd qp = q, qm = q;
-    qp[j] += kStep;
-    qm[j] -= kStep;
-    const Eigen::Isometry3d Tp = forwardKinematics(arm, qp), Tm = forwardKinematics(arm, qm);
-    Vector6d col;
-    col << (Tp.translation() - Tm.translation()) / (2 * kStep),
-        (logSO3(Tp.linear() * T.linear().transpose()) - logSO3(Tm.linear() * T.linear().transpose())) / (2 * kStep);
-    CAPTURE(j, q.transpose());
-    REQUIRE(col.norm() > 0.1);
-    REQUIRE((J.col(j) - col).cwiseAbs().maxCoeff() < kJacobianTol);
+/// The identification Jacobian (both frames) and the manipulator Jacobian at q against central
+/// differences (tests/jacobian_check.hpp), parameters and joint values in units of 1 (rad, m).
+void checkJacobians(const Arm& arm, const Eigen::VectorXd& q) {
+  const Eigen::Isometry3d T0 = forwardKinematics(arm, q);
+  for (ErrorFrame frame : {ErrorFrame::kTool, ErrorFrame::kBase}) {
+    const auto f = [&](const Eigen::VectorXd& y) { return poseError(forwardKinematics(withErrors(arm, y), q), T0, frame); };
+    const double largest = orbcal::test::requireJacobianMatches(f, identificationJacobian(arm, q, frame), Eigen::VectorXd::Zero(arm.numParams()),
+                                                                Eigen::VectorXd::Ones(arm.numParams()), [&](int c) { return paramName(arm, c); });
+    REQUIRE(largest > 0.5);  // a harness returning zeros must not pass
   }
+  const auto g = [&](const Eigen::VectorXd& x) { return poseError(forwardKinematics(arm, x), T0, ErrorFrame::kBase); };
+  orbcal::test::requireJacobianMatches(g, manipulatorJacobian(arm, q), q, Eigen::VectorXd::Ones(q.size()),
+                                       [](int c) { return "q" + std::to_string(c + 1); });
 }
 
 }  // namespace
@@ -165,8 +153,7 @@ TEST_CASE("identification and manipulator Jacobians of prismatic joints match ce
     for (const Arm& arm : {nominal, withErrors(nominal, y)}) {
       for (const Eigen::VectorXd& q : orbcal::test::randomConfigs(arm, 6, 22)) {
         CAPTURE(arm.name);
-        checkIdentificationJacobian(arm, q);
-        checkManipulatorJacobian(arm, q);
+        checkJacobians(arm, q);
       }
     }
   }
@@ -357,4 +344,38 @@ TEST_CASE("IK reaches poses with the torso free, and with it locked", "[sim][pri
       CHECK(r.q[0] <= arm.upper_rad[0]);
     }
   }
+}
+
+TEST_CASE("measurement descriptions: prismatic_unit is required for an arm with a slide, mm read as mm", "[sim][prismatic][measured]") {
+  const std::string dir = orbcal::test::tempDir("prismatic-measured");
+  const std::string robot = orbcal::test::sourcePath("scenes/mobile_manipulator.urdf");
+  const std::string header = "torso,q1,q2,q3,q4,q5,q6,q7,x,y,z\n";
+  orbcal::test::write(dir + "/data.csv", header + "250,10,-20,30,-40,50,-60,70,1000,2000,3000\n");
+  const std::string desc = "format: orbcal-measurements-1\nrobot: \"" + robot +
+                           "\"\nfiles: [data.csv]\n"
+                           "joints: {columns: [torso, q1, q2, q3, q4, q5, q6, q7], unit: deg, prismatic_unit: mm}\n"
+                           "pose: {position: [x, y, z], length_unit: mm}\n"
+                           "registration: {base: shared, marker: shared}\n";
+  orbcal::test::write(dir + "/desc.yaml", desc);
+  const MeasuredData d = loadMeasuredData(dir + "/desc.yaml");
+  REQUIRE(d.poses.size() == 1);
+  CHECK(d.poses[0].sample.q_rad[0] == Approx(0.25).epsilon(1e-15));  // 250 mm of lift
+  CHECK(d.poses[0].sample.q_rad[1] == Approx(10.0 * kDegToRad).epsilon(1e-15));
+
+  orbcal::test::write(dir + "/missing.yaml", orbcal::test::edited(desc, ", prismatic_unit: mm", ""));
+  const std::string msg = orbcal::test::inputError([&] { loadMeasuredData(dir + "/missing.yaml"); });
+  CHECK_THAT(msg, Catch::StartsWith(dir + "/missing.yaml: joints"));
+  CHECK_THAT(msg, Catch::Contains("prismatic_unit (m or mm) is required"));
+
+  // A torso reading beyond its 0.4 m: named with the column and the file's unit.
+  orbcal::test::write(dir + "/data.csv", header + "450,10,-20,30,-40,50,-60,70,1000,2000,3000\n");
+  CHECK_THAT(orbcal::test::inputError([&] { loadMeasuredData(dir + "/desc.yaml"); }),
+             Catch::Contains("torso: 450 mm is outside the joint limits [0, 400] mm"));
+
+  // What orbcal writes (SI: q1_m for the slide, prismatic_unit: m) reads back bit for bit.
+  MeasuredData w = d;
+  w.poses[0].sample.q_rad[0] = 0.123456789012345;
+  const std::string back = writeMeasuredData(w, dir + "/written", robot, "measurements.yaml");
+  CHECK_THAT(orbcal::test::slurp(back), Catch::Contains("prismatic_unit: m}"));
+  CHECK(loadMeasuredData(back).poses[0].sample.q_rad == w.poses[0].sample.q_rad);
 }
