@@ -25,40 +25,18 @@
 namespace orbcal::tools {
 
 namespace {
-
-Eigen::VectorXd parseJointsDeg(const std::vector<std::string>& words, const sim::Arm& arm) {
-  if (static_cast<int>(words.size()) != arm.numJoints()) {
-    throw sim::InputError("joint angles: expected " + std::to_string(arm.numJoints()) + " (" + arm.source + " has " +
-                          std::to_string(arm.numJoints()) + " joints), got " + std::to_string(words.size()));
-  }
-  Eigen::VectorXd q(arm.numJoints());
-  for (int j = 0; j < arm.numJoints(); ++j) {
-    char* end = nullptr;
-    const double v = std::strtod(words[j].c_str(), &end);
-    if (words[j].empty() || end != words[j].c_str() + words[j].size() || !std::isfinite(v)) {
-      throw sim::InputError("joint angles: q" + std::to_string(j + 1) + ": expected a finite angle in degrees, got '" +
-                            words[j] + "'");
-    }
-    q[j] = v * sim::kDegToRad;
-  }
-  return q;
-}
-
-}  // namespace
-
-namespace {
 void addFkCommand(CLI::App& app) {
   struct Opts {
     ArmSceneOptions as;
     std::vector<std::string> joints;
   };
   auto opt = std::make_shared<Opts>();
-  CLI::App* cmd = app.add_subcommand("fk", "Forward kinematics: the flange pose (base frame) at the given joint angles");
+  CLI::App* cmd = app.add_subcommand("fk", "Forward kinematics: the flange pose (base frame) at the given joint values");
   addRobotOptions(*cmd, opt->as);
-  cmd->add_option("joints_deg", opt->joints, "joint angles [deg], one per joint")->required()->allow_extra_args();
+  cmd->add_option("joints", opt->joints, "joint values, one per joint: revolute [deg], prismatic [mm]")->required()->allow_extra_args();
   cmd->callback([opt] {
     const sim::Arm arm = sim::loadArm(opt->as.robotSource());
-    const Eigen::VectorXd q = parseJointsDeg(opt->joints, arm);
+    const Eigen::VectorXd q = sim::parseEdgeJointValues(arm, opt->joints);
     const Eigen::Isometry3d T = sim::forwardKinematics(arm, q);
     const Eigen::Vector3d p = T.translation() * 1e3;
     const Eigen::Vector3d rpy = T.linear().eulerAngles(2, 1, 0).reverse() * sim::kRadToDeg;

@@ -26,7 +26,9 @@ std::vector<Effect> catalogCandidates(const sim::MeasuredData& data, const std::
   for (const MarkerObservation& ob : obs) samples.push_back(ob.sample);
   std::vector<Effect> c;
   for (const sim::EffectKind* k : sim::catalog()) {
-    for (const Effect& e : k->candidates(ctx)) c.push_back(k->adaptTo(e, samples));
+    for (const Effect& e : k->candidates(ctx)) {
+      if (sim::fitsJointTypes(e, data.arm)) c.push_back(k->adaptTo(e, samples));
+    }
   }
   return c;
 }
@@ -39,6 +41,7 @@ std::vector<Effect> empiricalCandidates(const sim::MeasuredData& data, const std
       const sim::EffectKind& kind = *sim::findEffectKind(name);
       if (kind.needs().torque && !torque) continue;
       const Effect e(kind, {j, j}, std::clamp(degree, 1, kind.maxOrder()));
+      if (!sim::fitsJointTypes(e, data.arm)) continue;
       double lo = kind.variable(e, obs.front().sample), hi = lo;
       for (const MarkerObservation& ob : obs) {
         lo = std::min(lo, kind.variable(e, ob.sample));

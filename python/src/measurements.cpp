@@ -176,10 +176,11 @@ std::vector<sim::MeasuredPose> samplesFrom(const sim::Arm& arm, const ArrayInput
     sim::checkJointVector(arm, s.q_rad, ("q[" + std::to_string(k) + "]").c_str());
     for (int j = 0; j < arm.numJoints(); ++j) {
       if (s.q_rad[j] >= arm.lower_rad[j] && s.q_rad[j] <= arm.upper_rad[j]) continue;
-      const auto rad = [](double v) { return sim::formatNumber("%.9g", v); };
-      throw sim::InputError("q[" + std::to_string(k) + "]: joint " + std::to_string(j + 1) + ": " + rad(s.q_rad[j]) +
-                            " rad is outside the joint limits [" + rad(arm.lower_rad[j]) + ", " + rad(arm.upper_rad[j]) +
-                            "] rad of " + arm.source);
+      const auto si = [](double v) { return sim::formatNumber("%.9g", v); };
+      const std::string unit = arm.isPrismatic(j) ? " m" : " rad";
+      throw sim::InputError("q[" + std::to_string(k) + "]: joint " + std::to_string(j + 1) + ": " + si(s.q_rad[j]) + unit +
+                            " is outside the joint limits [" + si(arm.lower_rad[j]) + ", " + si(arm.upper_rad[j]) + "]" + unit +
+                            " of " + arm.source);
     }
     const std::string at = "[" + std::to_string(k) + "]";
     if (in.torques) requireFinite(s.tau_Nm = in.torques->row(k).transpose(), "torques" + at);

@@ -20,16 +20,24 @@ std::vector<std::string> jointNames(const sim::Arm& arm) {
 
 void bindRobot(py::module_& m) {
   py::class_<sim::Arm>(m, "Robot",
-                       "A serial arm of revolute joints (DH or URDF chain) with fixed base and tool transforms. Joint "
-                       "angles in rad, lengths in m.")
+                       "A serial arm of revolute and prismatic joints (DH or URDF chain) with fixed base and tool "
+                       "transforms. Joint values in SI: rad for a revolute joint, m for a prismatic one; lengths in m.")
       .def_readonly("name", &sim::Arm::name, "the robot's name (robot file's `name:`)")
       .def_readonly("source", &sim::Arm::source, "the file it was loaded from")
       .def_property_readonly("convention", [](const sim::Arm& a) { return std::string(sim::conventionName(a.convention)); },
                              "'modified', 'standard', 'hayati' or 'urdf'")
       .def_property_readonly("dof", &sim::Arm::numJoints, "number of joints")
       .def_property_readonly("joint_names", &jointNames, "joint names (the URDF's, else joint1 .. jointN)")
-      .def_readonly("lower", &sim::Arm::lower_rad, "lower joint limits (rad), one per joint")
-      .def_readonly("upper", &sim::Arm::upper_rad, "upper joint limits (rad), one per joint")
+      .def_property_readonly(
+          "joint_types",
+          [](const sim::Arm& a) {
+            std::vector<std::string> types;
+            for (const sim::DhRow& r : a.joints) types.emplace_back(sim::jointTypeName(r.type));
+            return types;
+          },
+          "'revolute' or 'prismatic', one per joint")
+      .def_readonly("lower", &sim::Arm::lower_rad, "lower joint limits (rad, or m for a prismatic joint), one per joint")
+      .def_readonly("upper", &sim::Arm::upper_rad, "upper joint limits (rad, or m for a prismatic joint), one per joint")
       .def_property_readonly("has_masses", [](const sim::Arm& a) { return !a.masses.empty(); },
                              "the robot file has a mass model (gravity torques for compliance)")
       .def(
@@ -39,7 +47,8 @@ void bindRobot(py::module_& m) {
             return Eigen::Matrix4d(sim::forwardKinematics(a, q).matrix());
           },
           py::arg("q"),
-          "base_T_flange at joint angles q (rad, one per joint): a 4x4 homogeneous transform, translation in m.")
+          "base_T_flange at joint values q (one per joint: rad, or m for a prismatic joint): a 4x4 homogeneous "
+          "transform, translation in m.")
       .def(
           "jacobian",
           [](const sim::Arm& a, const Eigen::VectorXd& q) {
@@ -47,7 +56,8 @@ void bindRobot(py::module_& m) {
             return Eigen::MatrixXd(sim::manipulatorJacobian(a, q));
           },
           py::arg("q"),
-          "Geometric Jacobian (6 x dof) in the base frame at q (rad): rows [v of the flange origin (m/rad); w (rad/rad)].")
+          "Geometric Jacobian (6 x dof) in the base frame at q (SI): rows [v of the flange origin; w], per rad of a "
+          "revolute joint, per m of a prismatic one.")
       .def("__repr__", [](const sim::Arm& a) {
         return "<orbcal.Robot " + a.name + ": " + std::to_string(a.numJoints()) + " joints, " + sim::conventionName(a.convention) +
                ", from " + a.source + ">";

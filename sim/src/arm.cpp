@@ -19,27 +19,52 @@ const char* conventionName(DhConvention convention) {
   return "?";
 }
 
+const char* jointTypeName(JointType type) { return type == JointType::kPrismatic ? "prismatic" : "revolute"; }
+
 namespace {
-/// Name of per-joint parameter k without the joint number.
-const char* paramStem(const Arm& arm, int k) {
+/// True for the URDF convention's prismatic zero offset: slot kTheta of a prismatic joint, a length.
+/// (An arm without rows, as error tables make to name their keys, has revolute joints only.)
+bool isUrdfSlide(const Arm& arm, int index) {
+  const int joint = index / arm.paramsPerJoint();
+  return arm.convention == DhConvention::kUrdf && paramKind(arm, index) == kTheta && joint < arm.numJoints() &&
+         arm.isPrismatic(joint);
+}
+
+/// Name of parameter `index` without the joint number.
+const char* paramStem(const Arm& arm, int index) {
   static const char* kDh[] = {"theta", "alpha", "a", "d", "beta"};
   static const char* kUrdfNames[] = {"theta", "x", "y", "z", "roll", "pitch", "yaw"};
+  if (isUrdfSlide(arm, index)) return "d";
+  const int k = paramKind(arm, index);
   return arm.convention == DhConvention::kUrdf ? kUrdfNames[k] : kDh[k];
 }
 }  // namespace
 
+int jointParamIndex(const Arm& arm, int joint) {
+  const bool dh_slide = arm.isPrismatic(joint) && arm.convention != DhConvention::kUrdf;
+  return paramIndex(arm, joint, dh_slide ? kD : kTheta);
+}
+
 std::string paramName(const Arm& arm, int index) {
-  return paramStem(arm, paramKind(arm, index)) + std::to_string(index / arm.paramsPerJoint() + 1);
+  return paramStem(arm, index) + std::to_string(index / arm.paramsPerJoint() + 1);
 }
 
 bool isAngleParam(const Arm& arm, int index) {
   const ParamKind kind = paramKind(arm, index);
-  if (arm.convention == DhConvention::kUrdf) return kind == kTheta || kind >= kOroll;
+  if (arm.convention == DhConvention::kUrdf) return (kind == kTheta && !isUrdfSlide(arm, index)) || kind >= kOroll;
   return kind == kTheta || kind == kAlpha || kind == kBeta;
 }
 
-std::string paramKey(const Arm& arm, int k) {
-  return std::string(paramStem(arm, k)) + (isAngleParam(arm, k) ? "_deg" : "_mm");
+std::string paramKey(const Arm& arm, int index) {
+  return std::string(paramStem(arm, index)) + (isAngleParam(arm, index) ? "_deg" : "_mm");
+}
+
+const char* jointEdgeUnit(const Arm& arm, int joint) { return arm.isPrismatic(joint) ? "mm" : "deg"; }
+
+double jointEdgeScale(const Arm& arm, int joint) { return arm.isPrismatic(joint) ? 1e3 : kRadToDeg; }
+
+std::string formatJointValue(const Arm& arm, int joint, double q) {
+  return formatNumber("%.6g", q * jointEdgeScale(arm, joint)) + " " + jointEdgeUnit(arm, joint);
 }
 
 namespace {
@@ -61,6 +86,13 @@ void checkJointVector(const Arm& arm, const Eigen::VectorXd& q, const char* cont
   checkVector(q, arm.numJoints(), "joint angles", context);
   if (arm.lower_rad.size() != q.size() || arm.upper_rad.size() != q.size()) return;  // an arm without limits
   for (Eigen::Index j = 0; j < q.size(); ++j) {
+    if (arm.isPrismatic(static_cast<int>(j))) {
+      if (q[j] >= arm.lower_rad[j] - kMaxLengthM && q[j] <= arm.upper_rad[j] + kMaxLengthM) continue;
+      throw std::invalid_argument(std::string(context) + ": joint " + std::to_string(j + 1) + " of " + arm.source + ": " +
+                                  formatJointValue(arm, static_cast<int>(j), q[j]) + " is more than 10 km outside its limits [" +
+                                  formatJointValue(arm, static_cast<int>(j), arm.lower_rad[j]) + ", " +
+                                  formatJointValue(arm, static_cast<int>(j), arm.upper_rad[j]) + "]: no pose of the arm");
+    }
     if (q[j] >= arm.lower_rad[j] - kMaxJointAngleRad && q[j] <= arm.upper_rad[j] + kMaxJointAngleRad) continue;
     throw std::invalid_argument(std::string(context) + ": joint " + std::to_string(j + 1) + " of " + arm.source + ": " +
                                 formatNumber("%.9g", q[j]) + " rad (" + formatNumber("%.6g", q[j] * kRadToDeg) +
@@ -74,11 +106,41 @@ void checkParamVector(const Arm& arm, const Eigen::VectorXd& y, const char* cont
   checkVector(y, arm.numParams(), "parameter errors", context);
 }
 
+Eigen::VectorXd parseEdgeJointValues(const Arm& arm, const std::vector<std::string>& words) {
+  if (static_cast<int>(words.size()) != arm.numJoints()) {
+    throw InputError("joint values: expected " + std::to_string(arm.numJoints()) + " (" + arm.source + " has " +
+                     std::to_string(arm.numJoints()) + " joints), got " + std::to_string(words.size()));
+  }
+  Eigen::VectorXd q(arm.numJoints());
+  for (int j = 0; j < arm.numJoints(); ++j) {
+    const std::string& w = words[static_cast<std::size_t>(j)];
+    char* end = nullptr;
+    const double v = std::strtod(w.c_str(), &end);
+    if (w.empty() || end != w.c_str() + w.size() || !std::isfinite(v)) {
+      throw InputError("joint values: q" + std::to_string(j + 1) + ": expected a finite " +
+                       (arm.isPrismatic(j) ? "length in millimetres" : "angle in degrees") + ", got " + quoteInput(w));
+    }
+    q[j] = v / jointEdgeScale(arm, j);
+  }
+  return q;
+}
+
 Eigen::Isometry3d linkTransform(DhConvention convention, const DhRow& row, double q) {
+  const bool prismatic = row.type == JointType::kPrismatic;
   if (convention == DhConvention::kUrdf) {
     Eigen::Isometry3d T = fromXyzRpy(row.xyz_m, row.rpy_rad);
-    T.rotate(Eigen::AngleAxisd(row.theta_rad + q, row.axis));
+    if (prismatic) {
+      T.translate((row.d_m + q) * row.axis);
+    } else {
+      T.rotate(Eigen::AngleAxisd(row.theta_rad + q, row.axis));
+    }
     return T;
+  }
+  if (prismatic) {
+    DhRow fixed = row;  // the same matrix with the variable on d
+    fixed.type = JointType::kRevolute;
+    fixed.d_m += q;
+    return linkTransform(convention, fixed, 0.0);
   }
   const double th = row.theta_rad + q;
   const double ct = std::cos(th), st = std::sin(th);
@@ -117,7 +179,7 @@ void addErrors(Arm& arm, const Eigen::VectorXd& y) {
   for (int j = 0; j < arm.numJoints(); ++j) {
     if (arm.convention == DhConvention::kUrdf) {
       const int b = paramIndex(arm, j, kTheta);
-      arm.joints[j].theta_rad += y[b];
+      (arm.isPrismatic(j) ? arm.joints[j].d_m : arm.joints[j].theta_rad) += y[b];
       arm.joints[j].xyz_m += y.segment<3>(b + kOx);
       arm.joints[j].rpy_rad += y.segment<3>(b + kOroll);
       continue;

@@ -15,12 +15,11 @@
 namespace orbcal::sim {
 
 double singularityMeasure(const Arm& arm, const Eigen::VectorXd& q, int locked_joint) {
-  const Matrix6Xd J = manipulatorJacobian(arm, q);
-  const double L = characteristicLength(arm);
+  const Matrix6Xd J = scaledManipulatorJacobian(arm, q, characteristicLength(arm));
   Eigen::MatrixXd Js(6, arm.numJoints() - (locked_joint >= 0 ? 1 : 0));
   for (int j = 0, c = 0; j < arm.numJoints(); ++j) {
     if (j == locked_joint) continue;
-    Js.col(c++) << J.col(j).head<3>() / L, J.col(j).tail<3>();
+    Js.col(c++) = J.col(j);
   }
   return Eigen::JacobiSVD<Eigen::MatrixXd>(Js).singularValues().minCoeff();
 }

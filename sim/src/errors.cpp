@@ -94,14 +94,14 @@ std::string errorRowYaml(const Arm& arm, const Eigen::VectorXd& y, int joint, st
   std::string s = "{";
   for (int k = 0; k < arm.paramsPerJoint(); ++k) {
     const int i = arm.paramsPerJoint() * joint + k;
-    s += (k ? ", " : "") + paramKey(arm, k) + ": " + number(y[i] * edgeScale(arm, i));
+    s += (k ? ", " : "") + paramKey(arm, i) + ": " + number(y[i] * edgeScale(arm, i));
   }
   return s + "}";
 }
 
 void readErrorRow(const ConfigNode& row, const Arm& arm, int joint, Eigen::VectorXd& y) {
   std::vector<std::string> keys;
-  for (int k = 0; k < arm.paramsPerJoint(); ++k) keys.push_back(paramKey(arm, k));
+  for (int k = 0; k < arm.paramsPerJoint(); ++k) keys.push_back(paramKey(arm, arm.paramsPerJoint() * joint + k));
   row.requireOnlyKeys(keys);
   for (int k = 0; k < arm.paramsPerJoint(); ++k) {
     const int i = arm.paramsPerJoint() * joint + k;

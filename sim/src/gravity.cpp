@@ -37,7 +37,9 @@ Eigen::VectorXd gravityTorques(const Arm& arm, const MassModel& masses, const Ei
     const Eigen::Vector3d z = arm.convention == DhConvention::kUrdf ? Eigen::Vector3d(axis.linear() * arm.joints[static_cast<std::size_t>(j)].axis)
                                                                   : Eigen::Vector3d(axis.linear().col(2));
     const Eigen::Vector3d o = axis.translation();
-    tau[j] = -z.dot((S - M * o).cross(g));
+    // A prismatic joint carries a force (N) along its axis: dU/dq_j = -M z . g, everything outboard
+    // moving by z per metre of travel.
+    tau[j] = arm.isPrismatic(j) ? -M * z.dot(g) : -z.dot((S - M * o).cross(g));
   }
   return tau;
 }

@@ -31,15 +31,17 @@ bool newtonDescent(const Arm& arm, const Eigen::Isometry3d& target, Eigen::Vecto
   double cost = e.squaredNorm();
   double lambda = 1e-6;
   Eigen::MatrixXd Jf(6, m);
+  // A prismatic joint's variable in units of L, a revolute one's in rad (scaledManipulatorJacobian): a
+  // step of 0.5 is half a radian or half the arm's length.
+  Eigen::VectorXd unit(m);
+  for (int k = 0; k < m; ++k) unit[k] = arm.isPrismatic(free[k]) ? L : 1.0;
   for (int it = 0; it < opt.max_iterations; ++it) {
     pos_err = e.head<3>().norm() * L;
     rot_err = e.tail<3>().norm();
     if (pos_err < opt.position_tol_m && rot_err < opt.rotation_tol_rad) return true;
     ++iterations;
-    const Matrix6Xd J = manipulatorJacobian(arm, q);
-    for (int k = 0; k < m; ++k) {
-      Jf.col(k) << J.col(free[k]).head<3>() / L, J.col(free[k]).tail<3>();
-    }
+    const Matrix6Xd J = scaledManipulatorJacobian(arm, q, L);
+    for (int k = 0; k < m; ++k) Jf.col(k) = J.col(free[k]);
     // Levenberg-Marquardt on the scaled error; the damping vanishes as the iteration converges.
     bool improved = false;
     for (int tries = 0; tries < 12 && !improved; ++tries) {
@@ -48,7 +50,7 @@ bool newtonDescent(const Arm& arm, const Eigen::Isometry3d& target, Eigen::Vecto
       const double step = dq.cwiseAbs().maxCoeff();
       if (step > 0.5) dq *= 0.5 / step;  // keep steps within the region where the model is linear
       Eigen::VectorXd q_new = q;
-      for (int k = 0; k < m; ++k) q_new[free[k]] += dq[k];
+      for (int k = 0; k < m; ++k) q_new[free[k]] += dq[k] * unit[k];
       const Vector6d e_new = scaledError(target, forwardKinematics(arm, q_new), L);
       const double cost_new = e_new.squaredNorm();
       if (cost_new < cost) {
@@ -92,9 +94,9 @@ IkResult inverseKinematics(const Arm& arm, const Eigen::Isometry3d& target, cons
   const int n = arm.numJoints();
   std::vector<Eigen::VectorXd> seeds{q_start};
   if (opt.least_motion) {
-    // Other branches: each free joint turned by +-pi from the start (wrist and elbow flips).
+    // Other branches: each free revolute joint turned by +-pi from the start (wrist and elbow flips).
     for (int j = 0; j < n; ++j) {
-      if (j == opt.locked_joint) continue;
+      if (j == opt.locked_joint || arm.isPrismatic(j)) continue;
       for (double s : {kPi, -kPi}) {
         Eigen::VectorXd seed = q_start;
         seed[j] += s;
@@ -115,7 +117,9 @@ IkResult inverseKinematics(const Arm& arm, const Eigen::Isometry3d& target, cons
       }
       continue;
     }
-    for (int j = 0; j < n; ++j) q[j] = nearestEquivalentAngle(q[j], q_start[j], arm.lower_rad[j], arm.upper_rad[j]);
+    for (int j = 0; j < n; ++j) {
+      if (!arm.isPrismatic(j)) q[j] = nearestEquivalentAngle(q[j], q_start[j], arm.lower_rad[j], arm.upper_rad[j]);
+    }
     if (!withinLimits(arm, q)) continue;
     const double motion = (q - q_start).norm();
     if (motion < best_motion) {

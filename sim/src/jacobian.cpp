@@ -56,8 +56,12 @@ void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame
       const Eigen::Matrix3d& Rp = prev.linear();
       const Eigen::Vector3d o = prev * r.xyz_m;
       const Eigen::Matrix3d R_yaw = Rp * Eigen::AngleAxisd(r.rpy_rad.z(), Eigen::Vector3d::UnitZ()).toRotationMatrix();
-      const Eigen::Matrix3d R_origin = cur.linear() * Eigen::AngleAxisd(-(r.theta_rad + q[j]), r.axis).toRotationMatrix();
-      xi[kTheta] = rotationTwist(cur.linear() * r.axis, o);
+      // A prismatic joint slides frame j along the axis instead ({j-1}_T_{j} ends in Trans(axis (d + q))):
+      // its offset column is that translation, and the origin frame keeps frame j's orientation.
+      const bool slide = r.type == JointType::kPrismatic;
+      const Eigen::Matrix3d R_origin =
+          slide ? cur.linear() : Eigen::Matrix3d(cur.linear() * Eigen::AngleAxisd(-(r.theta_rad + q[j]), r.axis).toRotationMatrix());
+      xi[kTheta] = slide ? translationTwist(cur.linear() * r.axis) : rotationTwist(cur.linear() * r.axis, o);
       for (int a = 0; a < 3; ++a) xi[kOx + a] = translationTwist(Rp.col(a));
       xi[kOyaw] = rotationTwist(Rp.col(2), o);
       xi[kOpitch] = rotationTwist(R_yaw.col(1), o);
@@ -102,11 +106,21 @@ Matrix6Xd identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, Error
 }
 
 Matrix6Xd manipulatorJacobian(const Arm& arm, const Eigen::VectorXd& q) {
-  // A joint's motion is the motion of its theta parameter.
+  // A joint's motion is the motion of its zero offset (theta, or d for a prismatic joint).
   const Matrix6Xd J = identificationJacobian(arm, q, ErrorFrame::kBase);
   Matrix6Xd J_twist_q(6, arm.numJoints());
-  for (int j = 0; j < arm.numJoints(); ++j) J_twist_q.col(j) = J.col(paramIndex(arm, j, kTheta));
+  for (int j = 0; j < arm.numJoints(); ++j) J_twist_q.col(j) = J.col(jointParamIndex(arm, j));
   return J_twist_q;
+}
+
+Matrix6Xd scaledManipulatorJacobian(const Arm& arm, const Eigen::VectorXd& q, double L) {
+  Matrix6Xd J = manipulatorJacobian(arm, q);
+  for (int j = 0; j < arm.numJoints(); ++j) {
+    const double unit = arm.isPrismatic(j) ? L : 1.0;  // the variable's step that compares with a radian
+    J.col(j).head<3>() *= unit / L;
+    J.col(j).tail<3>() *= unit;
+  }
+  return J;
 }
 
 Matrix6Xd numericIdentificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,

@@ -15,35 +15,16 @@
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/urdf.hpp"
+#include "measured_units.hpp"
 
 namespace orbcal::sim {
 
 namespace {
+using namespace measured_units;
 
 constexpr const char* kFormat = "orbcal-measurements-1";
 /// Largest accepted |entry of R^T R - I|, |bottom row - [0 0 0 1]| and ||q| - 1| of a measured pose.
 constexpr double kPoseTolerance = 1e-6;
-
-// ---------------------------------------------------------------------------------------------
-// Units: value_SI = value * multiply / divide + offset (divide keeps mm -> m exact as v / 1000).
-
-struct Unit {
-  const char* name = "";
-  double multiply = 1.0;
-  double divide = 1.0;
-  double offset = 0.0;
-  double toSi(double v) const {
-    const double scaled = v * multiply / divide;
-    return offset == 0.0 ? scaled : scaled + offset;  // keeps -0.0 as written
-  }
-  double fromSi(double si) const { return (si - offset) * divide / multiply; }
-};
-
-const std::vector<Unit> kAngleUnits = {{"rad"}, {"deg", kDegToRad}};
-const std::vector<Unit> kLengthUnits = {{"m"}, {"mm", 1.0, 1000.0}};
-const std::vector<Unit> kTorqueUnits = {{"N*m"}, {"Nm"}};
-const std::vector<Unit> kTemperatureUnits = {{"degC"}, {"K", 1.0, 1.0, -273.15}};
-const std::vector<Unit> kTimeUnits = {{"s"}, {"ms", 1.0, 1000.0}, {"min", 60.0}, {"h", 3600.0}};
 
 // ---------------------------------------------------------------------------------------------
 // Physical ranges: what no real arm and instrument measure, refused at read time (SI).
@@ -86,6 +67,7 @@ std::string claimColumn(const ConfigNode& node, ColumnClaims& claims) {
 struct Layout {
   ColumnGroup joints, matrix, position, quaternion, torque, temperature, time, direction;
   Unit length;  ///< of the matrix's translation (position carries its own)
+  Unit prismatic;  ///< joints.prismatic_unit: of the prismatic joints' columns (joints.unit: the revolute ones')
   /// Every group, in the order the writer puts them in a row (after the index).
   std::array<ColumnGroup*, 8> groups() {
     return {&joints, &torque, &temperature, &time, &matrix, &position, &quaternion, &direction};
@@ -130,12 +112,15 @@ std::vector<std::string> readNames(const ConfigNode& node, std::size_t count, co
 
 /// {columns: [...], unit: U} (without `unit` when `units` is empty).
 ColumnGroup readColumns(const ConfigNode& node, std::size_t count, const std::string& what,
-                        const std::vector<Unit>& units, ColumnClaims& claims) {
+                        const std::vector<Unit>& units, ColumnClaims& claims, const std::vector<std::string>& more_keys = {}) {
   ColumnGroup g;
+  std::vector<std::string> keys{"columns"};
+  keys.insert(keys.end(), more_keys.begin(), more_keys.end());
   if (units.empty()) {
-    node.requireOnlyKeys({"columns"});
+    node.requireOnlyKeys(keys);
   } else {
-    node.requireOnlyKeys({"columns", "unit"});
+    keys.push_back("unit");
+    node.requireOnlyKeys(keys);
     g.unit = readUnit(valueOf(node, "unit"), units);
   }
   g.names = readNames(valueOf(node, "columns"), count, what, claims);
@@ -206,7 +191,10 @@ Layout readLayout(const ConfigNode& root, const Arm& arm) {
   const std::string per_joint = "one per joint of " + arm.source;
   Layout l;
   ColumnClaims claims;
-  l.joints = readColumns(valueOf(root, "joints"), joints, per_joint, kAngleUnits, claims);
+  const ConfigNode jn = valueOf(root, "joints");
+  l.joints = readColumns(jn, joints, per_joint, kAngleUnits, claims, {"prismatic_unit"});
+  if (arm.hasPrismatic() && !jn.has("prismatic_unit")) jn.fail("prismatic_unit (m or mm) is required: " + arm.source + " has a prismatic joint");
+  if (jn.has("prismatic_unit")) l.prismatic = readUnit(valueOf(jn, "prismatic_unit"), kLengthUnits);
   readPoseLayout(valueOf(root, "pose"), l, claims);
   if (const auto cov = optionalValueOf(root, "covariates")) readCovariateLayout(*cov, joints, per_joint, l, claims);
   return l;
@@ -325,14 +313,16 @@ std::string columnsAt(const CsvTable& t, std::size_t r, const std::string& first
   return t.where(r) + ": " + first + ".." + last + ": ";
 }
 
-Eigen::VectorXd readJoints(const CsvTable& t, std::size_t r, const ColumnGroup& g, const Arm& arm) {
-  const Eigen::VectorXd q = readGroup(t, r, g);
+Eigen::VectorXd readJoints(const CsvTable& t, std::size_t r, const Layout& l, const Arm& arm) {
+  const ColumnGroup& g = l.joints;
+  Eigen::VectorXd q(static_cast<Eigen::Index>(g.index.size()));
   for (Eigen::Index j = 0; j < q.size(); ++j) {
+    const Unit& u = arm.isPrismatic(static_cast<int>(j)) ? l.prismatic : g.unit;
+    q[j] = u.toSi(t.number(r, g.index[static_cast<std::size_t>(j)]));
     if (q[j] >= arm.lower_rad[j] && q[j] <= arm.upper_rad[j]) continue;
-    const auto in = [&g](double si) { return formatNumber("%.9g", g.unit.fromSi(si)); };
-    throw InputError(t.where(r) + ": " + g.names[static_cast<std::size_t>(j)] + ": " + in(q[j]) + " " + g.unit.name +
-                     " is outside the joint limits [" + in(arm.lower_rad[j]) + ", " + in(arm.upper_rad[j]) + "] " +
-                     g.unit.name + " of " + arm.source);
+    const auto in = [&u](double si) { return formatNumber("%.9g", u.fromSi(si)); };
+    throw InputError(t.where(r) + ": " + g.names[static_cast<std::size_t>(j)] + ": " + in(q[j]) + " " + u.name +
+                     " is outside the joint limits [" + in(arm.lower_rad[j]) + ", " + in(arm.upper_rad[j]) + "] " + u.name + " of " + arm.source);
   }
   return q;
 }
@@ -393,7 +383,7 @@ MeasuredPose readPose(const CsvTable& t, std::size_t r, const Layout& l, const A
   p.where = t.where(r);
   JointSample& s = p.sample;
   s.session = session;
-  s.q_rad = readJoints(t, r, l.joints, arm);
+  s.q_rad = readJoints(t, r, l, arm);
   if (l.matrix.given()) {
     p.world_T_marker = readMatrixPose(t, r, l);
   } else {
@@ -448,6 +438,7 @@ Layout outputLayout(const MeasuredData& d, int joints) {
   };
   Layout l;
   l.joints = {perJoint("q", "_rad"), kAngleUnits[0], {}, {}};
+  for (int j = 0; j < joints; ++j) l.joints.names[static_cast<std::size_t>(j)] = "q" + std::to_string(j + 1) + (d.arm.isPrismatic(j) ? "_m" : "_rad");
   l.position = {{"x_m", "y_m", "z_m"}, kLengthUnits[0], {}, {}};
   bool rotation = false;
   for (const MeasuredPose& p : d.poses) rotation |= p.has_rotation;
@@ -537,7 +528,7 @@ std::string formatDescription(const MeasuredData& d, const std::string& robot_fi
   for (const std::string& f : files) quoted_files.push_back(quoted(f));
   s << "robot: " << quoted(robot_file) << "\n";
   s << "files: " << yamlList(quoted_files) << "\n";
-  s << "joints: {columns: " << yamlList(l.joints.names) << ", unit: rad}\n";
+  s << "joints: {columns: " << yamlList(l.joints.names) << ", unit: rad" << (d.arm.hasPrismatic() ? ", prismatic_unit: m}\n" : "}\n");
   s << "pose: {position: " << yamlList(l.position.names);
   if (l.quaternion.given()) s << ", quaternion_wxyz: " << yamlList(l.quaternion.names);
   s << ", length_unit: m}\n";

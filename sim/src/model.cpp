@@ -213,7 +213,10 @@ ParamBlock distortionBlock() {
 
 std::string formatEffect(const Effect& e) { return e.spec(); }
 
-std::vector<ParamBlock> effectBlocks(const Effect& e, const Arm& arm, int num_sessions) { return e.kind().blocks(e, arm, num_sessions); }
+std::vector<ParamBlock> effectBlocks(const Effect& e, const Arm& arm, int num_sessions) {
+  checkJointTypes(e, arm, arm.source);
+  return e.kind().blocks(e, arm, num_sessions);
+}
 
 // ---- Model --------------------------------------------------------------------------------------
 
@@ -468,7 +471,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   const Eigen::Isometry3d world_T_marker = W * D * F * MY;
   if (!J_e_p && !J_e_q) return world_T_marker;
 
-  // Flange-frame columns of every DH parameter (theta columns double as the joints' columns), moved
+  // Flange-frame columns of every DH parameter (the zero-offset columns double as the joints' columns), moved
   // to the marker frame.
   const Matrix6d Ad_marker_flange = adjoint((Xf * MY).inverse());
   Matrix6Xd J_flange(6, arm.numParams());
@@ -477,7 +480,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   // arithmetic at these sizes (lazyProduct).
   const Matrix6Xd J_geo = Ad_marker_flange.lazyProduct(J_flange);
   Matrix6Xd J_q(6, n);
-  for (int j = 0; j < n; ++j) J_q.col(j) = J_geo.col(paramIndex(arm, j, kTheta));
+  for (int j = 0; j < n; ++j) J_q.col(j) = J_geo.col(jointParamIndex(arm, j));
   if (J_e_q) *J_e_q = J_q;
   if (!J_e_p) return world_T_marker;
 
@@ -501,6 +504,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
     for (int j = 0; j < n; ++j) {
       if (arm.convention == DhConvention::kUrdf) {
         for (int a = 0; a < 3; ++a) J.col(col) += dlog * arm.joints[j].xyz_m[a] * J_geo.col(paramIndex(arm, j, ParamKind(kOx + a)));
+        if (arm.isPrismatic(j)) J.col(col) += dlog * arm.joints[j].d_m * J_geo.col(jointParamIndex(arm, j));  // the zero offset
       } else {
         J.col(col) += dlog * (arm.joints[j].a_m * J_geo.col(paramIndex(arm, j, kA)) + arm.joints[j].d_m * J_geo.col(paramIndex(arm, j, kD)));
       }

@@ -2,6 +2,7 @@
 #include <filesystem>
 #include <sstream>
 #include <string>
+#include <tuple>
 
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
@@ -88,9 +89,40 @@ MassModel readMasses(const ConfigNode& n, int num_joints) {
 namespace {
 
 /// A joint of a URDF-convention robot YAML.
-void readUrdfJoint(const ConfigNode& j, Arm& arm) {
-  j.requireOnlyKeys({"name", "xyz_m", "rpy_deg", "axis", "theta_offset_deg", "fixed_before", "min_deg", "max_deg"});
+/// A joint's optional `type:` (default revolute).
+JointType readJointType(const ConfigNode& j) {
+  const ConfigNode t = j.optional("type");
+  if (!t.defined()) return JointType::kRevolute;
+  const std::string v = t.asString();
+  if (v == "revolute") return JointType::kRevolute;
+  if (v == "prismatic") return JointType::kPrismatic;
+  t.fail("expected 'revolute' or 'prismatic', got " + quoteInput(v));
+}
+
+/// A joint's limits in SI: min_deg/max_deg (a revolute joint, within ten turns) or min_m/max_m (a
+/// prismatic one, within kMaxLengthM).
+std::pair<double, double> readJointLimits(const ConfigNode& j, JointType type) {
+  const bool slide = type == JointType::kPrismatic;
+  const char* lo_key = slide ? "min_m" : "min_deg";
+  const char* hi_key = slide ? "max_m" : "max_deg";
+  const char* other = slide ? "min_deg" : "min_m";
+  if (j.has(other)) j[other].fail(std::string("is not accepted for a ") + jointTypeName(type) + " joint (use " + lo_key + ", " + hi_key + ")");
+  const double bound = slide ? kMaxLengthM : 3600.0;
+  const char* range = slide ? kLengthRange : "-3600 deg to 3600 deg (ten turns)";
+  const double lo = j[lo_key].asDoubleWithin(-bound, bound, range);
+  const double hi = j[hi_key].asDoubleWithin(-bound, bound, range);
+  if (!(lo < hi)) j[hi_key].fail(std::string("must be greater than ") + lo_key);
+  const double scale = slide ? 1.0 : kDegToRad;
+  return {lo * scale, hi * scale};
+}
+
+void readUrdfJoint(const ConfigNode& j, Arm& arm, JointType type) {
+  j.requireOnlyKeys({"name", "type", "xyz_m", "rpy_deg", "axis", type == JointType::kPrismatic ? "offset_m" : "theta_offset_deg",
+                     "fixed_before", "min_deg", "max_deg", "min_m", "max_m"});
   DhRow r;
+  r.type = type;
+  const ConfigNode slide_offset = j.optional("offset_m");
+  if (slide_offset.defined()) r.d_m = slide_offset.asDoubleWithin(-kMaxLengthM, kMaxLengthM, kLengthRange);
   r.xyz_m = j["xyz_m"].asVectorWithin(3, -kMaxLengthM, kMaxLengthM, kLengthRange);
   r.rpy_rad = j["rpy_deg"].asVectorWithin(3, -360.0, 360.0, kAngleRange) * kDegToRad;
   const Eigen::Vector3d axis = j["axis"].asVectorWithin(3, -1e6, 1e6, "-1e6 to 1e6 (a direction, normalised)");
@@ -186,18 +218,15 @@ Arm parseArm(const RobotSource& robot, const std::string& text) {
   arm.upper_rad.resize(static_cast<Eigen::Index>(n));
   for (std::size_t i = 0; i < n; ++i) {
     const ConfigNode j = joints[i];
+    const JointType type = readJointType(j);
     if (arm.convention == DhConvention::kUrdf) {
-      readUrdfJoint(j, arm);
+      readUrdfJoint(j, arm, type);
     } else {
-      j.requireOnlyKeys({"a_m", "alpha_deg", "d_m", "theta_offset_deg", "beta_deg", "min_deg", "max_deg"});
+      j.requireOnlyKeys({"type", "a_m", "alpha_deg", "d_m", "theta_offset_deg", "beta_deg", "min_deg", "max_deg", "min_m", "max_m"});
       arm.joints.push_back(readRow(j, "theta_offset_deg", arm.convention));
+      arm.joints.back().type = type;
     }
-    const char* kLimitRange = "-3600 deg to 3600 deg (ten turns)";
-    const double lo = j["min_deg"].asDoubleWithin(-3600.0, 3600.0, kLimitRange);
-    const double hi = j["max_deg"].asDoubleWithin(-3600.0, 3600.0, kLimitRange);
-    if (!(lo < hi)) j["max_deg"].fail("must be greater than min_deg");
-    arm.lower_rad[static_cast<Eigen::Index>(i)] = lo * kDegToRad;
-    arm.upper_rad[static_cast<Eigen::Index>(i)] = hi * kDegToRad;
+    std::tie(arm.lower_rad[static_cast<Eigen::Index>(i)], arm.upper_rad[static_cast<Eigen::Index>(i)]) = readJointLimits(j, type);
   }
   arm.masses = readMasses(root.optional("masses"), arm.numJoints());
   return arm;
@@ -239,6 +268,12 @@ std::string massesYaml(const MassModel& m) {
   }
   return s.str();
 }
+
+/// ", min_deg: .., max_deg: .." (or min_m, max_m for a prismatic joint).
+std::string limitsYaml(const Arm& arm, int j) {
+  if (arm.isPrismatic(j)) return ", min_m: " + exactNumber(arm.lower_rad[j]) + ", max_m: " + exactNumber(arm.upper_rad[j]);
+  return ", min_deg: " + exactNumber(arm.lower_rad[j] * kRadToDeg) + ", max_deg: " + exactNumber(arm.upper_rad[j] * kRadToDeg);
+}
 }  // namespace
 
 std::string formatArm(const Arm& arm, const std::string& header) {
@@ -260,19 +295,17 @@ std::string formatArm(const Arm& arm, const std::string& header) {
       s << "  - {";
       if (u < arm.urdf.joint_names.size() && !arm.urdf.joint_names[u].empty()) s << "name: \"" << arm.urdf.joint_names[u] << "\", ";
       s << "xyz_m: " << vectorYaml(r.xyz_m) << ", rpy_deg: " << vectorYaml(r.rpy_rad * kRadToDeg) << ", axis: " << vectorYaml(r.axis)
-        << ", theta_offset_deg: " << exactNumber(r.theta_rad * kRadToDeg);
+        << (arm.isPrismatic(j) ? ", type: prismatic, offset_m: " + exactNumber(r.d_m) : ", theta_offset_deg: " + exactNumber(r.theta_rad * kRadToDeg));
       if (u < arm.urdf.fixed_before.size() && !arm.urdf.fixed_before[u].isApprox(Eigen::Isometry3d::Identity(), 0.0)) {
         s << ", fixed_before: " << transformYaml(arm.urdf.fixed_before[u]);
       }
-      s << ", min_deg: " << exactNumber(arm.lower_rad[j] * kRadToDeg) << ", max_deg: " << exactNumber(arm.upper_rad[j] * kRadToDeg)
-        << "}\n";
+      s << limitsYaml(arm, j) << "}\n";
       continue;
     }
-    s << "  - {a_m: " << exactNumber(r.a_m) << ", alpha_deg: " << exactNumber(r.alpha_rad * kRadToDeg)
+    s << "  - {" << (arm.isPrismatic(j) ? "type: prismatic, " : "") << "a_m: " << exactNumber(r.a_m) << ", alpha_deg: " << exactNumber(r.alpha_rad * kRadToDeg)
       << ", d_m: " << exactNumber(r.d_m) << ", theta_offset_deg: " << exactNumber(r.theta_rad * kRadToDeg);
     if (arm.convention == DhConvention::kHayati) s << ", beta_deg: " << exactNumber(r.beta_rad * kRadToDeg);
-    s << ", min_deg: " << exactNumber(arm.lower_rad[j] * kRadToDeg) << ", max_deg: " << exactNumber(arm.upper_rad[j] * kRadToDeg)
-      << "}\n";
+    s << limitsYaml(arm, j) << "}\n";
   }
   s << "tool: " << transformYaml(arm.last_T_flange) << "\n";
   if (!isDefault(arm.masses)) s << massesYaml(arm.masses);

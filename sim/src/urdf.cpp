@@ -83,12 +83,16 @@ void checkOrigin(const urdf::Pose& p, const std::string& what) {
   if (!q.allFinite() || !(q.norm() > 0.0)) throw InputError(what + ": <origin rpy>: not a finite rotation");
 }
 
-/// The limits of revolute joint `what` (rad): finite, within ten turns (as a robot YAML's min_deg and
-/// max_deg), lower < upper.
+/// The limits of revolute or prismatic joint `what` (rad or m): finite, within ten turns or 10 km (as a
+/// robot YAML's min_deg and max_deg, min_m and max_m), lower < upper.
 std::pair<double, double> readLimits(const urdf::Joint& joint, const std::string& what) {
-  if (!joint.limits) throw InputError(what + ": a revolute joint needs <limit lower=.. upper=..>");
+  const bool slide = joint.type == urdf::Joint::PRISMATIC;
+  if (!joint.limits) throw InputError(what + ": a " + (slide ? "prismatic" : "revolute") + " joint needs <limit lower=.. upper=..>");
   for (const auto& [name, v] : {std::pair<const char*, double>{"lower", joint.limits->lower}, {"upper", joint.limits->upper}}) {
-    if (!(std::abs(v) <= kMaxJointAngleRad)) {
+    if (slide && !(std::abs(v) <= kMaxLengthM)) {
+      throw InputError(what + ": <limit " + name + ">: " + formatNumber("%.9g", v) + " m is outside -10000 m to 10000 m");
+    }
+    if (!slide && !(std::abs(v) <= kMaxJointAngleRad)) {
       throw InputError(what + ": <limit " + name + ">: " + formatNumber("%.9g", v) + " rad is outside " + kMaxJointAngleText);
     }
   }
@@ -280,8 +284,8 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
       pending = pending * origin;
       continue;
     }
-    if (joint->type != urdf::Joint::REVOLUTE && joint->type != urdf::Joint::CONTINUOUS) {
-      throw InputError(what + " is " + jointTypeName(joint->type) + ": an orbcal arm has revolute (or continuous) joints only");
+    if (joint->type != urdf::Joint::REVOLUTE && joint->type != urdf::Joint::CONTINUOUS && joint->type != urdf::Joint::PRISMATIC) {
+      throw InputError(what + " is " + jointTypeName(joint->type) + ": an orbcal arm has revolute (or continuous) and prismatic joints only");
     }
     const Eigen::Vector3d axis(joint->axis.x, joint->axis.y, joint->axis.z);
     const Eigen::Isometry3d combined = pending * origin;
@@ -289,6 +293,7 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
     row.xyz_m = combined.translation();
     row.rpy_rad = rpyFromRotation(combined.linear());
     row.axis = axis.normalized();
+    if (joint->type == urdf::Joint::PRISMATIC) row.type = JointType::kPrismatic;
     arm.joints.push_back(row);
     arm.urdf.joint_names.push_back(joint->name);
     arm.urdf.fixed_before.push_back(pending);
@@ -303,7 +308,7 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
     }
   }
   if (arm.joints.empty()) {
-    throw InputError(source + ": no revolute joint between links '" + base->name + "' and '" + tip_name + "'");
+    throw InputError(source + ": no movable joint between links '" + base->name + "' and '" + tip_name + "'");
   }
   arm.last_T_flange = pending;
   arm.lower_rad = Eigen::Map<const Eigen::VectorXd>(lower.data(), static_cast<Eigen::Index>(lower.size()));

@@ -371,15 +371,14 @@ TEST_CASE("URDF input errors name the file and the link or joint", "[sim][urdf]"
         kIiwaUrdf + ": tip link 'iiwa_link_2' is not below base link 'iiwa_link_5' (going up from 'iiwa_link_2' reaches the root "
                     "link 'world')");
   CHECK(inputError([&] { loadArm(RobotSource{kIiwaUrdf, "iiwa_link_7", "iiwa_link_ee"}); }) ==
-        kIiwaUrdf + ": no revolute joint between links 'iiwa_link_7' and 'iiwa_link_ee'");
+        kIiwaUrdf + ": no movable joint between links 'iiwa_link_7' and 'iiwa_link_ee'");
   CHECK(inputError([&] { armFromUrdf(kTwisted, "t.urdf", "base", ""); }) ==
         "t.urdf: the URDF has 2 leaf links below 'base' (side, tool): give the tip link (--tip-link)");
 
-  std::string prismatic = kTwisted;
-  prismatic.replace(prismatic.find("type=\"continuous\""), 17, "type=\"prismatic\"");
-  prismatic.replace(prismatic.find("<axis xyz=\"1 0 0\"/>"), 19, "<axis xyz=\"1 0 0\"/><limit lower=\"0\" upper=\"1\" effort=\"1\" velocity=\"1\"/>");
-  CHECK(inputError([&] { armFromUrdf(prismatic, "p.urdf", "base", "tool"); }) ==
-        "p.urdf: joint 'j2' is prismatic: an orbcal arm has revolute (or continuous) joints only");
+  std::string planar = kTwisted;
+  planar.replace(planar.find("type=\"continuous\""), 17, "type=\"planar\"   ");
+  CHECK(inputError([&] { armFromUrdf(planar, "p.urdf", "base", "tool"); }) ==
+        "p.urdf: joint 'j2' is planar: an orbcal arm has revolute (or continuous) and prismatic joints only");
 
   // A revolute joint without <limit>: urdfdom refuses the file; its reason (naming the joint) is kept.
   std::string no_limit = urdf_text;

@@ -47,7 +47,7 @@ sim::Effect drawInjected(const std::string& kind, const sim::Arm& arm, const std
   std::vector<sim::Effect> pool;
   for (const sim::Effect& e : k->candidates(ctx)) {
     const bool unloaded = k->needs().torque && std::find(loaded.begin(), loaded.end(), e.joints().front()) == loaded.end();
-    if (e.order() == k->defaultOrder() && !unloaded) pool.emplace_back(*k, e.joints(), order);
+    if (e.order() == k->defaultOrder() && !unloaded && sim::fitsJointTypes(e, arm)) pool.emplace_back(*k, e.joints(), order);
   }
   if (pool.empty()) throw sim::InputError("--effects: '" + kind + "': this robot offers it no joint or link");
   std::uniform_int_distribution<std::size_t> pick(0, pool.size() - 1);

@@ -22,8 +22,13 @@ class BacklashKind final : public EffectKind {
     n.direction = true;
     return n;
   }
-  std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
-    return {jointBlock(e, [](ParamBlock& b, const std::string& j) { b.params.push_back(angleParam("b" + j, 0.01 * kDegToRad)); })};
+  bool acceptsPrismatic() const override { return true; }
+  std::vector<ParamBlock> blocks(const Effect& e, const Arm& arm, int) const override {
+    // A prismatic joint's play is a length: 0.02 mm, the axial play of a preloaded ball screw's nut
+    // is of that order (tens of micrometres at most).
+    return {jointBlockOf(e, [&](ParamBlock& b, const std::string& j, int joint) {
+      b.params.push_back(arm.isPrismatic(joint) ? lengthParam("b" + j, 2e-5) : angleParam("b" + j, 0.01 * kDegToRad));
+    })};
   }
   void addJointCorrection(const Effect&, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
                           Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {

@@ -69,14 +69,23 @@ class ComplianceKind final : public EffectKind {
     n.torque = true;
     return n;
   }
-  std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
+  bool acceptsPrismatic() const override { return true; }  // along the axis: dq = -c f, f the actuator's force
+  std::vector<ParamBlock> blocks(const Effect& e, const Arm& arm, int) const override {
     // 1e-4 rad/(N m): a harmonic drive of ~10^4 N m/rad (the iiwa's joints: Bischoff et al. 2010), or,
     // at torque scales above 50 N m, what deflects by 0.29 deg (5e-3 rad) at the scale; the cubic term
     // at the size that doubles that deflection at the scale. Typical magnitudes set the fit's column
     // scales: a cubic term of a 10^5 N m joint is 10^12 times a 10 N m one's.
     const double tau_s = e.reference() > 0.0 ? e.reference() : defaultReference();
+    // A prismatic joint (a lead-screw or belt drive) in m/N: 1e-6, a drive of ~10^6 N/m, or at force scales
+    // above 50 N what deflects by 0.05 mm at the scale.
     const double c1 = std::min(1e-4, 5e-3 / tau_s), c3 = c1 / (tau_s * tau_s);
-    return {jointBlock(e, [&](ParamBlock& b, const std::string& j) {
+    const double s1 = std::min(1e-6, 5e-5 / tau_s), s3 = s1 / (tau_s * tau_s);
+    return {jointBlockOf(e, [&](ParamBlock& b, const std::string& j, int joint) {
+      if (arm.isPrismatic(joint)) {
+        b.params.push_back({"c" + j, "m/N", "m/N", 1.0, s1, Quantity::kOther});
+        if (e.order() == 3) b.params.push_back({"c" + j + "_cubic", "m/N^3", "m/N^3", 1.0, s3, Quantity::kOther});
+        return;
+      }
       b.params.push_back({"c" + j, "rad/(N*m)", "rad/(N*m)", 1.0, c1, Quantity::kOther});
       if (e.order() == 3) b.params.push_back({"c" + j + "_cubic", "rad/(N*m)^3", "rad/(N*m)^3", 1.0, c3, Quantity::kOther});
     })};

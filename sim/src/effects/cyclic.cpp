@@ -1,5 +1,6 @@
 // cyclic: a transmission error periodic in the joint angle (gear eccentricity, the harmonic drive's
-// wave generator: first and second harmonics; tooth and bearing patterns: higher ones).
+// wave generator: first and second harmonics; tooth and bearing patterns: higher ones). On a prismatic
+// joint the error is periodic in the travel, with a lead screw's lead as its period (kLeadScrewPeriodM).
 #include <algorithm>
 #include <cmath>
 
@@ -9,6 +10,13 @@
 
 namespace orbcal::sim {
 namespace {
+
+/// The period of a prismatic joint's cyclic error (m): 5 mm, the smallest standard lead of a ball
+/// screw (ISO 3408-1), whose error repeats once per turn of the screw.
+constexpr double kLeadScrewPeriodM = 0.005;
+
+/// The phase of harmonic 1 at joint value q: q itself (rad) on a revolute joint, 2 pi q / lead on a prismatic one.
+double cyclicPhase(const Arm& arm, int j, double q) { return arm.isPrismatic(j) ? 2.0 * kPi * q / kLeadScrewPeriodM : q; }
 
 class CyclicKind final : public EffectKind {
  public:
@@ -23,20 +31,26 @@ class CyclicKind final : public EffectKind {
   }
   int defaultOrder() const override { return 2; }
   int maxOrder() const override { return 8; }
-  std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
-    return {jointBlock(e, [&](ParamBlock& b, const std::string& j) {
+  bool acceptsPrismatic() const override { return true; }
+  std::vector<ParamBlock> blocks(const Effect& e, const Arm& arm, int) const override {
+    // On a prismatic joint 0.01 mm: a ball screw's lead deviation over one turn is of micrometres to tens of them.
+    return {jointBlockOf(e, [&](ParamBlock& b, const std::string& j, int joint) {
+      const auto param = [&](const std::string& name) {
+        return arm.isPrismatic(joint) ? lengthParam(name, 1e-5) : angleParam(name, 0.01 * kDegToRad);
+      };
       for (int k = 1; k <= e.order(); ++k) {
-        b.params.push_back(angleParam("cyclic" + j + "_sin" + std::to_string(k), 0.01 * kDegToRad));
-        b.params.push_back(angleParam("cyclic" + j + "_cos" + std::to_string(k), 0.01 * kDegToRad));
+        b.params.push_back(param("cyclic" + j + "_sin" + std::to_string(k)));
+        b.params.push_back(param("cyclic" + j + "_cos" + std::to_string(k)));
       }
     })};
   }
-  void addJointCorrection(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
+  void addJointCorrection(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm& arm,
                           Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {
     int col = b.offset;
     for (const int j : b.joints) {
+      const double phase = cyclicPhase(arm, j, s.q_rad[j]);
       for (int k = 1; k <= e.order(); ++k, col += 2) {
-        const double sn = std::sin(k * s.q_rad[j]), cs = std::cos(k * s.q_rad[j]);
+        const double sn = std::sin(k * phase), cs = std::cos(k * phase);
         dq[j] += p[col] * sn + p[col + 1] * cs;
         if (J) {
           (*J)(j, col) += sn;

@@ -147,6 +147,31 @@ std::vector<Effect> EffectKind::perJointCandidates(int joints) const {
   return c;
 }
 
+ParamBlock EffectKind::jointBlockOf(const Effect& e, const std::function<void(ParamBlock&, const std::string&, int)>& params) const {
+  ParamBlock b;
+  b.effect = name();
+  b.joints = e.joints();
+  for (int j : e.joints()) params(b, std::to_string(j + 1), j);
+  return b;
+}
+
+bool fitsJointTypes(const Effect& e, const Arm& arm) {
+  if (e.kind().acceptsPrismatic()) return true;
+  for (int j : e.joints()) {
+    if (j < arm.numJoints() && arm.isPrismatic(j)) return false;
+  }
+  return true;
+}
+
+void checkJointTypes(const Effect& e, const Arm& arm, const std::string& what) {
+  if (fitsJointTypes(e, arm)) return;
+  for (int j : e.joints()) {
+    if (j >= arm.numJoints() || !arm.isPrismatic(j)) continue;
+    throw InputError(what + ": " + e.spec() + " does not apply to joint " + std::to_string(j + 1) +
+                     ", a prismatic joint (there: scale, backlash, cyclic, compliance)");
+  }
+}
+
 ParamBlock EffectKind::jointBlock(const Effect& e, const std::function<void(ParamBlock&, const std::string&)>& params) const {
   ParamBlock b;
   b.effect = name();

@@ -1,5 +1,5 @@
 #pragma once
-// A serial arm of revolute joints described by a DH table (Craig's modified, standard, or Hayati's
+// A serial arm of revolute and prismatic joints described by a DH table (Craig's modified, standard, or Hayati's
 // parallel-axis DH), with fixed base and tool transforms, and the additive parameter errors that
 // calibration identifies.
 //
@@ -15,6 +15,9 @@
 //   {i-1}_T_{i} = T(xyz_i) Rz(yaw_i) Ry(pitch_i) Rx(roll_i) Rot(axis_i, theta_i + q_i),
 // with the URDF's R = Rz(yaw) Ry(pitch) Rx(roll); theta_i is a zero offset (nominal 0) that calibration
 // adds. Row i holds (xyz_m, rpy_rad, axis, theta_rad); a, alpha, d and beta are unused.
+// A prismatic joint's variable q_i is a length (m): in the DH conventions it adds to d_i instead of theta_i
+// (theta_i is then a fixed angle and d_i the joint's zero offset); in the URDF convention
+// Rot(axis_i, theta_i + q_i) becomes Trans(axis_i (d_i + q_i)), with d_i the zero offset (nominal 0).
 // base_T_flange = base_T_first * prod_i {i-1}_T_{i} * last_T_flange (seed 000: row 0, rows 1..7, row E).
 #include <Eigen/Geometry>
 #include <string>
@@ -24,17 +27,22 @@ namespace orbcal::sim {
 
 enum class DhConvention { kModified, kStandard, kHayati, kUrdf };
 
+/// What a joint's variable moves: a rotation (rad) or a translation (m) along the joint axis.
+enum class JointType { kRevolute, kPrismatic };
+
 /// "modified", "standard", "hayati" or "urdf": the robot file's `convention:` value.
 const char* conventionName(DhConvention convention);
 
-/// One DH row. Lengths in m, angles in rad; for a joint row theta_rad is the home offset. beta_rad
-/// is used by the Hayati convention only (and is 0 in the others).
+/// One DH row. Lengths in m, angles in rad; for a revolute joint theta_rad is the home offset, for a
+/// prismatic one d_m (in the URDF convention too, where d_m is otherwise unused). beta_rad is used by
+/// the Hayati convention only (and is 0 in the others).
 struct DhRow {
   double a_m = 0.0;
   double alpha_rad = 0.0;
   double d_m = 0.0;
   double theta_rad = 0.0;
   double beta_rad = 0.0;
+  JointType type = JointType::kRevolute;
   // The URDF convention only: the joint's origin in its parent link, and its unit axis.
   Eigen::Vector3d xyz_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d rpy_rad = Eigen::Vector3d::Zero();  ///< roll, pitch, yaw: R = Rz(yaw) Ry(pitch) Rx(roll)
@@ -73,14 +81,23 @@ struct Arm {
   std::string source;  ///< file the arm was loaded from (for messages)
   DhConvention convention = DhConvention::kModified;
   Eigen::Isometry3d base_T_first = Eigen::Isometry3d::Identity();  ///< fixed, not identified
-  std::vector<DhRow> joints;                                        ///< one row per revolute joint
+  std::vector<DhRow> joints;                                        ///< one row per joint
   Eigen::Isometry3d last_T_flange = Eigen::Isometry3d::Identity();  ///< fixed, not identified
-  Eigen::VectorXd lower_rad;  ///< joint limits, one per joint
+  /// Joint limits, one per joint, in SI units: rad for a revolute joint, m for a prismatic one (as
+  /// every joint vector q: the names say rad for the common case).
+  Eigen::VectorXd lower_rad;
   Eigen::VectorXd upper_rad;
   MassModel masses;           ///< optional; empty when the robot file has no `masses:` section
   UrdfSource urdf;            ///< the URDF convention: the file and links the chain was read from
 
   int numJoints() const { return static_cast<int>(joints.size()); }
+  bool isPrismatic(int j) const { return joints[static_cast<std::size_t>(j)].type == JointType::kPrismatic; }
+  bool hasPrismatic() const {
+    for (const DhRow& r : joints) {
+      if (r.type == JointType::kPrismatic) return true;
+    }
+    return false;
+  }
   /// Identified parameters per joint: 7 for the URDF convention (origin xyz and rpy, zero offset), 5
   /// for Hayati (with beta), 4 for the others.
   int paramsPerJoint() const {
@@ -101,24 +118,42 @@ enum ParamKind {
 };
 inline int paramIndex(const Arm& arm, int joint, ParamKind kind) { return arm.paramsPerJoint() * joint + kind; }
 inline ParamKind paramKind(const Arm& arm, int index) { return static_cast<ParamKind>(index % arm.paramsPerJoint()); }
+/// Index of the parameter joint j's variable moves along (its zero offset): theta_j for a revolute
+/// joint and for the URDF convention (where a prismatic joint's slot kTheta holds its offset along the
+/// axis, in m), d_j for a prismatic joint of a DH convention. Its Jacobian column is the joint's.
+int jointParamIndex(const Arm& arm, int joint);
 /// "theta1", "alpha1", "a1", "d1", ("beta1",) ... (joints numbered from 1, as in the DH table);
-/// for the URDF convention "theta1", "x1", "y1", "z1", "roll1", "pitch1", "yaw1".
+/// for the URDF convention "theta1", "x1", "y1", "z1", "roll1", "pitch1", "yaw1" (a prismatic joint's
+/// zero offset "d1" in place of "theta1").
 std::string paramName(const Arm& arm, int index);
 /// Unit of parameter `index` as printed at the edges: true for angles (deg), false for lengths (mm).
 bool isAngleParam(const Arm& arm, int index);
 
 /// Throws std::invalid_argument("<context>: expected N joint angles, got M"), on a NaN/inf angle, and
-/// on an angle more than ten turns (kMaxJointAngleRad) outside its joint's limits: no pose of any arm
-/// (a reading beyond the limits by joint noise, or an IK step past them, stays far inside that margin).
+/// on an angle more than ten turns (kMaxJointAngleRad) outside its joint's limits, a prismatic joint's
+/// value more than kMaxLengthM: no pose of any arm (a reading beyond the limits by joint noise, or an
+/// IK step past them, stays far inside that margin).
 void checkJointVector(const Arm& arm, const Eigen::VectorXd& q, const char* context);
 /// Same for a parameter-error vector of arm.numParams() entries.
 void checkParamVector(const Arm& arm, const Eigen::VectorXd& y, const char* context);
 
-/// The key of per-joint parameter k in error tables (true_errors, error-set files): its name without
-/// the joint number and its edge unit, e.g. "theta_deg", "a_mm", "x_mm".
-std::string paramKey(const Arm& arm, int k);
+/// The key of parameter `index` in error tables (true_errors, error-set files): its name without
+/// the joint number and its edge unit, e.g. "theta_deg", "a_mm", "x_mm" (index < paramsPerJoint():
+/// the first joint's, which is every revolute joint's).
+std::string paramKey(const Arm& arm, int index);
 
-/// Rigid transform of one DH row at joint angle q (rad).
+/// "revolute" or "prismatic": the robot file's `type:` value.
+const char* jointTypeName(JointType type);
+/// A joint value q (SI) as people read it: "12.5 deg" for a revolute joint, "120 mm" for a prismatic one.
+std::string formatJointValue(const Arm& arm, int joint, double q);
+/// Edge unit of joint j's value: "deg" (revolute) or "mm" (prismatic), and its scale from SI.
+const char* jointEdgeUnit(const Arm& arm, int joint);
+double jointEdgeScale(const Arm& arm, int joint);
+/// Joint values as people type them (deg for a revolute joint, mm for a prismatic one), in SI. Throws
+/// InputError "joint values: ..." for a wrong count or a word that is not a finite number.
+Eigen::VectorXd parseEdgeJointValues(const Arm& arm, const std::vector<std::string>& words);
+
+/// Rigid transform of one DH row at joint value q (rad for a revolute joint, m for a prismatic one).
 Eigen::Isometry3d linkTransform(DhConvention convention, const DhRow& row, double q);
 
 /// The arm with parameter errors y added to its DH rows (theta, alpha, a, d, and beta for Hayati; theta,
@@ -127,7 +162,7 @@ Arm withErrors(const Arm& nominal, const Eigen::VectorXd& y);
 /// The same in place: y added to `arm`'s rows (what withErrors does to its copy).
 void addErrors(Arm& arm, const Eigen::VectorXd& y);
 
-/// base_T_flange at joint angles q (rad).
+/// base_T_flange at joint values q (rad, or m for a prismatic joint).
 Eigen::Isometry3d forwardKinematics(const Arm& arm, const Eigen::VectorXd& q);
 
 /// Every frame along the chain: frames[0] = base_T_first, frames[i] = base_T_{joint i}, and

@@ -113,6 +113,9 @@ class EffectKind {
   virtual double variable(const Effect&, const JointSample&) const { return 0.0; }
   /// Whether the effect takes joints ("compliance:2"), and how many at least.
   virtual bool takesJoints() const { return true; }
+  /// Whether it applies to a prismatic joint, whose variable is a length (scale, backlash, a lead
+  /// screw's cyclic error, compliance along the axis do); fitsJointTypes refuses the others there.
+  virtual bool acceptsPrismatic() const { return false; }
   /// Its default order (Effect::order() 0 means this) and the orders it accepts ("/K"); 0 0: none.
   virtual int defaultOrder() const { return 0; }
   /// The covariate value at which the effect is zero, where it reads one (thermal: 20 degC).
@@ -162,6 +165,8 @@ class EffectKind {
   std::vector<Effect> perJointCandidates(int joints) const;
   /// One block over the effect's joints, `params` adding each joint's parameters (joint as "2").
   ParamBlock jointBlock(const Effect& e, const std::function<void(ParamBlock&, const std::string&)>& params) const;
+  /// The same with the joint's index (from 0) too, for parameters whose unit follows the joint's type.
+  ParamBlock jointBlockOf(const Effect& e, const std::function<void(ParamBlock&, const std::string&, int)>& params) const;
 };
 
 /// Every kind of the catalog, in its order.
@@ -172,6 +177,11 @@ const EffectKind* findEffectKind(const std::string& name);
 /// The sign conventions of the kinds among `effects`, each kind's once, one paragraph per kind
 /// ("" when none has one): what a report on a model with these effects says beside its parameters.
 std::string signConventions(const std::vector<Effect>& effects);
+
+/// False when the effect acts on a prismatic joint of `arm` and its kind does not apply to one.
+bool fitsJointTypes(const Effect& e, const Arm& arm);
+/// Throws InputError "<what>: <effect> does not apply to joint N, a prismatic joint (...)" unless fitsJointTypes.
+void checkJointTypes(const Effect& e, const Arm& arm, const std::string& what);
 
 /// " of joint 2", " of joints 2 and 4" (people's words for joints numbered from 0).
 std::string ofJoints(const std::vector<int>& joints);

@@ -9,7 +9,8 @@
 // and o_j a point on axis j; equivalently tau_j = dU/dq_j, U the arm's potential energy. Every torque
 // orbcal reads or writes follows it (a measurement description's `sense: load` flips a sensor that
 // reports the load's torque instead); a compliance c_j > 0 makes the joint yield against it, i.e. sag
-// (sim/src/effects/compliance.cpp).
+// (sim/src/effects/compliance.cpp). A prismatic joint's entry is the force (N) its actuator applies
+// along its axis, -M z_j . g with M the mass outboard of it: dU/dq_j again.
 #include <Eigen/Geometry>
 #include <vector>
 

@@ -36,6 +36,10 @@ void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame
 
 /// Geometric manipulator Jacobian J_twist_q (6 x n) in the base frame: [v of the flange origin; w].
 Matrix6Xd manipulatorJacobian(const Arm& arm, const Eigen::VectorXd& q);
+/// The same with comparable columns for length L (characteristicLength): [v / L; w] of a revolute joint
+/// (per rad), [v; w L] of a prismatic one (per L of travel: v is a unit vector, w zero), so that the
+/// singular values and Newton steps of IK weigh both kinds alike.
+Matrix6Xd scaledManipulatorJacobian(const Arm& arm, const Eigen::VectorXd& q, double L);
 
 /// J_e_y by central differences of poseMinus (the oracle the analytic Jacobian is tested against).
 Matrix6Xd numericIdentificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,
