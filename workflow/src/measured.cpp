@@ -125,6 +125,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   }
   // The reference: the nominal arm with only the registration fitted; a physically impossible one (or
   // calibrated geometry) is refused before anything is written.
+  r.level = calib::resolveLevel(o.level, data, ident, effects, fo, o.seed);
+  fo.hold = calib::levelHold(start, r.level.chosen, "--level");
   const calib::Fit reference = calib::fitRegistration(start, ident, fo);
   calib::requirePlausibleResidual(data, reference.residuals, "the nominal arm's registration residual");
   r.fit = calib::fitMarkerModel(start, ident, fo);
@@ -139,9 +141,12 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   }
   r.heldout_before = calib::residualStats(before);
   r.heldout_after = calib::residualStats(after);
-  r.worse = !held.empty() && r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
   r.gain = calib::heldoutGain(held, before, after);
-  r.refusal = calib::heldoutRefusal(r.gain, o.holdout, calib::countConfigurations(all));
+  // The frames level without effects is the reference itself (the nominal arm, registration fitted):
+  // there is no gain over it to test.
+  const bool reference_level = r.level.chosen.kind == calib::LevelKind::kFrames && effects.empty();
+  r.worse = !reference_level && !held.empty() && r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
+  r.refusal = reference_level ? "" : calib::heldoutRefusal(r.gain, o.holdout, calib::countConfigurations(all));
 
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit);
   std::ostringstream header;
@@ -178,7 +183,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << "Model: geometry (" << data.arm.numParams() << " DH errors) + registration (base " << sim::frameSharingName(data.base)
      << ", marker " << sim::frameSharingName(data.marker) << ")";
   for (const std::string& e : o.effects) md << " + " << e;
-  md << "; " << r.fit.model.layout.size() << " parameters, " << r.fit.estimate.held.size() << " held as unidentifiable.\n\n"
+  md << "; " << r.fit.model.layout.size() << " parameters, " << r.fit.estimate.held.size() << " held (by the level or as unidentifiable).\n\n"
+     << "Calibrated at " << calib::levelSentence(r.level) << ".\n\n"
      << "Measurement noise (1 sigma per axis): position " << formatNumber("%.4f", r.fit.noise.sigma_position_m * 1e3) << " mm, rotation "
      << formatNumber("%.4f", r.fit.noise.sigma_rotation_rad * sim::kRadToDeg) << " deg"
      << (r.fit.noise_estimated ? " (estimated from the residuals)" : " (given)") << "; joint readings "
