@@ -76,7 +76,7 @@ void readPoseLayout(const ConfigNode& pose, Layout& l, ColumnClaims& claims) {
   const auto quaternion = optionalValueOf(pose, "quaternion_wxyz");
   const auto points = optionalValueOf(pose, "points");
   if (matrix.has_value() + position.has_value() + points.has_value() != 1) {
-    pose.fail("expected one of 'matrix' (16 column names), 'position' (3, optionally with 'quaternion_wxyz') or 'points' "
+    pose.fail("expected either 'matrix' (16 column names), 'position' (3, optionally with 'quaternion_wxyz') or 'points' "
               "(a rigid body's marker points, [x, y, z] names each)");
   }
   if (points && quaternion) quaternion->fail("not with 'points' (each marker point is a position)");
