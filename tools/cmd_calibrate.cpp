@@ -30,8 +30,9 @@ void printMeasured(const workflow::MeasuredCalibrateResult& r, const std::string
   }
   if (!worse && !r.refusal.empty()) refused(r.refusal);
   if (!r.fit_refusal.empty()) refused(r.fit_refusal);
-  std::printf("%d samples: %d fitted, %d held out; %d parameters, %zu held as unidentifiable\n", r.samples, r.identification,
-              r.held_out, r.fit.model.layout.size(), r.fit.estimate.held.size());
+  std::printf("%s\n", calib::levelSentence(r.level).c_str());
+  std::printf("%d samples: %d fitted, %d held out; %d parameters, %zu held (by the level or as unidentifiable)\n", r.samples,
+              r.identification, r.held_out, r.fit.model.layout.size(), r.fit.estimate.held.size());
   std::printf("noise (1 sigma per axis): position %.4f mm, rotation %.4f deg%s\n", r.fit.noise.sigma_position_m * 1e3,
               r.fit.noise.sigma_rotation_rad * sim::kRadToDeg, r.fit.noise_estimated ? " (estimated)" : "");
   if (r.held_out > 0) {
@@ -104,6 +105,7 @@ void addCalibrateCommand(CLI::App& app) {
     workflow::CalibrateOptions images;
     workflow::MeasuredCalibrateOptions measured;
     std::string method;
+    std::string level = "auto";
     double holdout = 0.2;
     std::uint64_t seed = 1;
     std::string out;
@@ -127,6 +129,12 @@ void addCalibrateCommand(CLI::App& app) {
                   "effects to fit, effect:joints (joints from 1): compliance:2,4 cyclic:2 (2 harmonics; "
                   "cyclic:2/3 for 3) scale:1 backlash:1 thermal drift mount; image datasets (with --estimate-frames, "
                   "fitted on the detected corners): these and distortion (lens distortion the scene's camera lacks)");
+  cmd->add_option("--level", o->level,
+                  "measured data: which geometric parameters are free: frames (the registration frames only, the nominal "
+                  "geometry kept), offsets (joint zero offsets + frames), full (every identifiable parameter), a list of "
+                  "parameter names (theta1,theta3,d2; + frames), or auto: the level of the smallest cross-validated "
+                  "held-out error on the fitted configurations. Effects come on top")
+      ->capture_default_str();
   cmd->add_option_function<double>(
          "--joint-noise-deg", [o](double d) { o->images.joint_noise_sigma_rad = d * sim::kDegToRad; },
          "images: joint noise carried into R, 1 sigma [deg] (default: the manifest's, else 0.01)")
@@ -172,6 +180,7 @@ void addCalibrateCommand(CLI::App& app) {
       workflow::MeasuredCalibrateOptions m = o->measured;
       m.description = o->images.dataset;
       m.method = workflow::parseFitMethod(o->method.empty() ? calib::kDefaultMethod : o->method, "--method");
+      m.level = calib::parseLevel(o->level, "--level");
       m.holdout = o->holdout;
       m.seed = o->seed;
       m.out = o->out;
@@ -182,6 +191,7 @@ void addCalibrateCommand(CLI::App& app) {
       if ((r.worse || r.inconsistent || !r.refusal.empty() || !r.fit_refusal.empty()) && !m.accept_worse) throw CLI::RuntimeError(1);
       return;
     }
+    if (o->level != "auto") throw sim::InputError("--level: for measured data (a measurement description)");
     workflow::CalibrateOptions c = o->images;
     c.effects = o->measured.effects;  // with --estimate-frames (workflow::runCalibrate says so otherwise)
     c.method = o->method.empty() ? calib::kDefaultMethod : o->method;

@@ -78,6 +78,15 @@ void addSimulateCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(CLI::Range(0.0, sim::kMaxNoiseJointDeg));
   cmd->add_flag("--position-only", o->position_only, "the tracker measures positions only");
+  cmd->add_option("--markers", o->spec.markers,
+                  "motion capture: a rigid body of N marker points on the tool, measured as positions (pose.points), each "
+                  "at its own offset (0: one marker)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100));
+  cmd->add_option("--missing-markers", o->spec.missing_marker_rate,
+                  "with --markers: the share of marker points missing from the rows (empty cells; a row keeps one at least)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 0.99));
   cmd->add_flag("--quiet", o->quiet, "no progress output (simulate shows none; taken as the other commands take it)");
   cmd->add_option("--base", o->base, "tracker frame: shared, per_session or known")->capture_default_str()
       ->check(CLI::IsMember({"shared", "per_session", "known"}));
@@ -92,7 +101,7 @@ void addSimulateCommand(CLI::App& app) {
     s.noise_position_m = o->noise_position_mm * 1e-3;
     s.noise_rotation_rad = o->noise_rotation_deg * sim::kDegToRad;
     s.joint_noise_rad = o->joint_noise_deg * sim::kDegToRad;
-    s.rotation = !o->position_only;
+    s.rotation = !o->position_only && s.markers == 0;  // a rigid body's points are positions
     const auto sharing = [](const std::string& v) {
       return v == "shared" ? sim::FrameSharing::kShared : v == "per_session" ? sim::FrameSharing::kPerSession : sim::FrameSharing::kKnown;
     };

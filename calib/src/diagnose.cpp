@@ -104,44 +104,19 @@ class Diagnoser {
     Eigen::VectorXd warm_p;
     if (warm) {
       const sim::KinematicModel& w = warm->model;
-      warm_model = sim::makeKinematicModel(w.arm, w.sessions, w.base, w.marker, w.world_T_base, w.flange_T_marker, effects);
+      warm_model = sim::makeKinematicModel(w.arm, w.sessions, w.base, w.marker, w.world_T_base, w.flange_T_marker, effects, true,
+                                                w.marker_points);
       warm_p = Eigen::VectorXd::Zero(warm_model->layout.size());
       warm_p.head(warm->p.size()) = warm->p;
     }
-    std::vector<std::future<std::pair<double, std::vector<std::pair<int, Eigen::VectorXd>>>>> jobs;
-    for (int f = 0; f < folds_.k; ++f) {
-      jobs.push_back(std::async(std::launch::async, [this, f, &effects, &warm_model, &warm_p] {
-        std::vector<MarkerObservation> train, test;
-        std::vector<int> test_index;
-        for (std::size_t i = 0; i < obs_.size(); ++i) {
-          if (folds_.fold[i] == f) {
-            test.push_back(obs_[i]);
-            test_index.push_back(static_cast<int>(i));
-          } else {
-            train.push_back(obs_[i]);
-          }
-        }
-        const sim::KinematicModel start = warm_model ? *warm_model : startingModel(data_, train, effects);
-        // A fold's fit is wanted for its parameters alone (its held-out residuals): no analyses.
-        FitOptions fold_options = fitOptions();
-        fold_options.analyze = !o_.lean_fits;
-        const Fit fit = fitMarkerModel(start, train, fold_options, warm_model ? warm_p : Eigen::VectorXd());
-        const MarkerPoseModel held(start, test, noise_, fit.p);
-        std::vector<Eigen::VectorXd> nu;  // the held-out residuals, at fit.p
-        const double sse = 2.0 * weightedCost(held, Eigen::VectorXd::Zero(held.numParams()), &nu);
-        std::vector<std::pair<int, Eigen::VectorXd>> residuals;
-        for (std::size_t t = 0; t < test.size(); ++t) residuals.emplace_back(test_index[t], std::move(nu[t]));
-        return std::make_pair(sse, residuals);
-      }));
-    }
-    CvResult r;
-    r.residual.resize(obs_.size());
-    for (auto& j : jobs) {
-      auto [sse, res] = j.get();
-      r.sse += sse;
-      for (auto& [i, v] : res) r.residual[static_cast<std::size_t>(i)] = std::move(v);
-    }
-    return r;
+    // A fold's fit is wanted for its parameters alone (its held-out residuals): no analyses.
+    FitOptions fold_options = fitOptions();
+    fold_options.analyze = !o_.lean_fits;
+    const auto start = [&](const std::vector<MarkerObservation>& train) {
+      return warm_model ? *warm_model : startingModel(data_, train, effects);
+    };
+    const CrossValidation cv = crossValidateFits(obs_, folds_.fold, folds_.k, start, fold_options, warm_p);
+    return {cv.sse, cv.residual, true};
   }
 
   /// The fit of `effects` to all the data, from `warm` (its frames and parameters, the added effects
@@ -151,7 +126,8 @@ class Diagnoser {
     f.analyze = false;
     if (!warm) return fitMarkerModel(startingModel(data_, obs_, effects), obs_, f);
     const sim::KinematicModel& w = warm->model;
-    const sim::KinematicModel start = sim::makeKinematicModel(w.arm, w.sessions, w.base, w.marker, w.world_T_base, w.flange_T_marker, effects);
+    const sim::KinematicModel start = sim::makeKinematicModel(w.arm, w.sessions, w.base, w.marker, w.world_T_base, w.flange_T_marker, effects, true,
+                                                w.marker_points);
     Eigen::VectorXd p0 = Eigen::VectorXd::Zero(start.layout.size());
     p0.head(warm->p.size()) = warm->p;
     return fitMarkerModel(start, obs_, f, p0);
@@ -244,7 +220,8 @@ class Diagnoser {
       std::vector<Effect> all = current;
       for (std::size_t c : layer) all.push_back(candidates[c]);
       const sim::KinematicModel ext = sim::makeKinematicModel(fit.model.arm, fit.model.sessions, fit.model.base, fit.model.marker,
-                                                              fit.model.world_T_base, fit.model.flange_T_marker, all);
+                                                              fit.model.world_T_base, fit.model.flange_T_marker, all, true,
+                                                              fit.model.marker_points);
       Eigen::VectorXd p = Eigen::VectorXd::Zero(ext.layout.size());
       p.head(fit.p.size()) = fit.p;
       const MarkerPoseModel m(ext, obs_, noise_, p);

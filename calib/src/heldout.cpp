@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <future>
 #include <numeric>
 
 #include "orbcal/calib/diagnose.hpp"
@@ -100,6 +101,45 @@ std::vector<int> splitByConfiguration(const std::vector<MarkerObservation>& obs,
     }
   }
   return part;
+}
+
+CrossValidation crossValidateFits(const std::vector<MarkerObservation>& obs, const std::vector<int>& fold, int folds,
+                                  const std::function<sim::KinematicModel(const std::vector<MarkerObservation>&)>& start,
+                                  const FitOptions& options, const Eigen::VectorXd& p0) {
+  if (fold.size() != obs.size()) throw std::invalid_argument("crossValidateFits: one fold per observation expected");
+  using FoldResult = std::pair<double, std::vector<std::pair<std::size_t, Eigen::VectorXd>>>;
+  std::vector<std::future<FoldResult>> jobs;
+  for (int f = 0; f < folds; ++f) {
+    if (std::find(fold.begin(), fold.end(), f) == fold.end()) continue;
+    jobs.push_back(std::async(std::launch::async, [&, f] {
+      std::vector<MarkerObservation> train, test;
+      std::vector<std::size_t> test_index;
+      for (std::size_t i = 0; i < obs.size(); ++i) {
+        if (fold[i] == f) {
+          test.push_back(obs[i]);
+          test_index.push_back(i);
+        } else {
+          train.push_back(obs[i]);
+        }
+      }
+      const sim::KinematicModel model = start(train);
+      const Fit fit = fitMarkerModel(model, train, options, p0);
+      const MarkerPoseModel held(model, test, fit.noise, fit.p);
+      std::vector<Eigen::VectorXd> nu;  // the held-out residuals, at fit.p
+      const double sse = 2.0 * weightedCost(held, Eigen::VectorXd::Zero(held.numParams()), &nu);
+      FoldResult out{sse, {}};
+      for (std::size_t t = 0; t < test.size(); ++t) out.second.emplace_back(test_index[t], std::move(nu[t]));
+      return out;
+    }));
+  }
+  CrossValidation r;
+  r.residual.resize(obs.size());
+  for (auto& j : jobs) {
+    auto [sse, res] = j.get();
+    r.sse += sse;
+    for (auto& [i, v] : res) r.residual[i] = std::move(v);
+  }
+  return r;
 }
 
 HeldoutGain heldoutGain(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& before,

@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "orbcal/sim/marker_points.hpp"
+
 namespace orbcal::calib {
 
 MarkerPoseModel::MarkerPoseModel(sim::KinematicModel model, std::vector<MarkerObservation> observations,
@@ -13,16 +15,42 @@ MarkerPoseModel::MarkerPoseModel(sim::KinematicModel model, std::vector<MarkerOb
 }
 
 namespace {
-Eigen::VectorXd residualOf(const MarkerObservation& o, const Eigen::Isometry3d& predicted) {
-  if (o.has_rotation) return sim::poseMinus(o.world_T_marker, predicted);
-  return o.world_T_marker.translation() - predicted.translation();
+
+/// The residual of an observation and, where asked, its derivatives over the parameters (H) and the
+/// joint readings (Jq), both in the residual's coordinates; R: the rotation that carries a marker-frame
+/// covariance into them (position-only residuals are in the measuring system's frame).
+struct Predicted {
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd H, Jq;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+};
+
+Predicted predictObservation(const sim::KinematicModel& model, const Eigen::VectorXd& p, const MarkerObservation& o,
+                             bool with_H, bool with_q) {
+  Predicted out;
+  Eigen::MatrixXd J_p, J_q;
+  if (o.point >= 0) {  // a marker point of a rigid body: its position, in the measuring system's frame
+    const Eigen::Vector3d x = sim::predictMarkerPoint(model, p, o.sample, o.point, with_H ? &J_p : nullptr, with_q ? &J_q : nullptr);
+    out.residual = o.world_T_marker.translation() - x;
+    out.H = std::move(J_p);
+    out.Jq = std::move(J_q);
+    return out;
+  }
+  const Eigen::Isometry3d predicted = sim::predictMarkerPose(model, p, o.sample, with_H ? &J_p : nullptr, with_q ? &J_q : nullptr);
+  out.R = predicted.linear();
+  if (o.has_rotation) {
+    out.residual = sim::poseMinus(o.world_T_marker, predicted);
+    out.H = std::move(J_p);
+    out.Jq = std::move(J_q);
+    return out;
+  }
+  // Position-only: the marker-frame translation rows rotated into the measuring system's frame.
+  out.residual = o.world_T_marker.translation() - predicted.translation();
+  if (with_H) out.H = out.R * J_p.topRows(3);
+  if (with_q) out.Jq = out.R * J_q.topRows(3);
+  return out;
 }
 
-/// The joint Jacobian of the prediction error as the residual sees it: position-only residuals are
-/// in the measuring system's frame, so the marker-frame translation rows are rotated into it.
-Eigen::MatrixXd residualJointJacobian(const MarkerObservation& o, const Eigen::Isometry3d& predicted, const Eigen::MatrixXd& J_e_q) {
-  return o.has_rotation ? J_e_q : Eigen::MatrixXd(predicted.linear() * J_e_q.topRows(3));
-}
 }  // namespace
 
 MarkerPoseModel poseModel(const sim::Arm& nominal, const std::vector<PoseObservation>& observations, const PoseNoiseModel& noise) {
@@ -43,7 +71,7 @@ MarkerPoseModel poseModel(const sim::Arm& nominal, const std::vector<PoseObserva
 }
 
 Eigen::VectorXd markerResidual(const sim::KinematicModel& model, const Eigen::VectorXd& p, const MarkerObservation& o) {
-  return residualOf(o, sim::predictMarkerPose(model, p, o.sample));
+  return predictObservation(model, p, o, false, false).residual;
 }
 
 Linearization MarkerPoseModel::linearize(int k, const Eigen::VectorXd& y) const { return linearized(k, y, true); }
@@ -52,27 +80,21 @@ Linearization MarkerPoseModel::innovationAndCovariance(int k, const Eigen::Vecto
 
 Linearization MarkerPoseModel::linearized(int k, const Eigen::VectorXd& y, bool with_H) const {
   const MarkerObservation& o = observations_.at(static_cast<std::size_t>(k));
-  Eigen::MatrixXd J_e_p, J_e_q;
-  const Eigen::Isometry3d predicted = sim::predictMarkerPose(model_, p0_ + y, o.sample, with_H ? &J_e_p : nullptr,
-                                                             noise_.joint_noise_sigma_rad > 0.0 ? &J_e_q : nullptr);
+  const bool joint_noise = noise_.joint_noise_sigma_rad > 0.0;
+  Predicted pr = predictObservation(model_, p0_ + y, o, with_H, joint_noise);
   Linearization lin;
-  lin.innovation = residualOf(o, predicted);
+  lin.innovation = std::move(pr.residual);
   const int m = rows(k);
-  // Position-only: the marker-frame translation rows rotated into the measuring system's frame.
-  const Eigen::Matrix3d R = predicted.linear();
-  if (with_H) lin.H = o.has_rotation ? J_e_p : Eigen::MatrixXd(R * J_e_p.topRows(3));
+  if (with_H) lin.H = std::move(pr.H);
   if (o.covariance.size() > 0) {
-    lin.R = o.has_rotation ? o.covariance : Eigen::MatrixXd(R * o.covariance.topLeftCorner(3, 3) * R.transpose());
+    lin.R = m == 6 ? o.covariance : Eigen::MatrixXd(pr.R * o.covariance.topLeftCorner(3, 3) * pr.R.transpose());
   } else {
     Eigen::VectorXd d(m);
     d.head(3).setConstant(noise_.sigma_position_m * noise_.sigma_position_m);
     if (m == 6) d.tail(3).setConstant(noise_.sigma_rotation_rad * noise_.sigma_rotation_rad);
     lin.R = d.asDiagonal();
   }
-  if (noise_.joint_noise_sigma_rad > 0.0) {
-    const Eigen::MatrixXd Jq = residualJointJacobian(o, predicted, J_e_q);
-    lin.R += noise_.joint_noise_sigma_rad * noise_.joint_noise_sigma_rad * Jq * Jq.transpose();
-  }
+  if (joint_noise) lin.R += noise_.joint_noise_sigma_rad * noise_.joint_noise_sigma_rad * pr.Jq * pr.Jq.transpose();
   return lin;
 }
 
@@ -81,11 +103,9 @@ Eigen::VectorXd MarkerPoseModel::innovation(int k, const Eigen::VectorXd& y) con
 }
 
 Eigen::MatrixXd MarkerPoseModel::jointJacobian(int k, const Eigen::VectorXd& y, Eigen::VectorXd* residual) const {
-  const MarkerObservation& o = observations_.at(static_cast<std::size_t>(k));
-  Eigen::MatrixXd J_e_p, J_e_q;
-  const Eigen::Isometry3d predicted = sim::predictMarkerPose(model_, p0_ + y, o.sample, &J_e_p, &J_e_q);
-  if (residual) *residual = residualOf(o, predicted);
-  return residualJointJacobian(o, predicted, J_e_q);
+  Predicted pr = predictObservation(model_, p0_ + y, observations_.at(static_cast<std::size_t>(k)), false, true);
+  if (residual) *residual = std::move(pr.residual);
+  return pr.Jq;
 }
 
 }  // namespace orbcal::calib

@@ -9,6 +9,8 @@
 #include <map>
 
 #include "orbcal/calib/registration.hpp"
+#include "orbcal/calib/rigid_body.hpp"
+#include "orbcal/sim/marker_points.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/gravity.hpp"
@@ -31,7 +33,7 @@ std::vector<MarkerObservation> observationsFrom(const sim::MeasuredData& data, b
   std::vector<MarkerObservation> obs;
   obs.reserve(data.poses.size());
   for (const sim::MeasuredPose& m : data.poses) {
-    MarkerObservation o{m.sample, m.world_T_marker, m.has_rotation, {}};
+    MarkerObservation o{m.sample, m.world_T_marker, m.has_rotation, {}, m.point};
     if (needs_torque && !o.sample.hasTorque()) o.sample.tau_Nm = sim::gravityTorques(data.arm, data.arm.masses, o.sample.q_rad);
     obs.push_back(std::move(o));
   }
@@ -233,6 +235,7 @@ sim::KinematicModel startingModel(const sim::MeasuredData& data, const std::vect
                                                       framesFor(data.marker, S, data.flange_T_marker), std::move(effects));
   std::vector<Eigen::Isometry3d> F;
   for (const MarkerObservation& o : observations) F.push_back(sim::forwardKinematics(data.arm, o.sample.q_rad));
+  if (data.points > 0) return rigidBodyStart(data, observations, F, shape);
   try {
     guessFrames(shape, observations, F);
   } catch (const std::invalid_argument& e) {
@@ -276,7 +279,7 @@ Eigen::VectorXd geometryPriorSigma(const sim::ParamLayout& layout) {
   const Eigen::VectorXd typical = layout.typical();
   Eigen::VectorXd sigma = Eigen::VectorXd::Zero(layout.size());
   for (const sim::ParamBlock& b : layout.blocks()) {
-    if (b.effect != "geometry" && b.effect != "base" && b.effect != "marker") continue;
+    if (b.effect != "geometry" && b.effect != "base" && b.effect != "marker" && !sim::isPointBlock(b)) continue;
     sigma.segment(b.offset, b.size()) = typical.segment(b.offset, b.size());
   }
   return sigma;
@@ -363,7 +366,8 @@ Fit predictWithModel(const CalibratedModel& c, const sim::MeasuredData& data, co
   };
   const FrameSharing base = sharing(data.base), marker = sharing(data.marker);
   sim::KinematicModel m = sim::makeKinematicModel(cm.arm, S, base, marker, framesFor(base, S, cm.world_T_base.front()),
-                                                  framesFor(marker, S, cm.flange_T_marker.front()), cm.effects, false);
+                                                  framesFor(marker, S, cm.flange_T_marker.front()), cm.effects, false,
+                                                  cm.marker_points);
   // Effect values by name (mount changes are per session: refitted, not carried).
   std::map<std::string, double> value;
   for (const sim::ParamBlock& b : cm.layout.blocks()) {

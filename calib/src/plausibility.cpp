@@ -1,5 +1,7 @@
 #include "orbcal/calib/plausibility.hpp"
 
+#include "orbcal/sim/marker_points.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <functional>
@@ -105,7 +107,7 @@ PlausibilityBounds plausibilityBounds(const sim::Arm& arm) {
 Fit fitRegistration(const sim::KinematicModel& start, const std::vector<MarkerObservation>& obs, FitOptions options) {
   options.method = "LM";
   for (const sim::ParamBlock& b : start.layout.blocks()) {
-    if (b.effect == "base" || b.effect == "marker" || b.effect == "mount") continue;
+    if (b.effect == "base" || b.effect == "marker" || b.effect == "mount" || sim::isPointBlock(b)) continue;
     for (int i = 0; i < b.size(); ++i) options.hold.push_back(b.offset + i);
   }
   std::sort(options.hold.begin(), options.hold.end());

@@ -5,6 +5,7 @@
 #include <filesystem>
 
 #include "bindings.hpp"
+#include "orbcal/calib/levels.hpp"
 #include "orbcal/calib/measured_fit.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/workflow/measured.hpp"
@@ -109,16 +110,28 @@ void bindCalibrate(py::module_& m) {
 
   m.def(
       "calibrate",
-      [](const sim::MeasuredData& data, const std::vector<std::string>& effects, const std::string& method) {
+      [](const sim::MeasuredData& data, const std::vector<std::string>& effects, const std::string& method,
+         const std::string& level, std::uint64_t seed) {
         const std::vector<sim::Effect> fx = parseEffects(effects, data.arm.numJoints(), "effects");
         const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(data, calib::needsTorque(fx));
-        const calib::Fit fit = calib::fitMarkerModel(calib::startingModel(data, obs, fx), obs, fitOptions(data, method));
+        calib::FitOptions fo = fitOptions(data, method);
+        const calib::LevelChoice choice = calib::resolveLevel(calib::parseLevel(level, "level"), data, obs, fx, fo, seed);
+        const sim::KinematicModel start = calib::startingModel(data, obs, fx);
+        fo.hold = calib::levelHold(start, choice.chosen, "level");
+        const calib::Fit fit = calib::fitMarkerModel(start, obs, fo);
         const calib::CalibratedModel cm = calib::calibratedModel(fit);
-        return PyModel{cm.model, cm.p, workflow::parameterRows(fit), fitStatistics(fit)};
+        py::dict stats = fitStatistics(fit);
+        stats["level"] = calib::levelName(choice.chosen);
+        stats["level_reason"] = calib::levelSentence(choice);
+        return PyModel{cm.model, cm.p, workflow::parameterRows(fit), stats};
       },
-      py::arg("data"), py::arg("effects") = std::vector<std::string>{}, py::arg("method") = calib::kDefaultMethod,
+      py::arg("data"), py::arg("effects") = std::vector<std::string>{}, py::arg("method") = calib::kDefaultMethod, py::arg("level") = "auto",
+      py::arg("seed") = 1,
       "Calibrates geometry + registration + the chosen effects ('compliance:2', 'cyclic:4', ...; joints from 1) on all "
       "of `data`, with the noise the data states (else estimated from the residuals). method: 'LM', 'LSE', 'EKF' or a variant `orbcal calibrate --help` lists. "
+      "level: which geometric parameters are free: 'frames' (registration only), 'offsets' (joint zero offsets + frames), "
+      "'full', a list 'theta1,theta3,d2', or 'auto' (by cross-validation by configuration, seeded with `seed`; the "
+      "statistics' 'level' and 'level_reason' say which and why); effects are free at every level. "
       "Returns the calibrated Model (no hold-out here: orbcal.evaluate predicts other data with it).");
 
   m.def(

@@ -15,59 +15,28 @@
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/urdf.hpp"
-#include "measured_units.hpp"
+#include "measured_columns.hpp"
+#include "measured_points.hpp"
 
 namespace orbcal::sim {
 
 namespace {
-using namespace measured_units;
+
+using namespace measured_columns;  // NOLINT: the description's columns, shared with measured_points.cpp
 
 constexpr const char* kFormat = "orbcal-measurements-1";
 /// Largest accepted |entry of R^T R - I|, |bottom row - [0 0 0 1]| and ||q| - 1| of a measured pose.
 constexpr double kPoseTolerance = 1e-6;
 
-// ---------------------------------------------------------------------------------------------
-// Physical ranges: what no real arm and instrument measure, refused at read time (SI).
-
-struct PhysicalRange {
-  double lo = -std::numeric_limits<double>::infinity();
-  double hi = std::numeric_limits<double>::infinity();
-  const char* what = "";  ///< why, for the message; empty: no range (checked otherwise, or none)
-};
-
-const PhysicalRange kPositionRange{-kMaxLengthM, kMaxLengthM, "a position within 10 km"};
-/// Ten times the largest joint torques of industrial arms (a few 1e4 N m at a heavy arm's base).
-const PhysicalRange kTorqueRange{-1e6, 1e6, "a joint torque within 1e6 N*m"};
-const PhysicalRange kTemperatureRange{kMinTemperatureC, kMaxTemperatureC, "an arm's temperature"};
-const PhysicalRange kTimeRange{-1e10, 1e10, "a time within 1e10 s, about 300 years: Unix time stamps fit"};
 
 // ---------------------------------------------------------------------------------------------
 // The description: which columns hold what.
-
-/// Columns named by the description for one quantity, their unit and their physical range.
-struct ColumnGroup {
-  std::vector<std::string> names;  ///< empty: not in the files
-  Unit unit;
-  std::vector<int> index;          ///< of each name in the CSV file being read (bindColumns)
-  PhysicalRange range;
-  bool given() const { return !names.empty(); }
-};
-
-/// The key that named each column so far (column name -> key path): a column holds one quantity.
-using ColumnClaims = std::map<std::string, std::string>;
-
-/// The column name at `node`, which no other key may have named.
-std::string claimColumn(const ConfigNode& node, ColumnClaims& claims) {
-  const std::string name = node.asString();
-  const auto [it, fresh] = claims.emplace(name, node.path());
-  if (!fresh) node.fail("column " + quoteInput(name) + " is named twice (also at " + it->second + "); a column holds one quantity");
-  return name;
-}
 
 struct Layout {
   ColumnGroup joints, matrix, position, quaternion, torque, temperature, time, direction;
   Unit length;  ///< of the matrix's translation (position carries its own)
   Unit prismatic;  ///< joints.prismatic_unit: of the prismatic joints' columns (joints.unit: the revolute ones')
+  std::vector<ColumnGroup> points;  ///< pose.points: the marker points of a rigid body, one group each
   /// Every group, in the order the writer puts them in a row (after the index).
   std::array<ColumnGroup*, 8> groups() {
     return {&joints, &torque, &temperature, &time, &matrix, &position, &quaternion, &direction};
@@ -76,39 +45,6 @@ struct Layout {
     return {&joints, &torque, &temperature, &time, &matrix, &position, &quaternion, &direction};
   }
 };
-
-/// node[key], which must hold a value: an empty one (`key:` and nothing) is an error, never a default.
-ConfigNode valueOf(const ConfigNode& node, const std::string& key) {
-  const ConfigNode child = node[key];
-  if (!child.defined()) child.fail("empty value");
-  return child;
-}
-
-/// valueOf(node, key) when the key is present.
-std::optional<ConfigNode> optionalValueOf(const ConfigNode& node, const std::string& key) {
-  if (!node.has(key)) return std::nullopt;
-  return valueOf(node, key);
-}
-
-Unit readUnit(const ConfigNode& node, const std::vector<Unit>& known) {
-  const std::string name = node.asString();
-  std::string list;
-  for (const Unit& u : known) {
-    if (name == u.name) return u;
-    list += (list.empty() ? "" : ", ") + std::string(u.name);
-  }
-  node.fail("expected one of: " + list + ", got " + quoteInput(name));
-}
-
-/// A sequence of exactly `count` column names; `what` says why that many.
-std::vector<std::string> readNames(const ConfigNode& node, std::size_t count, const std::string& what, ColumnClaims& claims) {
-  if (node.size() != count) {
-    node.fail("expected " + std::to_string(count) + " column names (" + what + "), got " + std::to_string(node.size()));
-  }
-  std::vector<std::string> names;
-  for (std::size_t i = 0; i < count; ++i) names.push_back(claimColumn(node[i], claims));
-  return names;
-}
 
 /// {columns: [...], unit: U} (without `unit` when `units` is empty).
 ColumnGroup readColumns(const ConfigNode& node, std::size_t count, const std::string& what,
@@ -137,14 +73,18 @@ ColumnGroup readColumn(const ConfigNode& node, const std::vector<Unit>& units, C
 }
 
 void readPoseLayout(const ConfigNode& pose, Layout& l, ColumnClaims& claims) {
-  pose.requireOnlyKeys({"matrix", "position", "quaternion_wxyz", "length_unit"});
+  pose.requireOnlyKeys({"matrix", "position", "quaternion_wxyz", "points", "length_unit"});
   l.length = readUnit(valueOf(pose, "length_unit"), kLengthUnits);
   const auto matrix = optionalValueOf(pose, "matrix");
   const auto position = optionalValueOf(pose, "position");
   const auto quaternion = optionalValueOf(pose, "quaternion_wxyz");
-  if (matrix.has_value() == position.has_value()) {
-    pose.fail("expected either 'matrix' (16 column names) or 'position' (3, optionally with 'quaternion_wxyz')");
+  const auto points = optionalValueOf(pose, "points");
+  if (matrix.has_value() + position.has_value() + points.has_value() != 1) {
+    pose.fail("expected either 'matrix' (16 column names), 'position' (3, optionally with 'quaternion_wxyz') or 'points' "
+              "(a rigid body's marker points, [x, y, z] names each)");
   }
+  if (points && quaternion) quaternion->fail("not with 'points' (each marker point is a position)");
+  if (points) l.points = readPointColumns(*points, l.length, claims);
   if (matrix && quaternion) quaternion->fail("not with 'matrix' (the matrix holds the rotation)");
   if (matrix) l.matrix.names = readNames(*matrix, 16, "a row-major 4x4 matrix", claims);
   if (position) {
@@ -284,28 +224,11 @@ Layout bindColumns(Layout l, const CsvTable& t) {
     g->index.clear();
     for (const std::string& name : g->names) g->index.push_back(t.requireColumn(name));
   }
-  return l;
-}
-
-/// Throws unless `si` (the cell of column `col` on row r, read in `unit`) lies within `range`: the
-/// message gives the value and the range in the column's unit.
-void checkWithin(const CsvTable& t, std::size_t r, int col, double si, const Unit& unit, const PhysicalRange& range) {
-  if (si >= range.lo && si <= range.hi) return;
-  const auto in = [&unit](double v) { return formatNumber("%.9g", v) + " " + unit.name; };
-  const double a = unit.fromSi(range.lo), b = unit.fromSi(range.hi);  // in the file's sense (torques: maybe negated)
-  throw InputError(t.where(r) + ": " + t.header()[static_cast<std::size_t>(col)] + ": " + in(unit.fromSi(si)) + " is outside " +
-                   in(std::min(a, b)) + " to " + in(std::max(a, b)) + " (" + range.what + ")");
-}
-
-/// The cells of `g` on row r, in SI units, each within the group's range.
-Eigen::VectorXd readGroup(const CsvTable& t, std::size_t r, const ColumnGroup& g) {
-  Eigen::VectorXd v(static_cast<Eigen::Index>(g.index.size()));
-  for (std::size_t i = 0; i < g.index.size(); ++i) {
-    const double si = g.unit.toSi(t.number(r, g.index[i]));
-    checkWithin(t, r, g.index[i], si, g.unit, g.range);
-    v[static_cast<Eigen::Index>(i)] = si;
+  for (ColumnGroup& g : l.points) {
+    g.index.clear();
+    for (const std::string& name : g.names) g.index.push_back(t.requireColumn(name));
   }
-  return v;
+  return l;
 }
 
 /// "<file>: line L: <first>..<last>: " for a message about a run of columns.
@@ -386,7 +309,7 @@ MeasuredPose readPose(const CsvTable& t, std::size_t r, const Layout& l, const A
   s.q_rad = readJoints(t, r, l, arm);
   if (l.matrix.given()) {
     p.world_T_marker = readMatrixPose(t, r, l);
-  } else {
+  } else if (l.position.given()) {
     p.world_T_marker.translation() = readGroup(t, r, l.position);
     p.has_rotation = l.quaternion.given();
     if (p.has_rotation) p.world_T_marker.linear() = readQuaternion(t, r, l.quaternion).toRotationMatrix();
@@ -422,7 +345,8 @@ void readSession(const std::string& path, int session, const Layout& layout, Mea
   for (std::size_t r = 0; r < t.rows(); ++r) {
     MeasuredPose p = readPose(t, r, bound, d.arm, session);
     if (bound.time.given()) checkTimeOrder(t, r, bound.time, r > 0 ? d.poses.back().sample.time_s : 0.0, p.sample.time_s);
-    d.poses.push_back(std::move(p));
+    if (bound.points.empty()) d.poses.push_back(std::move(p));
+    else readPointRow(t, r, bound.points, p, d.poses);
   }
 }
 
@@ -439,7 +363,8 @@ Layout outputLayout(const MeasuredData& d, int joints) {
   Layout l;
   l.joints = {perJoint("q", "_rad"), kAngleUnits[0], {}, {}};
   for (int j = 0; j < joints; ++j) l.joints.names[static_cast<std::size_t>(j)] = "q" + std::to_string(j + 1) + (d.arm.isPrismatic(j) ? "_m" : "_rad");
-  l.position = {{"x_m", "y_m", "z_m"}, kLengthUnits[0], {}, {}};
+  if (d.points > 0) l.points = pointOutputColumns(d.points);
+  else l.position = {{"x_m", "y_m", "z_m"}, kLengthUnits[0], {}, {}};
   bool rotation = false;
   for (const MeasuredPose& p : d.poses) rotation |= p.has_rotation;
   if (rotation) l.quaternion.names = {"qw", "qx", "qy", "qz"};
@@ -459,7 +384,7 @@ std::vector<double> rowCells(const MeasuredPose& p, const Layout& l) {
   if (l.torque.given()) add(p.sample.tau_Nm);
   if (l.temperature.given()) c.push_back(p.sample.temperature_C);
   if (l.time.given()) c.push_back(p.sample.time_s);
-  add(p.world_T_marker.translation());
+  if (l.position.given()) add(p.world_T_marker.translation());
   if (l.quaternion.given()) {
     const Eigen::Quaterniond q(p.world_T_marker.linear());
     add(Eigen::Vector4d(q.w(), q.x(), q.y(), q.z()));
@@ -529,7 +454,9 @@ std::string formatDescription(const MeasuredData& d, const std::string& robot_fi
   s << "robot: " << quoted(robot_file) << "\n";
   s << "files: " << yamlList(quoted_files) << "\n";
   s << "joints: {columns: " << yamlList(l.joints.names) << ", unit: rad" << (d.arm.hasPrismatic() ? ", prismatic_unit: m}\n" : "}\n");
-  s << "pose: {position: " << yamlList(l.position.names);
+  std::vector<std::string> points;
+  for (const ColumnGroup& g : l.points) points.push_back(yamlList(g.names));
+  s << "pose: {" << (l.points.empty() ? "position: " + yamlList(l.position.names) : "points: " + yamlList(points));
   if (l.quaternion.given()) s << ", quaternion_wxyz: " << yamlList(l.quaternion.names);
   s << ", length_unit: m}\n";
   s << formatCovariates(l);
@@ -581,6 +508,11 @@ MeasuredData loadMeasuredData(const std::string& description_path) {
   d.length_unit = layout.length.name;
   d.angle_unit = layout.joints.unit.name;
   d.quaternion = layout.quaternion.given();
+  d.points = static_cast<int>(layout.points.size());
+  if (d.points > 0 && (d.marker != FrameSharing::kShared || d.base == FrameSharing::kPerSession)) {
+    throw InputError(description_path + ": registration: with pose.points, marker must be shared (each point's offset on "
+                     "the tool is estimated once) and base shared or known");
+  }
   if (!d.has_direction) fillApproachDirections(d.poses);
   return d;
 }
@@ -610,7 +542,11 @@ std::string writeMeasuredData(const MeasuredData& data, const std::string& folde
   std::vector<std::string> files;
   for (std::size_t s = 0; s < sessions.size(); ++s) {
     files.push_back("session_" + std::to_string(s) + ".csv");
-    writeFileAtomic(folder + "/" + files.back(), formatSessionCsv(sessions[s], layout));
+    std::vector<std::string> names;  // the columns before the points
+    for (const ColumnGroup* g : layout.groups()) names.insert(names.end(), g->names.begin(), g->names.end());
+    const auto cells = [&layout](const MeasuredPose& p) { return rowCells(p, layout); };
+    writeFileAtomic(folder + "/" + files.back(), data.points > 0 ? formatPointsCsv(sessions[s], names, layout.points, cells)
+                                                                 : formatSessionCsv(sessions[s], layout));
   }
   const std::string path = folder + "/" + description_name;
   writeFileAtomic(path, formatDescription(data, robot_file, files, layout));

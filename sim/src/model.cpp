@@ -7,6 +7,7 @@
 
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/marker_points.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::sim {
@@ -230,7 +231,7 @@ const Eigen::Isometry3d& KinematicModel::markerStart(int session) const {
 KinematicModel makeKinematicModel(Arm arm, int sessions, FrameSharing base, FrameSharing marker,
                                   std::vector<Eigen::Isometry3d> world_T_base,
                                   std::vector<Eigen::Isometry3d> flange_T_marker, std::vector<Effect> effects,
-                                  bool geometry) {
+                                  bool geometry, std::vector<Eigen::Vector3d> marker_points) {
   if (sessions < 1) throw std::invalid_argument("makeKinematicModel: at least one session");
   const auto expect = [&](FrameSharing s) { return s == FrameSharing::kPerSession ? sessions : 1; };
   if (static_cast<int>(world_T_base.size()) != expect(base) || static_cast<int>(flange_T_marker.size()) != expect(marker)) {
@@ -253,6 +254,8 @@ KinematicModel makeKinematicModel(Arm arm, int sessions, FrameSharing base, Fram
   };
   addFrames("base", base);
   addFrames("marker", marker);
+  m.marker_points = std::move(marker_points);
+  for (std::size_t k = 0; k < m.marker_points.size(); ++k) m.layout.add(pointBlock(static_cast<int>(k)));
   if (geometry) m.layout.add(geometryBlock(m.arm));
   std::vector<std::string> seen;  // "compliance:2", "thermal", ... once each
   for (const Effect& e : m.effects) {
@@ -528,9 +531,10 @@ FoldedModel foldParameters(const KinematicModel& m, const Eigen::VectorXd& p) {
   };
   foldFrames("base", m.base, out.world_T_base);
   foldFrames("marker", m.marker, out.flange_T_marker);
+  out.marker_points = foldedMarkerPoints(m, p);
   Eigen::VectorXd q = Eigen::VectorXd::Zero(p.size());
-  for (const ParamBlock& b : m.layout.blocks()) {
-    if (b.effect != "base" && b.effect != "marker" && b.effect != "geometry") q.segment(b.offset, b.size()) = p.segment(b.offset, b.size());
+  for (const std::vector<int>& blocks : m.effect_blocks) {
+    for (const int i : blocks) q.segment(m.layout.block(i).offset, m.layout.block(i).size()) = p.segment(m.layout.block(i).offset, m.layout.block(i).size());
   }
   return {std::move(out), std::move(q)};
 }

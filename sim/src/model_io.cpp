@@ -45,8 +45,16 @@ std::string writeModelFile(const KinematicModel& m, const Eigen::VectorXd& p, co
     << "  base: " << frameSharingName(m.base) << "\n"
     << "  marker: " << frameSharingName(m.marker) << "\n"
     << "  world_T_base: " << transformList(m.world_T_base) << "\n"
-    << "  flange_T_marker: " << transformList(m.flange_T_marker) << "\n"
-    << "effects:" << (m.effects.empty() ? " []" : "") << "\n";
+    << "  flange_T_marker: " << transformList(m.flange_T_marker) << "\n";
+  if (!m.marker_points.empty()) {
+    s << "  marker_points_m: [";  // rigid-body data: each point's offset in the marker frame
+    for (std::size_t k = 0; k < m.marker_points.size(); ++k) {
+      const Eigen::Vector3d& x = m.marker_points[k];
+      s << (k ? ", " : "") << "[" << exactNumber(x[0]) << ", " << exactNumber(x[1]) << ", " << exactNumber(x[2]) << "]";
+    }
+    s << "]\n";
+  }
+  s << "effects:" << (m.effects.empty() ? " []" : "") << "\n";
   for (std::size_t k = 0; k < m.effects.size(); ++k) {
     s << "  - {spec: \"" << formatEffect(m.effects[k]) << "\", parameters: {";
     bool first = true;
@@ -143,7 +151,12 @@ LoadedModel loadModelFile(const std::string& path) {
   const int sessions = root["sessions"].asInt();
   if (sessions < 1 || sessions > 10000) root["sessions"].fail("must be within 1 to 10000");
   const ConfigNode reg = root["registration"];
-  reg.requireOnlyKeys({"base", "marker", "world_T_base", "flange_T_marker"});
+  reg.requireOnlyKeys({"base", "marker", "world_T_base", "flange_T_marker", "marker_points_m"});
+  std::vector<Eigen::Vector3d> points;
+  if (reg.has("marker_points_m")) {
+    const ConfigNode list = reg["marker_points_m"];
+    for (std::size_t k = 0; k < list.size(); ++k) points.push_back(list[k].asVectorWithin(3, -kMaxLengthM, kMaxLengthM, "within 10 km"));
+  }
   const FrameSharing base = readFrameSharing(reg["base"]), marker = readFrameSharing(reg["marker"]);
   const auto frames = [&](const char* key, FrameSharing sharing) {
     const ConfigNode list = reg[key];
@@ -169,8 +182,8 @@ LoadedModel loadModelFile(const std::string& path) {
   KinematicModel full;
   try {
     const auto world_T_base = frames("world_T_base", base), flange_T_marker = frames("flange_T_marker", marker);
-    out.model = makeKinematicModel(arm, sessions, base, marker, world_T_base, flange_T_marker, effects, false);
-    full = makeKinematicModel(arm, sessions, base, marker, world_T_base, flange_T_marker, effects, true);
+    out.model = makeKinematicModel(arm, sessions, base, marker, world_T_base, flange_T_marker, effects, false, points);
+    full = makeKinematicModel(arm, sessions, base, marker, world_T_base, flange_T_marker, effects, true, points);
   } catch (const std::invalid_argument& e) {
     throw InputError(path + ": effects: " + e.what());
   }

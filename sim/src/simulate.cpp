@@ -7,6 +7,7 @@
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/gravity.hpp"
+#include "orbcal/sim/marker_points.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::sim {
@@ -61,6 +62,10 @@ void checkSpec(const SimulationSpec& spec) {
                        formatNumber("%g", kMinTemperatureC) + " degC to " + formatNumber("%g", kMaxTemperatureC) + " degC");
     }
   }
+  if (spec.markers < 0 || spec.markers > 100) throw InputError("simulate: markers: must be within 0 to 100");
+  if (!(spec.missing_marker_rate >= 0.0 && spec.missing_marker_rate < 1.0)) {
+    throw InputError("simulate: missing_marker_rate: must be within [0, 1)");
+  }
   if (!(spec.temperature_tau_s > 0.0 && spec.sample_period_s > 0.0)) throw InputError("simulate: temperature_tau_s and sample_period_s must be positive");
 }
 
@@ -74,6 +79,34 @@ void checkEffectValues(const KinematicModel& truth, int first_effect, const Eige
     throw InputError("simulate: effect values: value " + std::to_string(i + 1) + " (" + info.name + "), " +
                      formatNumber("%.9g", values[i]) + " " + info.unit + ", is outside " + physicalRangeText(info));
   }
+}
+
+/// The rigid body's points at each sample (`rows`, measured at the true joints `truths`): the true model
+/// plus the tracker's position noise, each point missing with spec.missing_marker_rate (a row keeps at
+/// least one, drawn).
+std::vector<MeasuredPose> measurePoints(const SimulatedData& s, const std::vector<MeasuredPose>& rows,
+                                        const std::vector<JointSample>& truths, const SimulationSpec& spec, std::mt19937_64& rng) {
+  std::normal_distribution<double> n01(0.0, 1.0);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<MeasuredPose> out;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    std::vector<int> seen;
+    for (int k = 0; k < spec.markers; ++k) {
+      if (!(u(rng) < spec.missing_marker_rate)) seen.push_back(k);
+    }
+    if (seen.empty()) seen.push_back(std::uniform_int_distribution<int>(0, spec.markers - 1)(rng));
+    for (const int k : seen) {
+      MeasuredPose p = rows[i];
+      p.point = k;
+      p.has_rotation = false;
+      p.world_T_marker = Eigen::Isometry3d::Identity();
+      Eigen::Vector3d e;
+      for (int a = 0; a < 3; ++a) e[a] = n01(rng);
+      p.world_T_marker.translation() = predictMarkerPoint(s.truth, s.p_true, truths[i], k) + spec.noise_position_m * e;
+      out.push_back(std::move(p));
+    }
+  }
+  return out;
 }
 
 }  // namespace
@@ -105,7 +138,11 @@ SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
   for (auto& m : M) m = spec.marker == FrameSharing::kKnown ? Eigen::Isometry3d::Identity() : markerFrame();
 
   SimulatedData out;
-  out.truth = makeKinematicModel(nominal, S, spec.base, spec.marker, W, M, spec.effects);
+  const FrameSharing marker = spec.markers > 0 ? FrameSharing::kKnown : spec.marker;  // rigid body: the points carry it
+  std::vector<Eigen::Vector3d> points;
+  for (int k = 0; k < spec.markers; ++k) points.push_back(randomUnit(rng) * spec.marker_offset_m);
+  if (spec.markers > 0) M.assign(1, Eigen::Isometry3d::Identity());
+  out.truth = makeKinematicModel(nominal, S, spec.base, marker, W, M, spec.effects, true, points);
   out.p_true = Eigen::VectorXd::Zero(out.truth.layout.size());
   const ParamBlock& g = out.truth.layout.block(out.truth.layout.find("geometry"));
   out.p_true.segment(g.offset, g.size()) = makeErrorSet(nominal, spec.geometry, "simulate: geometry");
@@ -131,7 +168,8 @@ SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
   d.arm = nominal;
   d.robot_file = nominal.source;
   d.base = spec.base;
-  d.marker = spec.marker;
+  d.marker = spec.markers > 0 ? FrameSharing::kShared : spec.marker;
+  d.points = spec.markers;
   d.world_T_base = W.front();
   d.flange_T_marker = M.front();
   d.noise_position_m = spec.noise_position_m;
@@ -168,6 +206,7 @@ SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
 
   // Measure: the true model at the true joints (readings + control noise), plus tracker noise; the
   // torque sensors' noise is added to the recorded torques after the deflection is computed.
+  std::vector<JointSample> truths;  // the true joint angles (and torques) of each sample
   for (MeasuredPose& mp : d.poses) {
     JointSample truth = mp.sample;
     if (torques) truth.tau_Nm = mp.sample.tau_Nm;
@@ -182,7 +221,9 @@ SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
     if (torques) {
       for (Eigen::Index j = 0; j < mp.sample.tau_Nm.size(); ++j) mp.sample.tau_Nm[j] += spec.torque_noise_Nm * n01(rng);
     }
+    truths.push_back(truth);
   }
+  if (spec.markers > 0) d.poses = measurePoints(out, d.poses, truths, spec, rng);
   return out;
 }
 

@@ -123,6 +123,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   }
   // The reference: the nominal arm with only the registration fitted; a physically impossible one (or
   // calibrated geometry) is refused before anything is written.
+  r.level = calib::resolveLevel(o.level, data, ident, effects, fo, o.seed);
+  fo.hold = calib::levelHold(start, r.level.chosen, "--level");
   const calib::Fit reference = calib::fitRegistration(start, ident, fo);
   calib::requirePlausibleResidual(data, reference.residuals, "the nominal arm's registration residual");
   r.fit = calib::fitMarkerModel(start, ident, fo);
@@ -137,10 +139,13 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   }
   r.heldout_before = calib::residualStats(before);
   r.heldout_after = calib::residualStats(after);
-  r.worse = !held.empty() && r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
   r.gain = calib::heldoutGain(held, before, after);
-  // --holdout 0 measures no gain: the checks on the fit alone (consistency, fitRefusal) decide then.
-  r.refusal = o.holdout > 0.0 ? calib::heldoutRefusal(r.gain, o.holdout, calib::countConfigurations(all)) : "";
+  // The frames level without effects is the reference itself (the nominal arm, registration fitted):
+  // there is no gain over it to test; nor is there one with --holdout 0: the checks on the fit alone
+  // (consistency, fitRefusal) decide then.
+  const bool reference_level = r.level.chosen.kind == calib::LevelKind::kFrames && effects.empty();
+  r.worse = !reference_level && !held.empty() && r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
+  r.refusal = reference_level || o.holdout <= 0.0 ? "" : calib::heldoutRefusal(r.gain, o.holdout, calib::countConfigurations(all));
   r.fit_refusal = calib::fitRefusal(r.fit, ident, fo);
 
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit);
@@ -182,7 +187,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << "Model: geometry (" << data.arm.numParams() << " DH errors) + registration (base " << sim::frameSharingName(data.base)
      << ", marker " << sim::frameSharingName(data.marker) << ")";
   for (const std::string& e : o.effects) md << " + " << e;
-  md << "; " << r.fit.model.layout.size() << " parameters, " << r.fit.estimate.held.size() << " held as unidentifiable.\n\n"
+  md << "; " << r.fit.model.layout.size() << " parameters, " << r.fit.estimate.held.size() << " held (by the level or as unidentifiable).\n\n"
+     << "Calibrated at " << calib::levelSentence(r.level) << ".\n\n"
      << "Measurement noise (1 sigma per axis): position " << formatNumber("%.4f", r.fit.noise.sigma_position_m * 1e3) << " mm, rotation "
      << formatNumber("%.4f", r.fit.noise.sigma_rotation_rad * sim::kRadToDeg) << " deg"
      << (r.fit.noise_estimated ? " (estimated from the residuals)" : " (given)") << "; joint readings "

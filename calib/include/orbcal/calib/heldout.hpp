@@ -12,11 +12,13 @@
 //     t = mean(d) / (sd(d) / sqrt(G)) against Student's t with G - 1 degrees of freedom (Diebold and
 //     Mariano 1995), at the significance level diagnose's tests use (0.01).
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "orbcal/calib/marker_model.hpp"
+#include "orbcal/calib/measured_fit.hpp"
 
 namespace orbcal::calib {
 
@@ -49,6 +51,20 @@ std::vector<int> splitByConfiguration(const std::vector<MarkerObservation>& obs,
 
 /// The number of configurations among `obs` (configurationGroups).
 int countConfigurations(const std::vector<MarkerObservation>& obs);
+
+/// Held-out residuals of every observation by cross-validation: each fold's model is fitted to the other
+/// folds (FitOptions as given, its hold included) and predicts the fold's observations.
+struct CrossValidation {
+  double sse = 0.0;                       ///< held-out whitened SSE (each fold's fitted noise)
+  std::vector<Eigen::VectorXd> residual;  ///< held-out residual per observation ([position; rotation] or [position])
+};
+/// `fold`: the fold of each observation, 0..folds-1 (splitByConfiguration); `start(train)`: the starting
+/// model of a fold's training observations, every fold's with the same layout; `p0`: the starting
+/// parameters of every fold (empty: zero). The folds are fitted in parallel. A fold without observations
+/// is skipped.
+CrossValidation crossValidateFits(const std::vector<MarkerObservation>& obs, const std::vector<int>& fold, int folds,
+                                  const std::function<sim::KinematicModel(const std::vector<MarkerObservation>&)>& start,
+                                  const FitOptions& options, const Eigen::VectorXd& p0 = {});
 
 /// The held-out gain of a calibrated model over the nominal arm (registration fitted) and its test.
 struct HeldoutGain {

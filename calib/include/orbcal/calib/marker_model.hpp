@@ -22,6 +22,7 @@ struct MarkerObservation {
   /// Covariance of the right perturbation of world_T_marker in the marker frame [m; rad] (e.g. from
   /// vision); empty: MarkerNoise's sigmas.
   Eigen::MatrixXd covariance;
+  int point = -1;  ///< rigid-body data: the marker point (from 0) whose position this is (sim/marker_points.hpp); -1: the marker
 };
 
 /// True when some observation carries its own covariance (image datasets): the noise is then not one

@@ -14,6 +14,10 @@
 //     matrix: [m_00, ..., m_33]            #   16 names, row-major homogeneous 4x4
 //     # position: [x, y, z]                #   3 names, with
 //     # quaternion_wxyz: [qw, qx, qy, qz]  #   optionally 4 names (without: position-only data)
+//     # points: [[x1, y1, z1], [x2, y2, z2], ...]  #   a rigid body: 3 names per marker point, each a
+//                                          #   point fixed on the tool with its own unknown offset;
+//                                          #   a point's cells may be empty in a row (not seen), not all
+//                                          #   of a row's (needs registration: {base: shared|known, marker: shared})
 //     length_unit: mm                      #   m or mm
 //   covariates:                            # optional, by physical role
 //     torque: {columns: [tau_1, ..., tau_7], unit: N*m}   # or Nm; sense: actuator (default) or load, below
@@ -83,6 +87,7 @@ struct MeasuredPose {
   JointSample sample;
   Eigen::Isometry3d world_T_marker = Eigen::Isometry3d::Identity();  ///< measured; m
   bool has_rotation = true;  ///< false: position-only data (the rotation is identity and unused)
+  int point = -1;            ///< rigid-body data: which marker point (from 0) world_T_marker's position is; -1: the marker
   std::string where;         ///< "<file>: line L", for messages (as loaded; not written)
 };
 
@@ -109,6 +114,9 @@ struct MeasuredData {
   /// messages that name which other reading would fit.
   std::string length_unit = "m", angle_unit = "rad";
   bool quaternion = false;
+  /// Rigid-body data (pose.points): the number of marker points per row; each measured point of a row is
+  /// one MeasuredPose (position only, its `point` set), in the row's order. 0: one marker per row.
+  int points = 0;
 
   int numSessions() const { return static_cast<int>(files.size()); }
 };
@@ -134,6 +142,8 @@ void fillApproachDirections(std::vector<MeasuredPose>& poses, double threshold_r
 /// path. loadMeasuredData reads it back to the same samples and positions bit for bit (numbers
 /// written with %.17g); rotations (through a quaternion), known frames (through roll-pitch-yaw) and
 /// noise (through mm and deg) come back to rounding.
+/// Rigid-body data (points > 0) gets p1_x_m, p1_y_m, p1_z_m, p2_x_m, ... in place of x_m..qz: consecutive
+/// poses of one configuration with rising `point` share a row, a point not among them has empty cells.
 /// std::invalid_argument when a session from 0 to the largest has no sample, or a sample lacks a
 /// value its columns need (or holds a NaN there).
 std::string writeMeasuredData(const MeasuredData& data, const std::string& folder, const std::string& robot_file,

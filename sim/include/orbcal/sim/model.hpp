@@ -165,6 +165,9 @@ struct KinematicModel {
   std::vector<Eigen::Isometry3d> flange_T_marker{Eigen::Isometry3d::Identity()};
   std::vector<Effect> effects;
   bool geometry = true;                          ///< the DH errors are parameters
+  /// Rigid-body data: the starting offsets of its marker points in the marker frame (m), each estimated
+  /// (sim/marker_points.hpp); empty: the marker's pose or position is measured.
+  std::vector<Eigen::Vector3d> marker_points;
   ParamLayout layout;                            ///< built by makeKinematicModel
   std::vector<std::vector<int>> effect_blocks;   ///< layout blocks of each effect (mount: one per session)
 
@@ -172,13 +175,14 @@ struct KinematicModel {
   const Eigen::Isometry3d& markerStart(int session) const;
 };
 
-/// Builds the layout: base blocks, marker blocks, geometry, then each effect's blocks. Frames given
-/// one per session where per_session (else one). Throws std::invalid_argument on inconsistent sizes
-/// and on an effect given twice (the same kind on the same joint, or a global effect twice).
+/// Builds the layout: base blocks, marker blocks, marker points, geometry, then each effect's blocks.
+/// Frames given one per session where per_session (else one). Throws std::invalid_argument on
+/// inconsistent sizes and on an effect given twice (the same kind on the same joint, or a global effect
+/// twice).
 KinematicModel makeKinematicModel(Arm arm, int sessions, FrameSharing base, FrameSharing marker,
                                   std::vector<Eigen::Isometry3d> world_T_base,
                                   std::vector<Eigen::Isometry3d> flange_T_marker, std::vector<Effect> effects,
-                                  bool geometry = true);
+                                  bool geometry = true, std::vector<Eigen::Vector3d> marker_points = {});
 
 /// The seed 000 model: the flange pose in the base frame, geometry only, frames known (identity).
 KinematicModel flangeModel(const Arm& arm);
@@ -200,7 +204,7 @@ Eigen::Isometry3d flangePose(const KinematicModel& m, const Eigen::VectorXd& p, 
 Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s,
                                     Eigen::MatrixXd* J_e_p = nullptr, Eigen::MatrixXd* J_e_q = nullptr);
 
-/// The model with p folded in: geometric errors added to the DH rows, registration frames moved,
+/// The model with p folded in: geometric errors added to the DH rows, registration frames (and marker points) moved,
 /// effect parameters returned in `effect_values` (the model keeps no values of its own). The
 /// returned model's p = effectValuesAsParams(...) reproduces world_T_marker(p) exactly.
 struct FoldedModel {

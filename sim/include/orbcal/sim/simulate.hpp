@@ -42,6 +42,12 @@ struct SimulationSpec {
   double sample_period_s = 15.0;     ///< time between samples
   double joint_range_fraction = 0.8;  ///< configurations drawn uniformly within this fraction of each joint's range
   std::vector<int> still_joints;      ///< joints (from 0) held at 0 rad in every configuration (a sweep of the others)
+  /// Motion capture: a rigid body of this many marker points on the tool (0: one marker's pose or
+  /// position), each at marker_offset_m from the flange in a random direction, measured as positions
+  /// (sim/marker_points.hpp); the marker sharing is then shared. Each point of a row is missing with
+  /// probability missing_marker_rate (seeded); a row keeps at least one.
+  int markers = 0;
+  double missing_marker_rate = 0.0;
 };
 
 struct SimulatedData {

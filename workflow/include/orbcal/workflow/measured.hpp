@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "orbcal/calib/heldout.hpp"
+#include "orbcal/calib/levels.hpp"
 #include "orbcal/calib/measured_fit.hpp"
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/simulate.hpp"
@@ -16,7 +17,8 @@ namespace orbcal::workflow {
 struct MeasuredCalibrateOptions {
   std::string description;
   std::string out;                       ///< default: <description's folder>/calibration
-  std::vector<std::string> effects;      ///< "compliance:2,4", ...
+  std::vector<std::string> effects;      ///< "compliance:2,4", ... (free at every level)
+  calib::Level level;                    ///< which geometric parameters are free (calib/levels.hpp); auto: by cross-validation
   std::string method = calib::kDefaultMethod;  ///< a name calib::findMethod takes
   double holdout = 0.2;                  ///< share of the configurations kept out (seeded; calib/heldout.hpp)
   std::uint64_t seed = 1;
@@ -26,10 +28,11 @@ struct MeasuredCalibrateOptions {
 
 struct MeasuredCalibrateResult {
   calib::Fit fit;                        ///< on the identification samples
+  calib::LevelChoice level;              ///< the level fitted, and why
   calib::ResidualStats heldout_before;   ///< geometry-free model (nominal arm, registration fitted)
   calib::ResidualStats heldout_after;    ///< the calibrated model
   int samples = 0, identification = 0, held_out = 0;
-  bool worse = false;                    ///< held-out position RMS grew
+  bool worse = false;                    ///< held-out position RMS grew (never at the frames level without effects: the reference itself)
   calib::HeldoutGain gain;               ///< the held-out gain and its test (calib/heldout.hpp)
   std::string refusal;                   ///< why the gain is not accepted (calib::heldoutRefusal); empty: accepted or none held out
   /// Why the fit itself is refused, whatever the split (calib::fitRefusal); empty: not.
