@@ -28,7 +28,8 @@ std::string xmlEscaped(const std::string& text) {
 }
 
 std::string triple(const Eigen::Vector3d& v) {
-  return exactNumber(v.x()) + " " + exactNumber(v.y()) + " " + exactNumber(v.z());
+  const Eigen::Vector3d w = v.array() + 0.0;  // -0 written as 0
+  return exactNumber(w.x()) + " " + exactNumber(w.y()) + " " + exactNumber(w.z());
 }
 
 /// <origin xyz=".." rpy=".."/> of T, numbers written exactly.
