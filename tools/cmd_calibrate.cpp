@@ -116,7 +116,7 @@ void addCalibrateCommand(CLI::App& app) {
       "calibrate",
       "Calibrate an arm. From an image dataset (folder): the DH errors, written as a calibrated robot file. From "
       "measured data (a measurement description, .yaml): geometry + the unknown registration frames + the chosen "
-      "effects (--effects), written as model.yaml. The gain is measured on held-out samples (measured data: held-out "
+      "effects (--effects), written as model.yaml (and, for other programs, robot_calibrated.urdf, frames.yaml, effects.yaml). The gain is measured on held-out samples (measured data: held-out "
       "configurations); a model that predicts them worse than the nominal arm, a fit inconsistent with its noise (chi-square "
       "test; measured data: when the noise is given), or (measured data) a gain not significant against the held-out noise, "
       "is refused (exit 1, no calibrated file) unless --accept-worse. Measured data whose registration or calibrated "

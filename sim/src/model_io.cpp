@@ -137,17 +137,21 @@ void checkParameterList(const ConfigNode& rows, const KinematicModel& full, cons
 
 }  // namespace
 
+Arm loadRobotNamedBy(const ConfigNode& root, const std::string& path) {
+  const std::string robot = root["robot"].asString();
+  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
+  const std::string robot_path =
+      robot.rfind("builtin:", 0) == 0 || std::filesystem::path(robot).is_absolute() ? robot : (dir / robot).string();
+  return loadArm(RobotSource{robot_path, "", ""}, path + ": robot");
+}
+
 LoadedModel loadModelFile(const std::string& path) {
   const ConfigNode root = ConfigNode::load(path);
   root.requireOnlyKeys({"format", "robot", "sessions", "registration", "effects", "parameters"});
   // Format 1 wrote a compliance with the other sign (dq = +c tau); files without one read the same.
   const std::string format = root["format"].asString();
   if (format != "orbcal-model-2" && format != "orbcal-model-1") root["format"].fail("expected orbcal-model-2");
-  const std::string robot = root["robot"].asString();
-  const std::filesystem::path dir = std::filesystem::path(path).parent_path();
-  const std::string robot_path =
-      robot.rfind("builtin:", 0) == 0 || std::filesystem::path(robot).is_absolute() ? robot : (dir / robot).string();
-  const Arm arm = loadArm(RobotSource{robot_path, "", ""}, path + ": robot");
+  const Arm arm = loadRobotNamedBy(root, path);
   const int sessions = root["sessions"].asInt();
   if (sessions < 1 || sessions > 10000) root["sessions"].fail("must be within 1 to 10000");
   const ConfigNode reg = root["registration"];

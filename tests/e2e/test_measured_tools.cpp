@@ -58,7 +58,7 @@ TEST_CASE("simulate, calibrate with the hidden effect, evaluate on a second simu
   CHECK(fitted.fit.residuals.position_rms_m < 0.12e-3);
 }
 
-TEST_CASE("a calibration that predicts held-out samples worse is refused and writes no model", "[e2e][measured]") {
+TEST_CASE("a calibration that predicts held-out samples worse is refused and writes no model", "[e2e][measured][export]") {
   const std::string dir = test::tempDir("measured-worse");
   sim::SimulationSpec s = spec(40, 4);
   s.sessions = 1;
@@ -72,10 +72,12 @@ TEST_CASE("a calibration that predicts held-out samples worse is refused and wri
   const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(o);
   CHECK(r.worse);
   CHECK(r.model_path.empty());
-  CHECK_FALSE(std::filesystem::exists(dir + "/cal/model.yaml"));
+  const char* files[] = {"model.yaml", "robot.yaml", "robot_calibrated.urdf", "frames.yaml", "effects.yaml"};
+  for (const char* name : files) CHECK_FALSE(std::filesystem::exists(dir + "/cal/" + name));
   CHECK(test::slurp(r.report_path).find("WORSE") != std::string::npos);
   o.accept_worse = true;
   CHECK_FALSE(workflow::runMeasuredCalibrate(o).model_path.empty());
+  for (const char* name : files) CHECK(std::filesystem::exists(dir + "/cal/" + name));
 }
 
 TEST_CASE("model files: errors name the file and the key", "[e2e][measured]") {

@@ -12,10 +12,12 @@
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/export.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/se3.hpp"
+#include "orbcal/sim/urdf_export.hpp"
 
 namespace orbcal::workflow {
 
@@ -80,6 +82,22 @@ std::string weakList(const calib::Fit& fit) {
 std::string folderOf(const std::string& path) {
   const std::filesystem::path p = std::filesystem::path(path).parent_path();
   return p.empty() ? "." : p.string();
+}
+
+/// model.yaml and robot.yaml (sim/model_io.hpp) and, for programs outside orbcal (sim/export.hpp,
+/// sim/urdf_export.hpp), robot_calibrated.urdf, frames.yaml and effects.yaml, into `out`. robot.yaml
+/// of a URDF robot names robot_calibrated.urdf as its URDF. Returns the model file's path.
+std::string writeModelAndExports(const calib::CalibratedModel& cm, const std::vector<sim::ParameterRow>& rows, const std::string& out,
+                                 const std::string& header) {
+  sim::KinematicModel model = cm.model;
+  const sim::Arm& arm = model.arm;
+  const std::string what = arm.urdf.empty() ? "the calibrated DH table as a chain from base_link to flange"
+                                            : "the joint origins of the chain " + arm.urdf.base_link + " -> " + arm.urdf.tip_link + " calibrated";
+  sim::writeCalibratedUrdf(arm, out + "/robot_calibrated.urdf", header.substr(0, header.find('\n')) + "; " + what);
+  if (!model.arm.urdf.empty()) model.arm.urdf.file = "robot_calibrated.urdf";
+  sim::writeFileAtomic(out + "/frames.yaml", sim::formatFramesFile(model, header));
+  sim::writeFileAtomic(out + "/effects.yaml", sim::formatEffectsFile(model, cm.p, "robot.yaml", header));
+  return sim::writeModelFile(model, cm.p, rows, out, header);
 }
 
 }  // namespace
@@ -158,9 +176,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
     r.inconsistent = r.consistency_p < calib::Consistency{}.alpha;
   }
   const bool write_model = (!r.worse && !r.inconsistent && r.refusal.empty() && r.fit_refusal.empty()) || o.accept_worse;
-  if (write_model) {
-    r.model_path = folder.published(sim::writeModelFile(cm.model, cm.p, parameterRows(r.fit), out, header.str()));
-  }
+  if (write_model) r.model_path = folder.published(writeModelAndExports(cm, parameterRows(r.fit), out, header.str()));
 
   std::ostringstream md;
   md << "# Calibration of " << data.arm.name << " from measured data\n\n";
@@ -209,6 +225,11 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << "Determined no better than their typical magnitude (1-sigma above it; the data barely informs them): "
      << weakList(r.fit) << ".\n\n"
      << "## Parameters\n\n" << parameterTable(r.fit) << "\n" << sim::signConventions(effects);
+  if (write_model) {
+    md << "\n## Files\n\n`model.yaml` with `robot.yaml` (orbcal's model: `orbcal evaluate`, `--robot robot.yaml`); for other programs "
+          "`robot_calibrated.urdf` (the calibrated chain), `frames.yaml` (the registration frames) and `effects.yaml` (the fitted "
+          "effects with the formulas that apply them; docs/export.md).\n";
+  }
   sim::writeFileAtomic(out + "/report.md", md.str());
   folder.commit();
   r.report_path = folder.finalPath() + "/report.md";

@@ -104,6 +104,16 @@ class ComplianceKind final : public EffectKind {
       }
     }
   }
+  std::string correctionFormula(const Effect& e, const ParamBlock& b) const override {
+    const std::size_t per = e.order() == 3 ? 2 : 1;
+    std::string f;
+    for (std::size_t i = 0; i < b.joints.size(); ++i) {
+      const std::string n = std::to_string(b.joints[i] + 1), tau = "tau" + n;
+      f += (i ? "; " : "") + ("dq" + n + " = -(" + b.params[per * i].name + " * " + tau) +
+           (per == 2 ? " + " + b.params[per * i + 1].name + " * " + tau + "^3" : std::string()) + ")";
+    }
+    return f;
+  }
   void requireCovariates(const JointSample& s, int) const override {
     if (!s.hasTorque()) {
       throw std::invalid_argument("the compliance effect needs joint torques: measured, or from the robot file's masses");

@@ -59,6 +59,19 @@ class CyclicKind final : public EffectKind {
       }
     }
   }
+  std::string correctionFormula(const Effect& e, const ParamBlock& b) const override {
+    std::string f;
+    std::size_t col = 0;
+    for (std::size_t i = 0; i < b.joints.size(); ++i) {
+      const std::string n = std::to_string(b.joints[i] + 1);
+      f += (i ? "; dq" : "dq") + n + " =";
+      for (int k = 1; k <= e.order(); ++k, col += 2) {
+        const std::string kq = "(" + std::to_string(k) + " * q" + n + ")";
+        f += (k > 1 ? " + " : " ") + b.params[col].name + " * sin" + kq + " + " + b.params[col + 1].name + " * cos" + kq;
+      }
+    }
+    return f;
+  }
   /// Harmonics 1..c.harmonics on every joint, and 1..c.max_order where that reaches further: the score
   /// test of the longer series sees a higher harmonic; diagnose then picks the order by cross-validation.
   std::vector<Effect> candidates(const CandidateContext& c) const override {

@@ -80,6 +80,12 @@ class EmpiricalKind : public EffectKind {
     dq[i] += P.dot(p.segment(b.offset, e.order()));
     if (J) J->block(i, b.offset, 1, e.order()) += P.transpose();
   }
+  std::string correctionFormula(const Effect& e, const ParamBlock& b) const override {
+    std::string f = "dq" + std::to_string(e.joints()[0] + 1) + " =";
+    for (int k = 1; k <= e.order(); ++k) f += (k > 1 ? " + " : " ") + b.params[static_cast<std::size_t>(k - 1)].name + " * P" + std::to_string(k) + "(x)";
+    return f + ", x = (2 * " + (torque_ ? "tau" : "q") + std::to_string(e.joints()[1] + 1) + " - lo - hi) / (hi - lo), lo = " +
+           exactNumber(e.lo()) + ", hi = " + exactNumber(e.hi()) + ", Pk the Legendre polynomials: P1(x) = x, P2(x) = (3 x^2 - 1) / 2, (k + 1) P(k+1)(x) = (2k + 1) x Pk(x) - k P(k-1)(x)";
+  }
   void requireCovariates(const JointSample& s, int) const override {
     if (torque_ && !s.hasTorque()) throw std::invalid_argument("the empirical_torque correction needs joint torques");
   }

@@ -43,6 +43,10 @@ std::string writeModelFile(const KinematicModel& model, const Eigen::VectorXd& p
                            const std::string& folder, const std::string& header, const std::string& model_name = "model.yaml",
                            const std::string& robot_name = "robot.yaml");
 
+/// The robot that the file `path` (a model or effects file, parsed as `root`) names at its key `robot`:
+/// a path relative to the file's folder, an absolute one, or builtin:NAME. Errors name the file and key.
+Arm loadRobotNamedBy(const ConfigNode& root, const std::string& path);
+
 struct LoadedModel {
   KinematicModel model;
   Eigen::VectorXd p;  ///< effect parameters in model.layout (geometry and frames zero)
