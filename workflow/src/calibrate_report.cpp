@@ -265,7 +265,7 @@ void calibrate_detail::writeCalibratedFiles(const CalibrationRun& run, Calibrate
                                                                   " (orbcal calibrate, method " + run.method.name + ") from " + run.o.dataset));
   }
   sim::writeFileAtomic(r.robot_path, sim::formatArm(named, header.str()));
-  sim::writeFileAtomic(run.out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true));
+  sim::writeFileAtomic(run.out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true, &r.classes));
 }
 
 void calibrate_detail::writeSampleErrors(const CalibrationRun& run, const CalibrateResult& r) {
