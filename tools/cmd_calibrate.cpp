@@ -33,8 +33,8 @@ void printMeasured(const workflow::MeasuredCalibrateResult& r, const std::string
   std::printf("%s\n", calib::levelSentence(r.level).c_str());
   std::printf("%d samples: %d fitted, %d held out; %d parameters, %zu held (by the level or as unidentifiable)\n", r.samples,
               r.identification, r.held_out, r.fit.model.layout.size(), r.fit.estimate.held.size());
-  std::printf("noise (1 sigma per axis): position %.4f mm, rotation %.4f deg%s\n", r.fit.noise.sigma_position_m * 1e3,
-              r.fit.noise.sigma_rotation_rad * sim::kRadToDeg, r.fit.noise_estimated ? " (estimated)" : "");
+  std::printf("noise (1 sigma per axis): %s%s\n", workflow::noiseText(r.fit.noise, r.fit.residuals.rotation_samples > 0).c_str(),
+              r.fit.noise_estimated ? " (estimated)" : "");
   if (r.held_out > 0) {
     std::printf("held-out position RMS: nominal arm %.4f mm -> calibrated %.4f mm (max %.4f -> %.4f mm)\n",
                 r.heldout_before.position_rms_m * 1e3, r.heldout_after.position_rms_m * 1e3, r.heldout_before.position_max_m * 1e3,
@@ -159,7 +159,7 @@ void addCalibrateCommand(CLI::App& app) {
                  "measurements.csv in the dataset folder); with -o, everything (measurements.csv too) goes to OUT and "
                  "the dataset folder is only read");
   cmd->add_flag("--quiet", o->images.quiet, "no progress output");
-  cmd->add_flag("--no-plots{false}", o->images.plots, "images: do not draw the report's figures");
+  cmd->add_flag("--no-plots", [o](std::int64_t) { o->images.plots = false; }, "images: do not draw the report's figures");
   cmd->add_option("--model", o->images.model,
                   "images: what of each camera pose is used: pose (absolute, through the scene's base_T_board; Wang et al. "
                   "2023), position, or between pairs of images, frame-free (no base_T_board needed; Jia et al. 2019): "

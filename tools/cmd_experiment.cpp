@@ -30,7 +30,7 @@ void addExperimentOptions(CLI::App& cmd, workflow::ExperimentOptions& o) {
   cmd.add_option("--seed", o.seed, "random seed (configurations, noise, images)")->capture_default_str();
   cmd.add_option("--ident", o.identification, "identification configurations")->capture_default_str()->check(CLI::Range(1, 100000));
   cmd.add_option("--valid", o.validation, "validation configurations")->capture_default_str()->check(CLI::Range(1, 100000));
-  cmd.add_flag("--no-plots{false}", o.plots, "do not draw the PNG figures");
+  cmd.add_flag("--no-plots", [&o](std::int64_t) { o.plots = false; }, "do not draw the PNG figures");
   cmd.add_flag("--quiet", o.quiet, "no progress output");
   auto* jn = cmd.add_option_function<double>(
       "--joint-noise-deg", [&o](double d) { o.joint_noise_sigma_rad = d * sim::kDegToRad; },

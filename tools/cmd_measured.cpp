@@ -21,15 +21,18 @@ void addEvaluateCommand(CLI::App& app) {
       "evaluate",
       "Predict measured data with a calibrated model (model.yaml of orbcal calibrate, or a simulation's truth): every "
       "geometric and effect parameter is the model's, only the per-session frames of the new data are refitted. "
-      "Writes evaluation.json (position mean/RMS/max in mm, rotation RMS in deg) and evaluation.md.");
+      "Writes evaluation.json (position mean/RMS/max in mm, rotation RMS in deg where rotations are measured, and the same "
+      "for the baseline: the nominal arm with its frames fitted to the data), residuals.csv (per sample) and evaluation.md.");
   cmd->add_option("--model", o->model, "model file (model.yaml)")->required();
   cmd->add_option("--data", o->data, "measurement description (.yaml) of the data to predict")->required();
   cmd->add_option("-o,--out", o->out, "output folder")->required();
   cmd->callback([o] {
     const workflow::EvaluateResult r = workflow::runEvaluate(o->model, o->data, o->out);
     const calib::ResidualStats& s = r.fit.residuals;
-    std::printf("%d samples: position mean %.4f mm, RMS %.4f mm, max %.4f mm; rotation RMS %.4f deg\n", s.samples,
-                s.position_mean_m * 1e3, s.position_rms_m * 1e3, s.position_max_m * 1e3, s.rotation_rms_rad * sim::kRadToDeg);
+    std::printf("%d samples, %d parameters refitted: position mean %.4f mm, RMS %.4f mm, max %.4f mm", s.samples, r.refitted,
+                s.position_mean_m * 1e3, s.position_rms_m * 1e3, s.position_max_m * 1e3);
+    if (s.rotation_samples > 0) std::printf("; rotation RMS %.4f deg", s.rotation_rms_rad * sim::kRadToDeg);
+    std::printf("\nbaseline (nominal arm, frames fitted): position RMS %.4f mm\n", r.baseline.position_rms_m * 1e3);
     for (const std::string& w : r.warnings) std::fprintf(stderr, "warning: %s\n", w.c_str());
     std::printf("evaluation: %s\n", r.json_path.c_str());
   });

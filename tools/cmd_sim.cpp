@@ -29,24 +29,18 @@ void addFkCommand(CLI::App& app) {
   struct Opts {
     ArmSceneOptions as;
     std::vector<std::string> joints;
+    bool json = false;
   };
   auto opt = std::make_shared<Opts>();
-  CLI::App* cmd = app.add_subcommand("fk", "Forward kinematics: the flange pose (base frame) at the given joint values");
+  CLI::App* cmd = app.add_subcommand(
+      "fk", "Forward kinematics: the flange pose (base frame) at the given joint angles (position to the nanometre; "
+            "--json: every number exact); revolute joints in deg, prismatic in mm");
   addRobotOptions(*cmd, opt->as);
   cmd->add_option("joints", opt->joints, "joint values, one per joint: revolute [deg], prismatic [mm]")->required()->allow_extra_args();
+  cmd->add_flag("--json", opt->json, "print JSON (base_T_flange in m, position_mm, rpy_deg) with every number exact (%.17g)");
   cmd->callback([opt] {
     const sim::Arm arm = sim::loadArm(opt->as.robotSource());
-    const Eigen::VectorXd q = sim::parseEdgeJointValues(arm, opt->joints);
-    const Eigen::Isometry3d T = sim::forwardKinematics(arm, q);
-    const Eigen::Vector3d p = T.translation() * 1e3;
-    const Eigen::Vector3d rpy = T.linear().eulerAngles(2, 1, 0).reverse() * sim::kRadToDeg;
-    std::printf("base_T_flange (%s):\n", arm.name.c_str());
-    for (int r = 0; r < 3; ++r) {
-      std::printf("  [% .9f % .9f % .9f]  % 12.4f mm\n", T(r, 0), T(r, 1), T(r, 2), p[r]);
-    }
-    std::printf("position_mm: [%.4f, %.4f, %.4f]\nrpy_deg (R = Rz Ry Rx): [%.6f, %.6f, %.6f]\n", p.x(), p.y(), p.z(),
-                rpy.x(), rpy.y(), rpy.z());
-    std::printf("within joint limits: %s\n", sim::withinLimits(arm, q) ? "yes" : "no");
+    std::printf("%s", workflow::forwardKinematicsText(arm, sim::parseEdgeJointValues(arm, opt->joints), opt->json).c_str());
   });
 }
 
@@ -60,6 +54,7 @@ void addConfigsCommand(CLI::App& app) {
     calib::PoseNoiseModel noise;
     double sigma_position_mm = 0.3, sigma_orientation_deg = 0.5, joint_noise_deg = 0.01;
     int random_subsets = 100;
+    std::vector<double> joint_box_deg;
   };
   auto opt = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand(
@@ -82,6 +77,12 @@ void addConfigsCommand(CLI::App& app) {
       ->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--joint-noise-deg", opt->joint_noise_deg, "--select: joint control noise carried into R")
       ->capture_default_str()->check(CLI::NonNegativeNumber);
+  cmd->add_option("--joint-box-deg", opt->joint_box_deg,
+                  "joint box narrower than the robot's limits: a lower and an upper bound per joint [deg], "
+                  "lo1 hi1 lo2 hi2 ... (e.g. the travel a cell allows)");
+  cmd->add_option_function<double>(
+      "--floor-z-m", [opt](double z) { opt->gen.floor_z_m = z; },
+      "floor plane z = FLOOR in the base frame [m]: every joint origin and the flange stay above it");
   cmd->callback([opt] {
     workflow::ConfigsOptions c;
     c.robot = opt->as.robotSource();
@@ -95,9 +96,15 @@ void addConfigsCommand(CLI::App& app) {
     c.noise.joint_noise_sigma_rad = opt->joint_noise_deg * sim::kDegToRad;
     c.random_subsets = opt->random_subsets;
     c.callbacks.progress = terminalProgress();
+    if (opt->joint_box_deg.size() % 2 != 0) throw sim::InputError("--joint-box-deg: expected pairs of bounds, lo hi per joint");
+    const Eigen::Index n = static_cast<Eigen::Index>(opt->joint_box_deg.size() / 2);
+    const Eigen::Map<const Eigen::VectorXd, 0, Eigen::InnerStride<2>> lo(opt->joint_box_deg.data(), n), hi(opt->joint_box_deg.data() + 1, n);
+    c.box_lower_rad = lo * sim::kDegToRad;
+    c.box_upper_rad = hi * sim::kDegToRad;
     const workflow::ConfigsResult r = workflow::runConfigs(c);
-    std::printf("%d configurations (%d attempts: IK failed %d, singular %d, board not visible %d) -> %s\n", r.written,
-                r.stats.attempts, r.stats.ik_failed, r.stats.singular, r.stats.not_visible, c.out.c_str());
+    std::printf("%d configurations (%d attempts: IK failed %d, singular %d, board not visible %d, below the floor %d) -> %s\n",
+                r.written, r.stats.attempts, r.stats.ik_failed, r.stats.singular, r.stats.not_visible, r.stats.below_floor,
+                c.out.c_str());
     if (c.select) std::printf("pool of %d generated; %s", r.stats.accepted, r.selection.c_str());
   });
 }

@@ -81,8 +81,8 @@ void addStudyRun(CLI::App* study) {
   run->add_option("study", ro->file, "the study file (YAML, format orbcal-study-1)")->required();
   run->add_option("-o,--out", ro->dir, "the study folder (created; a rerun resumes it)")->required();
   run->add_option("-j,--jobs", ro->jobs, "tasks at once (default: the cores this process may use)")->capture_default_str()->check(CLI::Range(1, 4096));
-  run->add_flag("--no-merge{false}", ro->merge, "do not merge when every task is done");
-  run->add_flag("--no-plots{false}", ro->plots, "merge without drawing figures");
+  run->add_flag("--no-merge", [ro](std::int64_t) { ro->merge = false; }, "do not merge when every task is done");
+  run->add_flag("--no-plots", [ro](std::int64_t) { ro->plots = false; }, "merge without drawing figures");
   run->callback([ro] {
     const int n = prepare(ro->file, ro->dir);
     sim::FolderLock lock(ro->dir, "orbcal study run");
@@ -175,7 +175,7 @@ void addStudyMerge(CLI::App* study) {
                "study's shards as one dataset with one manifest. The same whether the tasks ran here or on a cluster.");
   merge->add_option("dir", mo->dir, "the study folder")->required();
   merge->add_option("-o,--out", mo->out, "output folder (default DIR/merged; replaced atomically)");
-  merge->add_flag("--no-plots{false}", mo->plots, "do not draw the figures");
+  merge->add_flag("--no-plots", [mo](std::int64_t) { mo->plots = false; }, "do not draw the figures");
   merge->callback([mo] {
     sim::FolderLock lock(mo->dir, "orbcal study merge");
     mergeAndPrint(mo->dir, mo->out, mo->plots);

@@ -1,11 +1,14 @@
 #!/usr/bin/env python3
 """Figures of orbcal's experiment reports, drawn with matplotlib from the CSV files orbcal writes.
 
-  plot_report.py boxplot  validation_errors.csv out.png [model ...]   # seed 000 Figs. 7 and 9 style
-  plot_report.py curve    fig8.csv out.png [--x COL LABEL] [--y COL LABEL]   # seed 000 Fig. 8 style
+  plot_report.py boxplot  validation_errors.csv out.png [model ...]   # Wang et al. (2023) Figs. 7 and 9 style
+  plot_report.py curve    fig8.csv out.png [--x COL LABEL] [--y COL LABEL]   # Wang et al. (2023) Fig. 8 style
                                                    # (default x: n, identification configurations; y: avg_position_mm)
-  plot_report.py residuals residuals.csv COLUMN LABEL out.png          # orbcal diagnose: held-out errors vs a variable
-  plot_report.py components residuals.csv COLUMN LABEL out.png         # orbcal diagnose: what the selected model leaves
+  plot_report.py residuals residuals.csv COLUMN LABEL out.png [--floor MM]   # orbcal diagnose: held-out errors vs a variable
+  plot_report.py components residuals.csv COLUMN LABEL out.png [--of base|selected] [--floor MM]
+                                                   # orbcal diagnose: signed residual components vs a variable
+                                                   # (--floor: the noise, drawn as a dashed line; magnitudes: the
+                                                   # RMS the noise alone gives, components: +- 1 sigma per axis)
   plot_report.py samples samples.csv out.png          # orbcal calibrate: per-image errors before/after, outliers named
   plot_report.py parameters estimates.csv out.png     # orbcal calibrate: each parameter with its 1-sigma (and truth)
 """
@@ -73,12 +76,14 @@ def curve(csv_path, png_path, xcol="n", xlabel="identification configurations", 
     fig.savefig(png_path, dpi=110)
 
 
-def residuals(csv_path, column, label, png_path):
+def residuals(csv_path, column, label, png_path, floor=None):
     rows = read_rows(csv_path)
     x = [float(r[column]) for r in rows]
     fig, ax = plt.subplots(figsize=(8, 5))
-    ax.scatter(x, [float(r["base_mm"]) for r in rows], s=10, alpha=0.7, label="geometry + registration")
-    ax.scatter(x, [float(r["selected_mm"]) for r in rows], s=10, alpha=0.7, label="selected model")
+    ax.scatter(x, [float(r["base_mm"]) for r in rows], s=10, alpha=0.7, color="C0", label="geometry + registration")
+    ax.scatter(x, [float(r["selected_mm"]) for r in rows], s=10, alpha=0.7, color="C1", label="selected model")
+    if floor is not None:
+        ax.axhline(floor, color="k", ls="--", lw=1, label="noise floor (held-out RMS the noise alone gives)")
     ax.set_xlabel(label)
     ax.set_ylabel("held-out position error (mm)")
     ax.grid(True, alpha=0.3)
@@ -87,16 +92,20 @@ def residuals(csv_path, column, label, png_path):
     fig.savefig(png_path, dpi=110)
 
 
-def components(csv_path, column, label, png_path):
-    """The selected model's held-out residual components (x, y, z, mm) against one variable."""
+def components(csv_path, column, label, png_path, of="selected", floor=None):
+    """One model's held-out residual components (x, y, z, mm, signed) against one variable."""
     rows = read_rows(csv_path)
     x = [float(r[column]) for r in rows]
     fig, ax = plt.subplots(figsize=(8, 5))
-    for c in ("x", "y", "z"):
-        ax.scatter(x, [float(r["selected_%s_mm" % c]) for r in rows], s=10, alpha=0.7, label=c)
+    for i, c in enumerate(("x", "y", "z")):
+        ax.scatter(x, [float(r["%s_%s_mm" % (of, c)]) for r in rows], s=10, alpha=0.7, color="C%d" % (i + 2), label=c)
     ax.axhline(0.0, color="black", linewidth=0.8)
+    if floor is not None:
+        ax.axhline(floor, color="k", ls="--", lw=1, label="noise, +- 1 sigma per axis")
+        ax.axhline(-floor, color="k", ls="--", lw=1)
     ax.set_xlabel(label)
-    ax.set_ylabel("held-out residual of the selected model (mm)")
+    model = "geometry + registration" if of == "base" else "the selected model"
+    ax.set_ylabel("held-out residual of %s (mm)" % model)
     ax.grid(True, alpha=0.3)
     ax.legend(title="component")
     fig.tight_layout()
@@ -104,6 +113,8 @@ def components(csv_path, column, label, png_path):
 
 
 def samples(csv_path, png_path):
+    """Blue: the nominal arm, green: calibrated; circles identification, squares held out. Red means one
+    thing only: an image the consistency check flags (ringed and named)."""
     rows = read_rows(csv_path)
     fig, ax = plt.subplots(figsize=(10, 5))
     for which, marker in (("identification", "o"), ("held-out", "s")):
@@ -111,11 +122,14 @@ def samples(csv_path, png_path):
         if not sel:
             continue
         xs = [i for i, _ in sel]
-        ax.scatter(xs, [float(r["before_mm"]) for _, r in sel], marker=marker, s=14, alpha=0.6,
+        ax.scatter(xs, [float(r["before_mm"]) for _, r in sel], marker=marker, s=14, alpha=0.6, color="C0",
                    label=which + ": nominal arm")
-        ax.scatter(xs, [float(r["after_mm"]) for _, r in sel], marker=marker, s=14, alpha=0.8,
+        ax.scatter(xs, [float(r["after_mm"]) for _, r in sel], marker=marker, s=14, alpha=0.8, color="C2",
                    label=which + ": calibrated")
     flagged = [(i, r) for i, r in enumerate(rows) if r["outlier"] == "1"]
+    if flagged:
+        ax.scatter([i for i, _ in flagged], [float(r["after_mm"]) for _, r in flagged], s=60, facecolors="none",
+                   edgecolors="red", linewidths=1.2, label="inconsistent (calibrated)")
     if len(flagged) <= 10:  # a few named; many: the fit as a whole is off, the report says why
         for i, r in flagged:
             ax.annotate(r["image"], (i, float(r["after_mm"])), fontsize=7, color="red", rotation=30)
@@ -127,35 +141,63 @@ def samples(csv_path, png_path):
     ax.set_yscale("log")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    ax.set_title("Per-image errors before and after calibration (inconsistent images named in red)")
+    ax.set_title("Per-image errors before (blue) and after (green) calibration; inconsistent images in red")
     fig.tight_layout()
     fig.savefig(png_path, dpi=110)
 
 
 def parameters(csv_path, png_path):
+    """Each parameter's estimate +- 1 sigma: blue where determined on its own, orange where it lies in an
+    unidentifiable combination (class relative: only the combination is determined, the value alone may
+    sit several sigma from the truth), grey where held as unidentifiable (kept at its nominal value)."""
     rows = read_rows(csv_path)
     units = list(OrderedDict.fromkeys(r["unit"] for r in rows))
     fig, axes = plt.subplots(len(units), 1, figsize=(11, 3.2 * len(units)), squeeze=False)
     for ax, unit in zip(axes[:, 0], units):
         sel = [r for r in rows if r["unit"] == unit]
         xs = range(len(sel))
-        est = [float(r["estimate"]) for r in sel]
-        sig = [float(r["sigma"]) if r["sigma"] else 0.0 for r in sel]
-        ax.errorbar(xs, est, yerr=sig, fmt="o", ms=3, capsize=2, label="estimate +- 1 sigma")
+        kinds = (("free", "C0", "estimate +- 1 sigma"),
+                 ("relative", "C1", "in an unidentifiable combination"),
+                 ("held", "grey", "held as unidentifiable (nominal)"))
+        for kind, colour, text in kinds:
+            idx = [i for i, r in enumerate(sel) if parameter_kind(r) == kind]
+            if not idx:
+                continue
+            est = [float(sel[i]["estimate"]) for i in idx]
+            sig = [float(sel[i]["sigma"]) if sel[i]["sigma"] else 0.0 for i in idx]
+            ax.errorbar(idx, est, yerr=sig, fmt="o", ms=3, capsize=2, color=colour, label=text)
         truth = [(i, float(r["truth"])) for i, r in enumerate(sel) if r.get("truth")]
         if truth:
             ax.scatter([i for i, _ in truth], [t for _, t in truth], marker="x", color="k", s=18, label="injected")
-        held = [i for i, r in enumerate(sel) if r["held"] == "1"]
-        for i in held:
-            ax.axvspan(i - 0.4, i + 0.4, color="grey", alpha=0.2)
+        for i, r in enumerate(sel):
+            if parameter_kind(r) == "held":
+                ax.axvspan(i - 0.4, i + 0.4, color="grey", alpha=0.2)
         ax.set_xticks(list(xs))
         ax.set_xticklabels([r["parameter"] for r in sel], rotation=90, fontsize=7)
         ax.set_ylabel(unit)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
-    axes[0, 0].set_title("Identified parameter errors (grey: held as unidentifiable)")
+    axes[0, 0].set_title("Identified parameter errors (grey: held as unidentifiable; orange: only a combination is determined)")
     fig.tight_layout()
     fig.savefig(png_path, dpi=110)
+
+
+def parameter_kind(row):
+    """held, relative (in an unidentifiable combination) or free, from estimates.csv's held and class."""
+    if row["held"] == "1":
+        return "held"
+    return "relative" if row.get("class") == "relative" else "free"
+
+
+def options(rest, names):
+    """--NAME VALUE pairs of `rest` (each NAME in `names`) as a dict; exits with the usage otherwise."""
+    found = {}
+    while rest:
+        if len(rest) < 2 or not rest[0].startswith("--") or rest[0][2:] not in names:
+            sys.exit(__doc__)
+        found[rest[0][2:]] = rest[1]
+        rest = rest[2:]
+    return found
 
 
 def main(argv):
@@ -163,7 +205,12 @@ def main(argv):
         (samples if argv[1] == "samples" else parameters)(argv[2], argv[3])
         return
     if len(argv) >= 6 and argv[1] in ("residuals", "components"):
-        (residuals if argv[1] == "residuals" else components)(argv[2], argv[3], argv[4], argv[5])
+        opts = options(argv[6:], ("floor", "of") if argv[1] == "components" else ("floor",))
+        floor = float(opts["floor"]) if "floor" in opts else None
+        if argv[1] == "residuals":
+            residuals(argv[2], argv[3], argv[4], argv[5], floor)
+        else:
+            components(argv[2], argv[3], argv[4], argv[5], opts.get("of", "selected"), floor)
         return
     if len(argv) < 4 or argv[1] not in ("boxplot", "curve"):
         sys.exit(__doc__)

@@ -185,9 +185,10 @@ std::string formatComparisonSummaryCsv(const Comparison& c) {
   return out.str();
 }
 
-std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd* y_true) {
+std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd* y_true,
+                               const ParameterClasses* classes) {
   std::ostringstream out;
-  out << "method,parameter,unit,estimate,sigma,truth,held\n";
+  out << "method,parameter,unit,estimate,sigma,truth,held,class\n";
   char buf[200];
   const sim::ParamBlock g = sim::geometryBlock(nominal);
   for (const MethodOutcome& m : c.methods) {
@@ -197,8 +198,10 @@ std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, con
       const double s = info.display_scale;
       const bool held = std::find(e.held.begin(), e.held.end(), static_cast<int>(i)) != e.held.end();
       const std::string truth = y_true ? formatNumber("%.6f", (*y_true)[i] * s) : "";
-      std::snprintf(buf, sizeof buf, ",%s,%s,%.6f,%.6f,%s,%d\n", info.name.c_str(), info.display_unit.c_str(), e.y[i] * s, std::sqrt(std::max(0.0, e.covariance(i, i))) * s, truth.c_str(),
-                    held ? 1 : 0);
+      const bool classified = classes && static_cast<std::size_t>(i) < classes->classes.size();
+      std::snprintf(buf, sizeof buf, ",%s,%s,%.6f,%.6f,%s,%d,%s\n", info.name.c_str(), info.display_unit.c_str(), e.y[i] * s,
+                    std::sqrt(std::max(0.0, e.covariance(i, i))) * s, truth.c_str(), held ? 1 : 0,
+                    classified ? paramClassName(classes->classes[static_cast<std::size_t>(i)]) : "");
       out << m.method.name << buf;
     }
   }

@@ -27,8 +27,12 @@ bool needsTorque(const std::vector<sim::Effect>& effects) {
 
 std::vector<MarkerObservation> observationsFrom(const sim::MeasuredData& data, bool needs_torque) {
   if (needs_torque && !data.has_torque && data.arm.masses.empty()) {
+    std::string links;
+    for (const std::string& l : data.arm.urdf.links_without_inertial) links += (links.empty() ? "" : ", ") + l;
     throw sim::InputError(data.description + ": covariates.torque: compliance needs joint torques: the data has no torque "
-                          "column and the robot file (" + data.robot_file + ") no masses section to compute them from");
+                          "column and the robot file (" + data.robot_file + ") " +
+                          (links.empty() ? std::string("no masses section") : "no <inertial> on the links the chain moves (" + links + ")") +
+                          " to compute them from");
   }
   std::vector<MarkerObservation> obs;
   obs.reserve(data.poses.size());
@@ -264,6 +268,7 @@ ResidualStats residualStats(const std::vector<Eigen::VectorXd>& residuals) {
   }
   s.position_rms_m = std::sqrt(pos2 / s.samples);
   s.rotation_rms_rad = nrot ? std::sqrt(rot2 / nrot) : 0.0;
+  s.rotation_samples = nrot;
   return s;
 }
 
@@ -390,6 +395,7 @@ Fit predictWithModel(const CalibratedModel& c, const sim::MeasuredData& data, co
     Fit fit;
     fit.model = m;
     fit.p0 = fit.p = p0;
+    fit.estimate.held = o.hold;  // every parameter: none was fitted
     fit.residuals = residualStats(m, p0, obs);
     return fit;
   }

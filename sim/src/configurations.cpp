@@ -7,12 +7,31 @@
 #include <thread>
 
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/ik.hpp"
 #include "orbcal/sim/jacobian.hpp"
 #include "orbcal/sim/se3.hpp"
 
 namespace orbcal::sim {
+
+Arm withJointBox(Arm arm, const Eigen::VectorXd& lower_rad, const Eigen::VectorXd& upper_rad, const std::string& what) {
+  const int n = arm.numJoints();
+  if (lower_rad.size() != n || upper_rad.size() != n) {
+    throw InputError(what + ": expected a lower and an upper bound for each of the " + std::to_string(n) + " joints of " + arm.source);
+  }
+  for (int j = 0; j < n; ++j) {
+    const double lo = std::max(arm.lower_rad[j], lower_rad[j]), hi = std::min(arm.upper_rad[j], upper_rad[j]);
+    if (!(lo < hi)) {
+      throw InputError(what + ": joint " + std::to_string(j + 1) + ": the box " + formatNumber("%g", lower_rad[j] * kRadToDeg) + ".." +
+                       formatNumber("%g", upper_rad[j] * kRadToDeg) + " deg leaves no travel within the robot's limits " +
+                       formatNumber("%g", arm.lower_rad[j] * kRadToDeg) + ".." + formatNumber("%g", arm.upper_rad[j] * kRadToDeg) + " deg");
+    }
+    arm.lower_rad[j] = lo;
+    arm.upper_rad[j] = hi;
+  }
+  return arm;
+}
 
 double singularityMeasure(const Arm& arm, const Eigen::VectorXd& q, int locked_joint) {
   const Matrix6Xd J = scaledManipulatorJacobian(arm, q, characteristicLength(arm));
@@ -34,7 +53,14 @@ Eigen::Isometry3d cameraTBoard(const Eigen::Isometry3d& base_T_flange, const Sce
 
 namespace {
 
-enum class Outcome { kAccepted, kIkFailed, kSingular, kNotVisible };
+enum class Outcome { kAccepted, kIkFailed, kSingular, kNotVisible, kBelowFloor };
+
+/// True when the origin of every frame a joint moves (chainFrames after base_T_first, the flange
+/// last) of `arm` at q lies at z >= floor_z_m (base frame).
+bool aboveFloor(const Arm& arm, const Eigen::VectorXd& q, double floor_z_m) {
+  const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, q);
+  return std::all_of(frames.begin() + 1, frames.end(), [&](const Eigen::Isometry3d& f) { return f.translation().z() >= floor_z_m; });
+}
 
 struct Attempt {
   Outcome outcome = Outcome::kIkFailed;
@@ -81,6 +107,8 @@ Attempt tryOne(const Arm& arm, const Scene& scene, const GeneratorSettings& s, s
     a.outcome = Outcome::kSingular;
   } else if (boardVisibility(scene, cameraTBoard(arm, scene, a.q)) != Visibility::kVisible) {
     a.outcome = Outcome::kNotVisible;
+  } else if (s.floor_z_m && !aboveFloor(arm, a.q, *s.floor_z_m)) {
+    a.outcome = Outcome::kBelowFloor;
   } else {
     a.outcome = Outcome::kAccepted;
   }
@@ -129,6 +157,7 @@ std::vector<Eigen::VectorXd> generateConfigurations(const Arm& arm, const Scene&
         case Outcome::kIkFailed: ++stats.ik_failed; break;
         case Outcome::kSingular: ++stats.singular; break;
         case Outcome::kNotVisible: ++stats.not_visible; break;
+        case Outcome::kBelowFloor: ++stats.below_floor; break;
       }
     }
     if (progress) progress(static_cast<int>(out.size()), s.count);
@@ -141,7 +170,8 @@ std::vector<Eigen::VectorXd> generateConfigurations(const Arm& arm, const Scene&
                      std::to_string(stop_after) + " configurations see the whole board after " +
                      std::to_string(stats.attempts) + " attempts (IK failed " + std::to_string(stats.ik_failed) +
                      ", singular " + std::to_string(stats.singular) + ", board not visible " +
-                     std::to_string(stats.not_visible) + "); move the board or relax 'views'");
+                     std::to_string(stats.not_visible) + (s.floor_z_m ? ", below the floor " + std::to_string(stats.below_floor) : std::string()) +
+                     "); move the board or relax 'views'");
   }
   return out;
 }

@@ -140,10 +140,10 @@ Layout readLayout(const ConfigNode& root, const Arm& arm) {
   return l;
 }
 
-/// `path` relative to `folder` unless absolute or builtin:NAME.
+/// `path` relative to `folder` unless absolute or builtin:NAME; lexically normal ("a/../b" is "b").
 std::string resolvePath(const std::string& folder, const std::string& path) {
-  if (path.rfind("builtin:", 0) == 0 || std::filesystem::path(path).is_absolute() || folder.empty()) return path;
-  return (std::filesystem::path(folder) / path).string();
+  const std::filesystem::path p(path);  // a builtin: name has no separator to normalise
+  return (path.rfind("builtin:", 0) == 0 || p.is_absolute() || folder.empty() ? p : std::filesystem::path(folder) / p).lexically_normal().string();
 }
 
 /// format, robot (loaded) and files.

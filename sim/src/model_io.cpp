@@ -27,6 +27,17 @@ std::string number(double v, const std::string& where) {
   return exactNumber(v);
 }
 
+/// `arm` as a robot YAML in `folder` records it: a URDF file named relative to the working directory
+/// named relative to `folder` instead (a robot YAML's paths are read from its own folder), lexically
+/// normal; absolute and builtin: names as they are.
+Arm besideFolder(Arm arm, const std::string& folder) {
+  const std::filesystem::path file = arm.urdf.file;
+  if (arm.urdf.file.empty() || arm.urdf.file.rfind("builtin:", 0) == 0 || file.is_absolute()) return arm;
+  const std::filesystem::path from = std::filesystem::absolute(folder).lexically_normal();
+  arm.urdf.file = std::filesystem::absolute(file).lexically_normal().lexically_relative(from).string();
+  return arm;
+}
+
 }  // namespace
 
 std::string writeModelFile(const KinematicModel& m, const Eigen::VectorXd& p, const std::vector<ParameterRow>& rows,
@@ -34,7 +45,7 @@ std::string writeModelFile(const KinematicModel& m, const Eigen::VectorXd& p, co
                            const std::string& robot_name) {
   if (p.size() != m.layout.size()) throw std::invalid_argument("writeModelFile: wrong parameter count");
   makeDirectories(folder);
-  writeFileAtomic(folder + "/" + robot_name, formatArm(m.arm, header));
+  writeFileAtomic(folder + "/" + robot_name, formatArm(besideFolder(m.arm, folder), header));
   std::ostringstream s;
   std::istringstream lines(header);
   for (std::string line; std::getline(lines, line);) s << "# " << line << "\n";

@@ -205,7 +205,7 @@ Arm parseArm(const RobotSource& robot, const std::string& text) {
     const std::filesystem::path file = urdf["file"].asString();
     arm.urdf.file = file.is_absolute() || path.rfind("builtin:", 0) == 0
                         ? file.string()
-                        : (std::filesystem::path(path).parent_path() / file).string();
+                        : (std::filesystem::path(path).parent_path() / file).lexically_normal().string();
     arm.urdf.base_link = urdf["base_link"].asString();
     arm.urdf.tip_link = urdf["tip_link"].asString();
   }

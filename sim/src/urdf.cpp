@@ -190,9 +190,9 @@ LinkMass asLinkMass(const Lumped& sum) {
 /// side branches through joints off the chain, fixed or not: a joint off the chain is taken at its
 /// zero position (the static torques of one fixed posture). Links that no chain joint moves (the base
 /// side) are left out. Empty when no moving link has an <inertial>; gravity the MassModel default,
-/// -9.80665 m/s^2 along -z of the base link; no payload.
+/// -9.80665 m/s^2 along -z of the base link; no payload. `without`: the moving links with no <inertial>.
 MassModel massesFromInertials(const urdf::LinkConstSharedPtr& base, const Arm& arm, const std::string& urdf_errors,
-                              const std::string& source) {
+                              const std::string& source, std::vector<std::string>& without) {
   struct Visit {
     urdf::LinkConstSharedPtr link;
     int joint;                        ///< the movable chain joint the link moves with; -1: none (base side)
@@ -212,6 +212,8 @@ MassModel massesFromInertials(const urdf::LinkConstSharedPtr& base, const Arm& a
                      v.frame_T_link * poseOf(v.link->inertial->origin).translation());
         any = true;
       }
+    } else if (v.joint >= 0) {
+      without.push_back(v.link->name);
     }
     for (const auto& child : v.link->child_links) {
       const urdf::JointConstSharedPtr joint = child->parent_joint;
@@ -313,7 +315,7 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
   arm.last_T_flange = pending;
   arm.lower_rad = Eigen::Map<const Eigen::VectorXd>(lower.data(), static_cast<Eigen::Index>(lower.size()));
   arm.upper_rad = Eigen::Map<const Eigen::VectorXd>(upper.data(), static_cast<Eigen::Index>(upper.size()));
-  arm.masses = massesFromInertials(base, arm, parsed.errors, source);
+  arm.masses = massesFromInertials(base, arm, parsed.errors, source, arm.urdf.links_without_inertial);
   return arm;
 }
 

@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "figures.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/workflow/calibrate.hpp"
 #include "orbcal/render/dataset_writer.hpp"
 #include "orbcal/sim/dataset.hpp"
@@ -179,6 +180,15 @@ TEST_CASE("calibrate: the report's held set is the one its estimate table marks,
     CHECK(marked == sorted_reported);
     CHECK(r.estimate.held == r.classes.held);
     for (int i : r.classes.held) CHECK(r.estimate.y[i] == 0.0);
+    // estimates.csv (parameters.png's source) says the same: held exactly the held set, and each
+    // parameter's class (relative: d3, d4, d5, only their sum determined).
+    const sim::CsvTable estimates = sim::CsvTable::parse(slurp(o.out + "/estimates.csv"), "estimates.csv");
+    REQUIRE(estimates.rows() == r.classes.names.size());
+    for (std::size_t i = 0; i < estimates.rows(); ++i) {
+      const bool held = std::binary_search(r.classes.held.begin(), r.classes.held.end(), static_cast<int>(i));
+      CHECK(estimates.cell(i, estimates.requireColumn("held")) == (held ? "1" : "0"));
+      CHECK(estimates.cell(i, estimates.requireColumn("class")) == calib::paramClassName(r.classes.classes[i]));
+    }
   }
 }
 

@@ -260,3 +260,26 @@ TEST_CASE("ends whose colours disagree are rejected as inconsistent, not average
   const auto clean = vision::detectCorners(vision::drawSyntheticBoard(scene.camera, b, T, draw), b);
   CHECK(clean.found());
 }
+
+TEST_CASE("--subpix-window: OpenCV's fixed 11 px half window is used when asked, and said", "[vision][corners]") {
+  const sim::Scene& scene = test::defaultScene();
+  const Eigen::Isometry3d T = test::lookAtBoard(scene.board, 2.0, 0.2, -0.15, 0.3);
+  vision::SyntheticImageSettings noisy;
+  noisy.noise_sigma = 4.0;  // grey levels: the window then decides which noise the refinement averages
+  noisy.seed = 5;
+  const cv::Mat img = vision::drawSyntheticBoard(scene.camera, scene.board, T, noisy);
+  vision::DetectorSettings orbcal_window, opencv_window;
+  opencv_window.fixed_subpix_half_window_px = 11;
+  const auto a = vision::detectCorners(img, scene.board, orbcal_window);
+  const auto b = vision::detectCorners(img, scene.board, opencv_window);
+  REQUIRE(a.found());
+  REQUIRE(b.found());
+  const std::vector<Eigen::Vector2d> truth = vision::projectBoard(scene.camera, scene.board, T);
+  CHECK(maxCornerError(a.corners_px, truth) < kCornerTolPx);
+  CHECK(maxCornerError(b.corners_px, truth) < kCornerTolPx);
+  // A 5 px and an 11 px half window average different pixels: the corners differ (a window ignored
+  // would give the same ones to the last bit).
+  CHECK(maxCornerError(a.corners_px, b.corners_px) > 1e-3);
+  CHECK(vision::subpixWindowText(orbcal_window).find("--subpix-window 11") != std::string::npos);
+  CHECK(vision::subpixWindowText(opencv_window).find("half window 11 px") != std::string::npos);
+}

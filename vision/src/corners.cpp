@@ -155,6 +155,15 @@ OrientationEvidence orientationEvidence(const cv::Mat& gray, const sim::Board& b
   return ev;
 }
 
+std::string subpixWindowText(const DetectorSettings& s) {
+  const std::string opencv = "OpenCV's calibration tutorial: 11 px";
+  if (s.fixed_subpix_half_window_px > 0) {
+    return "corner refinement: cornerSubPix half window " + std::to_string(s.fixed_subpix_half_window_px) + " px (" + opencv + ")";
+  }
+  return "corner refinement: cornerSubPix half window min(" + std::to_string(s.max_subpix_half_window_px) +
+         " px, 0.4 x the corner spacing) (" + opencv + "; --subpix-window 11 uses it)";
+}
+
 void refineCornersSubPix(const cv::Mat& gray, std::vector<cv::Point2f>& corners, double half_window_px, int max_half_window_px) {
   if (corners.empty()) return;
   const int half = std::clamp(static_cast<int>(half_window_px), 1, std::max(1, max_half_window_px));
@@ -203,7 +212,8 @@ CornerDetection detectCorners(const cv::Mat& gray, const sim::Board& board, cons
         if (r + 1 < board.corners_y) d_min = std::min(d_min, cv::norm(p - found[(r + 1) * board.corners_x + c]));
       }
     }
-    refineCornersSubPix(gray, found, 0.4 * d_min, settings.max_subpix_half_window_px);
+    const int fixed = settings.fixed_subpix_half_window_px;
+    refineCornersSubPix(gray, found, fixed > 0 ? fixed : 0.4 * d_min, fixed > 0 ? fixed : settings.max_subpix_half_window_px);
   }
 
   CornerDetection d;

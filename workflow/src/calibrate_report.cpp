@@ -271,7 +271,7 @@ void calibrate_detail::writeCalibratedFiles(const CalibrationRun& run, Calibrate
   }
   r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(fit), run.out, header.str(), "model.yaml", "robot_calibrated.yaml");
   r.robot_path = run.out + "/robot_calibrated.yaml";
-  sim::writeFileAtomic(run.out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true));
+  sim::writeFileAtomic(run.out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true, &r.classes));
 }
 
 void calibrate_detail::writeSampleErrors(const CalibrationRun& run, const CalibrateResult& r) {

@@ -286,20 +286,72 @@ std::string unexplainedSection(const calib::Diagnosis& d, double alpha) {
   return md.str();
 }
 
-/// "Noise (1 sigma per axis) of the base fit: ..." with where each number came from.
-std::string noiseSentence(const calib::Fit& base, const calib::DiagnoseOptions& o, const sim::MeasuredData& data,
+/// The tracker noise of a calibration of `effects` on all of `obs`, estimated as `orbcal calibrate`
+/// estimates it (the same fit: position and rotation variance components where the noise is not
+/// given; joint readings as stated, else not modelled).
+calib::MarkerNoise noiseWithEffects(const sim::MeasuredData& data, const std::vector<calib::MarkerObservation>& obs,
+                                    const std::vector<sim::Effect>& effects, const calib::DiagnoseOptions& o) {
+  calib::FitOptions fo;
+  fo.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
+  fo.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
+  fo.joint_noise_sigma_rad = o.joint_noise_sigma_rad ? *o.joint_noise_sigma_rad : data.noise_joint_rad.value_or(0.0);
+  return calib::fitMarkerModel(calib::startingModel(data, obs, effects), obs, fo).noise;
+}
+
+/// "Noise (1 sigma per axis) of the base fit: ..." with where each number came from; where it was
+/// estimated and effects were selected, also the noise with those effects fitted (what `orbcal
+/// calibrate` with them reports), since the base model's estimate counts what it misses as noise.
+std::string noiseSentence(const calib::Diagnosis& dg, const calib::DiagnoseOptions& o, const sim::MeasuredData& data,
                           const std::vector<calib::MarkerObservation>& obs) {
-  const calib::MarkerNoise& n = base.noise;
-  const auto source = [](bool given) { return given ? " (given)" : " (estimated from the residuals)"; };
-  const std::string joints = "joint readings " + sim::formatNumber("%.4f", n.joint_noise_sigma_rad * sim::kRadToDeg) + " deg" +
-                             source(o.joint_noise_sigma_rad || data.noise_joint_rad);
+  const calib::MarkerNoise& n = dg.base_fit.noise;
+  const std::string estimated = " (estimated from the residuals of geometry + registration)";
+  const auto source = [&estimated](bool given) { return given ? std::string(" (given)") : estimated; };
+  const bool joint_given = o.joint_noise_sigma_rad || data.noise_joint_rad;
+  const std::string joints = "joint readings " + sim::formatNumber("%.3g", n.joint_noise_sigma_rad * sim::kRadToDeg) + " deg" + source(joint_given);
   if (calib::anyOwnCovariance(obs)) {
     return "Noise, as every fit here whitens with it: each sample's own pose covariance, and " + joints + ".";
   }
-  const bool pos_given = o.sigma_position_m || data.noise_position_m, rot_given = o.sigma_rotation_rad || data.noise_rotation_rad;
-  return "Noise, 1 sigma per axis, as every fit here whitens with it: position " + sim::formatNumber("%.4f", n.sigma_position_m * 1e3) +
-         " mm" + source(pos_given) + ", rotation " + sim::formatNumber("%.4f", n.sigma_rotation_rad * sim::kRadToDeg) + " deg" +
-         source(rot_given) + ", " + joints + ".";
+  const bool rotation = measuresRotation(data);
+  const bool pos_given = o.sigma_position_m || data.noise_position_m, rot_given = o.sigma_rotation_rad || data.noise_rotation_rad || !rotation;
+  std::string text = "Noise, 1 sigma per axis, as every fit here whitens with it: " + noiseText(n, rotation) +
+                     (pos_given == rot_given ? source(pos_given) : pos_given ? " (position given, rotation" + estimated + ")"
+                                                                             : " (rotation given, position" + estimated + ")") +
+                     ", " + joints + ".";
+  if ((pos_given && rot_given && joint_given) || dg.selected.empty()) return text;
+  std::string effects;
+  for (const sim::Effect& e : dg.selected) effects += (effects.empty() ? "" : " ") + sim::formatEffect(e);
+  return text + " Geometry + registration cannot follow the selected effects, so this estimate counts them as noise (joint noise "
+                "above all). With them fitted, as `orbcal calibrate --effects " + effects + "` fits them (joint readings as the "
+                "description states), the noise is " + noiseText(noiseWithEffects(data, obs, dg.selected, o), rotation) + ".";
+}
+
+/// The candidates' score tests and the variables' F tests, each table with what it tests: the verdict
+/// follows the candidates; the evidence table is the base model's residuals against one variable at a time.
+std::string testsSection(const calib::Diagnosis& dg, const calib::DiagnoseOptions& o) {
+  std::ostringstream md;
+  md << "\n## Candidates: what selected the effects\n\nRao's score test (Rao 1948) of each candidate's own columns (the "
+        "derivatives of the predicted pose by its parameters, at every sample) beyond the current model (rank: what the model "
+        "cannot absorb); the significant ones fitted and cross-validated. The verdict names the candidates this selects.\n\n"
+        "| step | candidate | params | rank | score | p (Holm) | CV gain |\n|---|---|---|---|---|---|---|\n";
+  for (const calib::CandidateResult& c : dg.candidates) {
+    if (!c.significant && c.p_adjusted > 0.5) continue;  // the long tail of nothing
+    md << "| " << c.step << " | " << sim::formatEffect(c.effect) << " | " << c.params << " | " << c.rank << " | "
+       << sim::formatNumber("%.1f", c.score) << " | " << sim::formatNumber("%.2g", c.p_adjusted) << (c.significant ? " *" : "") << " | "
+       << (c.cv_gain ? sim::formatNumber("%.1f", *c.cv_gain) : std::string("")) << " |\n";
+  }
+  md << "\n(candidates with Holm-adjusted p above 0.5 not listed; * significant)\n\n"
+     << "## Evidence: held-out residuals of geometry + registration against each variable\n\n"
+     << "An F test per variable: the residual components regressed on that variable alone (its regressors: harmonics of a "
+        "joint angle, a torque, ...) with fixed coefficients, i.e. an error along a fixed direction. It does not select "
+        "anything. An effect of a joint moves the marker along that joint's axis as seen from the marker, a direction that "
+        "turns with every other joint: its candidate's score test follows that direction, a variable's F test cannot, so a "
+        "candidate can be significant while every variable here reads p = 1.\n\n"
+     << "| variable | regressors | F | p (Holm) |\n|---|---|---|---|\n";
+  for (const calib::VariableTest& t : dg.evidence) {
+    md << "| " << t.variable << " | " << t.dof << " | " << sim::formatNumber("%.2f", t.statistic) << " | "
+       << sim::formatNumber("%.2g", t.p_adjusted) << (t.p_adjusted < o.alpha ? " *" : "") << " |\n";
+  }
+  return md.str();
 }
 
 }  // namespace
@@ -317,7 +369,7 @@ std::string writeResiduals(const calib::Diagnosis& dg, const sim::MeasuredData& 
   for (int j = 1; j <= n; ++j) csv << ",q" << j << "_deg";
   for (int j = 1; j <= n; ++j) csv << ",tau" << j << "_Nm";
   for (int j = 1; j <= n; ++j) csv << ",dir" << j;
-  csv << ",temperature_C,time_s,selected_x_mm,selected_y_mm,selected_z_mm,unexplained_axis\n";
+  csv << ",temperature_C,time_s,selected_x_mm,selected_y_mm,selected_z_mm,unexplained_axis,base_x_mm,base_y_mm,base_z_mm\n";
   for (std::size_t i = 0; i < obs.size(); ++i) {
     const sim::JointSample& s = obs[i].sample;
     csv << i << "," << s.session << "," << dg.residual_base[i].head<3>().norm() * 1e3 << ","
@@ -331,21 +383,33 @@ std::string writeResiduals(const calib::Diagnosis& dg, const sim::MeasuredData& 
     // unexplained variable's axis (0 when nothing is left).
     for (int c = 0; c < 3; ++c) csv << "," << dg.residual_selected[i][c] * 1e3;
     const Eigen::VectorXd& axis = dg.lack_of_fit.axis_values;
-    csv << "," << (axis.size() == static_cast<Eigen::Index>(obs.size()) ? axis[static_cast<Eigen::Index>(i)] : 0.0) << "\n";
+    csv << "," << (axis.size() == static_cast<Eigen::Index>(obs.size()) ? axis[static_cast<Eigen::Index>(i)] : 0.0);
+    for (int c = 0; c < 3; ++c) csv << "," << dg.residual_base[i][c] * 1e3;  // geometry + registration's, likewise
+    csv << "\n";
   }
   sim::writeFileAtomic(out + "/residuals.csv", csv.str());
-  std::string figures = drawFigure(o.callbacks, o.plots, out, "residuals " + shellQuote(out + "/residuals.csv") + " index sample", "samples.png",
-                                   "held-out position error per sample, before and after");
+  // The noise floor: the held-out position RMS the noise alone gives (magnitudes), and its share per
+  // axis, RMS / sqrt(3) (signed components).
+  const calib::LackOfFit& lof = dg.lack_of_fit;
+  const std::string rms_floor = " --floor " + sim::formatNumber("%.6g", lof.noise_position_rms_m * 1e3);
+  const std::string axis_floor = " --floor " + sim::formatNumber("%.6g", lof.noise_position_rms_m * 1e3 / std::sqrt(3.0));
+  const std::string table = shellQuote(out + "/residuals.csv") + " ";
+  std::string figures = drawFigure(o.callbacks, o.plots, out, "residuals " + table + "index sample" + rms_floor, "samples.png",
+                                   "held-out position error per sample, before and after, with the noise floor");
   for (const sim::Effect& e : dg.selected) {
     const auto [column, label] = e.kind().revealingVariable(e);
-    const std::string png = "residuals_" + sim::effectName(e) + std::to_string(sim::effectJoints(e).empty() ? 0 : sim::effectJoints(e)[0] + 1) + ".png";
-    figures += drawFigure(o.callbacks, o.plots, out, "residuals " + shellQuote(out + "/residuals.csv") + " " + shellQuote(column) + " " + shellQuote(label), png,
+    const std::string name = sim::effectName(e) + std::to_string(sim::effectJoints(e).empty() ? 0 : sim::effectJoints(e)[0] + 1);
+    const std::string variable = shellQuote(column) + " " + shellQuote(label);
+    figures += drawFigure(o.callbacks, o.plots, out, "residuals " + table + variable + rms_floor, "residuals_" + name + ".png",
                           "held-out position error against " + label);
+    figures += drawFigure(o.callbacks, o.plots, out, "components " + table + variable + " --of base" + axis_floor,
+                          "components_" + name + ".png",
+                          "held-out residual components (signed) of geometry + registration against " + label + ": what " +
+                              sim::formatEffect(e) + " explains");
   }
-
-  const calib::LackOfFit& lof = dg.lack_of_fit;
   if (!lof.unexplained.empty()) {
-    figures += drawFigure(o.callbacks, o.plots, out, "components " + shellQuote(out + "/residuals.csv") + " unexplained_axis " + shellQuote(lof.axis_label), "unexplained.png",
+    figures += drawFigure(o.callbacks, o.plots, out, "components " + table + "unexplained_axis " + shellQuote(lof.axis_label) + axis_floor,
+                          "unexplained.png",
                           "held-out residual components of the selected model against " + lof.unexplained.front().variable);
   }
 
@@ -426,6 +490,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
 
   const std::string figures = writeResiduals(dg, data, obs, out, o);
 
+  const bool rotation = measuresRotation(data);
   std::ostringstream md;
   md << "# Diagnosis of " << data.arm.name << "\n\n**" << dg.verdict << "**\n\n";
   for (const calib::ConfoundedSet& c : dg.confounded) {
@@ -438,13 +503,15 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
      << o.diagnose.folds << "-fold cross-validation by configuration (seed " << o.diagnose.seed << "); candidate tests at "
      << "family-wise error " << o.diagnose.alpha << " (Holm); a parameter must cut the held-out whitened squared error by "
      << o.diagnose.penalty_per_param << " to be added. " << sim::formatNumber("%.2f", dg.seconds) << " s.\n\n"
-     << noiseSentence(dg.base_fit, options, data, obs) << "\n\n"
+     << noiseSentence(dg, options, data, obs) << "\n\n"
      << "## Held-out errors (cross-validated)\n\n"
-     << "| model | position mean (mm) | position RMS (mm) | position max (mm) | rotation RMS (deg) | whitened SSE |\n|---|---|---|---|---|---|\n";
+     << "| model | position mean (mm) | position RMS (mm) | position max (mm) |" << (rotation ? " rotation RMS (deg) |" : "")
+     << " whitened SSE |\n|---|---|---|---|---|" << (rotation ? "---|" : "") << "\n";
   const auto row = [&](const std::string& name, const calib::ResidualStats& s, double sse) {
     md << "| " << name << " | " << sim::formatNumber("%.4f", s.position_mean_m * 1e3) << " | " << sim::formatNumber("%.4f", s.position_rms_m * 1e3)
-       << " | " << sim::formatNumber("%.4f", s.position_max_m * 1e3) << " | " << sim::formatNumber("%.4f", s.rotation_rms_rad * sim::kRadToDeg)
-       << " | " << sim::formatNumber("%.1f", sse) << " |\n";
+       << " | " << sim::formatNumber("%.4f", s.position_max_m * 1e3) << " |"
+       << (rotation ? " " + sim::formatNumber("%.4f", s.rotation_rms_rad * sim::kRadToDeg) + " |" : std::string()) << " "
+       << sim::formatNumber("%.1f", sse) << " |\n";
   };
   row("geometry + registration", dg.heldout.base, dg.cv_base);
   row(dg.clean ? "(nothing added)" : "selected model", dg.heldout.selected, dg.cv_selected);
@@ -460,21 +527,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   }
   md << "\n" << unexplainedSection(dg, o.diagnose.alpha);
   if (r.distortion.tested) md << distortionSection(r.distortion, o.diagnose);
-  md << "\n## Candidates\n\nScore test of each candidate's columns beyond the current model (rank: what the model cannot "
-        "absorb); the significant ones fitted and cross-validated.\n\n| step | candidate | params | rank | score | p (Holm) | CV gain |\n|---|---|---|---|---|---|---|\n";
-  for (const calib::CandidateResult& c : dg.candidates) {
-    if (!c.significant && c.p_adjusted > 0.5) continue;  // the long tail of nothing
-    md << "| " << c.step << " | " << sim::formatEffect(c.effect) << " | " << c.params << " | " << c.rank << " | "
-       << sim::formatNumber("%.1f", c.score) << " | " << sim::formatNumber("%.2g", c.p_adjusted) << (c.significant ? " *" : "") << " | "
-       << (c.cv_gain ? sim::formatNumber("%.1f", *c.cv_gain) : std::string("")) << " |\n";
-  }
-  md << "\n(candidates with Holm-adjusted p above 0.5 not listed; * significant)\n\n"
-     << "## Evidence: held-out residuals of geometry + registration against each variable\n\n"
-     << "| variable | regressors | F | p (Holm) |\n|---|---|---|---|\n";
-  for (const calib::VariableTest& t : dg.evidence) {
-    md << "| " << t.variable << " | " << t.dof << " | " << sim::formatNumber("%.2f", t.statistic) << " | "
-       << sim::formatNumber("%.2g", t.p_adjusted) << (t.p_adjusted < o.diagnose.alpha ? " *" : "") << " |\n";
-  }
+  md << testsSection(dg, o.diagnose);
   md << "\n## Figures\n\n" << figures << "\nFiles: `diagnosis.json`, `model.yaml` (the selected model, for `orbcal evaluate`), "
      << "`residuals.csv`.\n";
   sim::writeFileAtomic(out + "/report.md", md.str());

@@ -42,33 +42,67 @@ std::vector<sim::ParameterRow> parameterRows(const calib::Fit& fit) {
 
 std::string residualJson(const calib::ResidualStats& s, const std::string& key) {
   const auto number = [&key](const char* name, double v) { return "\"" + std::string(name) + "\": " + sim::jsonNumber(v, key + "." + name); };
-  return "{\"samples\": " + std::to_string(s.samples) + ", " + number("position_mean_mm", s.position_mean_m * 1e3) + ", " +
-         number("position_rms_mm", s.position_rms_m * 1e3) + ", " + number("position_max_mm", s.position_max_m * 1e3) + ", " +
-         number("rotation_rms_deg", s.rotation_rms_rad * sim::kRadToDeg) + ", " +
-         number("rotation_max_deg", s.rotation_max_rad * sim::kRadToDeg) + "}";
+  std::string json = "{\"samples\": " + std::to_string(s.samples) + ", " + number("position_mean_mm", s.position_mean_m * 1e3) +
+                     ", " + number("position_rms_mm", s.position_rms_m * 1e3) + ", " + number("position_max_mm", s.position_max_m * 1e3);
+  if (s.rotation_samples > 0) {
+    json += ", " + number("rotation_rms_deg", s.rotation_rms_rad * sim::kRadToDeg) + ", " +
+            number("rotation_max_deg", s.rotation_max_rad * sim::kRadToDeg);
+  }
+  return json + "}";
+}
+
+bool measuresRotation(const sim::MeasuredData& data) {
+  return std::any_of(data.poses.begin(), data.poses.end(), [](const sim::MeasuredPose& p) { return p.has_rotation; });
+}
+
+std::string noiseText(const calib::MarkerNoise& n, bool rotation) {
+  return "position " + formatNumber("%.3g", n.sigma_position_m * 1e3) + " mm" +
+         (rotation ? ", rotation " + formatNumber("%.3g", n.sigma_rotation_rad * sim::kRadToDeg) + " deg" : std::string());
+}
+
+std::string statsTableHeader(bool rotation) {
+  return rotation ? "| model | samples | position mean (mm) | position RMS (mm) | position max (mm) | rotation RMS (deg) |\n"
+                    "|---|---|---|---|---|---|\n"
+                  : "| model | samples | position mean (mm) | position RMS (mm) | position max (mm) |\n|---|---|---|---|---|\n";
+}
+
+std::string statsTableRow(const std::string& model, const calib::ResidualStats& s, bool rotation) {
+  return "| " + model + " | " + std::to_string(s.samples) + " | " + formatNumber("%.4f", s.position_mean_m * 1e3) + " | " +
+         formatNumber("%.4f", s.position_rms_m * 1e3) + " | " + formatNumber("%.4f", s.position_max_m * 1e3) + " |" +
+         (rotation ? " " + formatNumber("%.4f", s.rotation_rms_rad * sim::kRadToDeg) + " |" : std::string()) + "\n";
 }
 
 namespace {
 
-std::string statsRow(const std::string& what, const calib::ResidualStats& s) {
-  return "| " + what + " | " + std::to_string(s.samples) + " | " + formatNumber("%.4f", s.position_mean_m * 1e3) + " | " +
-         formatNumber("%.4f", s.position_rms_m * 1e3) + " | " + formatNumber("%.4f", s.position_max_m * 1e3) + " | " +
-         formatNumber("%.4f", s.rotation_rms_rad * sim::kRadToDeg) + " |\n";
+/// Per parameter of `fit`, the other members of its unidentifiable combination (sim::Redundancy), empty
+/// where it is determined on its own.
+std::vector<std::string> combinationPartners(const calib::Fit& fit) {
+  std::vector<std::string> partners(static_cast<std::size_t>(fit.model.layout.size()));
+  for (const sim::Redundancy& g : fit.identifiability.redundancies) {
+    for (std::size_t a = 0; a < g.params.size(); ++a) {
+      std::string& text = partners[static_cast<std::size_t>(g.params[a])];
+      for (std::size_t b = 0; b < g.names.size(); ++b) {
+        if (b != a) text += (text.empty() ? "" : ", ") + g.names[b];
+      }
+    }
+  }
+  return partners;
 }
-const char* kStatsHeader =
-    "| model | samples | position mean (mm) | position RMS (mm) | position max (mm) | rotation RMS (deg) |\n"
-    "|---|---|---|---|---|---|\n";
 
 std::string parameterTable(const calib::Fit& fit) {
-  std::string md = "| parameter | block | value | 1-sigma | unit |\n|---|---|---|---|---|\n";
+  std::string md = "| parameter | block | value | 1-sigma | unit | determined |\n|---|---|---|---|---|---|\n";
   const sim::ParamLayout& L = fit.model.layout;
   const std::vector<sim::ParameterRow> rows = parameterRows(fit);
+  const std::vector<std::string> partners = combinationPartners(fit);
   for (int i = 0; i < L.size(); ++i) {
     const sim::ParamInfo& info = L.param(i);
     const sim::ParameterRow& r = rows[static_cast<std::size_t>(i)];
+    const std::string& with = partners[static_cast<std::size_t>(i)];
     md += "| " + r.name + " | " + r.effect + " | " + formatNumber("%+.5g", r.value * info.display_scale) + " | " +
-          (r.held ? std::string("held (unidentifiable here)") : formatNumber("%.3g", r.sigma * info.display_scale)) + " | " +
-          info.display_unit + " |\n";
+          (r.held ? std::string("held") : formatNumber("%.3g", r.sigma * info.display_scale)) + " | " + info.display_unit + " | " +
+          (r.held ? std::string("no: held at nominal (unidentifiable here)")
+                  : with.empty() ? std::string("yes") : "only in a combination with " + with + " (the value alone is not)") +
+          " |\n";
   }
   return md;
 }
@@ -178,6 +212,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   const bool write_model = (!r.worse && !r.inconsistent && r.refusal.empty() && r.fit_refusal.empty()) || o.accept_worse;
   if (write_model) r.model_path = folder.published(writeModelAndExports(cm, parameterRows(r.fit), out, header.str()));
 
+  const bool rotation = measuresRotation(data);
   std::ostringstream md;
   md << "# Calibration of " << data.arm.name << " from measured data\n\n";
   if (r.worse) {
@@ -205,18 +240,18 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   for (const std::string& e : o.effects) md << " + " << e;
   md << "; " << r.fit.model.layout.size() << " parameters, " << r.fit.estimate.held.size() << " held (by the level or as unidentifiable).\n\n"
      << "Calibrated at " << calib::levelSentence(r.level) << ".\n\n"
-     << "Measurement noise (1 sigma per axis): position " << formatNumber("%.4f", r.fit.noise.sigma_position_m * 1e3) << " mm, rotation "
-     << formatNumber("%.4f", r.fit.noise.sigma_rotation_rad * sim::kRadToDeg) << " deg"
+     << "Measurement noise (1 sigma per axis): " << noiseText(r.fit.noise, rotation)
      << (r.fit.noise_estimated ? " (estimated from the residuals)" : " (given)") << "; joint readings "
      << formatNumber("%.4f", r.fit.noise.joint_noise_sigma_rad * sim::kRadToDeg) << " deg"
      << (data.noise_joint_rad ? " (given)" : " (not given: not modelled)") << ". chi-square " << formatNumber("%.1f", r.fit.chi2)
      << " for " << r.fit.dof << " degrees of freedom.\n\n"
-     << "## Held-out prediction\n\n" << kStatsHeader << statsRow("nominal arm, registration fitted", r.heldout_before)
-     << statsRow("calibrated", r.heldout_after) << "\n" << r.gain.configurations
+     << "## Held-out prediction\n\n" << statsTableHeader(rotation) << statsTableRow("nominal arm, registration fitted", r.heldout_before, rotation)
+     << statsTableRow("calibrated", r.heldout_after, rotation) << "\n" << r.gain.configurations
      << " held-out configurations; the gain over the nominal arm, one-sided paired test of their squared position errors "
         "(calib/heldout.hpp): t = " << formatNumber("%.2f", r.gain.t) << ", p = " << formatNumber("%.2g", r.gain.p_value)
      << " (accepted at p < " << formatNumber("%g", calib::kHeldoutGainAlpha) << " with at least "
-     << calib::kMinHeldoutConfigurations << " configurations).\n\n## Fit residuals\n\n" << kStatsHeader << statsRow("calibrated (fitted samples)", r.fit.residuals)
+     << calib::kMinHeldoutConfigurations << " configurations).\n\n## Fit residuals\n\n" << statsTableHeader(rotation)
+     << statsTableRow("calibrated (fitted samples)", r.fit.residuals, rotation)
      << "\n## What this data cannot identify\n\n```\n" << sim::formatIdentifiability(r.fit.identifiability) << "```\n\n"
      << "Held parameters stay at their nominal value; the rest carry their observable combinations.\n\n"
      << "Observability indices of the fitted samples (Borm & Menq 1991 O1 to Sun & Hollerbach 2008 O5; whitened rows, "
@@ -236,6 +271,43 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   return r;
 }
 
+namespace {
+
+/// Per-configuration ids of `obs`, numbered 0, 1, ... in the order of their first sample
+/// (calib::configurationGroups).
+std::vector<int> configurationIds(const std::vector<calib::MarkerObservation>& obs) {
+  std::vector<std::vector<int>> groups;
+  for (const auto& [key, members] : calib::configurationGroups(obs)) groups.push_back(members);
+  std::sort(groups.begin(), groups.end(), [](const std::vector<int>& a, const std::vector<int>& b) { return a.front() < b.front(); });
+  std::vector<int> id(obs.size(), 0);
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    for (int i : groups[g]) id[static_cast<std::size_t>(i)] = static_cast<int>(g);
+  }
+  return id;
+}
+
+/// residuals.csv of an evaluation: one row per sample, the model's prediction error (the signed
+/// position components in mm, in the residual's frame: the marker's for full poses, the measuring
+/// system's for positions; its length; the rotation angle in deg where measured) and the baseline's.
+std::string evaluationResidualsCsv(const std::vector<calib::MarkerObservation>& obs, const calib::Fit& model,
+                                   const calib::Fit& baseline, bool rotation) {
+  const std::vector<int> config = configurationIds(obs);
+  const auto num = [](double v) { return "," + formatNumber("%.6g", v); };
+  std::ostringstream csv;
+  csv << "index,session,configuration,x_mm,y_mm,z_mm,position_mm" << (rotation ? ",rotation_deg" : "") << ",baseline_position_mm\n";
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    const Eigen::VectorXd r = calib::markerResidual(model.model, model.p, obs[i]);
+    const Eigen::VectorXd b = calib::markerResidual(baseline.model, baseline.p, obs[i]);
+    csv << i << "," << obs[i].sample.session << "," << config[i] << num(r[0] * 1e3) << num(r[1] * 1e3) << num(r[2] * 1e3)
+        << num(r.head<3>().norm() * 1e3);
+    if (rotation) csv << (obs[i].has_rotation ? num(r.tail<3>().norm() * sim::kRadToDeg) : std::string(","));
+    csv << num(b.head<3>().norm() * 1e3) << "\n";
+  }
+  return csv.str();
+}
+
+}  // namespace
+
 EvaluateResult runEvaluate(const std::string& model_file, const std::string& description, const std::string& out) {
   const sim::LoadedModel lm = sim::loadModelFile(model_file);
   sim::MeasuredData data = sim::loadMeasuredData(description);
@@ -251,22 +323,36 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
   EvaluateResult r;
   r.fit = calib::predictWithModel({lm.model, lm.p}, data, obs, fo);
+  r.refitted = r.fit.model.layout.size() - static_cast<int>(r.fit.estimate.held.size());
   calib::requirePlausibleResidual(data, r.fit.residuals, "the prediction residual of " + model_file);
+  calib::FitOptions bo = fo;
+  bo.analyze = false;
+  const calib::Fit baseline = calib::fitRegistration(calib::startingModel(data, obs, {}), obs, bo);
+  r.baseline = baseline.residuals;
   sim::OutputFolder folder(out, "orbcal evaluate");  // the inputs are read and plausible
   r.warnings = calib::outsideTrustedRange(lm.model, obs);
+  const bool rotation = measuresRotation(data);
   std::string json = residualJson(r.fit.residuals, out + "/evaluation.json");
-  json.insert(json.size() - 1, ", \"model\": " + sim::jsonString(model_file) + ", \"data\": " + sim::jsonString(description));
+  json.insert(json.size() - 1, ", \"refitted_parameters\": " + std::to_string(r.refitted) + ", \"baseline\": " +
+                                   residualJson(r.baseline, out + "/evaluation.json: baseline") + ", \"model\": " +
+                                   sim::jsonString(model_file) + ", \"data\": " + sim::jsonString(description));
   sim::writeFileAtomic(folder.path() + "/evaluation.json", json + "\n");
+  sim::writeFileAtomic(folder.path() + "/residuals.csv", evaluationResidualsCsv(obs, r.fit, baseline, rotation));
   std::ostringstream md;
   md << "# Evaluation of `" << model_file << "` on `" << description << "`\n\n"
-     << "Every geometric and effect parameter is the model's; the per-session frames of the data were refitted ("
-     << r.fit.model.layout.size() - static_cast<int>(r.fit.estimate.held.size()) << " parameters).\n\n"
-     << kStatsHeader << statsRow("prediction", r.fit.residuals);
+     << "Every geometric and effect parameter is the model's; "
+     << (r.refitted > 0 ? "the per-session frames of the data were refitted (" + std::to_string(r.refitted) + " parameters)."
+                        : std::string("nothing was refitted (the data's frames are the model's)."))
+     << " The baseline is the nominal arm of the description with every registration frame fitted to this data.\n\n"
+     << statsTableHeader(rotation) << statsTableRow("prediction", r.fit.residuals, rotation)
+     << statsTableRow("baseline: nominal arm, frames fitted", r.baseline, rotation)
+     << "\nPer sample (with its configuration): `residuals.csv`.\n";
   for (const std::string& w : r.warnings) md << "\n**Warning:** " << w << ".\n";
   sim::writeFileAtomic(folder.path() + "/evaluation.md", md.str());
   folder.commit();
   r.json_path = out + "/evaluation.json";
   r.report_path = out + "/evaluation.md";
+  r.residuals_path = out + "/residuals.csv";
   return r;
 }
 

@@ -1,7 +1,8 @@
-// `orbcal configs` and `orbcal identifiability` (planning.hpp).
+// `orbcal fk`, `orbcal configs` and `orbcal identifiability` (planning.hpp).
 #include "orbcal/workflow/planning.hpp"
 
 #include <cstdio>
+#include <sstream>
 
 #include "orbcal/calib/estimators.hpp"
 #include "orbcal/calib/parameter_classes.hpp"
@@ -49,7 +50,9 @@ std::string selectFromPool(const ConfigsOptions& o, const sim::Arm& arm, std::ve
 }  // namespace
 
 ConfigsResult runConfigs(const ConfigsOptions& o) {
-  const sim::Arm arm = sim::loadArm(o.robot);
+  const sim::Arm robot = sim::loadArm(o.robot);
+  const bool box = o.box_lower_rad.size() > 0 || o.box_upper_rad.size() > 0;
+  const sim::Arm arm = box ? sim::withJointBox(robot, o.box_lower_rad, o.box_upper_rad, "--joint-box-deg") : robot;
   const sim::Scene scene = sim::loadScene(o.scene);
   if (o.select && o.pool < o.gen.count) {
     throw sim::InputError("--pool: " + std::to_string(o.pool) + " is smaller than -n " + std::to_string(o.gen.count));
@@ -97,6 +100,36 @@ std::string runIdentifiability(const IdentifiabilityOptions& o) {
                 o.base_known ? "" : " (the measuring system's frame unknown: base_*)");
   return head + classes.table() + "\nObservability of the minimal set: " +
          calib::formatIndices(calib::observability(*model, zero, classes.held)) + "\n";
+}
+
+std::string forwardKinematicsText(const sim::Arm& arm, const Eigen::VectorXd& q, bool json) {
+  const Eigen::Isometry3d T = sim::forwardKinematics(arm, q);
+  const Eigen::Vector3d p = T.translation() * 1e3;
+  const Eigen::Vector3d rpy = T.linear().eulerAngles(2, 1, 0).reverse() * sim::kRadToDeg;
+  const bool within = sim::withinLimits(arm, q);
+  std::ostringstream out;
+  if (json) {
+    const auto list = [](const Eigen::VectorXd& v, const std::string& key) {
+      std::string s = "[";
+      for (Eigen::Index i = 0; i < v.size(); ++i) s += (i ? ", " : "") + sim::jsonNumber(v[i], "fk: " + key);
+      return s + "]";
+    };
+    out << "{\"robot\": " << sim::jsonString(arm.name) << ", \"joints_rad\": " << list(q, "joints_rad")
+        << ", \"base_T_flange\": [";
+    for (int r = 0; r < 4; ++r) out << (r ? ", " : "") << list(T.matrix().row(r).transpose(), "base_T_flange");
+    out << "], \"position_mm\": " << list(p, "position_mm") << ", \"rpy_deg\": " << list(rpy, "rpy_deg")
+        << ", \"within_limits\": " << (within ? "true" : "false") << "}\n";
+    return out.str();
+  }
+  out << "base_T_flange (" << arm.name << "):\n";
+  for (int r = 0; r < 3; ++r) {
+    out << sim::formatNumber("  [% .12f", T(r, 0)) << sim::formatNumber(" % .12f", T(r, 1)) << sim::formatNumber(" % .12f]", T(r, 2))
+        << sim::formatNumber("  % 16.6f mm\n", p[r]);
+  }
+  out << sim::formatNumber("position_mm: [%.6f, ", p.x()) << sim::formatNumber("%.6f, ", p.y()) << sim::formatNumber("%.6f]\n", p.z())
+      << sim::formatNumber("rpy_deg (R = Rz Ry Rx): [%.9f, ", rpy.x()) << sim::formatNumber("%.9f, ", rpy.y())
+      << sim::formatNumber("%.9f]\n", rpy.z()) << "within joint limits: " << (within ? "yes" : "no") << "\n";
+  return out.str();
 }
 
 }  // namespace orbcal::workflow

@@ -9,6 +9,7 @@
 #include "orbcal/calib/estimators.hpp"
 #include "orbcal/calib/marker_model.hpp"
 #include "orbcal/calib/model.hpp"
+#include "orbcal/calib/parameter_classes.hpp"
 #include "orbcal/calib/validation.hpp"
 
 namespace orbcal::calib {
@@ -90,9 +91,12 @@ std::string formatValidationErrorsCsv(const Comparison& c);
 /// One row per model (initial, floor, each method): average and largest validation position error [mm],
 /// average X/Y/Z orientation error [deg] and the average position error over the floor's (x_floor).
 std::string formatComparisonSummaryCsv(const Comparison& c);
-/// One row per (method, parameter): estimate, 1-sigma and truth in deg or mm, held. Without a truth
-/// (y_true null: real data) the truth cells are empty.
-std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd* y_true);
+/// One row per (method, parameter): estimate, 1-sigma and truth in deg or mm, held, and, where
+/// `classes` are given, its class (independent; relative: in an unidentifiable combination, only the
+/// combination is determined; ineffective). Without a truth (y_true null: real data) the truth cells
+/// are empty; without classes the class cells.
+std::string formatEstimatesCsv(const sim::Arm& nominal, const Comparison& c, const Eigen::VectorXd* y_true,
+                               const ParameterClasses* classes = nullptr);
 /// Markdown: per method its settings, iterations, rank, wall time, the RMS of its length estimates
 /// (a and d, against the RMS of the true ones: a prior too tight shows as lengths that never move), and
 /// average position error against the floor.

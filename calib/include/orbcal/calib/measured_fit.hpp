@@ -35,6 +35,7 @@ struct ResidualStats {
   int samples = 0;
   double position_mean_m = 0, position_rms_m = 0, position_max_m = 0;  ///< of |position residual|
   double rotation_rms_rad = 0, rotation_max_rad = 0;                   ///< of the rotation angle; 0 without rotations
+  int rotation_samples = 0;  ///< samples with a measured rotation; 0: position-only data (no rotation to report)
 };
 ResidualStats residualStats(const sim::KinematicModel& model, const Eigen::VectorXd& p,
                             const std::vector<MarkerObservation>& observations);

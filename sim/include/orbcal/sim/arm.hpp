@@ -58,6 +58,8 @@ struct UrdfSource {
   /// Per movable joint: the fixed joints just before it folded into its origin (parent side), so
   /// that the joint's own URDF origin is fixed_before^-1 * T(xyz) R(rpy).
   std::vector<Eigen::Isometry3d> fixed_before;
+  /// The links the chain's joints move that have no <inertial> (gravity torques need their masses).
+  std::vector<std::string> links_without_inertial;
   bool empty() const { return file.empty(); }
 };
 

@@ -9,7 +9,8 @@
 //     limits, with the scene's locked joint (views.locked_joint; theta_2, seed 000's choice, by default)
 //     drawn uniformly within its limits;
 //  3. accepted if IK converged within the limits, the singularity measure is at least the scene's
-//     views.min_singular_value, and boardVisibility() says kVisible for the solution's true camera pose.
+//     views.min_singular_value, boardVisibility() says kVisible for the solution's true camera pose, and
+//     (with a floor) every moving frame of the chain and the flange lie above the floor.
 // The first N accepted attempts, in attempt order, are returned.
 //
 // Singularity measure: the smallest singular value of the 6 x (n-1) manipulator Jacobian without the
@@ -18,6 +19,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "orbcal/sim/arm.hpp"
@@ -33,6 +35,10 @@ struct GeneratorSettings {
   /// > 0: stop after the first stop_after configurations; they are the first stop_after of the `count`
   /// (attempt budget and order unchanged), for a caller that needs only a prefix (a dataset's shard).
   int stop_after = 0;
+  /// A floor plane z = floor_z_m of the base frame (m): a configuration with the origin of any frame a
+  /// joint moves (chainFrames after base_T_first: the joints' frames and the flange) below it is
+  /// rejected (GeneratorStats::below_floor). Unset: no floor.
+  std::optional<double> floor_z_m;
 };
 
 
@@ -41,6 +47,7 @@ struct GeneratorStats {
   int ik_failed = 0;      ///< no solution within the limits from the random start
   int singular = 0;       ///< below the singularity threshold
   int not_visible = 0;    ///< the camera does not see the whole board
+  int below_floor = 0;    ///< a joint origin or the flange below GeneratorSettings::floor_z_m
   int accepted = 0;
 };
 
@@ -49,6 +56,11 @@ struct GeneratorStats {
 std::vector<Eigen::VectorXd> generateConfigurations(const Arm& arm, const Scene& scene, const GeneratorSettings& settings,
                                                     GeneratorStats* stats = nullptr,
                                                     const std::function<void(int, int)>& progress = {});
+
+/// `arm` with its joint limits narrowed to the box [lower_rad, upper_rad] (one bound each per joint): a
+/// cell or workspace narrower than the robot's travel. InputError naming `what` (the option) for a
+/// wrong count or a box that leaves a joint no travel within the robot's limits.
+Arm withJointBox(Arm arm, const Eigen::VectorXd& lower_rad, const Eigen::VectorXd& upper_rad, const std::string& what);
 
 double singularityMeasure(const Arm& arm, const Eigen::VectorXd& q, int locked_joint);
 

@@ -60,6 +60,9 @@ struct DetectorSettings {
   /// measured (0.073 px RMS vs ground truth); it is shrunk to 0.4 x the smallest corner spacing so
   /// that the window never reaches the next corner on small boards.
   int max_subpix_half_window_px = 5;
+  /// > 0: cornerSubPix with exactly this half window instead (the classic detector), as OpenCV's
+  /// calibration sample and tutorial do with 11 (a 23 x 23 window), whatever the corner spacing.
+  int fixed_subpix_half_window_px = 0;
   /// An image whose grey levels span less than this is blank (all black, all white, lens cap):
   /// reported as not found without running the detector. 8-bit grey levels.
   double min_grey_spread = 16.0;
@@ -71,6 +74,11 @@ struct DetectorSettings {
   /// image. Camera intrinsics do not need the orientation (a half-turned board is still a plane).
   bool require_orientation = true;
 };
+
+/// The corner refinement `settings` use, one line for the user, and how it differs from OpenCV's
+/// calibration tutorial (a fixed 11 px half window): "corner refinement: cornerSubPix half window
+/// min(5 px, 0.4 x the corner spacing) (OpenCV's calibration tutorial: 11 px; --subpix-window 11)".
+std::string subpixWindowText(const DetectorSettings& settings);
 
 struct CornerDetection {
   ImageStatus status = ImageStatus::kNotFound;

@@ -54,8 +54,12 @@ std::string parseFitMethod(const std::string& name, const std::string& what);
 
 struct EvaluateResult {
   calib::Fit fit;  ///< per-session frames refitted; residuals = prediction errors
+  int refitted = 0;  ///< parameters the evaluation fitted to the data (the per-session frames' free ones)
+  /// The baseline beside the model: the description's nominal arm with every registration frame fitted
+  /// to this data (no geometry, no effects).
+  calib::ResidualStats baseline;
   std::vector<std::string> warnings;  ///< empirical corrections applied outside their fitted range
-  std::string json_path, report_path;
+  std::string json_path, report_path, residuals_path;
 };
 EvaluateResult runEvaluate(const std::string& model_file, const std::string& description, const std::string& out);
 
@@ -66,8 +70,23 @@ sim::SimulatedData runSimulate(const sim::Arm& arm, const sim::SimulationSpec& s
 /// Parameter rows (display units are the caller's) of a fit: every parameter, value p, 1-sigma, held.
 std::vector<sim::ParameterRow> parameterRows(const calib::Fit& fit);
 
-/// JSON of residual statistics in mm and deg: {"samples": .., "position_mean_mm": .., ...}. `key` names
-/// the file and the field for the message of a non-finite number (sim::jsonNumber).
+/// JSON of residual statistics in mm and deg: {"samples": .., "position_mean_mm": .., ...}; the rotation
+/// fields only where rotations were measured (ResidualStats::rotation_samples). `key` names the file and
+/// the field for the message of a non-finite number (sim::jsonNumber).
 std::string residualJson(const calib::ResidualStats& s, const std::string& key);
+
+/// True when some sample of `data` measures a rotation; false for position-only data, whose reports
+/// then show no rotation noise, rotation column or rotation figure.
+bool measuresRotation(const sim::MeasuredData& data);
+
+/// The tracker noise, 1 sigma per axis, as calibrate and diagnose print it (report and terminal alike):
+/// "position 0.0297 mm, rotation 0.0019 deg" in three significant digits (a small noise keeps its
+/// digits, not "0.0000"); the rotation only when `rotation`.
+std::string noiseText(const calib::MarkerNoise& n, bool rotation);
+
+/// Residual statistics as a Markdown table in mm and deg: the header, then one row per model; the
+/// rotation column only when `rotation`.
+std::string statsTableHeader(bool rotation);
+std::string statsTableRow(const std::string& model, const calib::ResidualStats& s, bool rotation);
 
 }  // namespace orbcal::workflow

@@ -1,0 +1,82 @@
+"""The report figures (tools/plot_report.py) say what their legends say: one meaning per colour in
+samples.png, held and combination-only parameters drawn as such in parameters.png, a noise floor on
+the residual figures, signed components of the model asked for."""
+import importlib.util
+import pathlib
+
+import matplotlib
+import pytest
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.colors import to_rgba  # noqa: E402
+
+RED = to_rgba("red")
+SOURCE_DIR = pathlib.Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def plot_report():
+    spec = importlib.util.spec_from_file_location("plot_report", SOURCE_DIR / "tools" / "plot_report.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def write_csv(path, header, rows):
+    path.write_text(",".join(header) + "\n" + "".join(",".join(str(c) for c in r) + "\n" for r in rows))
+    return str(path)
+
+
+def colours(collection):
+    return {tuple(c) for c in collection.get_facecolors()} | {tuple(c) for c in collection.get_edgecolors()}
+
+
+def test_samples_red_marks_only_the_inconsistent_images(plot_report, tmp_path):
+    rows = [("img%02d.png" % i, "identification" if i < 8 else "held-out", 2.0 + i, 0.1 + 0.01 * i, 1 if i == 3 else 0)
+            for i in range(12)]
+    csv = write_csv(tmp_path / "samples.csv", ["image", "set", "before_mm", "after_mm", "outlier"], rows)
+    plt.close("all")
+    plot_report.samples(csv, str(tmp_path / "samples.png"))
+    ax = plt.gcf().axes[0]
+    red = [c for c in ax.collections if RED in colours(c)]
+    assert len(ax.collections) == 5  # nominal and calibrated of both sets, and the ring
+    assert len(red) == 1
+    assert [tuple(p) for p in red[0].get_offsets()] == [(3.0, 0.13)]
+    assert [t.get_text() for t in ax.texts if to_rgba(t.get_color()) == RED] == ["img03.png"]
+
+
+def test_parameters_draw_held_grey_and_combination_members_apart(plot_report, tmp_path):
+    header = ["method", "parameter", "unit", "estimate", "sigma", "truth", "held", "class"]
+    rows = [("EKF", "theta1", "deg", 0.0, 0.0, "", 1, "relative"),
+            ("EKF", "theta2", "deg", 0.02, 0.001, "", 0, "independent"),
+            ("EKF", "d3", "mm", 0.5, 0.1, "", 0, "relative"),
+            ("EKF", "d4", "mm", -0.4, 0.1, "", 0, "relative"),
+            ("EKF", "a2", "mm", 0.1, 0.01, "", 0, "independent")]
+    csv = write_csv(tmp_path / "estimates.csv", header, rows)
+    plt.close("all")
+    plot_report.parameters(csv, str(tmp_path / "parameters.png"))
+    deg, mm = plt.gcf().axes
+    assert [t.get_text() for t in deg.get_legend().get_texts()] == ["estimate +- 1 sigma", "held as unidentifiable (nominal)"]
+    assert [t.get_text() for t in mm.get_legend().get_texts()] == ["estimate +- 1 sigma", "in an unidentifiable combination"]
+    held_line = deg.get_legend().legend_handles[1] if hasattr(deg.get_legend(), "legend_handles") else deg.get_legend().legendHandles[1]
+    assert to_rgba(held_line.get_color()) == to_rgba("grey")
+    assert len(deg.patches) == 1  # the grey band of the one held parameter
+
+
+def test_residual_figures_draw_the_noise_floor_and_signed_components(plot_report, tmp_path):
+    header = ["index", "base_mm", "selected_mm", "q2_deg", "base_x_mm", "base_y_mm", "base_z_mm",
+              "selected_x_mm", "selected_y_mm", "selected_z_mm"]
+    rows = [(i, 0.3, 0.08, 10.0 * i, 0.2, -0.1 * (i % 2), 0.05, 0.01, -0.02, 0.03) for i in range(10)]
+    csv = write_csv(tmp_path / "residuals.csv", header, rows)
+    plt.close("all")
+    plot_report.residuals(csv, "q2_deg", "q2 (deg)", str(tmp_path / "r.png"), floor=0.087)
+    ax = plt.gcf().axes[0]
+    assert [tuple(l.get_ydata()) for l in ax.get_lines()] == [(0.087, 0.087)]
+    plt.close("all")
+    plot_report.components(csv, "q2_deg", "q2 (deg)", str(tmp_path / "c.png"), of="base", floor=0.05)
+    ax = plt.gcf().axes[0]
+    assert sorted(l.get_ydata()[0] for l in ax.get_lines()) == [-0.05, 0.0, 0.05]
+    x_component = ax.collections[0].get_offsets()
+    assert [p[1] for p in x_component] == [0.2] * 10  # base_x_mm, signed, not selected_x_mm
+    assert "geometry + registration" in ax.get_ylabel()
