@@ -74,6 +74,10 @@ TEST_CASE("a calibration that predicts held-out samples worse is refused and wri
   CHECK(r.model_path.empty());
   CHECK_FALSE(std::filesystem::exists(dir + "/cal/model.yaml"));
   CHECK(test::slurp(r.report_path).find("WORSE") != std::string::npos);
+  // report.html says so first too (the verdict, before any section), and claims no acceptance.
+  const std::string html = test::slurp(dir + "/cal/report.html");
+  CHECK(html.find("<p class=\"verdict\"><strong>The calibrated model predicts the held-out samples WORSE") < html.find("<h2>"));
+  CHECK(html.find("Accepted") == std::string::npos);
   o.accept_worse = true;
   CHECK_FALSE(workflow::runMeasuredCalibrate(o).model_path.empty());
 }
