@@ -2,9 +2,9 @@
 """Opens orbcal's report.html files in a real headless browser (Debian's chromium) and checks that each
 renders with every figure loaded, loads nothing from elsewhere, and prints to PDF.
 
-  check_report.py --orbcal BIN --work DIR [--chromium PATH] [--screenshots]
+  check_report.py --orbcal BIN --work DIR [--chromium PATH] [--screenshots DIR]
       makes reports with BIN in DIR (simulate, calibrate, diagnose, evaluate on measured data) and checks them
-  check_report.py --chromium PATH [--screenshots] REPORT.html ...
+  check_report.py [--chromium PATH] [--screenshots DIR] REPORT.html ...
       checks the given reports
 
 Each page is loaded from a copy with a probe script appended that, once the page has loaded, writes on
@@ -124,7 +124,7 @@ def main():
     parser.add_argument("--orbcal")
     parser.add_argument("--work")
     parser.add_argument("--chromium", default=shutil.which("chromium") or "/usr/bin/chromium")
-    parser.add_argument("--screenshots", action="store_true", help="also save a screenshot of each page beside it")
+    parser.add_argument("--screenshots", metavar="DIR", help="also save a screenshot of each page into DIR (its folder's name)")
     parser.add_argument("reports", nargs="*")
     args = parser.parse_args()
     if not os.access(args.chromium, os.X_OK):
@@ -132,6 +132,8 @@ def main():
         return 0
     check_catches_broken_pages(args.chromium)
     reports = args.reports
+    if args.screenshots:
+        os.makedirs(args.screenshots, exist_ok=True)
     if args.orbcal:
         if not args.work:
             parser.error("--orbcal needs --work")
@@ -140,7 +142,7 @@ def main():
         parser.error("no report given")
     failed, figures = 0, 0
     for path in reports:
-        problems, n = check(args.chromium, path, os.path.dirname(os.path.abspath(path)) if args.screenshots else None)
+        problems, n = check(args.chromium, path, args.screenshots)
         failed += bool(problems)
         figures += n
     if args.orbcal and figures == 0:  # the reports made here have figures: none drawn means matplotlib is absent

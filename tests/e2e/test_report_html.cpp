@@ -50,6 +50,7 @@ TEST_CASE("report.html: headings, tables, lists, code, bold and figures of the r
   const std::string md =
       "# Calibration of `arm` <1>\n\n"
       "**The calibration is not accepted: too few samples.** model.yaml was not written.\n\n"
+      "- reason one\n- reason two\n\n"
       "Text with `a<b` and **bold** and a [link](files.csv),\nwrapped.\n\n"
       "## Table\n\n"
       "| model | a \\| b | `x|y` |\n|---|---|---|\n| nominal | 1.5 | 2 * |\n| calibrated | 0.1 | 3 |\n\n"
@@ -64,17 +65,20 @@ TEST_CASE("report.html: headings, tables, lists, code, bold and figures of the r
   CHECK(html.find("<title>Calibration of arm &lt;1&gt;</title>") != std::string::npos);
   CHECK(html.find("<h1>Calibration of <code>arm</code> &lt;1&gt;</h1>") != std::string::npos);
   CHECK(html.find("<h2>Table</h2>") != std::string::npos);
-  // The verdict: a bold paragraph before the first section, and only that one.
-  CHECK(count(html, "class=\"verdict\"") == 1);
+  // The verdict: a bold paragraph before the first section and the list of its reasons, and only those.
+  CHECK(count(html, "class=\"verdict\"") == 2);
+  CHECK(html.find("<ul class=\"verdict\">\n<li>reason one</li>\n<li>reason two</li>\n</ul>") != std::string::npos);
+  CHECK(html.find("<ul>\n<li>identification") != std::string::npos);  // a list after other text is no verdict
   CHECK(html.find("<p class=\"verdict\"><strong>The calibration is not accepted") != std::string::npos);
   CHECK(html.find("<p><strong>Bold after the first section") != std::string::npos);
-  CHECK(html.find("<code>a&lt;b</code> and <strong>bold</strong> and a <a href=\"files.csv\">link</a>") != std::string::npos);
+  CHECK(html.find("<code>a&lt;b</code> and <strong>bold</strong> and a <a href=\"files.csv\">link</a>,<br>\nwrapped.") !=
+        std::string::npos);
   // The table: one header row, two body rows, an escaped bar and a bar inside code kept in their cells.
   CHECK(html.find("<thead><tr><th>model</th><th>a | b</th><th><code>x|y</code></th></tr></thead>") != std::string::npos);
   CHECK(count(html, "<tr>") == 3);
   CHECK(html.find("<td>2 *</td>") != std::string::npos);
-  // Lists: a continuation line belongs to its item; ordered lists stay ordered.
-  CHECK(html.find("<li>identification: 50 images\nmedian 0.047 px</li>") != std::string::npos);
+  // Lists: a continuation line belongs to its item, on a line of its own; ordered lists stay ordered.
+  CHECK(html.find("<li>identification: 50 images<br>\nmedian 0.047 px</li>") != std::string::npos);
   CHECK(html.find("<ol>\n<li>first</li>\n<li>second</li>\n</ol>") != std::string::npos);
   CHECK(html.find("<pre><code>  joint 1: &lt;theta&gt; &amp; alpha\n</code></pre>") != std::string::npos);
   // The figure embedded byte for byte; the absent one said to be absent; the not-drawn line kept.

@@ -23,6 +23,8 @@ h1 { font-size: 1.6rem; border-bottom: 2px solid #333; padding-bottom: .2rem; }
 h2 { font-size: 1.3rem; border-bottom: 1px solid #bbb; margin-top: 2rem; }
 h3 { font-size: 1.1rem; }
 .verdict { border-left: 6px solid #8a4b00; background: #fff4e0; padding: .6rem 1rem; }
+ul.verdict, ol.verdict { padding-left: 2.5rem; }
+.verdict + .verdict { margin-top: -1em; padding-top: 0; }
 .table { overflow-x: auto; margin: 1rem 0; }
 table { border-collapse: collapse; font-size: .9rem; font-variant-numeric: tabular-nums; }
 th, td { border: 1px solid #bbb; padding: .25rem .5rem; text-align: left; vertical-align: top; }
@@ -152,6 +154,13 @@ std::string inlineHtml(std::string_view s, const std::string& folder) {
   return out;
 }
 
+/// The reports write a paragraph's lines as lines (a summary, then its details): each stays a line.
+std::string lineBreaks(const std::string& html) {
+  std::string out;
+  for (char c : html) out += c == '\n' ? std::string("<br>\n") : std::string(1, c);
+  return out;
+}
+
 /// A line that is one figure and nothing else: shown as a figure with its caption.
 bool isFigureLine(std::string_view line) {
   line = trim(line);
@@ -248,10 +257,13 @@ struct Body {
 Body bodyHtml(const std::vector<std::string_view>& lines, const std::string& folder) {
   Body body;
   bool in_sections = false;  // past the first "## ": bold paragraphs are no longer the verdict
+  bool verdict_open = false;  // the last block was the verdict: a list right after it is its list
   std::size_t i = 0;
   const auto blank = [&](std::size_t k) { return trim(lines[k]).empty(); };
   while (i < lines.size()) {
     const std::string_view line = lines[i];
+    const bool after_verdict = verdict_open;
+    verdict_open = verdict_open && blank(i);
     if (blank(i)) {
       ++i;
     } else if (isFence(line)) {
@@ -284,16 +296,19 @@ Body bodyHtml(const std::vector<std::string_view>& lines, const std::string& fol
         if (marker > 0) items.emplace_back(lines[i].substr(marker));
         else items.back() += "\n" + std::string(trim(lines[i]));
       }
-      body.html += ordered ? "<ol>\n" : "<ul>\n";
-      for (const std::string& item : items) body.html += "<li>" + inlineHtml(item, folder) + "</li>\n";
-      body.html += ordered ? "</ol>\n" : "</ul>\n";
+      verdict_open = after_verdict;
+      const std::string list = ordered ? "ol" : "ul";
+      body.html += "<" + list + (after_verdict ? " class=\"verdict\">\n" : ">\n");
+      for (const std::string& item : items) body.html += "<li>" + lineBreaks(inlineHtml(item, folder)) + "</li>\n";
+      body.html += "</" + list + ">\n";
     } else {
       std::string text;
       for (; i < lines.size() && !blank(i) && (text.empty() || (!startsBlock(lines[i]) && itemMarker(lines[i]) == 0)); ++i) {
         text += (text.empty() ? "" : "\n") + std::string(trim(lines[i]));
       }
       const bool verdict = !in_sections && startsWith(text, "**");
-      body.html += (verdict ? "<p class=\"verdict\">" : "<p>") + inlineHtml(text, folder) + "</p>\n";
+      verdict_open = verdict;
+      body.html += (verdict ? "<p class=\"verdict\">" : "<p>") + lineBreaks(inlineHtml(text, folder)) + "</p>\n";
     }
   }
   return body;
