@@ -206,9 +206,9 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << "Determined no better than their typical magnitude (1-sigma above it; the data barely informs them): "
      << weakList(r.fit) << ".\n\n"
      << "## Parameters\n\n" << parameterTable(r.fit) << "\n" << sim::signConventions(effects) << "\n## Figures\n\n"
-     << measured_detail::measuredFigures(o.callbacks, o.plots, out, r.fit, held, before, after)
-     << "\nFiles: `estimates.csv` (every parameter), `heldout.csv` (per held-out sample)"
-     << (r.model_path.empty() ? "" : ", `model.yaml` (for `orbcal evaluate`)") << ".\n";
+     << measured_detail::measuredFigures(o.callbacks, o.plots, out, r.fit, held, before, after, write_model)
+     << "\nFiles: " << (write_model ? "`model.yaml` (for `orbcal evaluate`), `estimates.csv` (every parameter), " : "")
+     << "`heldout.csv` (per held-out sample).\n";
   writeReport(out, md.str());
   folder.commit();
   r.report_path = folder.finalPath() + "/report.md";

@@ -59,13 +59,14 @@ std::string estimatesCsv(const calib::Fit& fit) {
 
 std::string measuredFigures(const Callbacks& callbacks, bool plots, const std::string& out, const calib::Fit& fit,
                             const std::vector<calib::MarkerObservation>& held, const std::vector<Eigen::VectorXd>& before,
-                            const std::vector<Eigen::VectorXd>& after) {
+                            const std::vector<Eigen::VectorXd>& after, bool accepted) {
   std::string figures;
   if (!held.empty()) {
     sim::writeFileAtomic(out + "/heldout.csv", heldoutCsv(held, before, after, noiseFloor(fit, held, after)));
     figures += drawFigure(callbacks, plots, out, "heldout " + shellQuote(out + "/heldout.csv"), "heldout.png",
                           "held-out error per sample, nominal arm and calibrated, with the noise floor");
   }
+  if (!accepted) return figures;
   sim::writeFileAtomic(out + "/estimates.csv", estimatesCsv(fit));
   if (plots || held.empty()) {  // one --no-plots line is enough
     figures += drawFigure(callbacks, plots, out, "parameters " + shellQuote(out + "/estimates.csv"), "parameters.png",

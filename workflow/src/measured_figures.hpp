@@ -20,11 +20,13 @@ NoiseFloor noiseFloor(const calib::Fit& fit, const std::vector<calib::MarkerObse
 
 /// Writes out/heldout.csv (per held-out sample: session, position error of the nominal arm with the
 /// registration fitted and of the calibrated model [mm], the noise floor [mm]; the same for the rotation
-/// [deg] where it is measured, empty cells elsewhere) and out/estimates.csv (every parameter: estimate and
-/// 1-sigma in its display unit, held), then draws heldout.png and parameters.png with `callbacks`
-/// (drawFigure: `plots` false gives the --no-plots line). Returns the figures' Markdown lines.
+/// [deg] where it is measured, empty cells elsewhere) and draws heldout.png; with `accepted` (the model is
+/// written), also out/estimates.csv (every parameter: estimate and 1-sigma in its display unit, held) and
+/// parameters.png, as an image calibration writes its estimates only with its calibrated files. Figures
+/// are drawn with `callbacks` (drawFigure: `plots` false gives the --no-plots line). Returns the
+/// figures' Markdown lines.
 std::string measuredFigures(const Callbacks& callbacks, bool plots, const std::string& out, const calib::Fit& fit,
                             const std::vector<calib::MarkerObservation>& held, const std::vector<Eigen::VectorXd>& before,
-                            const std::vector<Eigen::VectorXd>& after);
+                            const std::vector<Eigen::VectorXd>& after, bool accepted);
 
 }  // namespace orbcal::workflow::measured_detail
