@@ -3,7 +3,7 @@
 renders with every figure loaded, loads nothing from elsewhere, and prints to PDF.
 
   check_report.py --orbcal BIN --work DIR [--chromium PATH] [--screenshots DIR]
-      makes reports with BIN in DIR (simulate, calibrate, diagnose, evaluate on measured data) and checks them
+      makes one report of each kind with BIN in DIR (make_reports) and checks them
   check_report.py [--chromium PATH] [--screenshots DIR] REPORT.html ...
       checks the given reports
 
@@ -100,23 +100,41 @@ def check_catches_broken_pages(chromium):
     print("control page: a corrupt and a remote figure are flagged")
 
 
+FIG8_STUDY = """format: orbcal-study-1
+name: fig8-small
+job: experiment
+preset: fig8
+options: {repetitions: 1, quiet: true, source: synthetic, ident: 30, valid: 20}
+seeds: [1, 2]
+"""
+
+
+def orbcal_step(orbcal, args):
+    run = subprocess.run([orbcal] + args, capture_output=True, text=True, timeout=600)
+    if run.returncode != 0:
+        sys.exit("check_report.py: orbcal %s failed (exit %d): %s" % (args[0], run.returncode, run.stderr.strip()[-500:]))
+
+
 def make_reports(orbcal, work):
-    """Measured data with a hidden compliance, then the commands that write report.html on it."""
+    """Every kind of report, small: calibrate, diagnose and evaluate on measured data with a hidden
+    compliance; orbcal run (rendered images) and calibrate on its identification images; a study's merge."""
     shutil.rmtree(work, ignore_errors=True)
     os.makedirs(work)
     data = os.path.join(work, "data")
-    steps = [
-        ["simulate", "-o", data, "-n", "120", "--sessions", "2", "--payload-kg", "0", "1.25", "--inject", "compliance:2",
-         "--seed", "3"],
-        ["calibrate", data + "/measurements.yaml", "-o", work + "/calibrate", "--effects", "compliance:2", "--quiet"],
-        ["diagnose", data + "/measurements.yaml", "-o", work + "/diagnose", "--quiet"],
-        ["evaluate", "--model", work + "/calibrate/model.yaml", "--data", data + "/measurements.yaml", "-o", work + "/evaluate"],
-    ]
-    for step in steps:
-        run = subprocess.run([orbcal] + step, capture_output=True, text=True, timeout=600)
-        if run.returncode != 0:
-            sys.exit("check_report.py: orbcal %s failed (exit %d): %s" % (step[0], run.returncode, run.stderr.strip()[-500:]))
-    return [os.path.join(work, name, "report.html") for name in ("calibrate", "diagnose", "evaluate")]
+    orbcal_step(orbcal, ["simulate", "-o", data, "-n", "120", "--sessions", "2", "--payload-kg", "0", "1.25", "--inject",
+                         "compliance:2", "--seed", "3"])
+    orbcal_step(orbcal, ["calibrate", data + "/measurements.yaml", "-o", work + "/calibrate", "--effects", "compliance:2", "--quiet"])
+    orbcal_step(orbcal, ["diagnose", data + "/measurements.yaml", "-o", work + "/diagnose", "--quiet"])
+    orbcal_step(orbcal, ["evaluate", "--model", work + "/calibrate/model.yaml", "--data", data + "/measurements.yaml", "-o",
+                         work + "/evaluate"])
+    orbcal_step(orbcal, ["run", "--ident", "12", "--valid", "8", "--methods", "LM", "-o", work + "/run", "--quiet"])
+    images = [d for d in sorted(os.listdir(work + "/run/datasets")) if "-ident-" in d]
+    orbcal_step(orbcal, ["calibrate", work + "/run/datasets/" + images[0], "-o", work + "/calibrate-images", "--quiet"])
+    with open(work + "/fig8.yaml", "w") as f:
+        f.write(FIG8_STUDY)
+    orbcal_step(orbcal, ["study", "run", work + "/fig8.yaml", "-o", work + "/study", "-j", "2"])
+    return [os.path.join(work, name, "report.html")
+            for name in ("calibrate", "diagnose", "evaluate", "run/main", "calibrate-images", "study/merged")]
 
 
 def main():
