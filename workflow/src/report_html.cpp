@@ -1,5 +1,6 @@
 #include "orbcal/workflow/report_html.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <filesystem>
 #include <fstream>
