@@ -159,7 +159,7 @@ void addCalibrateCommand(CLI::App& app) {
                  "measurements.csv in the dataset folder); with -o, everything (measurements.csv too) goes to OUT and "
                  "the dataset folder is only read");
   cmd->add_flag("--quiet", o->images.quiet, "no progress output");
-  cmd->add_flag("--no-plots", [o](std::int64_t) { o->images.plots = false; }, "images: do not draw the report's figures");
+  cmd->add_flag("--no-plots", [o](std::int64_t) { o->images.plots = false; }, "do not draw the report's figures");
   cmd->add_option("--model", o->images.model,
                   "images: what of each camera pose is used: pose (absolute, through the scene's base_T_board; Wang et al. "
                   "2023), position, or between pairs of images, frame-free (no base_T_board needed; Jia et al. 2019): "
@@ -184,6 +184,8 @@ void addCalibrateCommand(CLI::App& app) {
       m.holdout = o->holdout;
       m.seed = o->seed;
       m.out = o->out;
+      m.plots = o->images.plots;
+      m.callbacks = terminalCallbacks();
       if (o->noise_position_mm > 0) m.noise_position_m = o->noise_position_mm * 1e-3;
       if (o->noise_rotation_deg > 0) m.noise_rotation_rad = o->noise_rotation_deg * sim::kDegToRad;
       const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(m);

@@ -527,7 +527,7 @@ def surfaces(seeds):
             ds[os.path.relpath(full, seeds)] = full
     cal = {"cal/" + f: os.path.join(seeds, "cal", f) for f in ("model.yaml", "robot.yaml")}
     scene = os.path.join(ROOT, "scenes", "quick_scene.yaml")
-    calibrate_desc = ["calibrate", "sim/measurements.yaml", "--effects", "compliance:2", "-o", "out", "--quiet"]
+    calibrate_desc = ["calibrate", "sim/measurements.yaml", "--effects", "compliance:2", "-o", "out", "--quiet", "--no-plots"]
     evaluate = ["evaluate", "--model", "cal/model.yaml", "--data", "sim/measurements.yaml", "-o", "out"]
     diagnose = ["diagnose", "sim/measurements.yaml", "-o", "out", "--quiet", "--no-plots", "--folds", "3",
                 "--max-effects", "1", "--no-empirical"]
@@ -632,13 +632,13 @@ CLI_OPTIONS = [
     (["simulate", "-o", "out", "-n", "20", "--quiet"], "--seed", ["-1", "abc", "1e308", "nan"], ["7"]),
     (["simulate", "-o", "out", "-n", "20", "--quiet", "--inject", "compliance:2"], "--values",
      ["nan", "1e308", "-5", "inf"], ["1e-5"]),
-    (["calibrate", "sim/measurements.yaml", "--effects", "compliance:2", "-o", "out", "--quiet"], "--holdout",
+    (["calibrate", "sim/measurements.yaml", "--effects", "compliance:2", "-o", "out", "--quiet", "--no-plots"], "--holdout",
      ["nan", "-0.1", "1.5", "inf"], ["0.25"]),
-    (["calibrate", "sim/measurements.yaml", "--effects", "compliance:2", "-o", "out", "--quiet"], "--noise-position-mm",
-     ["-1", "nan", "0", "1e9"], []),
-    (["calibrate", "sim/measurements.yaml", "--effects", "compliance:2", "-o", "out", "--quiet"], "--seed",
+    (["calibrate", "sim/measurements.yaml", "--effects", "compliance:2", "-o", "out", "--quiet", "--no-plots"],
+     "--noise-position-mm", ["-1", "nan", "0", "1e9"], []),
+    (["calibrate", "sim/measurements.yaml", "--effects", "compliance:2", "-o", "out", "--quiet", "--no-plots"], "--seed",
      ["-1", "nan", "1e308"], ["3"]),
-    (["calibrate", "sim/measurements.yaml", "-o", "out", "--quiet"], "--effects",
+    (["calibrate", "sim/measurements.yaml", "-o", "out", "--quiet", "--no-plots"], "--effects",
      ["compliance:0", "compliance:99", "cyclic:2/0", "cyclic:2/1e308", "compliance:nan", "bogus:1"], []),
     (["render", "-o", "out", "--seed", "1"], "--count", ["0", "-1", "nan", "1e308"], ["2"]),
     (["render", "-o", "out", "--count", "2"], "--joint-noise-deg", ["-1", "nan", "1e6"], ["0.02"]),
@@ -664,7 +664,7 @@ def make_seeds(orbcal, seeds, seed):
                                                                           r.stderr.decode(errors="replace")))
     need(["simulate", "-o", "sim", "-n", "60", "--sessions", "2", "--payload-kg", "0", "1.25", "--inject",
           "compliance:2", "--values", "5e-5", "--seed", str(seed), "--joint-noise-deg", "0.002", "--quiet"])
-    need(["calibrate", "sim/measurements.yaml", "--effects", "compliance:2", "-o", "cal", "--quiet"])
+    need(["calibrate", "sim/measurements.yaml", "--effects", "compliance:2", "-o", "cal", "--quiet", "--no-plots"])
     need(["render", "-o", "ds", "--scene", os.path.join(ROOT, "scenes", "quick_scene.yaml"), "--errors",
           os.path.join(ROOT, "scenes", "errors_cyclic.yaml"), "--count", "12", "--seed", str(seed)])
     need(["configs", "-n", "12", "--seed", str(seed), "-o", "configs.csv"])

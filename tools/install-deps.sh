@@ -10,6 +10,7 @@ pkgs=(build-essential cmake pkg-config libeigen3-dev libboost-dev libopencv-dev 
 if [[ "${1:-}" == "--tests" ]]; then
   pkgs+=(opencv-doc)   # OpenCV's sample chessboard photographs (left01..14.jpg) for the real-image tests
   pkgs+=(python3-pytest)   # the Python module's tests
+  pkgs+=(chromium)         # opens report.html headless (tests/browser/check_report.py)
   pkgs+=(slurmctld slurmd slurm-client munge iproute2)   # the one-node Slurm cluster of tools/slurm-cluster.sh (ss: free ports)
 fi
 missing=()

@@ -11,6 +11,7 @@
                                                    # RMS the noise alone gives, components: +- 1 sigma per axis)
   plot_report.py samples samples.csv out.png          # orbcal calibrate: per-image errors before/after, outliers named
   plot_report.py parameters estimates.csv out.png     # orbcal calibrate: each parameter with its 1-sigma (and truth)
+  plot_report.py heldout heldout.csv out.png          # orbcal calibrate (measured data): held-out errors, noise floor
 """
 import csv
 import sys
@@ -200,9 +201,33 @@ def options(rest, names):
     return found
 
 
+def heldout(csv_path, png_path):
+    """Per held-out sample: position error (and rotation, where measured), nominal and calibrated, with
+    the noise floor (the RMS the measurement noise alone gives)."""
+    rows = read_rows(csv_path)
+    panels = [("mm", "position error (mm)")]
+    if any(r["after_deg"] for r in rows):
+        panels.append(("deg", "rotation error (deg)"))
+    fig, axes = plt.subplots(len(panels), 1, figsize=(10, 3.6 * len(panels)), squeeze=False)
+    for ax, (unit, label) in zip(axes[:, 0], panels):
+        sel = [r for r in rows if r["after_" + unit]]
+        xs = [int(r["sample"]) for r in sel]
+        ax.scatter(xs, [float(r["before_" + unit]) for r in sel], s=14, alpha=0.7, label="nominal arm, registration fitted")
+        ax.scatter(xs, [float(r["after_" + unit]) for r in sel], s=14, alpha=0.8, label="calibrated")
+        ax.axhline(float(sel[0]["floor_" + unit]), color="k", ls="--", lw=1, label="noise floor (RMS of the noise alone)")
+        ax.set_ylabel(label)
+        ax.set_yscale("log")
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    axes[-1, 0].set_xlabel("held-out sample")
+    axes[0, 0].set_title("Held-out errors before and after calibration")
+    fig.tight_layout()
+    fig.savefig(png_path, dpi=110)
+
+
 def main(argv):
-    if len(argv) >= 4 and argv[1] in ("samples", "parameters"):
-        (samples if argv[1] == "samples" else parameters)(argv[2], argv[3])
+    if len(argv) >= 4 and argv[1] in ("samples", "parameters", "heldout"):
+        {"samples": samples, "parameters": parameters, "heldout": heldout}[argv[1]](argv[2], argv[3])
         return
     if len(argv) >= 6 and argv[1] in ("residuals", "components"):
         opts = options(argv[6:], ("floor", "of") if argv[1] == "components" else ("floor",))

@@ -75,6 +75,10 @@ TEST_CASE("a calibration that predicts held-out samples worse is refused and wri
   const char* files[] = {"model.yaml", "robot.yaml", "robot_calibrated.urdf", "frames.yaml", "effects.yaml"};
   for (const char* name : files) CHECK_FALSE(std::filesystem::exists(dir + "/cal/" + name));
   CHECK(test::slurp(r.report_path).find("WORSE") != std::string::npos);
+  // report.html says so first too (the verdict, before any section), and claims no acceptance.
+  const std::string html = test::slurp(dir + "/cal/report.html");
+  CHECK(html.find("<p class=\"verdict\"><strong>The calibrated model predicts the held-out samples WORSE") < html.find("<h2>"));
+  CHECK(html.find("Accepted") == std::string::npos);
   o.accept_worse = true;
   CHECK_FALSE(workflow::runMeasuredCalibrate(o).model_path.empty());
   for (const char* name : files) CHECK(std::filesystem::exists(dir + "/cal/" + name));

@@ -65,7 +65,8 @@ TEST_CASE("no stale result: a refused calibrate leaves its report and no model.y
   REQUIRE(runOrbcal(dir, "simulate -o data -n 60 --sessions 1 --seed 6 --quiet").status == 0);
   const Run accepted = runOrbcal(dir, "calibrate data/measurements.yaml -o cal");
   REQUIRE(accepted.status == 0);
-  REQUIRE(filesOf(dir + "/cal") == std::set<std::string>{".orbcal-output", "model.yaml", "report.md", "robot.yaml"});
+  REQUIRE(filesOf(dir + "/cal") == std::set<std::string>{".orbcal-output", "estimates.csv", "heldout.csv", "heldout.png", "model.yaml",
+                                                        "parameters.png", "report.html", "report.md", "robot.yaml"});
 
   // The same data with a stated tracker noise 50 times too small: the fit is inconsistent and refused.
   const Run refused = runOrbcal(dir, "calibrate data/measurements.yaml -o cal --noise-position-mm 0.001");
@@ -73,7 +74,7 @@ TEST_CASE("no stale result: a refused calibrate leaves its report and no model.y
   CHECK_THAT(oneLine(refused.err), StartsWith("orbcal: calibrate: data/measurements.yaml: the fit is inconsistent with the given measurement noise: ") &&
                                        Contains("; model.yaml not written (--accept-worse writes it)"));
   // The folder holds the refused run alone: its report (saying why), no model of this run or the last.
-  CHECK(filesOf(dir + "/cal") == std::set<std::string>{".orbcal-output", "report.md"});
+  CHECK(filesOf(dir + "/cal") == std::set<std::string>{".orbcal-output", "heldout.csv", "heldout.png", "report.html", "report.md"});
   CHECK_THAT(test::slurp(dir + "/cal/report.md"), Contains("**The fit is inconsistent with the given measurement noise"));
   CHECK(stagedBeside(dir + "/cal").empty());
   // So evaluate has no model to take from it.
@@ -106,7 +107,7 @@ TEST_CASE("no stale result: a refused image calibration leaves no robot_calibrat
   CHECK_THAT(refused.err, StartsWith("orbcal: calibrate: the fit is inconsistent with its noise model: ") &&
                               Contains("orbcal: calibrate: no calibrated robot file written (--accept-worse writes it); report: cal/report.md\n"));
   const std::set<std::string> left = filesOf(dir + "/cal");
-  CHECK(left == std::set<std::string>{".orbcal-output", "measurements.csv", "report.md", "samples.csv"});
+  CHECK(left == std::set<std::string>{".orbcal-output", "measurements.csv", "report.html", "report.md", "samples.csv"});
   CHECK_THAT(test::slurp(dir + "/cal/report.md"), Contains("**This calibration is not to be trusted as it is:**"));
   CHECK(stagedBeside(dir + "/cal").empty());
 }
@@ -149,7 +150,7 @@ TEST_CASE("no stale result: a folder holding a file the command did not write is
   const std::set<std::string> cal = filesOf(dir + "/cal");
   const Run evaluate = runOrbcal(dir, "evaluate --model cal/model.yaml --data data/measurements.yaml -o cal");
   CHECK(evaluate.status == 1);
-  CHECK(oneLine(evaluate.err) == "orbcal: cal: holds 'model.yaml', the output of orbcal calibrate; orbcal evaluate replaces its "
+  CHECK(oneLine(evaluate.err) == "orbcal: cal: holds 'estimates.csv', the output of orbcal calibrate; orbcal evaluate replaces its "
                                  "output folder as a whole: move that away, or use a new or empty folder");
   CHECK(filesOf(dir + "/cal") == cal);
 
@@ -189,7 +190,7 @@ TEST_CASE("no stale result: two diagnose runs into one folder, the second is ref
   CHECK(oneLine(second.err) == "orbcal: out: another command is writing this folder (lock out/.orbcal.lock held by process " +
                                    std::to_string(first) + " (orbcal diagnose)); wait for it to finish, or use another folder");
   // The first run's folder, whole and alone.
-  CHECK(filesOf(dir + "/out") == std::set<std::string>{".orbcal-output", "diagnosis.json", "model.yaml", "report.md",
+  CHECK(filesOf(dir + "/out") == std::set<std::string>{".orbcal-output", "diagnosis.json", "model.yaml", "report.html", "report.md",
                                                        "residuals.csv", "robot.yaml"});
   CHECK_THAT(test::slurp(dir + "/out/diagnosis.json"), Contains("\"effect\": \"compliance\", \"joints\": [2]"));
 }

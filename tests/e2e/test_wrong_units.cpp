@@ -33,7 +33,7 @@ std::string withoutNoise(const std::string& text) {
 
 /// No file of a result that looks valid in `folder` (absent or empty of them).
 void checkNoResult(const std::string& folder) {
-  for (const char* name : {"model.yaml", "report.md", "diagnosis.json", "diagnosis.md", "evaluation.json", "evaluation.md"}) {
+  for (const char* name : {"model.yaml", "report.md", "report.html", "diagnosis.json", "diagnosis.md", "evaluation.json", "evaluation.md"}) {
     CHECK_FALSE(std::filesystem::exists(folder + "/" + name));
   }
 }

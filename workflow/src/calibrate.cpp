@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "orbcal/workflow/experiment.hpp"
+#include "orbcal/workflow/report_html.hpp"
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/calib/planning.hpp"
 #include "orbcal/sim/config.hpp"
@@ -424,7 +425,7 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
                                                    "(paste into the scene)\nbase_T_board: " + sim::transformYaml(r.frames->base_T_board) +
                                                    "\nflange_T_camera: " + sim::transformYaml(r.frames->flange_T_camera) + "\n");
   }
-  sim::writeFileAtomic(run.out + "/report.md", report);
+  writeReport(run.out, report);
   folder.commit();
   r.report_path = folder.finalPath() + "/report.md";
   return r;

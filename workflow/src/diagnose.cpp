@@ -12,6 +12,7 @@
 #include "orbcal/workflow/calibrate.hpp"
 #include "orbcal/workflow/experiment.hpp"
 #include "orbcal/workflow/measured.hpp"
+#include "orbcal/workflow/report_html.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/dataset.hpp"
@@ -530,7 +531,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   md << testsSection(dg, o.diagnose);
   md << "\n## Figures\n\n" << figures << "\nFiles: `diagnosis.json`, `model.yaml` (the selected model, for `orbcal evaluate`), "
      << "`residuals.csv`.\n";
-  sim::writeFileAtomic(out + "/report.md", md.str());
+  writeReport(out, md.str());
   folder.commit();
   r.json_path = folder.finalPath() + "/diagnosis.json";
   r.model_path = folder.finalPath() + "/model.yaml";

@@ -13,6 +13,7 @@
 #include "orbcal/workflow/calibrate.hpp"
 #include "orbcal/workflow/experiment.hpp"
 #include "orbcal/workflow/measured.hpp"
+#include "orbcal/workflow/report_html.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/dataset.hpp"
@@ -157,7 +158,7 @@ StudyResult runDiagnoseStudy(const StudyOptions& o) {
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (folder) {
     sim::writeFileAtomic(folder->path() + "/diagnose_study.csv", formatStudyCsv(out));
-    sim::writeFileAtomic(folder->path() + "/report.md", "# orbcal diagnose-study: what the detector names\n\n" + formatStudy(out));
+    writeReport(folder->path(), "# orbcal diagnose-study: what the detector names\n\n" + formatStudy(out));
     folder->commit();
   }
   return out;

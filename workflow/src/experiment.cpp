@@ -13,6 +13,7 @@
 #include <stdexcept>
 
 #include "orbcal/workflow/calibrate.hpp"
+#include "orbcal/workflow/report_html.hpp"
 #include "orbcal/calib/observability.hpp"
 #include "orbcal/calib/synthetic.hpp"
 #include "orbcal/render/dataset_writer.hpp"
@@ -268,7 +269,7 @@ Table4Result runTable4(const ExperimentOptions& o, const std::string& folder_nam
         "`validation_errors_measured.csv`, `estimates.csv` (per method and "
      << "parameter: estimate, 1-sigma, truth, held), datasets under `" << o.out << "/datasets/`.\n\n"
      << "## Headline\n\n```\n" << table4Headline(r) << "```\n";
-  sim::writeFileAtomic(folder + "/report.md", md.str());
+  writeReport(folder, md.str());
   output.commit();
   r.report_path = output.finalPath() + "/report.md";
   r.seconds = since(t0);

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "orbcal/workflow/experiment.hpp"
+#include "orbcal/workflow/report_html.hpp"
 #include "orbcal/calib/estimators.hpp"
 #include "orbcal/calib/marker_model.hpp"
 #include "orbcal/calib/parameter_classes.hpp"
@@ -544,7 +545,7 @@ void runJia2019(const ExperimentOptions& o) {
   md << "Run time " << fmt("%.1f", total) << " s (LSE per fit, mean:";
   for (std::size_t mi = 0; mi < models().size(); ++mi) md << (mi ? "," : "") << " " << models()[mi].name << " " << fmt("%.1f", stats.seconds[mi].mean() * 1e3) << " ms";
   md << ").\n";
-  sim::writeFileAtomic(folder + "/report.md", md.str());
+  writeReport(folder, md.str());
   output.commit();
   std::cout << md.str();
 }

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "orbcal/workflow/experiment.hpp"
+#include "orbcal/workflow/report_html.hpp"
 #include "orbcal/calib/range_experiment.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/errors.hpp"
@@ -210,7 +211,7 @@ void runLiu2012(const ExperimentOptions& o) {
                    "validation_boxplot.png", "validation pose errors: nominal, case 1, case 2 (all repetitions)")
      << "\nFiles: `liu2012_runs.csv` (every repetition: O3, dc, residuals, per-axis errors), `validation_errors.csv` "
      << "(every validation configuration). One repetition took " << fmt("%.2f", seconds.mean()) << " s on average.\n";
-  sim::writeFileAtomic(folder + "/report.md", md.str());
+  writeReport(folder, md.str());
   output.commit();
   std::cout << md.str();
 }

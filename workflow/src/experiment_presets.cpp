@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "orbcal/workflow/experiment.hpp"
+#include "orbcal/workflow/report_html.hpp"
 #include "orbcal/calib/synthetic.hpp"
 #include "orbcal/sim/configurations.hpp"
 #include "orbcal/sim/fileio.hpp"
@@ -134,7 +135,7 @@ void runTable5(const ExperimentOptions& o) {
      << drawFigure(o, folder, "boxplot '" + folder + "/validation_errors.csv'", "validation_boxplot.png",
                    "validation errors")
      << "\nFiles: `table5.csv` (every repetition), `validation_errors.csv` (pooled validation errors).\n";
-  sim::writeFileAtomic(folder + "/report.md", md.str());
+  writeReport(folder, md.str());
   output.commit();
   std::cout << md.str();
 }
@@ -195,7 +196,7 @@ void runFig8(const ExperimentOptions& o) {
   }
   md << "\n" << drawFigure(o, folder, "curve '" + folder + "/fig8.csv'", "fig8.png", "validation error against set size")
      << "\nFile: `fig8.csv` (every run).\n";
-  sim::writeFileAtomic(folder + "/report.md", md.str());
+  writeReport(folder, md.str());
   output.commit();
   std::cout << md.str();
 }
@@ -222,7 +223,7 @@ void runFloor(const ExperimentOptions& o) {
      << " repetitions: no estimator can do better on average.\n\n" << injectedEffects(s.truth, o.errors.name)
      << "- mean of the average position error: **" << fmt("%.4f", mean * 1e3) << " mm**\n"
      << "- largest position error seen: " << fmt("%.4f", worst * 1e3) << " mm\n\nFile: `floor.csv`.\n";
-  sim::writeFileAtomic(folder + "/report.md", md.str());
+  writeReport(folder, md.str());
   output.commit();
   std::cout << md.str();
 }

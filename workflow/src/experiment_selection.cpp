@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "orbcal/workflow/experiment.hpp"
+#include "orbcal/workflow/report_html.hpp"
 #include "orbcal/calib/observability.hpp"
 #include "orbcal/calib/planning.hpp"
 #include "orbcal/calib/relative_models.hpp"
@@ -356,7 +357,7 @@ void runSelection(const ExperimentOptions& o) {
     md << "\n";
   }
   md << "\nFiles: `synthetic.csv`, `synthetic_curve.csv`, `rendered.csv` (every trial).\n";
-  sim::writeFileAtomic(folder + "/report.md", md.str());
+  writeReport(folder, md.str());
   output.commit();
   std::cout << md.str();
 }

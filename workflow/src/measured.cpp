@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <sstream>
 
+#include "orbcal/workflow/report_html.hpp"
 #include "orbcal/calib/consistency.hpp"
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/calib/heldout.hpp"
@@ -18,6 +19,7 @@
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/urdf_export.hpp"
+#include "measured_figures.hpp"
 
 namespace orbcal::workflow {
 
@@ -233,6 +235,11 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
     md << "**The fit is inconsistent with the given measurement noise: " << inconsistencyText(r) << ".** "
        << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.") << "\n\n";
   }
+  if (write_model && !r.worse && !r.inconsistent && r.refusal.empty()) {
+    md << "**Accepted: the calibrated model predicts the held-out samples better than the nominal arm (position RMS "
+       << formatNumber("%.4f", r.heldout_before.position_rms_m * 1e3) << " -> " << formatNumber("%.4f", r.heldout_after.position_rms_m * 1e3)
+       << " mm); model.yaml was written.**\n\n";
+  }
   md << "Description `" << o.description << "`: " << r.samples << " samples in " << data.numSessions() << " session(s); "
      << r.identification << " fitted, " << r.held_out << " held out (" << r.gain.configurations << " configurations; seed " << o.seed << ", per session).\n\n"
      << "Model: geometry (" << data.arm.numParams() << " DH errors) + registration (base " << sim::frameSharingName(data.base)
@@ -259,13 +266,14 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << calib::formatIndices(r.fit.observability) << ".\n\n"
      << "Determined no better than their typical magnitude (1-sigma above it; the data barely informs them): "
      << weakList(r.fit) << ".\n\n"
-     << "## Parameters\n\n" << parameterTable(r.fit) << "\n" << sim::signConventions(effects);
-  if (write_model) {
-    md << "\n## Files\n\n`model.yaml` with `robot.yaml` (orbcal's model: `orbcal evaluate`, `--robot robot.yaml`); for other programs "
-          "`robot_calibrated.urdf` (the calibrated chain), `frames.yaml` (the registration frames) and `effects.yaml` (the fitted "
-          "effects with the formulas that apply them; docs/export.md).\n";
-  }
-  sim::writeFileAtomic(out + "/report.md", md.str());
+     << "## Parameters\n\n" << parameterTable(r.fit) << "\n" << sim::signConventions(effects) << "\n## Figures\n\n"
+     << measured_detail::measuredFigures(o.callbacks, o.plots, out, r.fit, held, before, after, write_model)
+     << "\n## Files\n\n" << (write_model ? "`model.yaml` with `robot.yaml` (orbcal's model: `orbcal evaluate`, `--robot robot.yaml`), "
+                                              "`estimates.csv` (every parameter); for other programs `robot_calibrated.urdf` (the "
+                                              "calibrated chain), `frames.yaml` (the registration frames) and `effects.yaml` (the "
+                                              "fitted effects with the formulas that apply them; docs/export.md); " : "")
+     << "`heldout.csv` (per held-out sample).\n";
+  writeReport(out, md.str());
   folder.commit();
   r.report_path = folder.finalPath() + "/report.md";
   return r;
@@ -348,7 +356,7 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
      << statsTableRow("baseline: nominal arm, frames fitted", r.baseline, rotation)
      << "\nPer sample (with its configuration): `residuals.csv`.\n";
   for (const std::string& w : r.warnings) md << "\n**Warning:** " << w << ".\n";
-  sim::writeFileAtomic(folder.path() + "/evaluation.md", md.str());
+  writeReport(folder.path(), md.str(), "evaluation.md");
   folder.commit();
   r.json_path = out + "/evaluation.json";
   r.report_path = out + "/evaluation.md";

@@ -20,6 +20,7 @@
 #include <tuple>
 
 #include "orbcal/workflow/experiment.hpp"
+#include "orbcal/workflow/report_html.hpp"
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
@@ -333,7 +334,7 @@ MergeReport mergeStudy(const std::string& dir, const std::string& out_arg, bool 
   md << "\nFiles: the jobs' CSVs merged under their own names (columns task, cell, replicate, seed and the grid's first; "
         "wall-time columns left out), `summary/`, `figures/`, `tasks.csv`.\n";
   sim::writeFileAtomic(tmp + "/tasks.csv", sim::readTextSource(dir + "/tasks.csv"));
-  sim::writeFileAtomic(tmp + "/report.md", md.str());
+  writeReport(tmp, md.str());
   staged.commit(/*replace=*/true);
   report.report_path = out + "/report.md";
   return report;

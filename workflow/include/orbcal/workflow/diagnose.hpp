@@ -1,6 +1,6 @@
 #pragma once
 // `orbcal diagnose`: the diagnosis (calib/diagnose.hpp) of measured data or of an image dataset, and its
-// outputs: report.md (verdict first), diagnosis.json, model.yaml (the selected model), figures.
+// outputs: report.md and report.html (verdict first), diagnosis.json, model.yaml (the selected model), figures.
 #include <array>
 #include <string>
 

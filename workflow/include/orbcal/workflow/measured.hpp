@@ -11,6 +11,7 @@
 #include "orbcal/calib/measured_fit.hpp"
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/simulate.hpp"
+#include "orbcal/workflow/callbacks.hpp"
 
 namespace orbcal::workflow {
 
@@ -24,6 +25,8 @@ struct MeasuredCalibrateOptions {
   std::uint64_t seed = 1;
   std::optional<double> noise_position_m, noise_rotation_rad;  ///< override the description's
   bool accept_worse = false;
+  Callbacks callbacks;                   ///< progress (none here) and the figure drawer
+  bool plots = true;                     ///< draw the report's figures (heldout.png, parameters.png)
 };
 
 struct MeasuredCalibrateResult {

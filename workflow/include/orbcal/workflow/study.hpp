@@ -15,7 +15,7 @@
 //                             unlocked one was killed and is run again)
 //   DIR/shards/task-NNNNNN.failed/  a task whose job exited non-zero (task.yaml, log.txt)
 //   DIR/slurm/                sbatch scripts, submitted job ids (jobs.csv), Slurm's logs
-//   DIR/merged/               `orbcal study merge`: the merged CSVs, summaries, report.md
+//   DIR/merged/               `orbcal study merge`: the merged CSVs, summaries, report.md, report.html
 #include <cstdint>
 #include <functional>
 #include <map>
