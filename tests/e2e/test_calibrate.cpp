@@ -42,7 +42,7 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
   CHECK(r.usable >= 38);  // clean rendered views; the planner keeps a 20 px margin
   CHECK(r.held_out == static_cast<int>(0.2 * r.usable));
   REQUIRE(r.has_truth);
-  // Seed 000's bar (90%) on held-out samples, against the camera's measurements and against the truth.
+  // Wang et al. 2023's bar (90%) on held-out samples, against the camera's measurements and against the truth.
   CHECK(calib::improvement(r.before.position_avg_m, r.after.position_avg_m) >= 0.90);
   CHECK(calib::improvement(r.truth_before.position_avg_m, r.truth_after.position_avg_m) >= 0.90);
 
@@ -237,7 +237,7 @@ TEST_CASE("calibrate --model dr: frame-free pairs of camera poses, a wrong base_
   o.callbacks.figure = tools::plotReportFigure;  // the program's figure drawer
   const workflow::CalibrateResult right = workflow::runCalibrate(o);
   REQUIRE(right.relative_before);
-  // A rigid motion of the whole arm is invisible to both rows (Jia et al. 2019, digest 2.6): theta1
+  // A rigid motion of the whole arm is invisible to both rows (Jia et al. 2019): theta1
   // and d1, and in modified DH alpha_0 and a_0 (alpha1, a1 here), which precede q1.
   for (const char* name : {"theta1", "alpha1", "a1", "d1"}) {
     const auto it = std::find(right.classes.names.begin(), right.classes.names.end(), name);
