@@ -113,10 +113,14 @@ def scan_help(program, label, root, hits, prefix=(), depth=0):
 
 
 def scan_bench_help(bench, root, hits):
-    """orbcal-bench has no CLI11 subcommand list: its --help names them as `orbcal-bench NAME`."""
+    """orbcal-bench's --help, then the --help of each section it says takes options (the others have no
+    help of their own: named, they run; their printed text is in the sources searched above)."""
     code, text = run([bench, "--help"], root)
+    if code != 0:
+        hits.append("`orbcal-bench --help`: exit %d" % code)
     scan_text("`orbcal-bench --help`", text, hits)
-    names = sorted(set(re.findall(r"orbcal-bench\s+\[?([a-z][a-z-]+)", text)) - {"help"})
+    m = re.search(r"^with options[^:]*:\s*(.*)$", text, re.M)
+    names = m.group(1).split() if m else []
     for name in names:
         _, sub = run([bench, name, "--help"], root)
         scan_text("`orbcal-bench %s --help`" % name, sub, hits)
@@ -142,7 +146,7 @@ def main():
     parser.add_argument("--root", default=os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
     parser.add_argument("--orbcal", help="the built orbcal: search its --help texts and a short run")
     parser.add_argument("--bench", help="the built orbcal-bench: search its --help texts")
-    parser.add_argument("--run-args", default="--scene builtin:quick_scene.yaml --ident 10 --valid 20 --quiet",
+    parser.add_argument("--run-args", default="--scene scenes/quick_scene.yaml --ident 10 --valid 20 --quiet",
                         help="options of the short `orbcal run` (default: %(default)s)")
     args = parser.parse_args()
     root = os.path.abspath(args.root)
