@@ -9,8 +9,10 @@ A figure is marked in the Markdown by an HTML comment right before it (invisible
     expect: 2.897 | 2.150 | 9.59
     -->
 
-`cmd` is one shell-free command line (split like a shell would, no pipes), run from the repository's
-root; a leading `orbcal` or `orbcal-bench` is the built program, `{out}` a fresh temporary folder. Each
+`cmd` is a shell-free command line (split like a shell would, no pipes), run from the repository's
+root; a leading `orbcal` or `orbcal-bench` is the built program, `{out}` a fresh temporary folder
+shared by the figure's commands. Several `cmd` lines run in order (a calibration, then an evaluation of
+its model); each must exit 0, or non-zero where it starts with `!` (a refused calibration). Each
 `expect` value (separated by `|`) must appear in the figure itself, i.e. the text after the comment up
 to the first blank line outside a fenced block (a paragraph, a table or a code block), and in what the
 command printed or wrote into `{out}` (its text files), as a whole number: 0.408 does not match 10.408 or
@@ -45,9 +47,10 @@ class Figure:
 
 
 def figure_block(text, start):
-    """The text after a mark up to the first blank line outside a fenced block."""
+    """The text after a mark up to the first blank line outside a fenced block, without the marks of
+    other figures that share it (a table several commands produce)."""
     lines, fence = [], False
-    for line in text[start:].lstrip("\n").split("\n"):
+    for line in re.sub(r"<!--\s*figure:.*?-->\n?", "", text[start:], flags=re.S).lstrip("\n").split("\n"):
         if line.startswith("```"):
             fence = not fence
         if not fence and not line.strip() and lines:
@@ -71,7 +74,7 @@ def parse(root, rel, problems):
         for body_line in m.group("body").strip().split("\n"):
             key, _, value = body_line.partition(":")
             fields.setdefault(key.strip(), []).append(value.strip())
-        cmd = fields.get("cmd", [""])[0]
+        cmd = fields.get("cmd", [])
         expects = [e.strip() for v in fields.get("expect", []) for e in v.split("|") if e.strip()]
         if not cmd or not expects:
             problems.append("%s:%d: %s: a figure mark needs `cmd:` and `expect:`" % (rel, line, name))
@@ -87,18 +90,25 @@ def occurs(value, text):
 
 
 def run(fig, root, programs):
+    """Runs the figure's commands in order in one {out}; (problem or None, everything printed or written,
+    seconds)."""
     with tempfile.TemporaryDirectory(prefix="orbcal-figure-") as out:
-        argv = [a.replace("{out}", out) for a in shlex.split(fig.cmd)]
-        if argv[0] in programs:
-            argv[0] = programs[argv[0]]
-        start = time.monotonic()
-        p = subprocess.run(argv, cwd=root, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=3600)
+        texts, start = [], time.monotonic()
+        for cmd in fig.cmd:
+            refused = cmd.startswith("!")
+            argv = [a.replace("{out}", out) for a in shlex.split(cmd.lstrip("! "))]
+            if argv[0] in programs:
+                argv[0] = programs[argv[0]]
+            p = subprocess.run(argv, cwd=root, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, timeout=3600)
+            texts.append(p.stdout.decode("utf-8", "replace"))
+            if (p.returncode != 0) != refused:
+                last = texts[-1].strip().splitlines()[-1:]
+                return "`%s` exited %d: %s" % (cmd, p.returncode, last), "", time.monotonic() - start
         seconds = time.monotonic() - start
-        texts = [p.stdout.decode("utf-8", "replace")]
         for path in sorted(glob.glob(os.path.join(out, "**", "*"), recursive=True)):
             if path.endswith((".md", ".csv", ".yaml", ".json", ".txt")) and os.path.isfile(path):
                 texts.append(open(path, encoding="utf-8", errors="replace").read())
-        return p.returncode, "\n".join(texts), seconds
+        return None, "\n".join(texts), seconds
 
 
 def main():
@@ -121,7 +131,7 @@ def main():
                      if not occurs(e, f.block)]
     if args.list:
         for f in figures:
-            print("%s%s: %s" % (f.where(), " (fast)" if f.fast else "", f.cmd))
+            print("%s%s: %s" % (f.where(), " (fast)" if f.fast else "", " && ".join(f.cmd)))
         return 0
     if args.only:
         chosen = [f for f in figures if f.name in args.only]
@@ -133,19 +143,19 @@ def main():
     checked = skipped = 0
     for f in chosen:
         missing = [n for n in f.needs if not os.path.exists(os.path.join(root, n))]
-        program = shlex.split(f.cmd)[0]
-        if missing or (program in ("orbcal", "orbcal-bench") and program not in programs):
-            print("%s: skipped: %s absent" % (f.where(), ", ".join(missing) or program))
+        absent = sorted({shlex.split(c.lstrip("! "))[0] for c in f.cmd} - set(programs) & {"orbcal", "orbcal-bench"})
+        if missing or absent:
+            print("%s: skipped: %s absent" % (f.where(), ", ".join(missing + absent)))
             skipped += 1
             continue
-        code, output, seconds = run(f, root, programs)
+        failure, output, seconds = run(f, root, programs)
         checked += 1
-        if code != 0:
-            problems.append("%s: `%s` exited %d: %s" % (f.where(), f.cmd, code, output.strip().splitlines()[-1:]))
+        if failure:
+            problems.append("%s: %s" % (f.where(), failure))
             continue
         stale = [e for e in f.expects if not occurs(e, output)]
         print("%s: %s (%.1f s)" % (f.where(), "stale: " + ", ".join(stale) if stale else "matches", seconds))
-        problems += ["%s: %r no longer printed by `%s`" % (f.where(), e, f.cmd) for e in stale]
+        problems += ["%s: %r no longer printed by `%s`" % (f.where(), e, " && ".join(f.cmd)) for e in stale]
     for p in problems:
         print(p)
     print("check-figures: %d figure marks, %d checked, %d skipped, %d problem(s)" %
