@@ -1,4 +1,4 @@
-// `orbcal render`: a rendered calibration dataset (render/dataset_writer.hpp; layout in the README).
+// `orbcal render`: a rendered calibration dataset (render/dataset_writer.hpp; layout in docs/file-formats.md).
 #include <cstdio>
 #include <iostream>
 #include <memory>

@@ -170,7 +170,7 @@ TEST_CASE("Table 3 errors, paper noise: EKF and LM improve position and every or
                   << (after.orientation_avg_rad.array() / floor.orientation_avg_rad.array()).transpose() << " (X Y Z)");
     // Wang et al. 2023's claim, kept as stated; alone it would pass at 3.9 x the floor (initial = 39 x floor).
     CHECK(calib::improvement(initial.position_avg_m, after.position_avg_m) >= 0.90);
-    // The bound with teeth: the README's runs land at 1.02-1.09 x floor. 1.25 leaves margin for this
+    // The bound with teeth: the main job's runs land at 1.02-1.09 x floor. 1.25 leaves margin for this
     // test's smaller draw (50 identification, 200 validation samples); measured 1.04 (EKF), 1.04 (LM).
     CHECK(after.position_avg_m <= 1.25 * floor.position_avg_m);
     // Orientation keeps only the 90% bar (which allows 3.8-4.9 x floor): with Wang et al. 2023's 0.5 deg

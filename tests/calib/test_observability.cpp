@@ -124,7 +124,7 @@ TEST_CASE("O3-selected configurations validate better than random ones over 10 s
   // The bar: Wang et al. 2023's Table 3 errors and noise (0.3 mm / 0.5 deg pose, 0.01 deg joint
   // control noise, the latter in R as well), 15 identification configurations chosen from a pool of 300
   // by O3, by O1, or at random; weighted LSE; average position error over 200 validation
-  // configurations; 10 seeds. Measured (README): O3 2.934 mm, pure O3 (no tie-break) 3.186 mm, O1
+  // configurations; 10 seeds. Measured (docs/methods.md): O3 2.934 mm, pure O3 (no tie-break) 3.186 mm, O1
   // 2.806 mm, random 3.116 mm; floor (the joint noise alone) 2.330 mm. Pure O3 is no better than
   // random: sigma_min has a ceiling here (1.59 in every pool) that many sets reach, and among those
   // O3 is indifferent; the default tie-break (SelectionOptions::tie_tolerance, by log det) is what

@@ -71,7 +71,7 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
                                      << r.after.position_avg_m / floor_measured.position_avg_m << " against the camera");
     CAPTURE(r.usable, r.held_out, r.truth_before.position_avg_m, r.before.position_avg_m);
     CAPTURE(r.truth_after.position_avg_m, floor.position_avg_m, r.after.position_avg_m, floor_measured.position_avg_m);
-    // The README's runs (50 + 200 views) land at 1.02-1.09 x floor; here the mean is over
+    // The main job's runs (docs/papers-experiments.md) (50 + 200 views) land at 1.02-1.09 x floor; here the mean is over
     // only 7 held-out samples (and 32 identification images), so the ratio scatters more: measured
     // 1.11 against the truth and 1.06 against the camera. 1.4 leaves room for that scatter; the 90%
     // bar allows 4.0 x the floor here.
