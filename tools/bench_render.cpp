@@ -46,7 +46,7 @@ std::string editedScene(const std::vector<std::pair<std::string, std::string>>& 
 struct Variant {
   std::string name;
   bool distorted = false;
-  bool legacy = false;  ///< MSAA 4, whole frame, PNG level 1: the render settings before issue 11
+  bool legacy = false;  ///< MSAA 4, whole frame, PNG level 1: the renderer's earlier defaults
 };
 
 std::string sceneFor(const Variant& v) {
@@ -170,7 +170,7 @@ void benchRender() {
     return std::string(buf);
   };
   std::printf("  %d alternating runs of each; medians (ranges). old settings = MSAA 4, whole frame, PNG level 1\n"
-              "  (the defaults before issue 11, on today's pipeline: R8, one syncfs, two writer threads; %d images a run)\n",
+              "  (the earlier defaults, on today's pipeline: R8, one syncfs, two writer threads; %d images a run)\n",
               kRepeats, kLegacyImages);
   std::printf("  %-58s %6.2f ms per image %s\n", "old settings, undistorted: whole run", median(pb), range(pb).c_str());
   std::printf("  %-58s %6.2f ms per image %s\n", "old settings, distorted: whole run", median(db), range(db).c_str());

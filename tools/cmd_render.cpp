@@ -1,4 +1,4 @@
-// `orbcal render`: a rendered calibration dataset (render/dataset_writer.hpp; layout in the README).
+// `orbcal render`: a rendered calibration dataset (render/dataset_writer.hpp; layout in docs/file-formats.md).
 #include <cstdio>
 #include <iostream>
 #include <memory>
@@ -31,7 +31,7 @@ void addRenderCommand(CLI::App& app) {
   addArmSceneOptions(*cmd, opt->as);
   cmd->add_option("--errors", opt->job.errors.name,
                   "errors injected into the true arm: table3, zero, random, or an error-set file (YAML: DH errors + "
-                  "effects; README, 'Rendered datasets')")
+                  "effects; docs/rendered-datasets-and-images.md)")
       ->capture_default_str();
   cmd->add_option("--error-seed", opt->job.errors.seed, "seed of --errors random")->capture_default_str();
   cmd->add_option("--error-angle-sigma-deg", opt->error_angle_sigma_deg, "spread of random theta/alpha errors [deg]")

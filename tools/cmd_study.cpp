@@ -208,7 +208,7 @@ void addStudyCommand(CLI::App& app) {
   CLI::App* study = app.add_subcommand(
       "study",
       "Studies: one job (an experiment preset, run, diagnose-study or render) over a grid of options and a list of seeds, "
-      "as independent tasks run locally on every core or as a Slurm job array, merged into one report (README, 'Studies')");
+      "as independent tasks run locally on every core or as a Slurm job array, merged into one report (docs/studies-and-clusters.md)");
   study->require_subcommand(1);
   addStudyRun(study);
   addStudySubmit(study);

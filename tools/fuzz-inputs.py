@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Mutation fuzz of every input orbcal reads (README, "Safe files").
+"""Mutation fuzz of every input orbcal reads (docs/file-formats.md, "Safe files").
 
 Makes seed inputs with the built orbcal (simulate, calibrate, render) and the shipped files, mutates
 one file (or one command-line option) per case, runs the command that consumes it in a fresh folder

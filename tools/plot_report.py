@@ -1,8 +1,8 @@
 #!/usr/bin/env python3
 """Figures of orbcal's experiment reports, drawn with matplotlib from the CSV files orbcal writes.
 
-  plot_report.py boxplot  validation_errors.csv out.png [model ...]   # Wang et al. (2023) Figs. 7 and 9 style
-  plot_report.py curve    fig8.csv out.png [--x COL LABEL] [--y COL LABEL]   # Wang et al. (2023) Fig. 8 style
+  plot_report.py boxplot  validation_errors.csv out.png [model ...]   # Wang et al. 2023 Figs. 7 and 9 style
+  plot_report.py curve    fig8.csv out.png [--x COL LABEL] [--y COL LABEL]   # Wang et al. 2023 Fig. 8 style
                                                    # (default x: n, identification configurations; y: avg_position_mm)
   plot_report.py residuals residuals.csv COLUMN LABEL out.png [--floor MM]   # orbcal diagnose: held-out errors vs a variable
   plot_report.py components residuals.csv COLUMN LABEL out.png [--of base|selected] [--floor MM]

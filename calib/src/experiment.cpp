@@ -15,7 +15,7 @@ namespace orbcal::calib {
 
 std::vector<MethodSpec> comparisonMethods(double joint_sigma) {
   using Kind = MethodSpec::Kind;
-  PoseNoiseModel paper_R;  // seed 000: R = diag(0.3 mm, 0.5 deg)^2, no joint noise
+  PoseNoiseModel paper_R;  // Wang et al. 2023: R = diag(0.3 mm, 0.5 deg)^2, no joint noise
   paper_R.source = PoseNoiseModel::Source::kFixed;
   PoseNoiseModel measured_R;  // the measurement's own covariance (vision, or the synthetic noise)
   PoseNoiseModel full_R = measured_R;

@@ -158,7 +158,7 @@ Eigen::Isometry3d linkTransform(DhConvention convention, const DhRow& row, doubl
         0.0, sa, ca, row.d_m,                  //
         0.0, 0.0, 0.0, 1.0;
   } else {
-    // Standard DH times Ry(beta): the matrix of digest 2.2 (seed 004 eq. 2).
+    // Standard DH times Ry(beta): Liu et al. 2012 eq. 2.
     const double cb = std::cos(row.beta_rad), sb = std::sin(row.beta_rad);
     M << ct * cb - st * sa * sb, -st * ca, ct * sb + st * sa * cb, row.a_m * ct,  //
         st * cb + ct * sa * sb, ct * ca, st * sb - ct * sa * cb, row.a_m * st,    //

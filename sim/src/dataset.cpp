@@ -133,7 +133,7 @@ std::vector<std::string> manifestDifferences(const DatasetManifest& a, const Dat
 
 std::string formatManifest(const DatasetManifest& m) {
   std::ostringstream s;
-  s << "# orbcal calibration dataset (layout: README, 'Dataset layout')\n";
+  s << "# orbcal calibration dataset (layout: docs/file-formats.md, 'Dataset layout')\n";
   s << "format: " << m.format << "\n";
   if (!m.program_version.empty()) s << "program_version: " << m.program_version << "\n";  // an empty value is an error
   s << "robot: " << m.robot_file << "\n";

@@ -18,7 +18,7 @@ std::mt19937_64 makeRng(std::uint64_t seed, std::uint64_t stream) {
 }
 
 Eigen::VectorXd paperTable3Errors() {
-  // Seed 000, Table 3: per joint theta [deg], alpha [deg], a [mm], d [mm].
+  // Wang et al. 2023, Table 3: per joint theta [deg], alpha [deg], a [mm], d [mm].
   static const double kTable3[7][4] = {{0.3, 0.2, 0.5, -0.9},   {-0.2, 0.3, 0.8, 0.8}, {0.2, -0.25, -0.6, -1.0},
                                        {0.3, 0.3, -0.9, 0.8},   {0.2, -0.3, 1.0, 0.8}, {0.2, -0.2, -0.8, 0.75},
                                        {-0.3, 0.25, 0.9, 0.6}};

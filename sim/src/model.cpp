@@ -80,7 +80,7 @@ namespace {
 
 /// Typical magnitudes: the EKF prior and the column scale. DH errors as orbcal's default EKF prior
 /// (1 deg, 5 mm); registration frames as the closed-form guess's error on a few-mm nominal model
-/// (10 mm, 1 deg); effects at the upper end of what the catalog's sources report (see README).
+/// (10 mm, 1 deg); effects at the upper end of what the catalog's sources report (docs/own-robot-and-measured-data.md).
 constexpr double kTypicalAngle = 1.0 * kDegToRad;
 constexpr double kTypicalLength = 5e-3;
 constexpr double kTypicalFrameAngle = 1.0 * kDegToRad;

@@ -150,7 +150,7 @@ TEST_CASE("the measurement covariance with joint noise is honest, without it, it
 }
 
 TEST_CASE("Table 3 errors, paper noise: EKF and LM improve position and every orientation axis by 90%", "[calib][table4]") {
-  // Seed 000 reports 90.4% (position) and 91.0 / 95.2 / 93.0% (X / Y / Z orientation) for its EKF.
+  // Wang et al. 2023 reports 90.4% (position) and 91.0 / 95.2 / 93.0% (X / Y / Z orientation) for its EKF.
   const Fixture f;
   auto rng = sim::makeRng(4);
   const double joint_sigma = 0.01 * sim::kDegToRad;
@@ -168,12 +168,12 @@ TEST_CASE("Table 3 errors, paper noise: EKF and LM improve position and every or
     CAPTURE(e.method, initial.position_avg_m, after.position_avg_m, floor.position_avg_m);
     INFO(e.method << ": after / floor = " << after.position_avg_m / floor.position_avg_m << " (position), "
                   << (after.orientation_avg_rad.array() / floor.orientation_avg_rad.array()).transpose() << " (X Y Z)");
-    // Seed 000's claim, kept as stated; alone it would pass at 3.9 x the floor (initial = 39 x floor).
+    // Wang et al. 2023's claim, kept as stated; alone it would pass at 3.9 x the floor (initial = 39 x floor).
     CHECK(calib::improvement(initial.position_avg_m, after.position_avg_m) >= 0.90);
-    // The bound with teeth: the README's runs land at 1.02-1.09 x floor. 1.25 leaves margin for this
+    // The bound with teeth: the main job's runs land at 1.02-1.09 x floor. 1.25 leaves margin for this
     // test's smaller draw (50 identification, 200 validation samples); measured 1.04 (EKF), 1.04 (LM).
     CHECK(after.position_avg_m <= 1.25 * floor.position_avg_m);
-    // Orientation keeps only the 90% bar (which allows 3.8-4.9 x floor): with seed 000's 0.5 deg
+    // Orientation keeps only the 90% bar (which allows 3.8-4.9 x floor): with Wang et al. 2023's 0.5 deg
     // orientation noise, about the size of the initial orientation errors, the orientation parameters
     // come from the positions alone and land at 2.4-3.5 x the orientation floor here (1.0-1.05 x with
     // 0.05 deg of orientation noise), so a floor bound would only restate the 90% bar.
@@ -185,7 +185,7 @@ TEST_CASE("Table 3 errors, paper noise: EKF and LM improve position and every or
 }
 
 TEST_CASE("validation arithmetic", "[calib][validation]") {
-  // Seed 000 Table 4: EKF average position 24.2930 -> 2.3335 mm is a 90.3944% improvement.
+  // Wang et al. 2023 Table 4: EKF average position 24.2930 -> 2.3335 mm is a 90.3944% improvement.
   CHECK(calib::improvement(24.2930, 2.3335) == Approx(0.903944).margin(1e-6));
   const Fixture f;
   auto rng = sim::makeRng(6);

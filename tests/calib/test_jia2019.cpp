@@ -1,7 +1,7 @@
-// Jia et al. 2019 (seeds 001/002): what the distance, rotation and distance + rotation models can
-// identify on the SSRMS-type Hayati arm (scenes/ssrms_hayati.yaml, digest 2.6), checked against what
-// the paper states and against the digest's own numerical check; the hemisphere configurations of the
-// paper's protocol (digest 2.8); and the joint noise carried into the pair sigmas.
+// Jia et al. 2019: what the distance, rotation and distance + rotation models can
+// identify on the SSRMS-type Hayati arm (scenes/ssrms_hayati.yaml, our geometry), checked against what
+// the paper states and against our own numerical check; the hemisphere configurations of the
+// paper's protocol; and the joint noise carried into the pair sigmas.
 #include <catch2/catch.hpp>
 #include <algorithm>
 #include <cmath>
@@ -43,7 +43,7 @@ calib::ParamClass classOf(const calib::ParameterClasses& c, const std::string& n
   return calib::ParamClass::kIndependent;
 }
 
-/// 60 pairs against a reference: 61 random configurations (joints uniform in +-180 deg, digest 4), the
+/// 60 pairs against a reference: 61 random configurations (joints uniform in +-180 deg), the
 /// first the reference; exact flange poses of the nominal arm (identifiability is a property of H).
 std::vector<calib::RelativeObservation> referencePairs(const sim::KinematicModel& km, std::uint64_t seed) {
   std::mt19937_64 rng(seed);
@@ -73,7 +73,7 @@ TEST_CASE("Jia et al. 2019: distance, rotation and D&R classes on the Hayati SSR
   const calib::ParameterClasses DR = calib::classifyParameters(calib::RelativePoseModel(km, pairs, calib::RelativeRows::kBoth), y0);
   INFO("distance:\n" << D.describe() << "rotation:\n" << R.describe() << "both:\n" << DR.describe());
 
-  // The paper (digest 2.6, "Relative models"): the distance cannot see theta1 and d1 (a rigid motion of
+  // The paper's text: the distance cannot see theta1 and d1 (a rigid motion of
   // everything downstream of joint 1) nor alpha7 and beta7 (rotations at the end-effector origin).
   for (const char* name : {"theta1", "d1", "alpha7", "beta7"}) {
     CAPTURE(name);
@@ -103,7 +103,7 @@ TEST_CASE("Jia et al. 2019: distance, rotation and D&R classes on the Hayati SSR
     for (int p : one->independent) CHECK(DR.classes[static_cast<std::size_t>(p)] == ParamClass::kIndependent);
   }
 
-  // The digest's independent numerical check (section 2.6 table): ranks 22 / 11 / 24 of 35, and the
+  // Our independent numerical check (docs/methods.md): ranks 22 / 11 / 24 of 35, and the
   // zero columns theta1, d1, beta1, theta7, alpha7, beta7 (beta1 turns frame 1 about z0 through a point of
   // z0 when alpha1 = 90 deg and a1 = 0, a rigid motion like theta1); the rotation adds every a and d.
   CHECK(D.rank == 22);

@@ -1,4 +1,4 @@
-// Liu et al. 2012 (laser ranger to a plane, 6R PUMA-like arm in Hayati's convention; digest section 3):
+// Liu et al. 2012 (laser ranger to a plane, 6R PUMA-like arm in Hayati's convention):
 // the identifiability the paper states on scenes/puma_hayati.yaml, the range-configuration generator
 // and range simulator (relative_models.hpp), and the `liu2012` preset's machinery at reduced size
 // (range_experiment.hpp).
@@ -91,8 +91,8 @@ TEST_CASE("liu2012: 25 robot parameters and the plane coefficient c are identifi
   // Liu et al. 2012 section 3: full-pose measurement determines C = 4R + 2P + 6 = 30 parameters; the
   // ranger loses 5 constraints, so at most 25 robot parameters are identifiable, and the paper
   // identifies those 25 and the plane coefficient (Table 2, "identifiable parameters amount to 25").
-  // Seed 004's plane y + c z - 0.69 = 0 with c identified, the tool offset a6 = 0.1 m, alpha6 = 30 deg
-  // (digest 3.3), 101 beam-hitting configurations (section 4.5).
+  // Liu et al. 2012's plane y + c z - 0.69 = 0 with c identified, the tool offset a6 = 0.1 m, alpha6 = 30 deg
+  // (our choice), 101 beam-hitting configurations (section 4.5).
   const calib::ParameterClasses c = classesOver(puma(), calib::Plane::seed004(), 101, 11);
   INFO(c.describe());
   REQUIRE(c.names.size() == 31u);  // 6 x 5 Hayati parameters + c
@@ -146,7 +146,7 @@ TEST_CASE("liu2012: a horizontal plane hides theta1, a1 and d3, as the paper war
     CHECK(classOf(h, name) != calib::ParamClass::kIndependent);
     CHECK(classOf(h, name) == calib::ParamClass::kIneffective);  // zero columns, by the argument above
   }
-  // Seed 004's inclined plane sees all three (the paper's reason for choosing it).
+  // Liu et al. 2012's inclined plane sees all three (the paper's reason for choosing it).
   const calib::ParameterClasses t = classesOver(puma(), calib::Plane::seed004(), 101, 12);
   for (const char* name : {"theta1", "a1", "d3"}) CHECK(classOf(t, name) != calib::ParamClass::kIneffective);
   CHECK(h.rank < t.rank - 1);  // three parameters lost, c not identified here: at least two fewer
@@ -154,7 +154,7 @@ TEST_CASE("liu2012: a horizontal plane hides theta1, a1 and d3, as the paper war
 
 TEST_CASE("liu2012: with the beam on the joint-6 axis, theta6 is ineffective", "[calib][liu2012]") {
   // Without the tool offset (a6 = 0, alpha6 = 0) the beam starts on joint 6's axis and runs along it:
-  // theta6 turns the beam about itself and no range changes (digest 3.3: "Zero: theta6", rank 25).
+  // theta6 turns the beam about itself and no range changes (rank 25).
   sim::Arm arm = puma();
   arm.joints[5].a_m = 0.0;
   arm.joints[5].alpha_rad = 0.0;
@@ -165,7 +165,7 @@ TEST_CASE("liu2012: with the beam on the joint-6 axis, theta6 is ineffective", "
 }
 
 TEST_CASE("liu2012: the preset's machinery at reduced size identifies the arm and the plane", "[calib][liu2012]") {
-  // Liu et al. 2012's protocol (digest 3.5) on 61 candidates, cases of 35 and 60, 10 validation
+  // Liu et al. 2012's protocol on 61 candidates, cases of 35 and 60, 10 validation
   // configurations: thermal length errors 1 mm/m, angles N(0, 3.49 mrad), c = 4.6 + 0.005.
   const sim::Arm arm = puma();
   const calib::PlaneRangeModel probe(sim::flangeModel(arm), calib::LaserBeam{}, calib::Plane::seed004(), {});

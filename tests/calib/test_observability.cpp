@@ -1,4 +1,4 @@
-// Observability indices O1..O5 and pose selection (issue 10, item 4).
+// Observability indices O1..O5 and pose selection.
 #include <catch2/catch.hpp>
 
 #include <Eigen/QR>
@@ -19,7 +19,7 @@ using namespace orbcal;
 
 namespace {
 
-/// Seed 000's noise: 0.3 mm / 0.5 deg pose noise and 0.01 deg joint control noise, the latter in R too.
+/// Wang et al. 2023's noise: 0.3 mm / 0.5 deg pose noise and 0.01 deg joint control noise, the latter in R too.
 calib::PoseNoiseModel seed000Noise() {
   calib::PoseNoiseModel noise;
   noise.source = calib::PoseNoiseModel::Source::kFixed;
@@ -121,10 +121,10 @@ TEST_CASE("O3 selection on the SSRMS beats 20 random subsets of the same size", 
 }
 
 TEST_CASE("O3-selected configurations validate better than random ones over 10 seeds", "[calib][observability][selection][slow]") {
-  // Issue 10's done-when: seed 000's Table 3 errors and noise (0.3 mm / 0.5 deg pose, 0.01 deg joint
+  // The bar: Wang et al. 2023's Table 3 errors and noise (0.3 mm / 0.5 deg pose, 0.01 deg joint
   // control noise, the latter in R as well), 15 identification configurations chosen from a pool of 300
   // by O3, by O1, or at random; weighted LSE; average position error over 200 validation
-  // configurations; 10 seeds. Measured (README): O3 2.934 mm, pure O3 (no tie-break) 3.186 mm, O1
+  // configurations; 10 seeds. Measured (docs/methods.md): O3 2.934 mm, pure O3 (no tie-break) 3.186 mm, O1
   // 2.806 mm, random 3.116 mm; floor (the joint noise alone) 2.330 mm. Pure O3 is no better than
   // random: sigma_min has a ceiling here (1.59 in every pool) that many sets reach, and among those
   // O3 is indifferent; the default tie-break (SelectionOptions::tie_tolerance, by log det) is what

@@ -1,8 +1,8 @@
 // orbcal diagnose on data whose hidden cause was drawn by the open-world generator (sim/open_world.hpp,
 // written without the catalog's code): two catalog causes at once, coupled transmissions, 3rd and 4th
 // harmonics, stiffening joints and bending links, on the SSRMS and the iiwa7, at signal-to-noise ratios
-// 3 and 20 (seeded; at SNR 2 a bending link of the iiwa7 can read as a joint-2 angle error, see the
-// README). Required: the verdict is never clean; every cause the catalog now has is named on
+// 3 and 20 (seeded; at SNR 2 a bending link of the iiwa7 can read as a joint-2 angle error, see
+// docs/diagnose.md). Required: the verdict is never clean; every cause the catalog now has is named on
 // its joint (or link); the selected model's held-out position RMS is within 1.3 times the noise's in at
 // least 80 % of the datasets; every dataset that ends above 1.5 times lists what is left unexplained.
 #include <catch2/catch.hpp>

@@ -81,7 +81,7 @@ TEST_CASE("position only: rotations about the measured point are invisible, the 
   CHECK(F.rank > P.rank);
 }
 
-TEST_CASE("observability: the marker model of a pose kind and seed 000's pose model agree", "[calib][planning]") {
+TEST_CASE("observability: the marker model of a pose kind and Wang et al. 2023's pose model agree", "[calib][planning]") {
   // Two independent implementations of the same measurement (MarkerPoseModel over the kinematic model,
   // pose model over the identification Jacobian) must give the same whitened Jacobian's
   // singular values, so the same O1-O5.

@@ -1,6 +1,6 @@
-// Measurement models beside the absolute pose (issue 10): position only (MarkerPoseModel), distance and
-// rotation between pairs of configurations (RelativePoseModel, seeds 001/002) and laser range to a
-// plane (PlaneRangeModel, seed 004): analytic H against central differences in both DH conventions,
+// Measurement models beside the absolute pose: position only (MarkerPoseModel), distance and
+// rotation between pairs of configurations (RelativePoseModel, Jia et al. 2019) and laser range to a
+// plane (PlaneRangeModel, Liu et al. 2012): analytic H against central differences in both DH conventions,
 // every estimator on each, and the identifiability classes of each model.
 #include <catch2/catch.hpp>
 #include <random>
@@ -70,7 +70,7 @@ std::vector<calib::MarkerObservation> poses(const sim::KinematicModel& model, co
 }
 
 // The beam of the range tests: off the flange axis and tilted, so that the last joint's rotation moves
-// the hit point (seed 004's tool offset, digest 3.3).
+// the hit point (Liu et al. 2012's tool offset).
 calib::LaserBeam offsetBeam() { return {Eigen::Vector3d(0.05, -0.02, 0.1), Eigen::Vector3d(0.3, 0.0, 1.0).normalized()}; }
 
 /// Ranges of configurations whose beam meets the plane at 0.05 m < h < 40 m with |n^ . b| > 0.3, from
@@ -212,7 +212,7 @@ TEST_CASE("every estimator runs on every new model and reduces the cost to noise
       const calib::PlaneRangeModel probe(km, offsetBeam(), plane, {});
       Eigen::VectorXd p = Eigen::VectorXd::Zero(probe.numParams());
       p.head(km.layout.size()) = p_true;
-      p.tail(1)[0] = 0.005;  // seed 004: c = 4.6 perturbed by 0.005
+      p.tail(1)[0] = 0.005;  // Liu et al. 2012: c = 4.6 perturbed by 0.005
       everyEstimatorReducesCost(calib::PlaneRangeModel(km, offsetBeam(), plane, ranges(km, offsetBeam(), plane, p, 120, rng, 0.2e-3, 10)));
     }
   }
@@ -290,7 +290,7 @@ TEST_CASE("identifiability classes: distance, rotation, and both", "[calib][clas
     for (const auto* one : {&D, &R}) {
       for (int p : one->independent) CHECK(DR.classes[static_cast<std::size_t>(p)] == ParamClass::kIndependent);
     }
-    // What the distance alone loses at the wrist and the rotation rows restore (digest 2.6: a6, alpha6).
+    // What the distance alone loses at the wrist and the rotation rows restore (a6, alpha6).
     const std::vector<std::string> restored =
         modified ? std::vector<std::string>{"theta6", "d6", "alpha7", "a7"} : std::vector<std::string>{"theta6", "alpha6", "a6", "d6"};
     for (const std::string& name : restored) {
@@ -332,7 +332,7 @@ TEST_CASE("identifiability classes: range to a plane", "[calib][classes]") {
                                 [](const sim::Redundancy& r) { return r.names == std::vector<std::string>{"d1", "plane_f"}; });
     REQUIRE(g != H.groups.end());
     CHECK(g->describe() == "d1, plane_f: 1 direction lost; observable only as d1 + plane_f");
-    // Seed 004's plane y + c z + f0 = 0 (c identified) is not perpendicular to joint 1: theta1 is seen.
+    // Liu et al. 2012's plane y + c z + f0 = 0 (c identified) is not perpendicular to joint 1: theta1 is seen.
     const calib::Plane tilted = calib::Plane::seed004();
     const calib::PlaneRangeModel probe2(km, offsetBeam(), tilted, {});
     const calib::ParameterClasses T = classesOf(

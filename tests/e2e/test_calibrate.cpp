@@ -43,7 +43,7 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
   CHECK(r.usable >= 38);  // clean rendered views; the planner keeps a 20 px margin
   CHECK(r.held_out == static_cast<int>(0.2 * r.usable));
   REQUIRE(r.has_truth);
-  // Seed 000's bar (90%) on held-out samples, against the camera's measurements and against the truth.
+  // Wang et al. 2023's bar (90%) on held-out samples, against the camera's measurements and against the truth.
   CHECK(calib::improvement(r.before.position_avg_m, r.after.position_avg_m) >= 0.90);
   CHECK(calib::improvement(r.truth_before.position_avg_m, r.truth_after.position_avg_m) >= 0.90);
 
@@ -72,7 +72,7 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
                                      << r.after.position_avg_m / floor_measured.position_avg_m << " against the camera");
     CAPTURE(r.usable, r.held_out, r.truth_before.position_avg_m, r.before.position_avg_m);
     CAPTURE(r.truth_after.position_avg_m, floor.position_avg_m, r.after.position_avg_m, floor_measured.position_avg_m);
-    // The README's runs (50 + 200 views) land at 1.02-1.09 x floor; here the mean is over
+    // The main job's runs (docs/papers-experiments.md) (50 + 200 views) land at 1.02-1.09 x floor; here the mean is over
     // only 7 held-out samples (and 32 identification images), so the ratio scatters more: measured
     // 1.11 against the truth and 1.06 against the camera. 1.4 leaves room for that scatter; the 90%
     // bar allows 4.0 x the floor here.
@@ -247,7 +247,7 @@ TEST_CASE("calibrate --model dr: frame-free pairs of camera poses, a wrong base_
   o.callbacks.figure = tools::plotReportFigure;  // the program's figure drawer
   const workflow::CalibrateResult right = workflow::runCalibrate(o);
   REQUIRE(right.relative_before);
-  // A rigid motion of the whole arm is invisible to both rows (Jia et al. 2019, digest 2.6): theta1
+  // A rigid motion of the whole arm is invisible to both rows (Jia et al. 2019): theta1
   // and d1, and in modified DH alpha_0 and a_0 (alpha1, a1 here), which precede q1.
   for (const char* name : {"theta1", "alpha1", "a1", "d1"}) {
     const auto it = std::find(right.classes.names.begin(), right.classes.names.end(), name);

@@ -1,5 +1,5 @@
 // ChArUco boards end to end: rendered (render/), detected with corner identities (vision/charuco.hpp),
-// and a partly visible board still gives a pose (issue 11's bar: 30% of the board outside the image,
+// and a partly visible board still gives a pose (the bar: 30% of the board outside the image,
 // pose within 0.5 mm of the truth).
 #include <catch2/catch.hpp>
 #include <cmath>
@@ -20,7 +20,7 @@
 using namespace orbcal;
 
 namespace {
-constexpr double kPoseTolM = 0.5e-3;  // issue 11
+constexpr double kPoseTolM = 0.5e-3;  // the bar for a partly visible board
 
 sim::Scene charucoScene() {
   sim::Scene scene = sim::loadScene(sim::kDefaultScene);

@@ -18,7 +18,7 @@ using namespace orbcal;
 TEST_CASE("diagnose names each hidden effect with its joint, and says clean on clean data", "[e2e][diagnose]") {
   workflow::StudyOptions o;
   o.robot = test::sourcePath("scenes/iiwa7.yaml");
-  o.per_effect = 1;  // the full study (orbcal diagnose-study, 20 per effect) is in the README
+  o.per_effect = 1;  // the full study (orbcal diagnose-study, 20 per effect) is in docs/results.md
   o.clean = 20;
   o.seed = 2026;
   o.quiet = true;
@@ -35,7 +35,7 @@ TEST_CASE("diagnose names each hidden effect with its joint, and says clean on c
       wrong_joint += row.wrong_joint;
     }
   }
-  // On its joint too, but for one at most: the power study (README) names coupling on the wrong joint
+  // On its joint too, but for one at most: the power study (docs/results.md) names coupling on the wrong joint
   // in 1 of 20 datasets, every other kind on its joint in 20 of 20.
   CHECK(wrong_joint <= 1);
 }

@@ -1,4 +1,4 @@
-// Safe files (issue 11, items 4 and 5): every bad input is refused with one line naming the file and the
+// Safe files: every bad input is refused with one line naming the file and the
 // key, before anything is written; a dataset folder has one writer at a time; an interrupted render
 // says where it stands and resumes. Each case checks the message and that nothing was overwritten: a
 // bad input is given to `render --force` over an existing folder, or to `calibrate -o OUT`, and the

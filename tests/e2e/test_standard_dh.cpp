@@ -25,10 +25,10 @@ TEST_CASE("a standard-DH arm goes through render -> detect -> estimators -> vali
   CAPTURE(initial.position_avg_m, ekf->summary.position_avg_m, floor.position_avg_m);
   INFO("EKF / floor: position " << ekf->summary.position_avg_m / floor.position_avg_m << ", orientation X Y Z "
                                 << (ekf->summary.orientation_avg_rad.array() / floor.orientation_avg_rad.array()).transpose());
-  // Table 3's errors (0.2-0.3 deg, 0.5-1 mm) on a 1.3 m arm; the same 90% bar as seed 000's EKF.
+  // Table 3's errors (0.2-0.3 deg, 0.5-1 mm) on a 1.3 m arm; the same 90% bar as Wang et al. 2023's EKF.
   CHECK(calib::improvement(initial.position_avg_m, ekf->summary.position_avg_m) >= 0.90);
   // That bar alone passes at 5.2 x the floor in position and 2.6-4.9 x in orientation. The estimators
-  // land at 1.02-1.09 x floor in the README's 50-view runs; with 30 + 30 views here, measured position
+  // land at 1.02-1.09 x floor in the main job's 50-view runs; with 30 + 30 views here, measured position
   // 1.05 and orientation X / Y / Z 0.97 / 1.13 / 1.08 x floor. 1.25 and 1.35 leave margin for another draw.
   CHECK(ekf->summary.position_avg_m <= 1.25 * floor.position_avg_m);
   for (int a = 0; a < 3; ++a) {

@@ -1,4 +1,4 @@
-// Studies (issue 12): the study file, its tasks and seeds, running them locally (resuming after kill -9),
+// Studies: the study file, its tasks and seeds, running them locally (resuming after kill -9),
 // failed tasks, and the merge (its statistics recomputed here from the merged rows). The Slurm side is
 // tests/slurm/ (a real one-node cluster).
 #include <signal.h>

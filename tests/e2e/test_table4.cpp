@@ -25,7 +25,7 @@ TEST_CASE("reduced table4 from rendered images: the EKF improves every error by 
   const calib::MethodOutcome* ekf = calib::bestOfKind(c, calib::MethodSpec::Kind::kEkf);
   REQUIRE(ekf != nullptr);
   CAPTURE(ekf->method.name, c.initial.position_avg_m, ekf->summary.position_avg_m, c.floor.position_avg_m);
-  // Seed 000's EKF: 90.4% in position, 91.0 / 95.2 / 93.0% in X / Y / Z orientation.
+  // Wang et al. 2023's EKF: 90.4% in position, 91.0 / 95.2 / 93.0% in X / Y / Z orientation.
   CHECK(calib::improvement(c.initial.position_avg_m, ekf->summary.position_avg_m) >= 0.90);
   for (int a = 0; a < 3; ++a) {
     CAPTURE(a);

@@ -43,7 +43,7 @@ TEST_CASE("a URDF robot renders, calibrates, and its calibrated URDF reloads to 
   CHECK(r.classes.minimal.size() < 49);
   CHECK(std::find(r.classes.held.begin(), r.classes.held.end(), sim::paramIndex(d.arm, 0, sim::kOyaw)) != r.classes.held.end());
   CHECK_THAT(test::slurp(r.report_path), Contains("Held as unidentifiable (" + std::to_string(r.classes.held.size()) + "): yaw1, "));
-  // Seed 000's bar (90%) on the held-out samples, against the camera and against the truth.
+  // Wang et al. 2023's bar (90%) on the held-out samples, against the camera and against the truth.
   CHECK(calib::improvement(r.before.position_avg_m, r.after.position_avg_m) >= 0.90);
   CHECK(calib::improvement(r.truth_before.position_avg_m, r.truth_after.position_avg_m) >= 0.90);
 

@@ -11,14 +11,14 @@
 using namespace orbcal;
 
 namespace {
-constexpr double kMaxBiasPx = 0.02;  // issue 3: mean detected-corner offset per axis
-constexpr double kMaxRmsPx = 0.1;    // issue 3: RMS of detected - true
-// Issue 11: the default anti-aliasing (the analytic board filter, no MSAA) must keep the corners the
+constexpr double kMaxBiasPx = 0.02;  // mean detected-corner offset per axis
+constexpr double kMaxRmsPx = 0.1;    // RMS of detected - true
+// The default anti-aliasing (the analytic board filter, no MSAA) must keep the corners the
 // benchmark asks for (0.05 px against cv::projectPoints over its 250 dataset views); on these test views
 // it measured 0.051 px without and 0.049 px with distortion, so 0.06 px is a tightened bar (from 0.1).
 constexpr double kMaxDefaultRmsPx = 0.06;
 // MSAA on top of the board filter may improve the RMS by at most this factor: otherwise dropping MSAA
-// from the defaults (issue 11) would have cost accuracy.
+// from the defaults would have cost accuracy.
 constexpr double kMaxMsaaGain = 1.1;
 // With lens distortion the image is remapped bicubically: the reviewer measured a bias of (0.001, 0.002) px
 // with bicubic and (-0.009, +0.0135) px with bilinear remapping, so 0.005 px keeps a margin over bicubic

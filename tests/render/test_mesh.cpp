@@ -157,7 +157,7 @@ TEST_CASE("a rendered image too large for OpenGL names the camera size and rende
 
 TEST_CASE("the built-in default scene's rendering sections load", "[render][settings]") {
   const render::RenderSettings s = render::loadRenderSettings(sim::kDefaultScene);
-  CHECK(s.options.msaa_samples == 0);  // the board filter anti-aliases the pattern (issue 11)
+  CHECK(s.options.msaa_samples == 0);  // the board filter anti-aliases the pattern
   CHECK(s.options.board_filter);
   CHECK(s.options.crop_to_scene);
   CHECK(s.meshes.empty());

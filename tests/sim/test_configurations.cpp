@@ -119,7 +119,7 @@ TEST_CASE("a board that no configuration can see is a one-line error naming the 
 TEST_CASE("the scene chooses the locked joint, a joint the arm does not have is named", "[sim][generator][badinput]") {
   const Arm arm = loadArm(kDefaultRobot);
   Scene scene = loadScene(kDefaultScene);
-  REQUIRE(scene.views.locked_joint == 1);  // theta_2, seed 000's choice, written as 2 in the file
+  REQUIRE(scene.views.locked_joint == 1);  // theta_2, Wang et al. 2023's choice, written as 2 in the file
   GeneratorSettings s;
   s.count = 10;
   scene.views.locked_joint = -1;  // none: all seven joints move

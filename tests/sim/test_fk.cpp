@@ -33,7 +33,7 @@ TEST_CASE("SSRMS forward kinematics at hand-derived poses", "[sim][fk]") {
   const Arm arm = loadArm(orbcal::test::sourcePath("scenes/ssrms.yaml"));
   REQUIRE(arm.numJoints() == 7);
   REQUIRE(arm.numParams() == 28);
-  // q = 0, derived row by row from seed 000 Table 2 with l0..l8 of Nguyen & Hughes: the flange sits
+  // q = 0, derived row by row from Wang et al. 2023 Table 2 with l0..l8 of Nguyen & Hughes: the flange sits
   // at x = -(l0 + l2 + l4 + l6 + l8) = -4.3312 m, z = -(l1 + l3 + l5 + l7) = -15.6252 m, with
   // x_E = -x_B, y_E = y_B, z_E = -z_B.
   Eigen::VectorXd q = Eigen::VectorXd::Zero(7);
@@ -123,7 +123,7 @@ TEST_CASE("joint and parameter vectors are checked", "[sim][fk]") {
   CHECK_THROWS_WITH(withErrors(arm, Eigen::VectorXd::Zero(27)), Catch::Contains("expected 28 parameter errors"));
 }
 
-TEST_CASE("Hayati DH: beta = 0 is standard DH, beta != 0 the matrix of digest 2.2", "[sim][fk]") {
+TEST_CASE("Hayati DH: beta = 0 is standard DH, beta != 0 Liu et al. 2012's eq. 2", "[sim][fk]") {
   const Arm hayati = loadArm(orbcal::test::sourcePath("scenes/ssrms_hayati.yaml"));
   REQUIRE(hayati.convention == DhConvention::kHayati);
   REQUIRE(hayati.paramsPerJoint() == 5);
@@ -137,7 +137,7 @@ TEST_CASE("Hayati DH: beta = 0 is standard DH, beta != 0 the matrix of digest 2.
     const Eigen::VectorXd q = Eigen::VectorXd::NullaryExpr(7, [&] { return angle(rng); });
     CHECK((forwardKinematics(hayati, q).matrix() - forwardKinematics(standard, q).matrix()).norm() < kExactTol);
   }
-  // Digest 2.2 (seed 004 eq. 2), written out here independently of linkTransform.
+  // Liu et al. 2012 eq. 2, written out here independently of linkTransform.
   DhRow r;
   r.a_m = 0.7;
   r.alpha_rad = 0.4;

@@ -50,11 +50,11 @@ TEST_CASE("breaking the parallelism of joint 5 leaves only d3 + d4 redundant", "
   CHECK(r.redundancies[0].describe() == "d3, d4: 1 direction lost; observable only as d3 + d4");
 }
 
-// Digest 2.6's own numerical check ("Absolute: 29 of 35"; dependent, greedy: beta1, beta2, d4, d5, beta5,
-// beta6) on its illustrative geometry (scenes/ssrms_hayati.yaml), full pose, fixed base and tool, 60
+// Our numerical check on Jia et al. 2019's arm (docs/methods.md; "Absolute: 29 of 35"; dependent,
+// greedy: beta1, beta2, d4, d5, beta5, beta6) on its illustrative geometry (scenes/ssrms_hayati.yaml), full pose, fixed base and tool, 60
 // random configurations. Reproduced: each beta_i of a non-parallel pair (alpha_i = 90 deg, a_i = 0; the
-// digest's case 3) duplicates theta_i, and d3, d4, d5 act along the parallel axes z2 || z3 || z4.
-TEST_CASE("Hayati DH, digest 2.6 geometry: absolute model rank over 60 random configurations", "[sim][identifiability]") {
+// paper's case 3) duplicates theta_i, and d3, d4, d5 act along the parallel axes z2 || z3 || z4.
+TEST_CASE("Hayati DH, Jia et al. 2019 geometry: absolute model rank over 60 random configurations", "[sim][identifiability]") {
   const Arm arm = loadArm(orbcal::test::sourcePath("scenes/ssrms_hayati.yaml"));
   std::vector<Eigen::VectorXd> configs;
   std::mt19937_64 rng(26);

@@ -1,4 +1,4 @@
-// Inverse kinematics with theta_2 locked (seed 000 eq. 4): round trips, least joint motion, failure.
+// Inverse kinematics with theta_2 locked (Wang et al. 2023 eq. 4): round trips, least joint motion, failure.
 #include <catch2/catch.hpp>
 #include <random>
 

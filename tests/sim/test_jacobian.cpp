@@ -1,4 +1,4 @@
-// The analytic identification Jacobian (seed 000 eqs. 5-9) against central differences of the true
+// The analytic identification Jacobian (Wang et al. 2023 eqs. 5-9) against central differences of the true
 // pose error, for every column, in both frames, at the zero, singular and random configurations.
 #include <catch2/catch.hpp>
 #include <random>
@@ -68,7 +68,7 @@ TEST_CASE("identification Jacobian holds away from the nominal parameters", "[si
   std::mt19937_64 rng(3);
   std::normal_distribution<double> n01;
   // Spreads per unit, chosen rather than one number for both units: 0.5 deg on angles (in rad) and
-  // 5 mm on lengths (in m), 2-5 times seed 000's Table 3 errors (0.2-0.3 deg, 0.5-1 mm), i.e. where
+  // 5 mm on lengths (in m), 2-5 times Wang et al. 2023's Table 3 errors (0.2-0.3 deg, 0.5-1 mm), i.e. where
   // the iterated estimators re-linearise. Large enough to test something: the Jacobian at the nominal
   // parameters differs from the true one at p_nom + y by >= 0.1 at the random configurations, 1e6 x
   // kJacobianTol, so a formula that ignored y would fail.

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # A study through the real one-node Slurm cluster (tools/slurm-cluster.sh; SLURM_CONF set by CTest)
-# against the same study run locally (issue 12):
+# against the same study run locally:
 #  1. `orbcal study run` locally, `orbcal study submit --wait` through sbatch: every merged CSV is
 #     byte-for-byte the same;
 #  2. a task cancelled mid-run (scancel of its array element) is reported failed by `orbcal study

@@ -54,7 +54,7 @@ CharucoDetection detectCharuco(const cv::Mat& gray, const sim::Board& board, con
   } else {
     cv::aruco::interpolateCornersCharuco(kept_corners, kept_ids, gray, cv_board, corners, ids);
   }
-  // OpenCV 4.6 refines with windows that left its corners ~0.7 px off on rendered boards (README):
+  // OpenCV 4.6 refines with windows that left its corners ~0.7 px off on rendered boards (docs, ChArUco):
   // refine again as the chessboard detector does, the window kept off the neighbouring corners (0.4 of
   // their spacing) and off the markers (inset (square - marker) / 2 from the square's edges).
   if (!ids.empty()) {

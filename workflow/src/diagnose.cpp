@@ -460,7 +460,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
     ImageMeasuredData im = imageMeasuredData(*dataset, meas, usable);
     data = std::move(im.data);
     obs = std::move(im.observations);
-    // As orbcal calibrate: the manifest's joint noise, else seed 000's 0.01 deg.
+    // As orbcal calibrate: the manifest's joint noise, else Wang et al. 2023's 0.01 deg.
     if (!options.joint_noise_sigma_rad) {
       options.joint_noise_sigma_rad =
           dataset->manifest.joint_noise_sigma_rad > 0.0 ? dataset->manifest.joint_noise_sigma_rad : 0.01 * sim::kDegToRad;

@@ -1,4 +1,4 @@
-// `orbcal experiment --preset jia2019`: Jia et al. 2019 (seeds 001/002, digest section 2): self-calibration
+// `orbcal experiment --preset jia2019`: Jia et al. 2019 (as reconstructed in docs/methods.md): self-calibration
 // of a 7-DOF space arm from the distance and the rotation angle between the end-effector poses of pairs
 // of configurations, which do not depend on the board-to-base transform, against the absolute pose,
 // which does. Pose-level simulation (no images): the camera's board_T_flange with Gaussian noise.
@@ -55,9 +55,9 @@ const std::vector<ModelSpec>& models() {
   return m;
 }
 
-/// Seed 000 Table 3's magnitudes with random signs: |theta|, |alpha|, |beta| uniform in [0.2, 0.3] deg,
+/// Wang et al. 2023 Table 3's magnitudes with random signs: |theta|, |alpha|, |beta| uniform in [0.2, 0.3] deg,
 /// |a|, |d| uniform in [0.5, 1.0] mm. beta only where the nominal alpha is 0 (consecutive axes parallel:
-/// the paper keeps beta only there, digest 2.6 case 3). Joint 1 error-free (the paper excludes it).
+/// the paper keeps beta only there, the paper's case 3). Joint 1 error-free (the paper excludes it).
 Eigen::VectorXd jiaErrors(const sim::Arm& arm, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   Eigen::VectorXd y = Eigen::VectorXd::Zero(arm.numParams());
@@ -351,7 +351,7 @@ void fitAtChange(const ExperimentOptions& o, const JiaSetup& s, const JiaPlant& 
 std::string setupSection(const ExperimentOptions& o, const JiaSetup& s, const JiaStats& st) {
   std::ostringstream md;
   md << "# Jia et al. 2019: distance, rotation and absolute models of a 7-DOF space arm\n\n"
-     << "Jia, Wang, Chen, Sun, *Int. J. Aerospace Eng.* 2019 (seeds 001/002; digest section 2): the hand-eye camera "
+     << "Jia, Wang, Chen, Sun, *Int. J. Aerospace Eng.* 2019 (as reconstructed in orbcal's docs/methods.md): the hand-eye camera "
         "measures the end-effector pose relative to a board on the spacecraft, and the board-to-base transform "
         "calibrated on the ground changes with launch loads and thermal deformation. The distance L = |p_b - p_a| "
         "and the rotation angle phi = angle(R_a^T R_b) between two configurations' end-effector poses do not "
@@ -429,7 +429,7 @@ std::string rankingParagraph(const JiaStats& st) {
   const double dist = st.pos_mean[0][0].mean(), dr = st.pos_mean[0][1].mean(), abs_g = st.pos_mean[0][2].mean(),
                abs_r = st.pos_mean[0][3].mean();
   md << "**Ranking.** Jia et al. 2019 report absolute >= D&R > distance-only (validation position error, their "
-        "Table 10, lost in the seeds). Measured mean position errors: absolute (ground transform) "
+        "Table 10, lost in our copy). Measured mean position errors: absolute (ground transform) "
      << fmt("%.3f", abs_g * 1e3) << " mm, D&R " << fmt("%.3f", dr * 1e3) << " mm, distance only " << fmt("%.3f", dist * 1e3)
      << " mm, absolute with the board-to-base frame estimated " << fmt("%.3f", abs_r * 1e3) << " mm: "
      << (abs_g <= dr && dr < dist ? "the paper's ranking holds"
@@ -470,7 +470,7 @@ std::string identifiabilitySection(const JiaStats& st) {
   }
   md << "\nThe hemisphere spans 0.5 m of a ~10 m arm with theta_3 locked, so these ranks are below those over "
         "random configurations (tests/calib/test_jia2019.cpp, 60 random pairs: 22 / 11 / 24 of 35 for distance / "
-        "rotation / D&R, as the digest's section 2.6 check).\n\n";
+        "rotation / D&R, as our numerical check of the paper's identifiability statements).\n\n";
   return md.str();
 }
 

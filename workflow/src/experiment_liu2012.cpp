@@ -1,4 +1,4 @@
-// The liu2012 preset: Liu et al. 2012's laser-ranger identification (digest section 3), Table 5 layout.
+// The liu2012 preset: Liu et al. 2012's laser-ranger identification, Table 5 layout.
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -20,13 +20,13 @@ namespace {
 
 std::string fmt(const char* f, double v) { return formatNumber(f, v); }
 
-// Liu et al. 2012's protocol (sections 4.2-4.5; digest 3.5).
+// Liu et al. 2012's protocol (sections 4.2-4.5).
 constexpr double kNominalC = 4.6;            // plane y + c z - 0.69 = 0
 constexpr double kCError = 0.005;            // the true c is 4.6 + 0.005
 constexpr double kAngleSigmaRad = 3.49e-3;   // theta, alpha, beta errors
 constexpr double kLengthPerMetre = 1e-3;     // positive, proportional to length (~2 mm on a 2 m arm)
 
-/// The paper's Table 5 (validation configurations), from the journal's page (digest 3.6): per model
+/// The paper's Table 5 (validation configurations), from the journal's page: per model
 /// (nominal, case 1, case 2) and axis: RMS position (mm), RMS orientation (mrad), max position, max orientation.
 constexpr double kPaperTable5[3][3][4] = {
     {{2.7612, 3.1491, 11.7347, 16.1688}, {2.5917, 3.2196, 18.6857, 17.0006}, {2.2119, 2.3480, 8.5899, 9.9512}},

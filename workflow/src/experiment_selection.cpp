@@ -211,7 +211,7 @@ std::vector<RenderedRow> renderedPart(const ExperimentOptions& o, const sim::Arm
   const auto all = calib::comparisonMethods(o.joint_noise_sigma_rad);
   const std::vector<calib::MethodSpec> methods{calib::findMethod(all, "LSE (weighted)"), calib::findMethod(all, "EKF"),
                                                calib::findMethod(all, "LM")};
-  calib::PoseNoiseModel planning_noise;  // about what the camera measures (README: 0.078 mm, 0.011 deg), plus the control noise
+  calib::PoseNoiseModel planning_noise;  // about what the camera measures (docs: 0.078 mm, 0.011 deg), plus the control noise
   planning_noise.sigma_position_m = 0.1e-3;
   planning_noise.sigma_orientation_rad = 0.01 * sim::kDegToRad;
   planning_noise.joint_noise_sigma_rad = o.joint_noise_sigma_rad;

@@ -1,5 +1,5 @@
 #pragma once
-// Is a fit consistent with its noise model? (issue 11: a calibration never silently makes an arm worse.)
+// Is a fit consistent with its noise model? (A calibration never silently makes an arm worse.)
 // Every sample's normalized squared residual d_k = nu_k^T R_k^-1 nu_k at the estimate is tested against
 // chi-square with rows(k) degrees of freedom, and their sum against chi-square with (rows - free
 // parameters) degrees of freedom. A sample is an outlier when its p-value is below alpha / N (Bonferroni

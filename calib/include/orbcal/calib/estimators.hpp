@@ -1,9 +1,9 @@
 #pragma once
 // The estimators of the parameter errors y, all over a MeasurementModel (model.hpp):
-//  - the EKF of seed 000 eqs. (11)-(17), paper-literal (linear: J at the nominal parameters,
+//  - the EKF of Wang et al. 2023 eqs. (11)-(17), paper-literal (linear: J at the nominal parameters,
 //    innovation Z_k - J_k y_hat) or re-linearized at the current estimate (extended), optionally
 //    iterated within each update (IEKF);
-//  - LSE, seed 000's baseline: Gauss-Newton with a truncated-SVD pseudo-inverse, unweighted (as in the
+//  - LSE, Wang et al. 2023's baseline: Gauss-Newton with a truncated-SVD pseudo-inverse, unweighted (as in the
 //    paper: residuals in m and rad added as they are) or weighted by R^-1;
 //  - Levenberg-Marquardt through Ceres with the analytic Jacobian and an optional robust loss.
 // Each returns the estimate, its covariance, iterations, the rank used and the wall time.
@@ -40,7 +40,7 @@ struct EkfOptions {
   /// Parameters held at zero whatever the data says: their prior and process variances are zero, so
   /// no gain ever reaches them (Estimate::held lists them, sorted).
   std::vector<int> hold;
-  /// Seed 000 as written: P0 sigma 0.01 deg / 0.01 mm, Q = 0, J at the nominal parameters.
+  /// Wang et al. 2023 as written: P0 sigma 0.01 deg / 0.01 mm, Q = 0, J at the nominal parameters.
   static EkfOptions paperLiteral();
 };
 

@@ -1,5 +1,5 @@
 #pragma once
-// Comparing estimators on one identification set and one validation set, as seed 000's Table 4
+// Comparing estimators on one identification set and one validation set, as Wang et al. 2023's Table 4
 // does, plus the control-noise floor (the validation error the true parameters leave) that no
 // estimator can beat. The measurement source (rendered images, real images, synthetic poses) is the
 // caller's: this file needs only observations and the validation plant.
@@ -26,7 +26,7 @@ struct MethodSpec {
 };
 
 /// The comparison for measurements whose plant has joint control noise `joint_noise_sigma_rad`:
-/// seed 000's LSE and EKF as written (paper-literal presets), one change at a time towards orbcal's
+/// Wang et al. 2023's LSE and EKF as written (paper-literal presets), one change at a time towards orbcal's
 /// defaults (wide prior, R from the measurement plus the joint noise, re-linearized), the iterated
 /// EKF, and LM with and without a robust loss. orbcal's default EKF is the one named "EKF".
 std::vector<MethodSpec> comparisonMethods(double joint_noise_sigma_rad);

@@ -7,7 +7,7 @@
 //   H_k = d h_k / d y, so that nu_k(y + dy) ≈ nu_k(y) - H_k dy (model.hpp's convention).
 //
 // y is the change from p0 (the starting parameters; zero for a fresh model), so every estimator starts
-// from y = 0 as it does for seed 000's model.
+// from y = 0 as it does for Wang et al. 2023's model.
 #include <vector>
 
 #include "orbcal/calib/model.hpp"

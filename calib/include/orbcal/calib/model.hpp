@@ -53,13 +53,13 @@ struct PoseObservation {
 struct PoseNoiseModel {
   enum class Source {
     kObservation,  ///< each observation's own covariance (e.g. the vision covariance)
-    kFixed         ///< diag(sigma_position^2 x3, sigma_orientation^2 x3) (seed 000: 0.3 mm, 0.5 deg)
+    kFixed         ///< diag(sigma_position^2 x3, sigma_orientation^2 x3) (Wang et al. 2023: 0.3 mm, 0.5 deg)
   };
   Source source = Source::kObservation;
   double sigma_position_m = 0.3e-3;
   double sigma_orientation_rad = 0.5 * sim::kDegToRad;
   /// Joint control noise (rad) carried into R through the joint Jacobian: R += J_q sigma^2 J_q^T.
-  /// Seed 000's R leaves it out (0); the plant's joints differ from the readings by this much.
+  /// Wang et al. 2023's R leaves it out (0); the plant's joints differ from the readings by this much.
   double joint_noise_sigma_rad = 0.0;
 };
 

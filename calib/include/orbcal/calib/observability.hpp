@@ -1,5 +1,5 @@
 #pragma once
-// Observability indices of a configuration set and pose selection (issue 10, item 4; seed 004's O3).
+// Observability indices of a configuration set and pose selection (O3: Liu et al. 2012's criterion).
 //
 // The indices are functions of the singular values sigma_1 >= ... >= sigma_m of the stacked
 // identification Jacobian, m the number of parameters analysed (the held, unidentifiable ones left

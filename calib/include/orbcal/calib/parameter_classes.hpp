@@ -1,6 +1,6 @@
 #pragma once
-// Identifiability classes of every parameter of a measurement model over a configuration set (issue 10
-// item 3), from the column space of the stacked Jacobian:
+// Identifiability classes of every parameter of a measurement model over a configuration set,
+// from the column space of the stacked Jacobian:
 //  - ineffective: its column is zero (the measurement does not see it at all, e.g. a rigid motion of
 //    the whole chain under a distance or rotation-angle measurement);
 //  - relative: it shares unidentifiable directions with others (its group, sim::Redundancy), and only

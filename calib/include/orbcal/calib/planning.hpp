@@ -1,6 +1,6 @@
 #pragma once
 // Every measurement kind orbcal can calibrate from, as one choice over one set of configurations
-// (issue 10): the absolute pose (Wang et al. 2023: a camera measures the end-effector pose), the
+// the absolute pose (Wang et al. 2023: a camera measures the end-effector pose), the
 // position only (a laser tracker without orientation), the distance and/or the rotation angle between
 // pairs of configurations (Jia et al. 2019: frame-free, so the board-to-base transform is never
 // needed), and the laser range to a plane (Liu et al. 2012). One place builds the model of a kind, so

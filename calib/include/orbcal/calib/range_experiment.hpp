@@ -1,5 +1,5 @@
 #pragma once
-// Liu et al. 2012's simulation protocol (digest 3.4-3.6) as one call: a laser ranger on the flange
+// Liu et al. 2012's simulation protocol (sections 4.2-4.5) as one call: a laser ranger on the flange
 // measures the range to a plane; the configurations of each case are chosen from a candidate pool by
 // O3 = sigma_min (observability.hpp), the errors identified by weighted Gauss-Newton least squares on
 // the identifiable columns (runLse, the unidentifiable ones held), and the result validated on

@@ -1,15 +1,15 @@
 #pragma once
-// Measurement models beside the absolute pose (issue 10), each a MeasurementModel over a
+// Measurement models beside the absolute pose, each a MeasurementModel over a
 // sim::KinematicModel (geometry + registration + effects), so that every estimator and the
 // identifiability analysis work on them unchanged. (Position-only absolute data needs no new model:
 // MarkerPoseModel with MarkerObservation::has_rotation = false.)
 //
-//  - RelativePoseModel (seeds 001/002, digest 2.4-2.5): the distance L_ab = |p_b - p_a| between the
+//  - RelativePoseModel (Jia et al. 2019; docs/methods.md): the distance L_ab = |p_b - p_a| between the
 //    marker positions of two configurations a and b, and the rotation angle phi_ab = angle(R_a^T R_b)
 //    between their orientations. Both are invariant to a rigid motion of the whole chain (the
 //    measuring system's frame, a drifting board), so no measurement-frame transform is needed: with
 //    an unknown world_T_base its parameters have zero columns (they are ineffective).
-//  - PlaneRangeModel (seed 004, digest 3.2): the range along a laser beam fixed to the marker
+//  - PlaneRangeModel (Liu et al. 2012): the range along a laser beam fixed to the marker
 //    (flange) frame to a plane in the base frame whose coefficients are identified too.
 //
 // Both follow model.hpp's convention: nu_k(y) = z_k - h_k(p0 + y), H_k = d h_k / d y, R_k = cov(nu_k);
@@ -115,13 +115,13 @@ Eigen::Vector2d predictRelative(const sim::KinematicModel& model, const Eigen::V
 /// A plane n . x + f = 0 in the base frame of the KinematicModel (world_T_base's "base"; with known
 /// frames, the arm's base) and which of its coefficients [n_x, n_y, n_z, f] are identified. The
 /// coefficients need not be normalized (h is invariant to scaling (n, f) together), so one of them must
-/// stay fixed. Seed 004's faithful choice (digest 3.7): y + c z + f0 = 0 with c = n_z identified,
+/// stay fixed. Liu et al. 2012's faithful choice: y + c z + f0 = 0 with c = n_z identified,
 /// n = (0, 1, c), f = f0 fixed: Plane::seed004(c, f0).
 struct Plane {
   Eigen::Vector3d n = Eigen::Vector3d::UnitZ();  ///< nominal normal (not necessarily unit)
   double f = 0.0;                                ///< nominal offset (m, times |n|)
   std::vector<int> identified;                   ///< indices into [n_x, n_y, n_z, f]; each a parameter
-  /// Typical magnitude of an identified coefficient's error: n components (dimensionless; seed 004
+  /// Typical magnitude of an identified coefficient's error: n components (dimensionless; Liu et al. 2012
   /// perturbs c by 0.005) and f (m).
   double typical_n = 5e-3;
   double typical_f_m = 1e-3;
@@ -129,19 +129,19 @@ struct Plane {
 };
 
 /// A beam fixed to the marker frame: it starts at `origin` and points along `direction` (unit), both
-/// in the marker frame (the flange for sim::flangeModel). Seed 004: origin 0, direction +z.
+/// in the marker frame (the flange for sim::flangeModel). Liu et al. 2012: origin 0, direction +z.
 struct LaserBeam {
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   Eigen::Vector3d direction = Eigen::Vector3d::UnitZ();
 };
 
-/// One configuration's range: the mean of `repeats` readings (seed 004: 10), each with noise sigma;
+/// One configuration's range: the mean of `repeats` readings (Liu et al. 2012: 10), each with noise sigma;
 /// the mean's sigma is sigma / sqrt(repeats).
 struct RangeObservation {
   sim::JointSample sample;
   double range_m = 0.0;
   int repeats = 1;
-  double sigma_m = 0.2e-3;  ///< of one reading (seed 004: 0.2 mm)
+  double sigma_m = 0.2e-3;  ///< of one reading (Liu et al. 2012: 0.2 mm)
 };
 
 /// The observation of `readings` of one configuration: their mean, repeats = their count.
@@ -151,7 +151,7 @@ RangeObservation averagedRange(const sim::JointSample& sample, const std::vector
 /// frame) to the plane. With p_j = p_s + h b the hit point and the right perturbation [rho; omega] of
 /// world_T_marker = (R, t) in the marker frame (J_e_p), dp_s + h db = R (rho - [o + h b_m]x omega), so
 ///   dh / dy_geometry = -n^T R [I, -[o + h b_m]x] J_e_p / (n . b)
-///   dh / dn_i = -p_j,i / (n . b),   dh / df = -1 / (n . b)       (digest 3.2, "[ours] closed-form row").
+///   dh / dn_i = -p_j,i / (n . b),   dh / df = -1 / (n . b)       (our closed form).
 /// The layout is the kinematic model's plus a last block "plane" of the identified coefficients
 /// ("plane_nx", "plane_ny", "plane_nz", "plane_f"). nu = range_m - h, R = sigma^2 / repeats.
 class PlaneRangeModel : public MeasurementModel {
@@ -183,7 +183,7 @@ class PlaneRangeModel : public MeasurementModel {
   int plane_offset_ = 0;
 };
 
-/// Which configurations rangeConfigurations keeps (digest 4, "Laser robot"; Liu et al. 2012 chose 101
+/// Which configurations rangeConfigurations keeps (Liu et al. 2012 chose 101
 /// non-singular configurations whose beam meets the plane).
 struct RangeConfigurationSettings {
   double min_range_m = 0.2;   ///< h, along the beam from its origin to the plane

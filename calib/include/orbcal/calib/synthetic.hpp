@@ -1,5 +1,5 @@
 #pragma once
-// Seed 000's own measurement setting: no images, the true flange pose with noise added,
+// Wang et al. 2023's own measurement setting: no images, the true flange pose with noise added,
 // base_T_flange_measured = base_T_flange_true * exp([nu_p; nu_o]), nu ~ N(0, diag(sp^2 x3, so^2 x3))
 // in the flange frame.
 #include <random>

@@ -1,6 +1,6 @@
 #pragma once
 // Validation on a separate configuration set: the pose errors of a model (nominal, or nominal plus the
-// identified errors) against the true plant, before and after compensation, laid out like seed 000's
+// identified errors) against the true plant, before and after compensation, laid out like Wang et al. 2023's
 // Table 4 (position, and X/Y/Z orientation: average and extreme, improvement ratio).
 #include <Eigen/Geometry>
 #include <random>
@@ -64,7 +64,7 @@ AxisErrorSummary summarizeAxes(const PoseErrors& errors);
 /// (initial - calibrated) / initial, the paper's ratio.
 inline double improvement(double initial, double calibrated) { return (initial - calibrated) / initial; }
 
-/// Seed 000 Table 4 layout: rows position / X / Y / Z orientation x extreme / average; one column
+/// Wang et al. 2023 Table 4 layout: rows position / X / Y / Z orientation x extreme / average; one column
 /// pair (value, ratio) per method after the initial column. Markdown, mm and deg.
 std::string formatTable4(const ErrorSummary& initial, const std::vector<std::pair<std::string, ErrorSummary>>& methods);
 

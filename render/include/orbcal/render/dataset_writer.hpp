@@ -1,5 +1,5 @@
 #pragma once
-// `orbcal render`: a rendered calibration dataset (layout: sim/dataset.hpp and the README).
+// `orbcal render`: a rendered calibration dataset (layout: sim/dataset.hpp and docs/file-formats.md).
 //
 //  1. configurations: sim::generateConfigurations on the NOMINAL arm (the planner knows only the
 //     nominal model), seed = configuration seed;

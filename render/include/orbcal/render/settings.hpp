@@ -71,7 +71,7 @@ struct MeshSpec {
 };
 
 struct RenderOptions {
-  int msaa_samples = 0;  ///< the board filter alone gives the corners MSAA 4 gave, in half the time (README, Scenes)
+  int msaa_samples = 0;  ///< the board filter alone gives the corners MSAA 4 gave, in half the time (docs, Speed)
   int supersample = 1;
   double board_black = 0.05;
   double board_white = 0.85;

@@ -3,11 +3,11 @@
 // parallel-axis DH), with fixed base and tool transforms, and the additive parameter errors that
 // calibration identifies.
 //
-// Modified DH (Craig; seed 000 eq. 1): row i holds (a_{i-1}, alpha_{i-1}, d_i, theta_i) and
+// Modified DH (Craig; Wang et al. 2023 eq. 1): row i holds (a_{i-1}, alpha_{i-1}, d_i, theta_i) and
 //   {i-1}_T_{i} = Rx(alpha_{i-1}) Tx(a_{i-1}) Rz(theta_i + q_i) Tz(d_i).
 // Standard DH: row i holds (a_i, alpha_i, d_i, theta_i) and
 //   {i-1}_T_{i} = Rz(theta_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i).
-// Hayati (seeds 001/002 and 004; digest 2.2): standard DH post-multiplied by Ry(beta_i), row i holds
+// Hayati (Jia et al. 2019; Liu et al. 2012 eq. 2): standard DH post-multiplied by Ry(beta_i), row i holds
 // (a_i, alpha_i, d_i, theta_i, beta_i) and
 //   {i-1}_T_{i} = Rz(theta_i + q_i) Tz(d_i) Tx(a_i) Rx(alpha_i) Ry(beta_i),   nominal beta_i = 0.
 // URDF (a chain read from a URDF file, sim/urdf.hpp): joint i has a fixed origin (xyz, rpy) in its
@@ -18,7 +18,7 @@
 // A prismatic joint's variable q_i is a length (m): in the DH conventions it adds to d_i instead of theta_i
 // (theta_i is then a fixed angle and d_i the joint's zero offset); in the URDF convention
 // Rot(axis_i, theta_i + q_i) becomes Trans(axis_i (d_i + q_i)), with d_i the zero offset (nominal 0).
-// base_T_flange = base_T_first * prod_i {i-1}_T_{i} * last_T_flange (seed 000: row 0, rows 1..7, row E).
+// base_T_flange = base_T_first * prod_i {i-1}_T_{i} * last_T_flange (Wang et al. 2023: row 0, rows 1..7, row E).
 #include <Eigen/Geometry>
 #include <string>
 #include <vector>
@@ -108,7 +108,7 @@ struct Arm {
   int numParams() const { return paramsPerJoint() * numJoints(); }
 };
 
-/// Parameter-error layout, joint by joint, in seed 000's y_i order: y_i = [dtheta_i, dalpha_i, da_i, dd_i]
+/// Parameter-error layout, joint by joint, in Wang et al. 2023's y_i order: y_i = [dtheta_i, dalpha_i, da_i, dd_i]
 /// (for modified DH, alpha and a are those of row i, i.e. alpha_{i-1} and a_{i-1}), followed by
 /// dbeta_i for the Hayati convention: arm.paramsPerJoint() entries per joint. SI units.
 /// The URDF convention's 7 per joint: y_i = [dtheta_i, dx_i, dy_i, dz_i, droll_i, dpitch_i, dyaw_i]

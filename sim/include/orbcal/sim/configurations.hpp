@@ -6,7 +6,7 @@
 //  1. a camera pose looking at a point near the board centre: distance uniform in the scene's range,
 //     tilt from the board normal uniform in [0, max tilt], azimuth and roll about the optical axis uniform;
 //  2. the flange pose base_T_camera * camera_T_flange, solved by IK from a random start within the
-//     limits, with the scene's locked joint (views.locked_joint; theta_2, seed 000's choice, by default)
+//     limits, with the scene's locked joint (views.locked_joint; theta_2, Wang et al. 2023's choice, by default)
 //     drawn uniformly within its limits;
 //  3. accepted if IK converged within the limits, the singularity measure is at least the scene's
 //     views.min_singular_value, boardVisibility() says kVisible for the solution's true camera pose, and

@@ -14,7 +14,7 @@ namespace orbcal::sim {
 /// (e.g. stream k for configuration attempt k), identical on every run and thread count.
 std::mt19937_64 makeRng(std::uint64_t seed, std::uint64_t stream = 0);
 
-/// Seed 000 Table 3, in SI units (theta, alpha in rad; a, d in m), y order. Needs a 7-joint arm of 4
+/// Wang et al. 2023 Table 3, in SI units (theta, alpha in rad; a, d in m), y order. Needs a 7-joint arm of 4
 /// parameters per joint (modified or standard DH).
 Eigen::VectorXd paperTable3Errors();
 
@@ -27,7 +27,7 @@ Eigen::VectorXd randomErrors(const Arm& arm, double angle_sigma_rad, double leng
 /// ~2 mm on a 2 m arm).
 Eigen::VectorXd thermalErrors(const Arm& arm, double angle_sigma_rad, double length_per_metre, std::uint64_t seed);
 
-/// An error set by name: "table3" (seed 000 Table 3), "zero", or "random" with the given spread and seed.
+/// An error set by name: "table3" (Wang et al. 2023 Table 3), "zero", or "random" with the given spread and seed.
 /// Throws InputError naming `what` (e.g. "--errors") for an unknown name, or for table3 on an arm that
 /// is not 7 joints of 4 parameters.
 struct ErrorSetSpec {
@@ -38,7 +38,7 @@ struct ErrorSetSpec {
 };
 Eigen::VectorXd makeErrorSet(const Arm& arm, const ErrorSetSpec& spec, const std::string& what);
 
-/// Joint angles of the plant: q + N(0, sigma_rad) per joint (seed 000's "control noise").
+/// Joint angles of the plant: q + N(0, sigma_rad) per joint (Wang et al. 2023's "control noise").
 Eigen::VectorXd addJointNoise(const Eigen::VectorXd& q, double sigma_rad, std::mt19937_64& rng);
 
 /// One line per joint: "joint i: theta +0.300 deg  alpha ... a +0.500 mm  d ..." (degrees and mm at the

@@ -1,5 +1,5 @@
 #pragma once
-// The configurations of Jia et al. 2019 (seeds 001/002, digest 2.8): around a reference configuration
+// The configurations of Jia et al. 2019's protocol: around a reference configuration
 // q_ref, N flange positions spread uniformly over a hemisphere of radius r centred at the reference
 // flange position p_ref, each with the flange z axis pointing at the board centre c.
 //
@@ -7,7 +7,7 @@
 //  - the hemisphere opens away from the board: its pole is p_ref - r z_ref, its rim the circle of
 //    radius r about p_ref in the plane perpendicular to z_ref (the paper does not say which side; the
 //    board side would put the pole on the board itself);
-//  - positions: a Fibonacci lattice (digest 4), point i = 0..N-1 at polar angle acos(1 - (i + 0.5) / N)
+//  - positions: a Fibonacci lattice (our choice), point i = 0..N-1 at polar angle acos(1 - (i + 0.5) / N)
 //    from the pole and azimuth i times the golden angle pi (3 - sqrt 5), in the reference flange's x/y
 //    axes: equal-area height bands, so the points are uniform over the hemisphere's area;
 //  - orientation: the flange z axis along c - p; the roll about it is the one nearest the reference's:
@@ -31,7 +31,7 @@ struct HemisphereSettings {
   double target_distance_m = 0.5;   ///< |c - p_ref| along z_ref (the board 0.5 m from the reference flange)
   /// 0-based joint held at q_ref; -1: none. Default theta_3: joint 1 must move (held, theta2 and d2 turn
   /// and shift every pose rigidly, invisible to distances and angles and confounded with an estimated
-  /// base frame), and on the SSRMS-type arm (scenes/ssrms_hayati.yaml) holding theta_2 (seed 000's choice)
+  /// base frame), and on the SSRMS-type arm (scenes/ssrms_hayati.yaml) holding theta_2 (Wang et al. 2023's choice)
   /// leaves joints 1, 3..7 near singular at the jia2019 reference (singularity measure 0.026, 24 of 51
   /// points unreachable) where holding theta_3 leaves a well-conditioned chain (0.18, all 51 reached).
   int locked_joint = 2;

@@ -1,6 +1,6 @@
 #pragma once
 // Inverse kinematics by damped Newton steps on the flange pose. One joint may be locked at its
-// start value (seed 000 eq. 4 locks theta_2, the "arm plane"), which leaves a 7-joint arm with six.
+// start value (Wang et al. 2023 eq. 4 locks theta_2, the "arm plane"), which leaves a 7-joint arm with six.
 #include <Eigen/Geometry>
 
 #include "orbcal/sim/arm.hpp"
@@ -8,7 +8,7 @@
 namespace orbcal::sim {
 
 struct IkOptions {
-  int locked_joint = -1;          ///< 0-based joint held at q_start (seed 000: 1, i.e. theta_2); -1 for none
+  int locked_joint = -1;          ///< 0-based joint held at q_start (Wang et al. 2023: 1, i.e. theta_2); -1 for none
   int max_iterations = 200;
   double position_tol_m = 1e-11;  ///< convergence: flange position error below this ...
   double rotation_tol_rad = 1e-11;  ///< ... and rotation error below this

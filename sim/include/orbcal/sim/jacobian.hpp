@@ -1,5 +1,5 @@
 #pragma once
-// The identification model of seed 000 (eqs. 5-9): the first-order map from the parameter errors y
+// The identification model of Wang et al. 2023 (eqs. 5-9): the first-order map from the parameter errors y
 // (arm.hpp's layout) to the end-effector pose error e = [d; δ] = poseMinus(FK(p + y), FK(p)).
 //
 // Each parameter perturbs one DH row by an exact rigid motion (a screw) along or about an axis of
@@ -19,7 +19,7 @@ using Matrix6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 
 /// Frame in which the pose error e is expressed.
 enum class ErrorFrame {
-  kTool,  ///< the flange (tool) frame, seed 000's Σ_E: e = poseMinus(measured, nominal)
+  kTool,  ///< the flange (tool) frame, Wang et al. 2023's Σ_E: e = poseMinus(measured, nominal)
   kBase   ///< the base frame: [p_meas - p_nom; log(R_meas R_nom^T)]
 };
 

@@ -184,7 +184,7 @@ KinematicModel makeKinematicModel(Arm arm, int sessions, FrameSharing base, Fram
                                   std::vector<Eigen::Isometry3d> flange_T_marker, std::vector<Effect> effects,
                                   bool geometry = true, std::vector<Eigen::Vector3d> marker_points = {});
 
-/// The seed 000 model: the flange pose in the base frame, geometry only, frames known (identity).
+/// The Wang et al. 2023 model: the flange pose in the base frame, geometry only, frames known (identity).
 KinematicModel flangeModel(const Arm& arm);
 
 /// Joint-angle corrections dq (rad, one per joint) of the joint effects at p for sample s.

@@ -94,7 +94,7 @@ struct ViewConstraints {
   double max_tilt_rad = 0.7854;       ///< between the optical axis and the board normal (45 deg)
   double image_margin_px = 20.0;      ///< every corner at least this far inside the image
   double min_singular_value = 0.01;   ///< of the scaled manipulator Jacobian; see configurations.hpp
-  /// 0-based joint the generator's IK holds at a random value (seed 000 locks theta_2: 1); -1 for none.
+  /// 0-based joint the generator's IK holds at a random value (Wang et al. 2023 locks theta_2: 1); -1 for none.
   /// In the scene file: views.locked_joint, a 1-based joint number (0 = none).
   int locked_joint = 1;
 };

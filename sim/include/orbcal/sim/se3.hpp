@@ -1,6 +1,6 @@
 #pragma once
 // Small rigid-motion helpers shared by every library. Twists and pose errors are 6-vectors
-// ordered [translation; rotation] = [dx dy dz; δx δy δz], as in seed 000 eq. (8).
+// ordered [translation; rotation] = [dx dy dz; δx δy δz], as in Wang et al. 2023 eq. (8).
 #include <Eigen/Geometry>
 
 namespace orbcal::sim {
@@ -16,7 +16,7 @@ Eigen::Vector3d logSO3(const Eigen::Matrix3d& R);
 /// Rotation matrix of the rotation vector w (rad).
 Eigen::Matrix3d expSO3(const Eigen::Vector3d& w);
 
-/// Pose error of `measured` against `nominal`, expressed in the nominal frame (seed 000 eq. 13):
+/// Pose error of `measured` against `nominal`, expressed in the nominal frame (Wang et al. 2023 eq. 13):
 /// [R_nom^T (p_meas - p_nom); log(R_nom^T R_meas)]. To first order it equals the
 /// differential motion [d; δ] with measured = nominal * (I + [[S(δ), d], [0, 0]]).
 Vector6d poseMinus(const Eigen::Isometry3d& measured, const Eigen::Isometry3d& nominal);

@@ -23,7 +23,7 @@
 //    base_T_board and flange_T_camera are taken as exact (they are calibrated elsewhere or are
 //    part of the model being identified).
 //
-//  * Pose error against the nominal model (seed 000 eq. 13):
+//  * Pose error against the nominal model (Wang et al. 2023 eq. 13):
 //        sim::poseMinus(base_T_flange_measured, sim::forwardKinematics(nominal_arm, q)),
 //    whose covariance, for an exact nominal, is Sigma_f (same frame, same ordering).
 #include <Eigen/Core>

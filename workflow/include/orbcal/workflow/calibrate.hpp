@@ -25,7 +25,7 @@ struct CalibrateOptions {
   std::string dataset;
   std::string method = calib::kDefaultMethod;  ///< a name calib::findMethod takes (as measured data)
   std::string out;                       ///< default: <dataset>/calibration
-  double joint_noise_sigma_rad = -1.0;   ///< < 0: the manifest's, or seed 000's 0.01 deg if it has none
+  double joint_noise_sigma_rad = -1.0;   ///< < 0: the manifest's, or Wang et al. 2023's 0.01 deg if it has none
   double holdout = 0.2;                  ///< fraction of the usable samples kept out for validation
   std::uint64_t seed = 1;                ///< of the hold-out draw
   bool quiet = false;

@@ -1,6 +1,6 @@
 #pragma once
-// orbcal's experiments (issue 5): the image-to-parameters pipeline (render -> detect -> pose ->
-// estimators -> validation) and the presets that reproduce seed 000's Tables 4-5 and Fig. 8, plus the
+// orbcal's experiments: the image-to-parameters pipeline (render -> detect -> pose ->
+// estimators -> validation) and the presets that reproduce Wang et al. 2023's Tables 4-5 and Fig. 8, plus the
 // control-noise floor. Each writes CSV files and a Markdown report with PNG figures into its folder.
 // Rendered datasets live under <out>/datasets/ and are reused by later runs with the same inputs
 // (render resumes and skips finished images), so an interrupted experiment picks up where it stopped.
@@ -28,8 +28,8 @@ struct ExperimentOptions {
   sim::RobotSource robotSource() const { return {robot, base_link, tip_link}; }
   std::string scene = "builtin:default_scene.yaml";
   std::string out = "orbcal-out";
-  sim::ErrorSetSpec errors;                            ///< injected (default: seed 000 Table 3; or an error-set file)
-  double joint_noise_sigma_rad = 0.01 * 3.14159265358979323846 / 180.0;  ///< seed 000: 0.01 deg
+  sim::ErrorSetSpec errors;                            ///< injected (default: Wang et al. 2023 Table 3; or an error-set file)
+  double joint_noise_sigma_rad = 0.01 * 3.14159265358979323846 / 180.0;  ///< Wang et al. 2023: 0.01 deg
   int identification = 50;
   int validation = 200;
   int repetitions = 10;                                ///< table5, fig8, floor

@@ -1,5 +1,5 @@
 #pragma once
-// Studies (issue 12): one orbcal job (an `experiment` preset, `run`, `diagnose-study` or `render`)
+// Studies: one orbcal job (an `experiment` preset, `run`, `diagnose-study` or `render`)
 // over a grid of option values crossed with a list of seeds, run as independent tasks, locally or as a
 // Slurm job array, and merged into one report. Every task is `orbcal study task DIR --index I`, the
 // same program on the same inputs wherever it runs, so a merged result does not depend on where or
