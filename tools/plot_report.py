@@ -230,6 +230,19 @@ def main(argv):
         {"samples": samples, "parameters": parameters, "heldout": heldout}[argv[1]](argv[2], argv[3])
         return
     if len(argv) >= 6 and argv[1] in ("residuals", "components"):
+        # Options may come before the PNG (orbcal appends the PNG last): the first four other arguments
+        # are CSV, COLUMN, LABEL and PNG.
+        positional, flags, rest = [], [], argv[2:]
+        while rest:
+            if rest[0].startswith("--") and len(rest) >= 2:
+                flags += rest[:2]
+                rest = rest[2:]
+            else:
+                positional.append(rest[0])
+                rest = rest[1:]
+        if len(positional) != 4:
+            sys.exit(__doc__)
+        argv = argv[:2] + positional + flags
         opts = options(argv[6:], ("floor", "of") if argv[1] == "components" else ("floor",))
         floor = float(opts["floor"]) if "floor" in opts else None
         if argv[1] == "residuals":

@@ -27,14 +27,18 @@ std::string number(double v, const std::string& where) {
   return exactNumber(v);
 }
 
-/// `arm` as a robot YAML in `folder` records it: a URDF file named relative to the working directory
-/// named relative to `folder` instead (a robot YAML's paths are read from its own folder), lexically
-/// normal; absolute and builtin: names as they are.
+/// `arm` as a robot YAML in `folder` records it: a URDF file named relative to the working directory,
+/// or one inside `folder` (a calibrated URDF written beside it), named relative to `folder` instead (a
+/// robot YAML's paths are read from its own folder), lexically normal; other absolute paths and
+/// builtin: names as they are.
 Arm besideFolder(Arm arm, const std::string& folder) {
   const std::filesystem::path file = arm.urdf.file;
-  if (arm.urdf.file.empty() || arm.urdf.file.rfind("builtin:", 0) == 0 || file.is_absolute()) return arm;
+  if (arm.urdf.file.empty() || arm.urdf.file.rfind("builtin:", 0) == 0) return arm;
   const std::filesystem::path from = std::filesystem::absolute(folder).lexically_normal();
-  arm.urdf.file = std::filesystem::absolute(file).lexically_normal().lexically_relative(from).string();
+  const std::filesystem::path relative = std::filesystem::absolute(file).lexically_normal().lexically_relative(from);
+  const bool inside = !relative.empty() && *relative.begin() != "..";
+  if (file.is_absolute() && !inside) return arm;
+  arm.urdf.file = relative.string();
   return arm;
 }
 

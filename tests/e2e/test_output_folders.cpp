@@ -65,8 +65,9 @@ TEST_CASE("no stale result: a refused calibrate leaves its report and no model.y
   REQUIRE(runOrbcal(dir, "simulate -o data -n 60 --sessions 1 --seed 6 --quiet").status == 0);
   const Run accepted = runOrbcal(dir, "calibrate data/measurements.yaml -o cal");
   REQUIRE(accepted.status == 0);
-  REQUIRE(filesOf(dir + "/cal") == std::set<std::string>{".orbcal-output", "estimates.csv", "heldout.csv", "heldout.png", "model.yaml",
-                                                        "parameters.png", "report.html", "report.md", "robot.yaml"});
+  REQUIRE(filesOf(dir + "/cal") == std::set<std::string>{".orbcal-output", "effects.yaml", "estimates.csv", "frames.yaml", "heldout.csv",
+                                                        "heldout.png", "model.yaml", "parameters.png", "report.html", "report.md",
+                                                        "robot.yaml", "robot_calibrated.urdf"});
 
   // The same data with a stated tracker noise 50 times too small: the fit is inconsistent and refused.
   const Run refused = runOrbcal(dir, "calibrate data/measurements.yaml -o cal --noise-position-mm 0.001");
@@ -150,7 +151,7 @@ TEST_CASE("no stale result: a folder holding a file the command did not write is
   const std::set<std::string> cal = filesOf(dir + "/cal");
   const Run evaluate = runOrbcal(dir, "evaluate --model cal/model.yaml --data data/measurements.yaml -o cal");
   CHECK(evaluate.status == 1);
-  CHECK(oneLine(evaluate.err) == "orbcal: cal: holds 'estimates.csv', the output of orbcal calibrate; orbcal evaluate replaces its "
+  CHECK(oneLine(evaluate.err) == "orbcal: cal: holds 'effects.yaml', the output of orbcal calibrate; orbcal evaluate replaces its "
                                  "output folder as a whole: move that away, or use a new or empty folder");
   CHECK(filesOf(dir + "/cal") == cal);
 

@@ -17,8 +17,8 @@ TEST_CASE("fk: the torso in mm, the arm in deg", "[e2e][prismatic]") {
   INFO(low.err << high.err);
   REQUIRE(low.status == 0);
   REQUIRE(high.status == 0);
-  CHECK_THAT(low.out, Contains("position_mm: [100.0000, ") && Contains(", 2066.0000]"));
-  CHECK_THAT(high.out, Contains("position_mm: [100.0000, ") && Contains(", 2316.0000]"));  // 250 mm higher
+  CHECK_THAT(low.out, Contains("position_mm: [100.000000, ") && Contains(", 2066.000000]"));
+  CHECK_THAT(high.out, Contains("position_mm: [100.000000, ") && Contains(", 2316.000000]"));  // 250 mm higher
   const test::OrbcalRun help = test::runOrbcal(dir, "fk --help");
   CHECK_THAT(help.out, Contains("revolute [deg], prismatic [mm]"));
   const test::OrbcalRun bad = test::runOrbcal(dir, "fk --robot builtin:mobile_manipulator.urdf 1m 0 0 0 0 0 0 0");

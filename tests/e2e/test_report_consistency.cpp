@@ -222,15 +222,17 @@ TEST_CASE("robot paths are written clean: a description's ../ resolved, robot.ya
   o.accept_worse = true;
   const workflow::MeasuredCalibrateResult c = workflow::runMeasuredCalibrate(o);
   REQUIRE_FALSE(c.model_path.empty());
-  // Absolute paths in, a clean absolute path out.
-  CHECK_THAT(test::slurp(dir + "/out/cal/robot.yaml"), !Contains("/../") && Contains("file: \"" + dir + "/robots/arm.urdf\""));
+  // Absolute paths in, clean paths out (robot.yaml names the calibrated URDF beside it, relative to
+  // its own folder; its header the nominal one, absolute).
+  CHECK_THAT(test::slurp(dir + "/out/cal/robot.yaml"), !Contains("/../") && Contains("nominal: " + dir + "/robots/arm.urdf;") &&
+                                                           Contains("file: \"robot_calibrated.urdf\""));
   // Relative paths in (the command run in `dir`), the URDF named relative to robot.yaml's own folder.
   const test::OrbcalRun run = test::runOrbcal(dir, "calibrate data/up.yaml -o out/cal2 --accept-worse");
   INFO(run.err);
   REQUIRE(fs::exists(dir + "/out/cal2/robot.yaml"));
   const std::string robot = test::slurp(dir + "/out/cal2/robot.yaml");
   CHECK_FALSE(std::regex_search(robot, std::regex("[^./]/\\.\\./")));  // no "a/../b"; a leading "../../" is clean
-  CHECK_THAT(robot, Contains("file: \"../../robots/arm.urdf\"") && Contains("nominal: robots/arm.urdf;"));
+  CHECK_THAT(robot, Contains("file: \"robot_calibrated.urdf\"") && Contains("nominal: robots/arm.urdf;"));
   // Read back from its own folder, it names the URDF that exists.
   CHECK(fs::exists(sim::loadArm(dir + "/out/cal2/robot.yaml").urdf.file));
 }

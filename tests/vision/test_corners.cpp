@@ -261,7 +261,7 @@ TEST_CASE("ends whose colours disagree are rejected as inconsistent, not average
   CHECK(clean.found());
 }
 
-TEST_CASE("--subpix-window: OpenCV's fixed 11 px half window is used when asked, and said", "[vision][corners]") {
+TEST_CASE("intrinsics --subpix-window: OpenCV's fixed 11 px half window is used when asked, and said", "[vision][corners]") {
   const sim::Scene& scene = test::defaultScene();
   const Eigen::Isometry3d T = test::lookAtBoard(scene.board, 2.0, 0.2, -0.15, 0.3);
   vision::SyntheticImageSettings noisy;

@@ -267,7 +267,7 @@ void calibrate_detail::writeCalibratedFiles(const CalibrationRun& run, Calibrate
                                                               "Joint origins of the chain " + named.urdf.base_link + " -> " +
                                                                   named.urdf.tip_link + " calibrated by orbcal " + ORBCAL_VERSION +
                                                                   " (orbcal calibrate, method " + run.method.name + ") from " + run.o.dataset));
-    named.urdf.file = "robot_calibrated.urdf";
+    named.urdf.file = r.urdf_path;  // named relative to robot.yaml when written
   }
   r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(fit), run.out, header.str(), "model.yaml", "robot_calibrated.yaml");
   r.robot_path = run.out + "/robot_calibrated.yaml";

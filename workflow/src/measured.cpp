@@ -130,10 +130,37 @@ std::string writeModelAndExports(const calib::CalibratedModel& cm, const std::ve
   const std::string what = arm.urdf.empty() ? "the calibrated DH table as a chain from base_link to flange"
                                             : "the joint origins of the chain " + arm.urdf.base_link + " -> " + arm.urdf.tip_link + " calibrated";
   sim::writeCalibratedUrdf(arm, out + "/robot_calibrated.urdf", header.substr(0, header.find('\n')) + "; " + what);
-  if (!model.arm.urdf.empty()) model.arm.urdf.file = "robot_calibrated.urdf";
+  if (!model.arm.urdf.empty()) model.arm.urdf.file = out + "/robot_calibrated.urdf";
   sim::writeFileAtomic(out + "/frames.yaml", sim::formatFramesFile(model, header));
   sim::writeFileAtomic(out + "/effects.yaml", sim::formatEffectsFile(model, cm.p, "robot.yaml", header));
   return sim::writeModelFile(model, cm.p, rows, out, header);
+}
+
+/// Seeded hold-out by configuration (repeated rows of one configuration on one side), stratified by
+/// session; --holdout 0: everything is fitted.
+void splitHeldOut(const std::vector<calib::MarkerObservation>& all, const MeasuredCalibrateOptions& o,
+                  std::vector<calib::MarkerObservation>& ident, std::vector<calib::MarkerObservation>& held) {
+  const std::vector<int> part = o.holdout > 0.0 ? calib::splitByConfiguration(all, {1.0 - o.holdout, o.holdout}, o.seed)
+                                                : std::vector<int>(all.size(), 0);
+  for (std::size_t k = 0; k < all.size(); ++k) (part[k] == 1 ? held : ident).push_back(all[k]);
+}
+
+/// Each observation's residual under the model `start` at parameters p.
+std::vector<Eigen::VectorXd> residualsOf(const sim::KinematicModel& start, const Eigen::VectorXd& p,
+                                         const std::vector<calib::MarkerObservation>& observations) {
+  std::vector<Eigen::VectorXd> out;
+  for (const calib::MarkerObservation& x : observations) out.push_back(calib::markerResidual(start, p, x));
+  return out;
+}
+
+/// The estimator and the noise: the options' where given, else the description's.
+calib::FitOptions fitOptionsOf(const MeasuredCalibrateOptions& o, const sim::MeasuredData& data) {
+  calib::FitOptions fo;
+  fo.method = o.method;
+  fo.sigma_position_m = o.noise_position_m ? o.noise_position_m : data.noise_position_m;
+  fo.sigma_rotation_rad = o.noise_rotation_rad ? o.noise_rotation_rad : data.noise_rotation_rad;
+  fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
+  return fo;
 }
 
 }  // namespace
@@ -156,19 +183,12 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   const std::vector<calib::MarkerObservation> all = calib::observationsFrom(data, calib::needsTorque(effects));
   r.samples = static_cast<int>(all.size());
 
-  // Seeded hold-out by configuration (repeated rows of one configuration on one side), stratified by session.
   std::vector<calib::MarkerObservation> ident, held;
-  const std::vector<int> part = o.holdout > 0.0 ? calib::splitByConfiguration(all, {1.0 - o.holdout, o.holdout}, o.seed)
-                                                : std::vector<int>(all.size(), 0);
-  for (std::size_t k = 0; k < all.size(); ++k) (part[k] == 1 ? held : ident).push_back(all[k]);
+  splitHeldOut(all, o, ident, held);
   r.identification = static_cast<int>(ident.size());
   r.held_out = static_cast<int>(held.size());
 
-  calib::FitOptions fo;
-  fo.method = o.method;
-  fo.sigma_position_m = o.noise_position_m ? o.noise_position_m : data.noise_position_m;
-  fo.sigma_rotation_rad = o.noise_rotation_rad ? o.noise_rotation_rad : data.noise_rotation_rad;
-  fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
+  calib::FitOptions fo = fitOptionsOf(o, data);
   sim::KinematicModel start;
   try {
     start = calib::startingModel(data, ident, effects);
@@ -186,11 +206,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   // The inputs are read and checked: the output folder now holds this run's outcome only (sim::OutputFolder).
   sim::OutputFolder folder(o.out.empty() ? folderOf(o.description) + "/calibration" : o.out, "orbcal calibrate");
   const std::string& out = folder.path();
-  std::vector<Eigen::VectorXd> before, after;
-  for (const calib::MarkerObservation& x : held) {
-    before.push_back(calib::markerResidual(start, reference.p, x));
-    after.push_back(calib::markerResidual(start, r.fit.p, x));
-  }
+  const std::vector<Eigen::VectorXd> before = residualsOf(start, reference.p, held), after = residualsOf(start, r.fit.p, held);
   r.heldout_before = calib::residualStats(before);
   r.heldout_after = calib::residualStats(after);
   r.gain = calib::heldoutGain(held, before, after);
