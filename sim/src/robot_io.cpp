@@ -203,7 +203,8 @@ Arm parseArm(const RobotSource& robot, const std::string& text) {
     if (arm.convention != DhConvention::kUrdf) urdf.fail("is accepted only with convention urdf");
     urdf.requireOnlyKeys({"file", "base_link", "tip_link"});
     const std::filesystem::path file = urdf["file"].asString();
-    arm.urdf.file = file.is_absolute() || path.rfind("builtin:", 0) == 0
+    // Absolute and builtin: names as they are; a YAML that is itself builtin names its URDF beside it.
+    arm.urdf.file = file.is_absolute() || path.rfind("builtin:", 0) == 0 || file.string().rfind("builtin:", 0) == 0
                         ? file.string()
                         : (std::filesystem::path(path).parent_path() / file).lexically_normal().string();
     arm.urdf.base_link = urdf["base_link"].asString();
