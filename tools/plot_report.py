@@ -190,15 +190,20 @@ def parameter_kind(row):
     return "relative" if row.get("class") == "relative" else "free"
 
 
-def options(rest, names):
-    """--NAME VALUE pairs of `rest` (each NAME in `names`) as a dict; exits with the usage otherwise."""
-    found = {}
-    while rest:
-        if len(rest) < 2 or not rest[0].startswith("--") or rest[0][2:] not in names:
-            sys.exit(__doc__)
-        found[rest[0][2:]] = rest[1]
-        rest = rest[2:]
-    return found
+def split_options(args, names, arity):
+    """`args` as (positional arguments, {NAME: [values]}): each --NAME (NAME in `names`) anywhere takes
+    the `arity` arguments after it; exits with the usage on an unknown or incomplete option."""
+    positional, found = [], {}
+    while args:
+        if args[0].startswith("--"):
+            if args[0][2:] not in names or len(args) < 1 + arity:
+                sys.exit(__doc__)
+            found[args[0][2:]] = args[1:1 + arity]
+            args = args[1 + arity:]
+        else:
+            positional.append(args[0])
+            args = args[1:]
+    return positional, found
 
 
 def heldout(csv_path, png_path):
@@ -230,43 +235,26 @@ def main(argv):
         {"samples": samples, "parameters": parameters, "heldout": heldout}[argv[1]](argv[2], argv[3])
         return
     if len(argv) >= 6 and argv[1] in ("residuals", "components"):
-        # Options may come before the PNG (orbcal appends the PNG last): the first four other arguments
-        # are CSV, COLUMN, LABEL and PNG.
-        positional, flags, rest = [], [], argv[2:]
-        while rest:
-            if rest[0].startswith("--") and len(rest) >= 2:
-                flags += rest[:2]
-                rest = rest[2:]
-            else:
-                positional.append(rest[0])
-                rest = rest[1:]
-        if len(positional) != 4:
+        # Options may come before the PNG (orbcal appends the PNG last).
+        positional, opts = split_options(argv[2:], ("floor", "of") if argv[1] == "components" else ("floor",), 1)
+        if len(positional) != 4:  # CSV COLUMN LABEL PNG
             sys.exit(__doc__)
-        argv = argv[:2] + positional + flags
-        opts = options(argv[6:], ("floor", "of") if argv[1] == "components" else ("floor",))
-        floor = float(opts["floor"]) if "floor" in opts else None
+        floor = float(opts["floor"][0]) if "floor" in opts else None
         if argv[1] == "residuals":
-            residuals(argv[2], argv[3], argv[4], argv[5], floor)
+            residuals(*positional, floor)
         else:
-            components(argv[2], argv[3], argv[4], argv[5], opts.get("of", "selected"), floor)
+            components(*positional, opts.get("of", ["selected"])[0], floor)
         return
     if len(argv) < 4 or argv[1] not in ("boxplot", "curve"):
         sys.exit(__doc__)
     if argv[1] == "boxplot":
         boxplot(argv[2], argv[3], argv[4:])
     else:
-        axes, positional, rest = {}, [], argv[2:]
-        while rest:  # --x/--y COL LABEL anywhere among CSV and PNG
-            if rest[0] in ("--x", "--y") and len(rest) >= 3:
-                axes[rest[0]] = (rest[1], rest[2])
-                rest = rest[3:]
-            else:
-                positional.append(rest[0])
-                rest = rest[1:]
+        positional, axes = split_options(argv[2:], ("x", "y"), 2)  # --x/--y COL LABEL anywhere among CSV and PNG
         if len(positional) != 2:
             sys.exit(__doc__)
-        x = axes.get("--x", ("n", "identification configurations"))
-        y = axes.get("--y", ("avg_position_mm", "mean validation position error (mm)"))
+        x = axes.get("x", ("n", "identification configurations"))
+        y = axes.get("y", ("avg_position_mm", "mean validation position error (mm)"))
         curve(positional[0], positional[1], x[0], x[1], y[0], y[1])
 
 
