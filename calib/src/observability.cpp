@@ -192,6 +192,33 @@ class Scorer {
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es_;
 };
 
+/// The candidate not `in` the set whose information added to M scores best for a set of `size` (ties:
+/// the first in `order`), with its score; T is scratch space.
+std::pair<int, Score> bestAddition(const std::vector<int>& order, const std::vector<char>& in, const std::vector<Eigen::MatrixXd>& G,
+                                   const Eigen::MatrixXd& M, Eigen::MatrixXd& T, Scorer& score, int size) {
+  int best = -1;
+  Score best_s;
+  for (int c : order) {
+    if (in[static_cast<std::size_t>(c)]) continue;
+    T = M + G[static_cast<std::size_t>(c)];
+    const Score s = score(T, size);
+    if (best < 0 || score.better(s, best_s)) {
+      best = c;
+      best_s = s;
+    }
+  }
+  return {best, best_s};
+}
+
+/// 0..N-1 in a seeded order (Fisher-Yates): the order candidates are tried in.
+std::vector<int> seededOrder(int N, std::uint64_t seed) {
+  auto rng = sim::makeRng(seed, 1);
+  std::vector<int> p(static_cast<std::size_t>(N));
+  for (int i = 0; i < N; ++i) p[static_cast<std::size_t>(i)] = i;
+  for (int i = N - 1; i > 0; --i) std::swap(p[static_cast<std::size_t>(i)], p[rng() % static_cast<std::uint64_t>(i + 1)]);
+  return p;
+}
+
 }  // namespace
 
 std::vector<int> randomSubset(int pool, int n, std::uint64_t seed) {
@@ -221,14 +248,7 @@ Selection selectConfigurations(const std::vector<Eigen::MatrixXd>& blocks, int n
   // delta: far below any eigenvalue of a useful set (the mean per-sample eigenvalue is trace / (N m)).
   Scorer score(o.index, m, o.rank_tolerance, std::max(1e-300, 1e-9 * trace / (static_cast<double>(N) * m)),
                o.tie_tolerance);
-  // The order candidates are tried in (ties go to the first): a seeded permutation.
-  auto rng = sim::makeRng(o.seed, 1);
-  const std::vector<int> order = [&] {
-    std::vector<int> p(static_cast<std::size_t>(N));
-    for (int i = 0; i < N; ++i) p[static_cast<std::size_t>(i)] = i;
-    for (int i = N - 1; i > 0; --i) std::swap(p[static_cast<std::size_t>(i)], p[rng() % static_cast<std::uint64_t>(i + 1)]);
-    return p;
-  }();
+  const std::vector<int> order = seededOrder(N, o.seed);  // ties go to the first
   std::vector<char> in(static_cast<std::size_t>(N), 0);
   std::vector<int> chosen;
   Eigen::MatrixXd M = Eigen::MatrixXd::Zero(m, m), T(m, m);
@@ -236,17 +256,7 @@ Selection selectConfigurations(const std::vector<Eigen::MatrixXd>& blocks, int n
   // 1. Greedy forward selection.
   Score current;
   for (int step = 0; step < n; ++step) {
-    int best = -1;
-    Score best_s;
-    for (int c : order) {
-      if (in[static_cast<std::size_t>(c)]) continue;
-      T = M + G[static_cast<std::size_t>(c)];
-      const Score s = score(T, step + 1);
-      if (best < 0 || score.better(s, best_s)) {
-        best = c;
-        best_s = s;
-      }
-    }
+    const auto [best, best_s] = bestAddition(order, in, G, M, T, score, step + 1);
     chosen.push_back(best);
     in[static_cast<std::size_t>(best)] = 1;
     M += G[static_cast<std::size_t>(best)];
@@ -258,17 +268,7 @@ Selection selectConfigurations(const std::vector<Eigen::MatrixXd>& blocks, int n
   constexpr double kGain = 1e-6;  // relative improvement that counts
   if (n < N) {
     for (int excursion = 0; excursion < 10 * N; ++excursion) {
-      int add = -1;
-      Score add_s;
-      for (int c : order) {
-        if (in[static_cast<std::size_t>(c)]) continue;
-        T = M + G[static_cast<std::size_t>(c)];
-        const Score s = score(T, n + 1);
-        if (add < 0 || score.better(s, add_s)) {
-          add = c;
-          add_s = s;
-        }
-      }
+      const int add = bestAddition(order, in, G, M, T, score, n + 1).first;
       const Eigen::MatrixXd M_plus = M + G[static_cast<std::size_t>(add)];
       int drop = -1;
       Score drop_s;
