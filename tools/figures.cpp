@@ -19,7 +19,7 @@ std::string plotReportFigure(const workflow::FigureRequest& f) {
   // Debian's python3 (with python3-matplotlib) first: another python3 may come first on PATH.
   const char* python = std::getenv("ORBCAL_PYTHON");
   const std::string interpreter = python ? python : (access("/usr/bin/python3", X_OK) == 0 ? "/usr/bin/python3" : "python3");
-  const std::string cmd = interpreter + " '" + script + "' " + f.args + " '" + f.folder + "/" + f.png + "' 2>&1";
+  const std::string cmd = interpreter + " " + workflow::shellQuote(script) + " " + f.args + " " + workflow::shellQuote(f.folder + "/" + f.png) + " 2>&1";
   auto [status, output] = workflow::shellOutput(cmd);
   if (status == 0) return "![" + f.caption + "](" + f.png + ")\n";
   // The last line of a Python error is its message (e.g. "ModuleNotFoundError: No module named ...").

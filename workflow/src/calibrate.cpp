@@ -413,10 +413,10 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
     r.model_path = folder.published(r.model_path);
   }
   writeSampleErrors(run, r);
-  std::string figure_lines = drawFigure(o.callbacks, o.plots, run.out, "samples '" + run.out + "/samples.csv'", "samples.png",
+  std::string figure_lines = drawFigure(o.callbacks, o.plots, run.out, "samples " + shellQuote(run.out + "/samples.csv"), "samples.png",
                                         "per-image errors before and after");
   if (r.written) {
-    figure_lines += drawFigure(o.callbacks, o.plots, run.out, "parameters '" + run.out + "/estimates.csv'", "parameters.png",
+    figure_lines += drawFigure(o.callbacks, o.plots, run.out, "parameters " + shellQuote(run.out + "/estimates.csv"), "parameters.png",
                                "identified parameters with their 1-sigma");
   }
   const std::string report = calibrationReport(run, r, figure_lines);

@@ -502,7 +502,7 @@ std::string sweepSection(const ExperimentOptions& o, const std::string& folder, 
   md << sweepTable(st.rot_mean, sim::kRadToDeg, "%.4f");
   auto sweepFigure = [&](const std::string& column, const std::string& label, const std::string& png) {
     return drawFigure(o, folder,
-                      "curve '" + folder + "/frame_change.csv' --x frame_change_mm 'board-to-base change (mm)' --y " + column +
+                      "curve " + shellQuote(folder + "/frame_change.csv") + " --x frame_change_mm 'board-to-base change (mm)' --y " + column +
                           " " + shellQuote(label),
                       png, label + " against the board-to-base change");
   };
@@ -510,7 +510,7 @@ std::string sweepSection(const ExperimentOptions& o, const std::string& folder, 
      << sweepFigure("position_mean_mm", "mean validation position error (mm)", "frame_change_position.png")
      << sweepFigure("orientation_mean_deg", "mean validation orientation error (deg)", "frame_change_orientation.png")
      << sweepFigure("local_position_mean_mm", "mean local validation position error (mm)", "frame_change_position_local.png")
-     << drawFigure(o, folder, "boxplot '" + folder + "/validation_errors.csv'", "validation_boxplot.png",
+     << drawFigure(o, folder, "boxplot " + shellQuote(folder + "/validation_errors.csv"), "validation_boxplot.png",
                    "validation errors, board-to-base transform unchanged")
      << "\nFiles: `runs.csv` (every repetition, change and model), `frame_change.csv` (the sweep), "
         "`validation_errors.csv` (every validation error at no change, all repetitions).\n\n";

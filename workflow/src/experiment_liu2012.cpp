@@ -207,7 +207,7 @@ void runLiu2012(const ExperimentOptions& o) {
   md << "\nThe O3 ratio case 2 / case 1: ours " << fmt("%.2f", o3[1].mean() / o3[0].mean()) << ", the paper's "
      << fmt("%.2f", kPaperO3[1] / kPaperO3[0]) << ". Identified dc: mean +- standard deviation over the repetitions; "
      << "1-sigma: the estimator's own, mean over them.\n\n"
-     << drawFigure(o, folder, "boxplot '" + folder + "/validation_errors.csv'",
+     << drawFigure(o, folder, "boxplot " + shellQuote(folder + "/validation_errors.csv"),
                    "validation_boxplot.png", "validation pose errors: nominal, case 1, case 2 (all repetitions)")
      << "\nFiles: `liu2012_runs.csv` (every repetition: O3, dc, residuals, per-axis errors), `validation_errors.csv` "
      << "(every validation configuration). One repetition took " << fmt("%.2f", seconds.mean()) << " s on average.\n";

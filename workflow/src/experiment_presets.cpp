@@ -132,7 +132,7 @@ void runTable5(const ExperimentOptions& o) {
   for (std::size_t i = 0; i < columns.size(); ++i) md << " " << fmt("%.3f", floor_avg * 1e3) << " | |";
   md << "\n\nWang et al. 2023's single-run values for reference: LSE 1.9356/5.8736, 3.1832/8.3625, 1.4362/6.0831, "
         "4.7239/13.5341; EKF 1.9463/5.9541, 1.9687/6.0528, 1.8125/6.6727, 2.4368/7.3659 (avg/ext, mm).\n\n"
-     << drawFigure(o, folder, "boxplot '" + folder + "/validation_errors.csv'", "validation_boxplot.png",
+     << drawFigure(o, folder, "boxplot " + shellQuote(folder + "/validation_errors.csv"), "validation_boxplot.png",
                    "validation errors")
      << "\nFiles: `table5.csv` (every repetition), `validation_errors.csv` (pooled validation errors).\n";
   writeReport(folder, md.str());
@@ -194,7 +194,7 @@ void runFig8(const ExperimentOptions& o) {
     }
     md << "\n";
   }
-  md << "\n" << drawFigure(o, folder, "curve '" + folder + "/fig8.csv'", "fig8.png", "validation error against set size")
+  md << "\n" << drawFigure(o, folder, "curve " + shellQuote(folder + "/fig8.csv"), "fig8.png", "validation error against set size")
      << "\nFile: `fig8.csv` (every run).\n";
   writeReport(folder, md.str());
   output.commit();

@@ -337,7 +337,7 @@ void runSelection(const ExperimentOptions& o) {
   md << "\n(gain: the validation error selection saves against random sets of the same size. A range is one number per "
         "configuration: at 15 and 25 the set is smaller than the 26 parameters the range identifies, every O3 is 0 and "
         "the estimate is least squares' minimum-norm one.)\n\n"
-     << drawFigure(o, folder, "curve '" + folder + "/synthetic_curve.csv'", "synthetic.png",
+     << drawFigure(o, folder, "curve " + shellQuote(folder + "/synthetic_curve.csv"), "synthetic.png",
                    "validation error against the number of measurements, per kind and chooser")
      << "\n## The main job's setting: rendered images, " << fmt("%.3g", o.joint_noise_sigma_rad * sim::kRadToDeg)
      << " deg control noise\n\n"
