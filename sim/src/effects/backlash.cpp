@@ -38,14 +38,7 @@ class BacklashKind final : public EffectKind {
       if (J) (*J)(j, col) += s.direction[j];
     }
   }
-  std::string correctionFormula(const Effect&, const ParamBlock& b) const override {
-    std::string f;
-    for (std::size_t i = 0; i < b.joints.size(); ++i) {
-      const std::string n = std::to_string(b.joints[i] + 1);
-      f += (i ? "; " : "") + ("dq" + n + " = " + b.params[i].name + " * dir" + n);
-    }
-    return f;
-  }
+  std::string correctionFormula(const Effect&, const ParamBlock& b) const override { return perJointLinearFormula(b, "dir"); }
   void requireCovariates(const JointSample& s, int) const override {
     if (s.direction.size() != s.q_rad.size()) {
       throw std::invalid_argument("the backlash effect needs the approach direction of every joint");

@@ -147,6 +147,15 @@ std::vector<Effect> EffectKind::perJointCandidates(int joints) const {
   return c;
 }
 
+std::string EffectKind::perJointLinearFormula(const ParamBlock& b, const std::string& variable) {
+  std::string f;
+  for (std::size_t i = 0; i < b.joints.size(); ++i) {
+    const std::string n = std::to_string(b.joints[i] + 1);
+    f += (i ? "; " : "") + ("dq" + n + " = " + b.params[i].name + " * " + variable + n);
+  }
+  return f;
+}
+
 ParamBlock EffectKind::jointBlockOf(const Effect& e, const std::function<void(ParamBlock&, const std::string&, int)>& params) const {
   ParamBlock b;
   b.effect = name();

@@ -26,14 +26,7 @@ class ScaleKind final : public EffectKind {
       if (J) (*J)(j, col) += s.q_rad[j];
     }
   }
-  std::string correctionFormula(const Effect&, const ParamBlock& b) const override {
-    std::string f;
-    for (std::size_t i = 0; i < b.joints.size(); ++i) {
-      const std::string n = std::to_string(b.joints[i] + 1);
-      f += (i ? "; " : "") + ("dq" + n + " = " + b.params[i].name + " * q" + n);
-    }
-    return f;
-  }
+  std::string correctionFormula(const Effect&, const ParamBlock& b) const override { return perJointLinearFormula(b, "q"); }
   std::vector<Effect> candidates(const CandidateContext& c) const override { return perJointCandidates(c.joints); }
   std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
     return angleVariable(e.joints().front());

@@ -169,6 +169,9 @@ class EffectKind {
   static std::string widerRangeAdvice();
   /// One effect per joint (the usual candidates of a joint effect).
   std::vector<Effect> perJointCandidates(int joints) const;
+  /// The formula of a correction linear in one variable per joint, one parameter each (block order):
+  /// "dq2 = s2 * q2; dq4 = s4 * q4" for variable "q" (the variable's name is followed by the joint, from 1).
+  static std::string perJointLinearFormula(const ParamBlock& b, const std::string& variable);
   /// One block over the effect's joints, `params` adding each joint's parameters (joint as "2").
   ParamBlock jointBlock(const Effect& e, const std::function<void(ParamBlock&, const std::string&)>& params) const;
   /// The same with the joint's index (from 0) too, for parameters whose unit follows the joint's type.
