@@ -363,6 +363,12 @@ bool startsTag(const std::string& s, std::size_t i, const char* name) {
 
 }  // namespace
 
+std::string xmlComment(const std::string& text) {
+  std::string c = text;
+  for (std::size_t p = c.find("--"); p != std::string::npos; p = c.find("--")) c.replace(p, 2, "- -");
+  return "<!-- " + c + " -->\n";
+}
+
 std::string replaceUrdfOrigins(const std::string& xml, const Arm& arm, const std::string& comment) {
   if (arm.convention != DhConvention::kUrdf || arm.urdf.joint_names.size() != arm.joints.size()) {
     throw std::invalid_argument("replaceUrdfOrigins: the arm was not read from a URDF");
@@ -383,9 +389,7 @@ std::string replaceUrdfOrigins(const std::string& xml, const Arm& arm, const std
     const std::size_t end = skipMarkup(xml, i);
     if (end == std::string::npos) break;
     if (!commented && startsTag(xml, i, "robot")) {
-      std::string c = comment;
-      for (std::size_t p = c.find("--"); p != std::string::npos; p = c.find("--")) c.replace(p, 2, "- -");
-      out += xml.substr(copied, i - copied) + "<!-- " + c + " -->\n";
+      out += xml.substr(copied, i - copied) + xmlComment(comment);
       copied = i;
       commented = true;
     }

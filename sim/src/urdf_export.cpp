@@ -84,11 +84,7 @@ std::string urdfFromDh(const Arm& arm, const std::string& comment) {
   const bool masses = !arm.masses.links.empty();
   std::ostringstream s;
   s << "<?xml version=\"1.0\"?>\n";
-  if (!comment.empty()) {
-    std::string c = comment;  // "--" would end the comment
-    for (std::size_t p = c.find("--"); p != std::string::npos; p = c.find("--")) c.replace(p, 2, "- -");
-    s << "<!-- " << c << " -->\n";
-  }
+  if (!comment.empty()) s << xmlComment(comment);
   s << "<robot name=\"" << xmlEscaped(arm.name.empty() ? "arm" : arm.name) << "\">\n";
   s << linkElement("base_link", 0.0, Eigen::Vector3d::Zero());
   Eigen::Isometry3d pending = arm.base_T_first;  // what lies between the last joint written and the next

@@ -37,6 +37,9 @@ Arm armFromUrdf(const std::string& xml, const std::string& source, const std::st
 /// the zero offset folded in, so that the URDF's joint at q = 0 is the arm's joint at its offset.
 Eigen::Isometry3d urdfJointOrigin(const Arm& arm, int j);
 
+/// "<!-- text -->\n", every "--" of `text` (which would end the comment) written "- -".
+std::string xmlComment(const std::string& text);
+
 /// `xml` (the URDF `arm` was read from) with the <origin> of every chain joint replaced by
 /// urdfJointOrigin (full precision), everything else kept byte for byte; `comment` (if not empty)
 /// goes in an XML comment before <robot>.
