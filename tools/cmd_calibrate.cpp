@@ -2,6 +2,7 @@
 // joint readings, or geometry + registration + effects from measured data (a measurement description).
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 
 #include "orbcal/workflow/calibrate.hpp"
 #include "cli.hpp"
@@ -20,16 +21,7 @@ void printMeasured(const workflow::MeasuredCalibrateResult& r, const std::string
   const auto refused = [&](const std::string& why) {
     std::fprintf(stderr, "orbcal: calibrate: %s: %s%s\n", description.c_str(), why.c_str(), not_written);
   };
-  if (r.inconsistent) refused("the fit is inconsistent with the given measurement noise: " + workflow::inconsistencyText(r));
-  // Too few held-out configurations say nothing either way: that alone is said then.
-  const bool worse = r.worse && r.gain.enough;
-  if (worse) {
-    refused("the calibrated model predicts the " + std::to_string(r.held_out) + " held-out samples worse than the nominal arm "
-            "(position RMS " + sim::formatNumber("%.4f", r.heldout_before.position_rms_m * 1e3) + " -> " +
-            sim::formatNumber("%.4f", r.heldout_after.position_rms_m * 1e3) + " mm)");
-  }
-  if (!worse && !r.refusal.empty()) refused(r.refusal);
-  if (!r.fit_refusal.empty()) refused(r.fit_refusal);
+  for (const std::string& why : r.refusals) refused(why);
   std::printf("%s\n", calib::levelSentence(r.level).c_str());
   std::printf("%d samples: %d fitted, %d held out; %d parameters, %zu held (by the level or as unidentifiable)\n", r.samples,
               r.identification, r.held_out, r.fit.model.layout.size(), r.fit.estimate.held.size());
@@ -55,7 +47,10 @@ void printImages(const workflow::CalibrateResult& r) {
               r.identification, r.held_out, r.model.c_str(), r.classes.rank, static_cast<int>(r.classes.names.size()));
   std::printf("%s\n", workflow::formatKeptAndHeld(r.classes).c_str());
   if (r.held_out > 0) {
-    std::printf("held-out average position error against the measured poses: %.3f mm -> %.3f mm (%.1f%%)\n",
+    std::printf("held-out camera position RMS: nominal arm %.4f mm -> model %.4f mm (%d configurations; t = %.2f, p = %.2g)\n",
+                r.verdict.gain.before_rms_m * 1e3, r.verdict.gain.after_rms_m * 1e3, r.verdict.gain.configurations,
+                r.verdict.gain.t, r.verdict.gain.p_value);
+    std::printf("held-out average flange position error of the DH estimate, scene frames: %.3f mm -> %.3f mm (%.1f%%)\n",
                 r.before.position_avg_m * 1e3, r.after.position_avg_m * 1e3,
                 100.0 * calib::improvement(r.before.position_avg_m, r.after.position_avg_m));
   }
@@ -76,8 +71,9 @@ void printImages(const workflow::CalibrateResult& r) {
   }
   if (r.frames) {
     std::printf("with base_T_board and flange_T_camera estimated: held-out camera position RMS %.4f mm (nominal arm, frames "
-                "refitted: %.4f mm)\n",
-                r.frames->heldout_after.position_rms_m * 1e3, r.frames->heldout_before.position_rms_m * 1e3);
+                "refitted: %.4f mm); chi-square %.1f for %d degrees of freedom\n",
+                r.frames->heldout_after.position_rms_m * 1e3, r.frames->heldout_before.position_rms_m * 1e3, r.frames->fit.chi2,
+                r.frames->fit.dof);
   }
   if (r.frames && r.frames->corners) {
     const workflow::CornerEstimate& ce = *r.frames->corners;
@@ -93,7 +89,8 @@ void printImages(const workflow::CalibrateResult& r) {
       std::printf("\n");
     }
   }
-  std::printf("consistency: %s\n", calib::formatConsistency(r.consistency).c_str());
+  std::printf("consistency%s: %s\n", r.frames ? " of the DH estimate with the scene's frames" : "",
+              calib::formatConsistency(r.consistency).c_str());
   if (r.written) std::printf("model: %s\n", r.model_path.c_str());
   if (r.written) std::printf("calibrated robot: %s\n", r.robot_path.c_str());
   if (r.written && !r.urdf_path.empty()) std::printf("calibrated URDF: %s\n", r.urdf_path.c_str());
@@ -106,7 +103,7 @@ void addCalibrateCommand(CLI::App& app) {
     workflow::MeasuredCalibrateOptions measured;
     std::string method;
     std::string level = "auto";
-    double holdout = 0.2;
+    std::optional<double> holdout;  ///< empty: calib::defaultHoldout
     std::uint64_t seed = 1;
     std::string out;
     double noise_position_mm = -1, noise_rotation_deg = -1;
@@ -114,13 +111,14 @@ void addCalibrateCommand(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   CLI::App* cmd = app.add_subcommand(
       "calibrate",
-      "Calibrate an arm. From an image dataset (folder): the DH errors, written as a calibrated robot file. From "
-      "measured data (a measurement description, .yaml): geometry + the unknown registration frames + the chosen "
-      "effects (--effects), written as model.yaml (and, for other programs, robot_calibrated.urdf, frames.yaml, effects.yaml). The gain is measured on held-out samples (measured data: held-out "
-      "configurations); a model that predicts them worse than the nominal arm, a fit inconsistent with its noise (chi-square "
-      "test; measured data: when the noise is given), or (measured data) a gain not significant against the held-out noise, "
-      "is refused (exit 1, no calibrated file) unless --accept-worse. Measured data whose registration or calibrated "
-      "geometry no real arm can show (wrong units or quaternion order) are refused at once.");
+      "Calibrate an arm. From an image dataset (folder): the DH errors (with --estimate-frames also base_T_board and "
+      "flange_T_camera, and with --effects the effects, fitted on the detected corners). From measured data (a "
+      "measurement description, .yaml): geometry + the unknown registration frames + the chosen effects (--effects). "
+      "Both are written as model.yaml (and, for other programs, robot_calibrated.urdf, frames.yaml, effects.yaml). "
+      "Both are judged by one rule on held-out configurations: a model that predicts them worse than the nominal arm, or "
+      "not significantly better, a fit inconsistent with its noise (chi-square test; measured data: when the noise is "
+      "given), is refused (exit 1, no calibrated file) unless --accept-worse. Measured data whose registration or "
+      "calibrated geometry no real arm can show (wrong units or quaternion order) are refused at once.");
   cmd->add_option("dataset", o->images.dataset, "image dataset folder, or measurement description (.yaml)")->required();
   cmd->add_option("--method", o->method,
                   "estimator, for images and measured data alike: " + calib::methodNames() + " (default " +
@@ -145,16 +143,18 @@ void addCalibrateCommand(CLI::App& app) {
   cmd->add_option("--noise-rotation-deg", o->noise_rotation_deg,
                   "measured data: tracker rotation noise, 1 sigma per axis [deg] (default: the description's, else estimated)")
       ->check(CLI::Range(sim::kMinNoiseRotationDeg, sim::kMaxNoiseRotationDeg));
-  cmd->add_option("--holdout", o->holdout,
-                  "fraction kept out for validation: of the usable images; measured data: of the configurations (at least " +
-                      std::to_string(calib::kMinHeldoutConfigurations) + " held out, and a gain significant at p < " +
-                      sim::formatNumber("%g", calib::kHeldoutGainAlpha) + ", for a model to be accepted)")
-      ->capture_default_str()
+  cmd->add_option_function<double>(
+         "--holdout", [o](double h) { o->holdout = h; },
+         "share of the configurations (an image dataset's: of its usable images) kept out for validation, whole "
+         "configurations, seeded (default: " + sim::formatNumber("%g", calib::kDefaultHoldoutShare) + ", raised to hold out " +
+             std::to_string(calib::kMinHeldoutConfigurations) + " where as many are left to fit). A model is accepted when at least " +
+             std::to_string(calib::kMinHeldoutConfigurations) + " are held out and it predicts them better than the nominal arm, "
+             "significantly at p < " + sim::formatNumber("%g", calib::kHeldoutGainAlpha) + " (one rule for images and measured data)")
       ->check(CLI::Range(0.0, 0.9));
   cmd->add_option("--seed", o->seed, "seed of the hold-out draw")->capture_default_str();
   cmd->add_flag("--accept-worse", o->measured.accept_worse,
-                "write the calibrated files even if the fit is inconsistent with its noise, predicts the held-out samples worse, or "
-                "(measured data) its held-out gain is not significant (the report and the terminal say so first)");
+                "write the calibrated files even if the fit is inconsistent with its noise, predicts the held-out configurations "
+                "worse, or its held-out gain is not significant (the report and the terminal say so first)");
   cmd->add_option("-o,--out", o->out, "output folder (default: calibration/ beside the dataset or description, with an image dataset's "
                  "measurements.csv in the dataset folder); with -o, everything (measurements.csv too) goes to OUT and "
                  "the dataset folder is only read");
@@ -190,7 +190,7 @@ void addCalibrateCommand(CLI::App& app) {
       if (o->noise_rotation_deg > 0) m.noise_rotation_rad = o->noise_rotation_deg * sim::kDegToRad;
       const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(m);
       printMeasured(r, m.description);
-      if ((r.worse || r.inconsistent || !r.refusal.empty() || !r.fit_refusal.empty()) && !m.accept_worse) throw CLI::RuntimeError(1);
+      if (!r.refusals.empty() && !m.accept_worse) throw CLI::RuntimeError(1);
       return;
     }
     if (o->level != "auto") throw sim::InputError("--level: for measured data (a measurement description)");

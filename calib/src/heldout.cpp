@@ -6,6 +6,7 @@
 #include <numeric>
 
 #include "orbcal/calib/diagnose.hpp"
+#include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
 
@@ -173,22 +174,63 @@ HeldoutGain heldoutGain(const std::vector<MarkerObservation>& obs, const std::ve
   return g;
 }
 
-std::string heldoutRefusal(const HeldoutGain& g, double holdout, int total) {
+std::vector<int> holdoutSplit(const std::vector<MarkerObservation>& obs, std::optional<double> holdout, std::uint64_t seed) {
+  if (holdout && !(*holdout >= 0.0 && *holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
+  const double h = holdout ? *holdout : defaultHoldout(countConfigurations(obs));
+  return h > 0.0 ? splitByConfiguration(obs, {1.0 - h, h}, seed) : std::vector<int>(obs.size(), 0);
+}
+
+double defaultHoldout(int configurations) {
+  const double n = static_cast<double>(configurations);
+  if (configurations < 2 * kMinHeldoutConfigurations || kDefaultHoldoutShare * n >= kMinHeldoutConfigurations) {
+    return kDefaultHoldoutShare;
+  }
+  // splitByConfiguration deals the held-out part round(share x configurations) of them: exactly kMinHeldoutConfigurations.
+  return kMinHeldoutConfigurations / n;
+}
+
+std::string heldoutRefusal(const HeldoutGain& g, std::optional<double> holdout, int total) {
   using sim::formatNumber;
   if (g.significant) return "";
   if (!g.enough) {
-    const std::string in_all = holdout > 0.0 ? std::to_string(static_cast<int>(std::ceil(kMinHeldoutConfigurations / holdout - 1e-9)))
-                                             : std::string("more");
+    const std::string advice =
+        holdout ? "at least " + std::to_string(static_cast<int>(std::ceil(kMinHeldoutConfigurations / *holdout - 1e-9))) +
+                      " in all with --holdout " + formatNumber("%g", *holdout) + ") or raise --holdout"
+                : "at least " + std::to_string(2 * kMinHeldoutConfigurations) + " in all: the default hold-out then keeps " +
+                      std::to_string(kMinHeldoutConfigurations) + " of them out) or give a larger --holdout";
     return "only " + std::to_string(g.configurations) + " of the " + std::to_string(total) +
            " configurations are held out, and at least " + std::to_string(kMinHeldoutConfigurations) +
-           " are needed to tell a held-out gain from noise: measure more configurations (at least " + in_all +
-           " in all with --holdout " + formatNumber("%g", holdout) + ") or raise --holdout";
+           " are needed to tell a held-out gain from noise: measure more configurations (" + advice;
   }
   return "the held-out gain is not significant: position RMS " + formatNumber("%.4f", g.before_rms_m * 1e3) + " -> " +
          formatNumber("%.4f", g.after_rms_m * 1e3) + " mm over " + std::to_string(g.configurations) +
          " held-out configurations, one-sided paired test of their squared errors t = " + formatNumber("%.2f", g.t) +
          ", p = " + formatNumber("%.2g", g.p_value) + " (needs p < " + formatNumber("%g", kHeldoutGainAlpha) +
          "): measure more configurations, or fit fewer effects";
+}
+
+std::string formatHeldoutGain(const HeldoutGain& g) {
+  using sim::formatNumber;
+  return std::to_string(g.configurations) + " held-out configurations; the gain over the nominal arm, one-sided paired test of "
+         "their squared position errors (calib/heldout.hpp): t = " + formatNumber("%.2f", g.t) + ", p = " +
+         formatNumber("%.2g", g.p_value) + " (accepted at p < " + formatNumber("%g", kHeldoutGainAlpha) + " with at least " +
+         std::to_string(kMinHeldoutConfigurations) + " configurations)";
+}
+
+HeldoutVerdict heldoutVerdict(const std::vector<MarkerObservation>& held, const std::vector<Eigen::VectorXd>& before,
+                              const std::vector<Eigen::VectorXd>& after, std::optional<double> holdout, int total) {
+  using sim::formatNumber;
+  HeldoutVerdict v;
+  v.gain = heldoutGain(held, before, after);
+  v.worse = !held.empty() && v.gain.after_rms_m > v.gain.before_rms_m;
+  if (v.worse && v.gain.enough) {
+    v.refusal = "the calibrated model predicts the " + std::to_string(v.gain.configurations) +
+                " held-out configurations worse than the nominal arm (position RMS " + formatNumber("%.4f", v.gain.before_rms_m * 1e3) +
+                " -> " + formatNumber("%.4f", v.gain.after_rms_m * 1e3) + " mm)";
+  } else {
+    v.refusal = heldoutRefusal(v.gain, holdout, total);
+  }
+  return v;
 }
 
 }  // namespace orbcal::calib

@@ -41,7 +41,9 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
   const workflow::CalibrateResult r = workflow::runCalibrate(o);
   CHECK(r.images == 40);
   CHECK(r.usable >= 38);  // clean rendered views; the planner keeps a 20 px margin
-  CHECK(r.held_out == static_cast<int>(0.2 * r.usable));
+  // 20 % of 38-40 usable images would be 8, fewer than the 10 configurations the held-out test needs
+  // (calib::kMinHeldoutConfigurations); the default holds out 10 where as many are left to fit.
+  CHECK(r.held_out == 10);
   REQUIRE(r.has_truth);
   // Wang et al. 2023's bar (90%) on held-out samples, against the camera's measurements and against the truth.
   CHECK(calib::improvement(r.before.position_avg_m, r.after.position_avg_m) >= 0.90);
@@ -73,8 +75,8 @@ TEST_CASE("calibrate a rendered dataset: the calibrated robot file reproduces th
     CAPTURE(r.usable, r.held_out, r.truth_before.position_avg_m, r.before.position_avg_m);
     CAPTURE(r.truth_after.position_avg_m, floor.position_avg_m, r.after.position_avg_m, floor_measured.position_avg_m);
     // The main job's runs (docs/papers-experiments.md) (50 + 200 views) land at 1.02-1.09 x floor; here the mean is over
-    // only 7 held-out samples (and 32 identification images), so the ratio scatters more: measured
-    // 1.11 against the truth and 1.06 against the camera. 1.4 leaves room for that scatter; the 90%
+    // only 10 held-out samples (and 29 identification images), so the ratio scatters more: measured
+    // 1.03 against the truth and 1.03 against the camera (1.11 and 1.06 on another split of 7). 1.4 leaves room for that scatter; the 90%
     // bar allows 4.0 x the floor here.
     CHECK(r.truth_after.position_avg_m <= 1.4 * floor.position_avg_m);
     CHECK(r.after.position_avg_m <= 1.4 * floor_measured.position_avg_m);

@@ -332,6 +332,7 @@ TEST_CASE("safe files: calibrate -o on a read-only dataset writes everything to 
   o.dataset = job.out;
   o.out = dir + "/out";
   o.quiet = true;
+  o.holdout = 0.0;  // 12 images are too few to hold out the 10 the held-out test needs; the fit alone decides
   workflow::runCalibrate(o);
   // Tests run as root here, where permissions do not stop writes: compare content and times instead.
   CHECK(snapshot(job.out) == before);

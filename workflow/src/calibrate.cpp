@@ -54,6 +54,7 @@ CornerEstimate estimateOnCorners(const sim::Dataset& d, const std::vector<vision
   std::vector<int> distortion_params;
   for (int i = 0; i < 4; ++i) distortion_params.push_back(off + i);
   calib::CornerNoise noise;  // the starting sigma; re-estimated from the residuals
+  c.model = start;
   c.fit = calib::fitCornerModel(start, d.scene.camera, d.scene.board, obs, noise, true, {},
                                 distortion ? std::vector<int>{} : distortion_params);
   noise.sigma_px = c.fit.sigma_px;
@@ -88,6 +89,7 @@ FrameEstimate estimateFrames(const sim::Dataset& d, const std::vector<vision::Me
   const sim::ParamBlock& g = start.layout.block(start.layout.find("geometry"));
   for (int i = 0; i < g.size(); ++i) ref.hold.push_back(g.offset + i);
   const calib::Fit reference = calib::fitMarkerModel(start, obs, ref);
+  f.reference_p = reference.p;
   f.heldout_before = calib::residualStats(start, reference.p, held);
   f.heldout_after = calib::residualStats(start, f.fit.p, held);
   const calib::CalibratedModel cm = calib::calibratedModel(f.fit);
@@ -137,7 +139,24 @@ sim::KinematicModel calibrate_detail::sceneModel(const sim::Dataset& d) {
                                  {d.scene.flange_T_camera}, {});
 }
 
+calib::Fit calibrate_detail::cornerModelFit(const CornerEstimate& c) {
+  calib::Fit fit;
+  fit.model = c.model;
+  const int n = c.model.layout.size();
+  fit.p0 = Eigen::VectorXd::Zero(n);
+  fit.p = c.fit.p.head(n);
+  fit.estimate = c.fit.estimate;
+  fit.estimate.y = Eigen::VectorXd(c.fit.estimate.y.head(n));
+  fit.estimate.covariance = Eigen::MatrixXd(c.fit.estimate.covariance.topLeftCorner(n, n));
+  fit.estimate.held.erase(std::remove_if(fit.estimate.held.begin(), fit.estimate.held.end(), [n](int i) { return i >= n; }),
+                          fit.estimate.held.end());
+  fit.noise_estimated = true;
+  fit.dof = c.fit.dof;
+  return fit;
+}
+
 calib::Fit calibrate_detail::imageFit(const CalibrationRun& run, const CalibrateResult& r) {
+  if (r.frames && r.frames->corners) return cornerModelFit(*r.frames->corners);
   if (r.frames) return r.frames->fit;
   calib::Fit fit;
   fit.model = sceneModel(run.d);
@@ -213,7 +232,7 @@ std::string likelyCause(const sim::Dataset& d, const std::vector<vision::Measure
     return "with base_T_board and flange_T_camera estimated the fit is " + std::string(p_frames >= c.alpha ? "consistent" : "far better") +
            " (chi-square " + formatNumber("%.1f", f.fit.chi2) + " for " + std::to_string(f.fit.dof) +
            "): the scene's board or camera mount (base_T_board, flange_T_camera) is off; calibrate with --estimate-frames "
-           "(its frames.yaml corrects the scene)";
+           "(its scene_frames.yaml corrects the scene)";
   }
   return "even with base_T_board and flange_T_camera estimated the fit is inconsistent (chi-square " + formatNumber("%.1f", f.fit.chi2) +
          " for " + std::to_string(f.fit.dof) + "): the robot file or the camera intrinsics do not describe this arm, or it has "
@@ -224,7 +243,7 @@ namespace {
 
 /// The options' checks that need no file: a bad value fails before any work.
 void checkCalibrateOptions(const CalibrateOptions& o) {
-  if (!(o.holdout >= 0.0 && o.holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
+  if (o.holdout && !(*o.holdout >= 0.0 && *o.holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
   if (!o.effects.empty() && !o.estimate_frames) {
     throw sim::InputError("--effects: an image dataset's effects are fitted with its frames: add --estimate-frames");
   }
@@ -263,22 +282,19 @@ void measureImages(CalibrationRun& run, CalibrateResult& r) {
   r.images = static_cast<int>(run.meas.size());
 }
 
-/// The usable samples, then a seeded hold-out draw.
+/// The usable samples, split by the one hold-out rule of every calibration (calib::holdoutSplit: whole
+/// configurations, seeded; an image is a configuration unless its joint readings repeat another's).
 void splitHoldout(CalibrationRun& run, CalibrateResult& r) {
   std::vector<std::size_t> usable;
   for (std::size_t k = 0; k < run.meas.size(); ++k) {
     if (run.meas[k].found()) usable.push_back(k);
   }
   r.usable = static_cast<int>(usable.size());
-  std::mt19937_64 rng = sim::makeRng(run.o.seed, 0x686f6c646f7574ULL);
-  std::shuffle(usable.begin(), usable.end(), rng);
-  const int n_hold = static_cast<int>(std::floor(run.o.holdout * r.usable));
-  run.hold.assign(usable.begin(), usable.begin() + n_hold);
-  run.ident.assign(usable.begin() + n_hold, usable.end());
-  std::sort(run.hold.begin(), run.hold.end());
-  std::sort(run.ident.begin(), run.ident.end());
+  const std::vector<int> part =
+      calib::holdoutSplit(imageMeasuredData(run.d, run.meas, usable).observations, run.o.holdout, run.o.seed);
+  for (std::size_t i = 0; i < usable.size(); ++i) (part[i] == 1 ? run.hold : run.ident).push_back(usable[i]);
   r.identification = static_cast<int>(run.ident.size());
-  r.held_out = n_hold;
+  r.held_out = static_cast<int>(run.hold.size());
   const sim::Arm& arm = run.d.arm;
   if (static_cast<int>(run.ident.size()) * 6 < arm.numParams()) {
     throw sim::InputError(run.o.dataset + ": only " + std::to_string(run.ident.size()) +
@@ -364,20 +380,45 @@ void validateHeldOut(CalibrationRun& run, CalibrateResult& r) {
   }
 }
 
-/// A calibration never silently makes an arm worse: an inconsistent fit, or a held-out error that grew,
-/// is said first and leaves no calibrated files unless --accept-worse.
-void judge(const CalibrationRun& run, CalibrateResult& r) {
-  const int n_hold = static_cast<int>(run.hold.size());
-  r.worse = n_hold > 0 && r.after.position_avg_m > r.before.position_avg_m;
-  if (!r.consistency.consistent()) r.likely_cause = likelyCause(run.d, run.meas, run.ident, run.hold, run.kind, r);
-  if (!r.consistency.consistent()) {
-    r.refusals.push_back("the fit is inconsistent with its noise model: " + calib::formatConsistency(r.consistency) + "; " +
-                         r.likely_cause);
+/// The written model's fit against its noise, where the noise is given: the scene-frame estimate's
+/// per-image test, or with --estimate-frames the frames fit's chi-square (the corner fit estimates its
+/// pixel noise, so it has none). Empty: consistent.
+std::string inconsistency(const CalibrationRun& run, CalibrateResult& r) {
+  if (!r.frames) {
+    if (r.consistency.consistent()) return "";
+    r.likely_cause = likelyCause(run.d, run.meas, run.ident, run.hold, run.kind, r);
+    return "the fit is inconsistent with its noise model: " + calib::formatConsistency(r.consistency) + "; " + r.likely_cause;
   }
-  if (r.worse) {
-    r.refusals.push_back("the calibrated arm predicts the " + std::to_string(n_hold) + " held-out images worse than the nominal one ("
-                         + formatNumber("%.3f", r.before.position_avg_m * 1e3) + " -> " +
-                         formatNumber("%.3f", r.after.position_avg_m * 1e3) + " mm average position error)");
+  if (r.frames->corners) return "";
+  const calib::Fit& f = r.frames->fit;
+  if (f.dof <= 0 || calib::chiSquareSurvival(f.chi2, f.dof) >= r.consistency.alpha) return "";
+  return "the fit with base_T_board and flange_T_camera estimated is inconsistent with its noise model (chi-square " +
+         formatNumber("%.1f", f.chi2) + " for " + std::to_string(f.dof) + "): the robot file or the camera intrinsics do not "
+         "describe this arm, or it has effects the DH model lacks (`orbcal diagnose` names them)";
+}
+
+/// A calibration never silently makes an arm worse: the model to be written is judged by the one
+/// held-out rule of every calibration (calib::heldoutVerdict) on the held-out camera poses, and by its
+/// consistency with its noise; a refusal is said first and leaves no calibrated files unless --accept-worse.
+void judge(const CalibrationRun& run, CalibrateResult& r) {
+  if (const std::string why = inconsistency(run, r); !why.empty()) r.refusals.push_back(why);
+  if (!run.hold.empty()) {
+    const calib::Fit fit = imageFit(run, r);
+    const std::vector<calib::MarkerObservation> held = imageMeasuredData(run.d, run.meas, run.hold).observations;
+    const std::vector<calib::MarkerObservation> usable = [&] {
+      std::vector<std::size_t> all = run.ident;
+      all.insert(all.end(), run.hold.begin(), run.hold.end());
+      return imageMeasuredData(run.d, run.meas, all).observations;
+    }();
+    std::vector<Eigen::VectorXd> before, after;
+    for (const calib::MarkerObservation& x : held) {
+      before.push_back(r.frames ? calib::markerResidual(r.frames->fit.model, r.frames->reference_p, x)
+                                : calib::markerResidual(fit.model, Eigen::VectorXd::Zero(fit.model.layout.size()), x));
+      after.push_back(calib::markerResidual(fit.model, fit.p, x));
+    }
+    r.verdict = calib::heldoutVerdict(held, before, after, run.o.holdout, calib::countConfigurations(usable));
+    r.worse = r.verdict.worse;
+    if (!r.verdict.refusal.empty()) r.refusals.push_back(r.verdict.refusal);
   }
   r.written = r.refusals.empty() || run.o.accept_worse;
 }
@@ -421,9 +462,10 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   }
   const std::string report = calibrationReport(run, r, figure_lines);
   if (r.frames) {
-    sim::writeFileAtomic(run.out + "/frames.yaml", "# base_T_board and flange_T_camera estimated by orbcal calibrate --estimate-frames "
-                                                   "(paste into the scene)\nbase_T_board: " + sim::transformYaml(r.frames->base_T_board) +
-                                                   "\nflange_T_camera: " + sim::transformYaml(r.frames->flange_T_camera) + "\n");
+    sim::writeFileAtomic(run.out + "/scene_frames.yaml",
+                         "# base_T_board and flange_T_camera estimated by orbcal calibrate --estimate-frames (paste into the scene)\n"
+                         "base_T_board: " + sim::transformYaml(r.frames->base_T_board) +
+                             "\nflange_T_camera: " + sim::transformYaml(r.frames->flange_T_camera) + "\n");
   }
   writeReport(run.out, report);
   folder.commit();

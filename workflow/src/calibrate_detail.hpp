@@ -31,8 +31,12 @@ struct CalibrationRun {
 /// The arm with world = the board and marker = the camera, the scene's base_T_board and flange_T_camera
 /// known: the layout of an image calibration's DH errors.
 sim::KinematicModel sceneModel(const sim::Dataset& d);
-/// What an image calibration estimated, as a fit of a kinematic model: with --estimate-frames the fit
-/// of geometry and both frames, else the DH errors on sceneModel.
+/// The corner model's fit as a fit of its kinematic model (geometry, both frames, the chain effects):
+/// the distortion block left out.
+calib::Fit cornerModelFit(const CornerEstimate& c);
+/// What an image calibration estimated, as a fit of a kinematic model (what model.yaml holds): with
+/// --effects the corner model's fit, with --estimate-frames the fit of geometry and both frames, else
+/// the DH errors on sceneModel.
 calib::Fit imageFit(const CalibrationRun& run, const CalibrateResult& r);
 /// "a, b, c".
 std::string joinWords(const std::vector<std::string>& words);

@@ -5,6 +5,7 @@
 
 #include "calibrate_detail.hpp"
 #include "orbcal/calib/diagnose.hpp"
+#include "orbcal/sim/camera_io.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
@@ -204,7 +205,14 @@ std::string validationSection(const CalibrationRun& run, const CalibrateResult& 
   const int n_hold = static_cast<int>(run.hold.size());
   std::ostringstream md;
   if (n_hold > 0) {
-    md << "\n## Hold-out validation against the measured poses\n\n"
+    const calib::HeldoutGain& g = r.verdict.gain;
+    md << "\n## Held-out test of the model written\n\n"
+       << "The held-out camera poses (board_T_camera) predicted by the nominal arm "
+       << (r.frames ? "(base_T_board and flange_T_camera fitted)" : "(the scene's frames)") << " and by the model "
+       << (r.written ? "written to model.yaml" : "not written") << ": camera position RMS " << formatNumber("%.4f", g.before_rms_m * 1e3)
+       << " -> " << formatNumber("%.4f", g.after_rms_m * 1e3) << " mm. " << calib::formatHeldoutGain(g) << ".\n"
+       << "\n## Hold-out validation against the measured poses\n\n"
+       << (r.frames ? "The DH estimate with the scene's frames (flange errors; Wang et al. 2023 Table 4's layout):\n\n" : "")
        << calib::formatTable4(r.before, {{method.name, r.after}}) << "\n";
   }
   if (r.has_truth) {
@@ -237,8 +245,17 @@ std::string calibrate_detail::calibrationReport(const CalibrationRun& run, const
   std::ostringstream md;
   md << estimateSection(run, r) << consistencySection(run, r) << validationSection(run, r);
   md << "## Figures\n\n" << figure_lines << "\n";
-  md << (r.written ? "Files: `robot_calibrated.yaml` (load it with `--robot`), `estimates.csv`, `samples.csv` (per-image errors); measurements in `"
-                   : "No calibrated files were written (see the top). `samples.csv` (per-image errors); measurements in `")
+  md << (r.written ? "Files: `model.yaml` with `robot_calibrated.yaml` (orbcal's model, as measured data's: `orbcal evaluate`, "
+                     "`--robot robot_calibrated.yaml`), `estimates.csv` (every parameter of model.yaml); for other programs "
+                     "`robot_calibrated.urdf`, `frames.yaml` and `effects.yaml` (docs/export.md); `samples.csv` (per-image errors)"
+                     + std::string(r.frames ? "; `scene_frames.yaml` (the estimated frames, to paste into the scene)" : "") +
+                     (r.frames && r.frames->corners && r.frames->corners->distortion
+                          ? "; `camera_calibrated.yaml` (the camera with the fitted distortion, ROS camera_info)"
+                          : "") +
+                     "; measurements in `"
+                   : "No calibrated files were written (see the top). `samples.csv` (per-image errors)" +
+                     std::string(r.frames ? "; `scene_frames.yaml` (the estimated frames, to paste into the scene)" : "") +
+                     "; measurements in `")
      << run.measurements_path << "`.\n";
   return md.str();
 }
@@ -247,31 +264,32 @@ void calibrate_detail::writeCalibratedFiles(const CalibrationRun& run, Calibrate
   const sim::Dataset& d = run.d;
   const calib::Fit fit = imageFit(run, r);
   calib::CalibratedModel cm = calib::calibratedModel(fit);
-  sim::Arm& named = cm.model.arm;
+  cm.model.arm.name = d.arm.name + " (calibrated)";
   std::ostringstream header;
-  header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate) from " << run.o.dataset << "\n"
-         << "method " << run.method.name << "; " << r.identification << " identification images of " << r.images << "; nominal: "
-         << d.manifest.robot_file << " (" << d.arm.name << ")\n"
-         << (r.frames ? "Fitted with base_T_board and flange_T_camera (world = the board, marker = the camera); the identified "
-                        "parameter errors are added to the nominal DH rows; base and tool are the nominal ones."
-                      : "Identified parameter errors are added to the nominal DH rows; base and tool are the nominal ones.");
-  calib::Comparison single;
-  single.methods.push_back({run.method, r.estimate, {}, {}});
-  const Eigen::VectorXd* y_true = d.manifest.true_errors ? &*d.manifest.true_errors : nullptr;
-  named.name = d.arm.name + " (calibrated)";
-  if (named.convention == sim::DhConvention::kUrdf && !named.urdf.empty()) {
-    // A URDF robot: the URDF it came from with the chain joints' origins replaced by the calibrated
-    // ones (zero offsets folded in), beside the YAML, which names it.
-    r.urdf_path = run.out + "/robot_calibrated.urdf";
-    sim::writeFileAtomic(r.urdf_path, sim::replaceUrdfOrigins(sim::readTextSource(named.urdf.file), named,
-                                                              "Joint origins of the chain " + named.urdf.base_link + " -> " +
-                                                                  named.urdf.tip_link + " calibrated by orbcal " + ORBCAL_VERSION +
-                                                                  " (orbcal calibrate, method " + run.method.name + ") from " + run.o.dataset));
-    named.urdf.file = r.urdf_path;  // named relative to robot.yaml when written
+  header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate, method " << run.method.name << ") from " << run.o.dataset
+         << "\n" << r.identification << " identification images of " << r.images << "; nominal: " << d.manifest.robot_file << " ("
+         << d.arm.name << ")\n";
+  if (r.frames && r.frames->corners) {
+    header << "Fitted on the detected corners with base_T_board, flange_T_camera (world = the board, marker = the camera)";
+    for (const sim::Effect& e : r.frames->corners->effects) header << ", " << sim::formatEffect(e);
+    header << (r.frames->corners->distortion ? "; the lens distortion fitted with them is in camera_calibrated.yaml." : ".");
+  } else if (r.frames) {
+    header << "Fitted with base_T_board and flange_T_camera (world = the board, marker = the camera).";
+  } else {
+    header << "Identified parameter errors with the scene's base_T_board and flange_T_camera known (world = the board, marker = the "
+              "camera).";
   }
-  r.model_path = sim::writeModelFile(cm.model, cm.p, parameterRows(fit), run.out, header.str(), "model.yaml", "robot_calibrated.yaml");
+  r.model_path = writeModelAndExports(cm, parameterRows(fit), run.out, header.str(), "robot_calibrated.yaml");
   r.robot_path = run.out + "/robot_calibrated.yaml";
-  sim::writeFileAtomic(run.out + "/estimates.csv", calib::formatEstimatesCsv(d.arm, single, y_true, &r.classes));
+  r.urdf_path = run.out + "/robot_calibrated.urdf";
+  const Eigen::VectorXd* y_true = d.manifest.true_errors ? &*d.manifest.true_errors : nullptr;
+  sim::writeFileAtomic(run.out + "/estimates.csv", estimatesCsv(fit, &r.classes, y_true));
+  if (r.frames && r.frames->corners && r.frames->corners->distortion) {
+    // The camera with the fitted distortion added, as a ROS camera_info file a scene's camera: {file: ...} reads.
+    sim::Camera camera = d.scene.camera;
+    for (int i = 0; i < 4; ++i) camera.distortion[static_cast<std::size_t>(i)] += r.frames->corners->dk[i];
+    sim::writeFileAtomic(run.out + "/camera_calibrated.yaml", sim::formatCameraInfoYaml(camera, "orbcal calibrated"));
+  }
 }
 
 void calibrate_detail::writeSampleErrors(const CalibrationRun& run, const CalibrateResult& r) {

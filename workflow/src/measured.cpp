@@ -120,28 +120,10 @@ std::string folderOf(const std::string& path) {
   return p.empty() ? "." : p.string();
 }
 
-/// model.yaml and robot.yaml (sim/model_io.hpp) and, for programs outside orbcal (sim/export.hpp,
-/// sim/urdf_export.hpp), robot_calibrated.urdf, frames.yaml and effects.yaml, into `out`. robot.yaml
-/// of a URDF robot names robot_calibrated.urdf as its URDF. Returns the model file's path.
-std::string writeModelAndExports(const calib::CalibratedModel& cm, const std::vector<sim::ParameterRow>& rows, const std::string& out,
-                                 const std::string& header) {
-  sim::KinematicModel model = cm.model;
-  const sim::Arm& arm = model.arm;
-  const std::string what = arm.urdf.empty() ? "the calibrated DH table as a chain from base_link to flange"
-                                            : "the joint origins of the chain " + arm.urdf.base_link + " -> " + arm.urdf.tip_link + " calibrated";
-  sim::writeCalibratedUrdf(arm, out + "/robot_calibrated.urdf", header.substr(0, header.find('\n')) + "; " + what);
-  if (!model.arm.urdf.empty()) model.arm.urdf.file = out + "/robot_calibrated.urdf";
-  sim::writeFileAtomic(out + "/frames.yaml", sim::formatFramesFile(model, header));
-  sim::writeFileAtomic(out + "/effects.yaml", sim::formatEffectsFile(model, cm.p, "robot.yaml", header));
-  return sim::writeModelFile(model, cm.p, rows, out, header);
-}
-
-/// Seeded hold-out by configuration (repeated rows of one configuration on one side), stratified by
-/// session; --holdout 0: everything is fitted.
+/// The one hold-out split (calib::holdoutSplit): whole configurations, stratified by session, seeded.
 void splitHeldOut(const std::vector<calib::MarkerObservation>& all, const MeasuredCalibrateOptions& o,
                   std::vector<calib::MarkerObservation>& ident, std::vector<calib::MarkerObservation>& held) {
-  const std::vector<int> part = o.holdout > 0.0 ? calib::splitByConfiguration(all, {1.0 - o.holdout, o.holdout}, o.seed)
-                                                : std::vector<int>(all.size(), 0);
+  const std::vector<int> part = calib::holdoutSplit(all, o.holdout, o.seed);
   for (std::size_t k = 0; k < all.size(); ++k) (part[k] == 1 ? held : ident).push_back(all[k]);
 }
 
@@ -165,6 +147,19 @@ calib::FitOptions fitOptionsOf(const MeasuredCalibrateOptions& o, const sim::Mea
 
 }  // namespace
 
+std::string writeModelAndExports(const calib::CalibratedModel& cm, const std::vector<sim::ParameterRow>& rows, const std::string& out,
+                                 const std::string& header, const std::string& robot_name) {
+  sim::KinematicModel model = cm.model;
+  const sim::Arm& arm = model.arm;
+  const std::string what = arm.urdf.empty() ? "the calibrated DH table as a chain from base_link to flange"
+                                            : "the joint origins of the chain " + arm.urdf.base_link + " -> " + arm.urdf.tip_link + " calibrated";
+  sim::writeCalibratedUrdf(arm, out + "/robot_calibrated.urdf", header.substr(0, header.find('\n')) + "; " + what);
+  if (!model.arm.urdf.empty()) model.arm.urdf.file = out + "/robot_calibrated.urdf";
+  sim::writeFileAtomic(out + "/frames.yaml", sim::formatFramesFile(model, header));
+  sim::writeFileAtomic(out + "/effects.yaml", sim::formatEffectsFile(model, cm.p, robot_name, header));
+  return sim::writeModelFile(model, cm.p, rows, out, header, "model.yaml", robot_name);
+}
+
 std::string inconsistencyText(const MeasuredCalibrateResult& r) {
   return "chi-square " + formatNumber("%.1f", r.fit.chi2) + " for " + std::to_string(r.fit.dof) + " degrees of freedom (" +
          formatNumber("%.2f", r.fit.chi2 / r.fit.dof) + " per degree, p = " + formatNumber("%.2g", r.consistency_p) +
@@ -174,8 +169,22 @@ std::string inconsistencyText(const MeasuredCalibrateResult& r) {
          "), or the model misses an effect (`orbcal diagnose` names it)";
 }
 
+namespace {
+
+/// Every reason a measured-data calibration is not accepted, one line each, in the order they are said.
+std::vector<std::string> refusalsOf(const MeasuredCalibrateResult& r) {
+  std::vector<std::string> out;
+  if (r.inconsistent) out.push_back("the fit is inconsistent with the given measurement noise: " + inconsistencyText(r));
+  for (const std::string* why : {&r.refusal, &r.fit_refusal}) {
+    if (!why->empty()) out.push_back(*why);
+  }
+  return out;
+}
+
+}  // namespace
+
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) {
-  if (!(o.holdout >= 0.0 && o.holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
+  if (o.holdout && !(*o.holdout >= 0.0 && *o.holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
   MeasuredCalibrateResult r;
   const sim::MeasuredData data = sim::loadMeasuredData(o.description);
   std::vector<sim::Effect> effects;
@@ -209,13 +218,14 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   const std::vector<Eigen::VectorXd> before = residualsOf(start, reference.p, held), after = residualsOf(start, r.fit.p, held);
   r.heldout_before = calib::residualStats(before);
   r.heldout_after = calib::residualStats(after);
-  r.gain = calib::heldoutGain(held, before, after);
+  const calib::HeldoutVerdict verdict = calib::heldoutVerdict(held, before, after, o.holdout, calib::countConfigurations(all));
+  r.gain = verdict.gain;
   // The frames level without effects is the reference itself (the nominal arm, registration fitted):
-  // there is no gain over it to test; nor is there one with --holdout 0: the checks on the fit alone
-  // (consistency, fitRefusal) decide then.
+  // there is no gain over it to test; nor is there one when nothing is held out: the checks on the fit
+  // alone (consistency, fitRefusal) decide then.
   const bool reference_level = r.level.chosen.kind == calib::LevelKind::kFrames && effects.empty();
-  r.worse = !reference_level && !held.empty() && r.heldout_after.position_rms_m > r.heldout_before.position_rms_m;
-  r.refusal = reference_level || o.holdout <= 0.0 ? "" : calib::heldoutRefusal(r.gain, o.holdout, calib::countConfigurations(all));
+  r.worse = !reference_level && verdict.worse;
+  r.refusal = reference_level || held.empty() ? "" : verdict.refusal;
   r.fit_refusal = calib::fitRefusal(r.fit, ident, fo);
 
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit);
@@ -227,7 +237,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
     r.consistency_p = calib::chiSquareSurvival(r.fit.chi2, r.fit.dof);
     r.inconsistent = r.consistency_p < calib::Consistency{}.alpha;
   }
-  const bool write_model = (!r.worse && !r.inconsistent && r.refusal.empty() && r.fit_refusal.empty()) || o.accept_worse;
+  r.refusals = refusalsOf(r);
+  const bool write_model = (!r.worse && r.refusals.empty()) || o.accept_worse;
   if (write_model) r.model_path = folder.published(writeModelAndExports(cm, parameterRows(r.fit), out, header.str()));
 
   const bool rotation = measuresRotation(data);
@@ -269,11 +280,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
      << (data.noise_joint_rad ? " (given)" : " (not given: not modelled)") << ". chi-square " << formatNumber("%.1f", r.fit.chi2)
      << " for " << r.fit.dof << " degrees of freedom.\n\n"
      << "## Held-out prediction\n\n" << statsTableHeader(rotation) << statsTableRow("nominal arm, registration fitted", r.heldout_before, rotation)
-     << statsTableRow("calibrated", r.heldout_after, rotation) << "\n" << r.gain.configurations
-     << " held-out configurations; the gain over the nominal arm, one-sided paired test of their squared position errors "
-        "(calib/heldout.hpp): t = " << formatNumber("%.2f", r.gain.t) << ", p = " << formatNumber("%.2g", r.gain.p_value)
-     << " (accepted at p < " << formatNumber("%g", calib::kHeldoutGainAlpha) << " with at least "
-     << calib::kMinHeldoutConfigurations << " configurations).\n\n## Fit residuals\n\n" << statsTableHeader(rotation)
+     << statsTableRow("calibrated", r.heldout_after, rotation) << "\n" << calib::formatHeldoutGain(r.gain)
+     << ".\n\n## Fit residuals\n\n" << statsTableHeader(rotation)
      << statsTableRow("calibrated (fitted samples)", r.fit.residuals, rotation)
      << "\n## What this data cannot identify\n\n```\n" << sim::formatIdentifiability(r.fit.identifiability) << "```\n\n"
      << "Held parameters stay at their nominal value; the rest carry their observable combinations.\n\n"

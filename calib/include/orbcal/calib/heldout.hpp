@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,13 @@ constexpr int kMinHeldoutConfigurations = 10;
 /// The significance level of the held-out gain test (the level of diagnose's tests).
 constexpr double kHeldoutGainAlpha = 0.01;
 
+/// The share of the configurations held out when none is given: 20 % (Wang et al. 2023 validate on a
+/// separate fifth), raised to kMinHeldoutConfigurations where that still leaves at least as many to fit
+/// (20 to 50 configurations hold out 10: a 40-image dataset is judged on 10, not 8). Fewer than
+/// 2 kMinHeldoutConfigurations configurations keep 20 %, and the refusal says how many to measure.
+constexpr double kDefaultHoldoutShare = 0.2;
+double defaultHoldout(int configurations);
+
 /// Configurations (replicate groups): observations of one session whose joint readings all agree within
 /// kSameConfigurationRad, joined transitively (single linkage), keyed by (session, the readings of the
 /// group's first observation in nrad), members in index order. Every split, the pure error and the
@@ -48,6 +56,12 @@ std::map<std::vector<long long>, std::vector<int>> configurationGroups(const std
 /// configuration. `shares` > 0 (normalised here). Returns the part of each observation.
 std::vector<int> splitByConfiguration(const std::vector<MarkerObservation>& obs, const std::vector<double>& shares,
                                       std::uint64_t seed);
+
+/// The one fitted | held-out split of every calibration (images and measured data): splitByConfiguration
+/// with shares {1 - h, h}, h = `holdout` or, when empty, defaultHoldout(countConfigurations(obs)); h = 0
+/// fits everything. Returns 1 for each held-out observation, 0 for each fitted one. A share outside
+/// [0, 1): InputError naming --holdout.
+std::vector<int> holdoutSplit(const std::vector<MarkerObservation>& obs, std::optional<double> holdout, std::uint64_t seed);
 
 /// The number of configurations among `obs` (configurationGroups).
 int countConfigurations(const std::vector<MarkerObservation>& obs);
@@ -83,8 +97,28 @@ HeldoutGain heldoutGain(const std::vector<MarkerObservation>& obs, const std::ve
                         const std::vector<Eigen::VectorXd>& after);
 
 /// Why a gain is not accepted, one sentence a user can act on ("only 3 configurations held out, ...");
-/// empty when it is significant. `holdout`: the fraction held out, for the advice; `total`: the
-/// configurations in all.
-std::string heldoutRefusal(const HeldoutGain& g, double holdout, int total);
+/// empty when it is significant. `holdout`: the fraction held out, for the advice, or empty where it
+/// was defaultHoldout's; `total`: the configurations in all.
+std::string heldoutRefusal(const HeldoutGain& g, std::optional<double> holdout, int total);
+
+/// The test in one sentence, for reports: "12 held-out configurations; the gain over the nominal arm,
+/// one-sided paired test of their squared position errors: t = 4.10, p = 0.00088 (accepted at p < 0.01
+/// with at least 10 configurations)".
+std::string formatHeldoutGain(const HeldoutGain& g);
+
+/// The one rule by which a calibration is accepted on held-out data, whatever the data (camera poses
+/// from images, tracker poses or positions): its gain over the nominal arm (heldoutGain) must be
+/// significant on at least kMinHeldoutConfigurations configurations. A calibration that predicts them
+/// worse is refused as such; too few configurations say nothing either way, and that alone is said.
+struct HeldoutVerdict {
+  HeldoutGain gain;
+  bool worse = false;   ///< the calibrated model's held-out position RMS exceeds the nominal arm's
+  std::string refusal;  ///< one sentence a user can act on; empty: accepted
+};
+/// `held`: the held-out observations with their residuals under the nominal arm (`before`, its frames
+/// as the path takes them: known, or fitted with the nominal geometry) and the calibrated model
+/// (`after`); `holdout` and `total` as heldoutRefusal takes them.
+HeldoutVerdict heldoutVerdict(const std::vector<MarkerObservation>& held, const std::vector<Eigen::VectorXd>& before,
+                              const std::vector<Eigen::VectorXd>& after, std::optional<double> holdout, int total);
 
 }  // namespace orbcal::calib

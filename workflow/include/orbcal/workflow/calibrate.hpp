@@ -10,6 +10,7 @@
 #include "orbcal/calib/consistency.hpp"
 #include "orbcal/calib/corner_model.hpp"
 #include "orbcal/calib/experiment.hpp"
+#include "orbcal/calib/heldout.hpp"
 #include "orbcal/calib/measured_fit.hpp"
 #include "orbcal/calib/observability.hpp"
 #include "orbcal/calib/parameter_classes.hpp"
@@ -26,7 +27,9 @@ struct CalibrateOptions {
   std::string method = calib::kDefaultMethod;  ///< a name calib::findMethod takes (as measured data)
   std::string out;                       ///< default: <dataset>/calibration
   double joint_noise_sigma_rad = -1.0;   ///< < 0: the manifest's, or Wang et al. 2023's 0.01 deg if it has none
-  double holdout = 0.2;                  ///< fraction of the usable samples kept out for validation
+  /// Share of the usable images kept out for validation, whole configurations (calib::holdoutSplit, as
+  /// measured data's); empty: calib::defaultHoldout.
+  std::optional<double> holdout;
   std::uint64_t seed = 1;                ///< of the hold-out draw
   bool quiet = false;
   /// Estimate base_T_board and flange_T_camera with the arm's parameters (closed-form start from the
@@ -51,6 +54,7 @@ struct CalibrateOptions {
 /// fitted by LM on the detected corners (calib::CornerMeasurementModel) from the closed-form frame start.
 struct CornerEstimate {
   std::vector<sim::Effect> effects;     ///< the chain effects
+  sim::KinematicModel model;            ///< the starting model (geometry, both frames, the effects)
   bool distortion = false;              ///< the distortion block is free (else held at 0)
   sim::ParamLayout layout;              ///< the corner model's
   calib::CornerFit fit;                 ///< with the effects (and the distortion where asked)
@@ -63,6 +67,7 @@ struct CornerEstimate {
 /// With CalibrateOptions::estimate_frames: the fit of geometry + the two frames, and the frames it found.
 struct FrameEstimate {
   calib::Fit fit;
+  Eigen::VectorXd reference_p;          ///< fit.model's parameters with the nominal geometry, only the frames fitted
   Eigen::Isometry3d base_T_board, flange_T_camera;          ///< estimated
   calib::ResidualStats heldout_before, heldout_after;       ///< scene frames refitted on the nominal arm vs calibrated
   std::optional<CornerEstimate> corners;                    ///< with CalibrateOptions::effects
@@ -80,12 +85,17 @@ struct CalibrateResult {
   calib::Consistency consistency;
   std::vector<std::string> outlier_images;  ///< the inconsistent samples' images (pose kinds) or pairs
   std::string likely_cause;                 ///< empty when consistent
-  bool worse = false;                       ///< the held-out error against the measured poses grew
+  /// The one held-out rule (calib::heldoutVerdict) on the held-out camera poses: the nominal arm (the
+  /// scene's frames, or with estimate_frames the frames fitted) against the model written (model.yaml).
+  calib::HeldoutVerdict verdict;
+  bool worse = false;                       ///< the held-out position RMS grew (verdict.worse)
   /// The problems, one line each, first in the report and on the terminal; empty when all went well.
   std::vector<std::string> refusals;
   bool written = false;                     ///< model.yaml, robot_calibrated.yaml and estimates.csv were written
   int images = 0, usable = 0, identification = 0, held_out = 0;
-  calib::ErrorSummary before, after;     ///< hold-out errors against the measured poses
+  /// Hold-out flange errors of the DH estimate with the scene's frames, against the measured poses (Wang
+  /// et al. 2023 Table 4's layout)
+  calib::ErrorSummary before, after;
   bool has_truth = false;
   calib::ErrorSummary truth_before, truth_after;  ///< hold-out errors against the true poses (simulation)
   std::string robot_path, report_path;

@@ -9,6 +9,7 @@
 #include "orbcal/calib/heldout.hpp"
 #include "orbcal/calib/levels.hpp"
 #include "orbcal/calib/measured_fit.hpp"
+#include "orbcal/calib/parameter_classes.hpp"
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/simulate.hpp"
 #include "orbcal/workflow/callbacks.hpp"
@@ -21,7 +22,8 @@ struct MeasuredCalibrateOptions {
   std::vector<std::string> effects;      ///< "compliance:2,4", ... (free at every level)
   calib::Level level;                    ///< which geometric parameters are free (calib/levels.hpp); auto: by cross-validation
   std::string method = calib::kDefaultMethod;  ///< a name calib::findMethod takes
-  double holdout = 0.2;                  ///< share of the configurations kept out (seeded; calib/heldout.hpp)
+  /// Share of the configurations kept out (seeded; calib/heldout.hpp); empty: calib::defaultHoldout.
+  std::optional<double> holdout;
   std::uint64_t seed = 1;
   std::optional<double> noise_position_m, noise_rotation_rad;  ///< override the description's
   bool accept_worse = false;
@@ -37,17 +39,34 @@ struct MeasuredCalibrateResult {
   int samples = 0, identification = 0, held_out = 0;
   bool worse = false;                    ///< held-out position RMS grew (never at the frames level without effects: the reference itself)
   calib::HeldoutGain gain;               ///< the held-out gain and its test (calib/heldout.hpp)
-  std::string refusal;                   ///< why the gain is not accepted (calib::heldoutRefusal); empty: accepted or none held out
+  std::string refusal;                   ///< why the held-out gain is not accepted (calib::heldoutVerdict); empty: accepted or none held out
   /// Why the fit itself is refused, whatever the split (calib::fitRefusal); empty: not.
   std::string fit_refusal;
   /// With the noise given (not estimated): the fit's chi-square against chi-square(dof) at the alpha of
   /// calib::Consistency; inconsistent when P(chi-square(dof) > chi2) < alpha.
   bool inconsistent = false;
   double consistency_p = 1.0;
+  /// Every reason the calibration is not accepted, one line each (the fit's inconsistency, refusal,
+  /// fit_refusal), as the terminal and the report's top say them; empty: accepted.
+  std::vector<std::string> refusals;
   std::string model_path, report_path;
 };
 
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o);
+
+/// What every calibration writes into `out` (image datasets and measured data alike): model.yaml and
+/// `robot_name` (sim/model_io.hpp) and, for programs outside orbcal (sim/export.hpp,
+/// sim/urdf_export.hpp), robot_calibrated.urdf, frames.yaml and effects.yaml. `robot_name` of a URDF
+/// robot names robot_calibrated.urdf as its URDF. Returns the model file's path.
+/// estimates.csv of every calibration: one row per parameter of the fit's layout: name, effect, display
+/// unit, estimate and 1-sigma in that unit, the injected value of a simulated dataset's geometry errors
+/// where `geometry_truth` is given (else empty), held 0/1, and the parameter class where `classes` covers
+/// the layout (calib/parameter_classes.hpp; else empty). What tools/plot_report.py's parameters figure reads.
+std::string estimatesCsv(const calib::Fit& fit, const calib::ParameterClasses* classes = nullptr,
+                         const Eigen::VectorXd* geometry_truth = nullptr);
+
+std::string writeModelAndExports(const calib::CalibratedModel& cm, const std::vector<sim::ParameterRow>& rows, const std::string& out,
+                                 const std::string& header, const std::string& robot_name = "robot.yaml");
 /// Why a measured-data fit is inconsistent with its given noise, one line (report and terminal).
 std::string inconsistencyText(const MeasuredCalibrateResult& r);
 
