@@ -48,6 +48,15 @@ std::string saveModel(const PyModel& m, const std::string& path) {
   return sim::writeModelFile(m.model, m.p, m.rows, folder, "Written by orbcal " ORBCAL_VERSION " from Python", name, robot);
 }
 
+/// What `orbcal calibrate` writes into a folder: model.yaml with robot.yaml, and for programs outside
+/// orbcal robot_calibrated.urdf, frames.yaml and effects.yaml (workflow::writeModelAndExports).
+std::string exportModel(const PyModel& m, const std::string& folder) {
+  std::error_code ec;
+  std::filesystem::create_directories(folder, ec);
+  if (ec) throw sim::InputError(folder + ": cannot create the folder: " + ec.message());
+  return workflow::writeModelAndExports({m.model, m.p}, m.rows, folder, "Written by orbcal " ORBCAL_VERSION " from Python");
+}
+
 py::dict parameterDict(const PyModel& m) {
   py::dict out;
   for (const sim::ParameterRow& r : m.rows) {
@@ -103,6 +112,10 @@ void bindCalibrate(py::module_& m) {
       .def("save", &saveModel, py::arg("path"),
            "Writes the model file (format orbcal-model-2, as orbcal calibrate writes model.yaml) and its robot file beside "
            "it (robot.yaml for model.yaml, else NAME.robot.yaml), each atomically. Returns the model file's path.")
+      .def("export", &exportModel, py::arg("folder"),
+           "Writes into `folder` (created if missing) what orbcal calibrate writes: model.yaml with robot.yaml, and for "
+           "programs outside orbcal robot_calibrated.urdf (the calibrated chain), frames.yaml (the registration frames) "
+           "and effects.yaml (the effects with their formulas; docs/export.md), each atomically. Returns model.yaml's path.")
       .def("__repr__", [](const PyModel& pm) {
         return "<orbcal.Model of " + pm.model.arm.name + ": " + std::to_string(pm.rows.size()) + " parameters, " +
                std::to_string(pm.model.effects.size()) + " effect(s)>";

@@ -1,4 +1,4 @@
-"""orbcal.calibrate, orbcal.evaluate, Model.save and orbcal.load_model on simulated tracker data, whose noise
+"""orbcal.calibrate, orbcal.evaluate, Model.save, Model.export and orbcal.load_model on simulated tracker data, whose noise
 is known: the truth predicts the data to the noise, and a calibration on half the samples predicts the
 other half nearly as well."""
 import math
@@ -57,6 +57,24 @@ def test_calibration_finds_a_hidden_compliance(iiwa7):
     c = model.parameters["c2"]
     assert c["unit"] == "rad/(N*m)"
     assert abs(c["value"] - 2e-5) < 4 * c["sigma"]  # within 4 sigma of the injected value
+
+
+def test_export_writes_what_the_command_line_writes(iiwa7, tmp_path):
+    data, _ = orbcal.simulate(iiwa7, samples=120, seed=9, effects=["compliance:2"], values=[2e-5])
+    model = orbcal.calibrate(data, effects=["compliance:2"])
+    path = model.export(str(tmp_path / "out"))
+    assert path == str(tmp_path / "out" / "model.yaml")
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        "effects.yaml", "frames.yaml", "model.yaml", "robot.yaml", "robot_calibrated.urdf"]
+    # The URDF (orbcal's DH-to-URDF writer) and robot.yaml (the calibrated DH table) are two writers of one
+    # chain: the same flange pose at every configuration.
+    urdf = orbcal.load_robot(str(tmp_path / "out" / "robot_calibrated.urdf"), base_link="base_link", tip_link="flange")
+    dh = orbcal.load_robot(str(tmp_path / "out" / "robot.yaml"))
+    rng = np.random.default_rng(4)
+    for _ in range(10):
+        q = rng.uniform(-1.5, 1.5, size=7)
+        assert np.abs(urdf.fk(q) - dh.fk(q)).max() < 1e-9
+    assert "c2" in (tmp_path / "out" / "effects.yaml").read_text()
 
 
 def test_unknown_method_and_effect_are_refused(tracker):

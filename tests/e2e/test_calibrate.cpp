@@ -130,29 +130,26 @@ std::vector<std::string> reportedHeld(const std::string& report) {
   return names;
 }
 
-/// The parameters the report's estimate table marks "(held)": its column stem and the row's joint.
+/// The parameters the report's estimate table marks held: the first cell of each row whose 1-sigma cell
+/// says "held" (the table of every calibration report, workflow::parameterTable).
 std::vector<std::string> markedHeld(const std::string& report) {
-  const std::size_t table = report.find("| joint |", report.find("## Estimate"));
+  const std::size_t table = report.find("| parameter |", report.find("## Estimate"));
   REQUIRE(table != std::string::npos);
   std::istringstream in(report.substr(table));
   std::string line;
   std::getline(in, line);
-  std::vector<std::string> stems;
-  for (std::size_t a = line.find('|', 1); a != std::string::npos && a + 1 < line.size(); a = line.find('|', a + 1)) {
-    const std::string cell = line.substr(a + 1, line.find('|', a + 1) - a - 1);
-    if (cell.find_first_not_of(' ') != std::string::npos) stems.push_back(cell.substr(1, cell.size() - 2));
-  }
+  REQUIRE(line.rfind("| parameter | block | value | 1-sigma |", 0) == 0);
   std::getline(in, line);  // the rule
   std::vector<std::string> names;
   while (std::getline(in, line) && line.rfind("| ", 0) == 0) {
     std::vector<std::string> cells;
     for (std::size_t a = 0; (a = line.find('|', a)) != std::string::npos && a + 1 < line.size(); ++a) {
-      cells.push_back(line.substr(a + 1, line.find('|', a + 1) - a - 1));
+      const std::string cell = line.substr(a + 1, line.find('|', a + 1) - a - 1);
+      const std::size_t first = cell.find_first_not_of(' ');
+      cells.push_back(first == std::string::npos ? "" : cell.substr(first, cell.find_last_not_of(' ') - first + 1));
     }
-    const std::string joint = std::to_string(std::stoi(cells.at(0)));
-    for (std::size_t c = 1; c < cells.size() && c - 1 < stems.size(); ++c) {
-      if (cells[c].find("(held)") != std::string::npos) names.push_back(stems[c - 1] + joint);
-    }
+    REQUIRE(cells.size() >= 4);
+    if (cells[3] == "held") names.push_back(cells[0]);
   }
   return names;
 }

@@ -120,7 +120,7 @@ std::string refusalSection(const CalibrateResult& r, bool accept_worse) {
   return out;
 }
 
-/// The identification set, its identifiability and the estimate table (per joint, +- 1 sigma, truth where known).
+/// The identification set, its identifiability and the table of the model's parameters (+- 1 sigma, truth where known).
 std::string estimateSection(const CalibrationRun& run, const CalibrateResult& r) {
   const CalibrateOptions& o = run.o;
   const sim::Dataset& d = run.d;
@@ -130,7 +130,6 @@ std::string estimateSection(const CalibrationRun& run, const CalibrateResult& r)
   const std::vector<vision::Measurement>& meas = run.meas;
   const Eigen::VectorXd* y_true = d.manifest.true_errors ? &*d.manifest.true_errors : nullptr;
   std::ostringstream md;
-  const ParameterColumns columns = parameterColumns(d.arm);
   md << "# Calibration of " << d.arm.name << (kind == calib::MeasurementKind::kPose ? "" : " (" + r.model + " model)") << "\n\n"
      << refusalSection(r, o.accept_worse)
      << "Dataset `" << o.dataset << "`; method **" << method.name << "** (" << method.description
@@ -146,28 +145,19 @@ std::string estimateSection(const CalibrationRun& run, const CalibrateResult& r)
      << ".\n"
      << "\nObservability indices (Borm & Menq 1991 O1 to Sun & Hollerbach 2008 O5; whitened rows, columns in typical "
         "magnitudes, held parameters left out; larger is better): " << calib::formatIndices(r.observability) << ".\n\n"
-     << "## Estimate\n\n"
+     << "## Estimate\n\n" << (r.frames ? "With the scene's frames the estimate took " : "")
      << r.estimate.iterations << " iterations, rank " << r.estimate.rank << ", " << formatNumber("%.2f", r.estimate.seconds * 1e3)
-     << " ms" << (r.estimate.converged ? "" : ", NOT converged") << ". Per joint, " << columns.angles << " in deg, " << columns.lengths
-     << " in mm, +- 1 sigma" << (y_true ? "; truth in brackets" : "") << ":\n\n"
-     << columns.header;
-  // One row per joint: the layout's parameters of that joint, each in its display unit.
-  const sim::ParamBlock g = sim::geometryBlock(d.arm);
-  const auto jointOf = [&d](int i) { return i / d.arm.paramsPerJoint(); };
-  for (int i = 0; i < g.size(); ++i) {
-    if (i == 0 || jointOf(i) != jointOf(i - 1)) md << "| " << jointOf(i) + 1 << " |";
-    const double s = g.params[static_cast<std::size_t>(i)].display_scale;
-    const bool held = std::find(r.estimate.held.begin(), r.estimate.held.end(), i) != r.estimate.held.end();
-    md << " " << formatNumber("%+.4f", r.estimate.y[i] * s);
-    if (held) {
-      md << " (held)";
-    } else {
-      md << " +- " << formatNumber("%.4f", std::sqrt(std::max(0.0, r.estimate.covariance(i, i))) * s);
-    }
-    if (y_true) md << " [" << formatNumber("%+.4f", (*y_true)[i] * s) << "]";
-    md << " |";
-    if (i + 1 == g.size() || jointOf(i + 1) != jointOf(i)) md << "\n";
+     << " ms" << (r.estimate.converged ? "" : ", NOT converged") << ". ";
+  if (r.frames) {
+    md << "The model " << (r.written ? "written to model.yaml" : "fitted (not written)") << ": geometry and both frames"
+       << (r.frames->corners ? ", with the effects, fitted on the detected corners" : "") << " (sections below), +- 1 sigma"
+       << (y_true ? "; the injected geometry errors as truth" : "") << ":\n\n";
+  } else {
+    md << "Every parameter of the model " << (r.written ? "written to model.yaml" : "fitted (not written)")
+       << ", in its unit, +- 1 sigma" << (y_true ? "; the injected errors as truth" : "") << ":\n\n";
   }
+  const calib::Fit fit = imageFit(run, r);
+  md << parameterTable(fit, r.frames ? nullptr : &r.classes, y_true);
   return md.str();
 }
 

@@ -76,11 +76,11 @@ std::string statsTableRow(const std::string& model, const calib::ResidualStats& 
 
 namespace {
 
-/// Per parameter of `fit`, the other members of its unidentifiable combination (sim::Redundancy), empty
-/// where it is determined on its own.
-std::vector<std::string> combinationPartners(const calib::Fit& fit) {
-  std::vector<std::string> partners(static_cast<std::size_t>(fit.model.layout.size()));
-  for (const sim::Redundancy& g : fit.identifiability.redundancies) {
+/// Per parameter of a layout of `n`, the other members of its unidentifiable combination (`groups`),
+/// empty where it is determined on its own.
+std::vector<std::string> combinationPartners(const std::vector<sim::Redundancy>& groups, int n) {
+  std::vector<std::string> partners(static_cast<std::size_t>(n));
+  for (const sim::Redundancy& g : groups) {
     for (std::size_t a = 0; a < g.params.size(); ++a) {
       std::string& text = partners[static_cast<std::size_t>(g.params[a])];
       for (std::size_t b = 0; b < g.names.size(); ++b) {
@@ -91,23 +91,43 @@ std::vector<std::string> combinationPartners(const calib::Fit& fit) {
   return partners;
 }
 
-std::string parameterTable(const calib::Fit& fit) {
-  std::string md = "| parameter | block | value | 1-sigma | unit | determined |\n|---|---|---|---|---|---|\n";
+}  // namespace
+
+std::string parameterTable(const calib::Fit& fit, const calib::ParameterClasses* classes, const Eigen::VectorXd* geometry_truth) {
   const sim::ParamLayout& L = fit.model.layout;
+  const bool classified = classes && static_cast<int>(classes->classes.size()) == L.size();
+  const int geometry = L.find("geometry");
+  const auto truthOf = [&](int i) -> const double* {
+    if (!geometry_truth || geometry < 0) return nullptr;
+    const int k = i - L.block(geometry).offset;
+    return k >= 0 && k < L.block(geometry).size() && k < geometry_truth->size() ? &(*geometry_truth)[k] : nullptr;
+  };
+  std::string md = std::string("| parameter | block | value | 1-sigma | unit | determined |") + (geometry_truth ? " truth |" : "") +
+                   "\n|---|---|---|---|---|---|" + (geometry_truth ? "---|" : "") + "\n";
   const std::vector<sim::ParameterRow> rows = parameterRows(fit);
-  const std::vector<std::string> partners = combinationPartners(fit);
+  const std::vector<std::string> partners =
+      combinationPartners(classified ? classes->groups : fit.identifiability.redundancies, L.size());
   for (int i = 0; i < L.size(); ++i) {
     const sim::ParamInfo& info = L.param(i);
     const sim::ParameterRow& r = rows[static_cast<std::size_t>(i)];
     const std::string& with = partners[static_cast<std::size_t>(i)];
+    const bool ineffective = classified && classes->classes[static_cast<std::size_t>(i)] == calib::ParamClass::kIneffective;
     md += "| " + r.name + " | " + r.effect + " | " + formatNumber("%+.5g", r.value * info.display_scale) + " | " +
           (r.held ? std::string("held") : formatNumber("%.3g", r.sigma * info.display_scale)) + " | " + info.display_unit + " | " +
-          (r.held ? std::string("no: held at nominal (unidentifiable here)")
+          (r.held ? std::string(ineffective ? "no: held at nominal (the measurement does not see it)"
+                                            : "no: held at nominal (unidentifiable here)")
                   : with.empty() ? std::string("yes") : "only in a combination with " + with + " (the value alone is not)") +
-          " |\n";
+          " |";
+    if (geometry_truth) {
+      const double* t = truthOf(i);
+      md += " " + (t ? formatNumber("%+.5g", *t * info.display_scale) : std::string()) + " |";
+    }
+    md += "\n";
   }
   return md;
 }
+
+namespace {
 
 std::string weakList(const calib::Fit& fit) {
   std::string out;

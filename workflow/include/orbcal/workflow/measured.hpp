@@ -65,6 +65,14 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o);
 std::string estimatesCsv(const calib::Fit& fit, const calib::ParameterClasses* classes = nullptr,
                          const Eigen::VectorXd* geometry_truth = nullptr);
 
+/// The parameter table of every calibration report (Markdown): one row per parameter of the fit's
+/// layout, its name, block, value and 1-sigma in its display unit, and whether the data determine it
+/// (held; only in a combination with the others of its group: `classes` where it covers the layout,
+/// else the fit's identifiability). With `geometry_truth`, a truth column (a simulated dataset's
+/// injected geometry errors).
+std::string parameterTable(const calib::Fit& fit, const calib::ParameterClasses* classes = nullptr,
+                           const Eigen::VectorXd* geometry_truth = nullptr);
+
 std::string writeModelAndExports(const calib::CalibratedModel& cm, const std::vector<sim::ParameterRow>& rows, const std::string& out,
                                  const std::string& header, const std::string& robot_name = "robot.yaml");
 /// Why a measured-data fit is inconsistent with its given noise, one line (report and terminal).
