@@ -2,6 +2,8 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <random>
+#include <algorithm>
+#include <optional>
 #include <set>
 
 #include "orbcal/calib/heldout.hpp"
@@ -122,4 +124,58 @@ TEST_CASE("heldoutGain: the paired one-sided test of per-configuration squared e
   CHECK_FALSE(few.significant);
   CHECK_THAT(calib::heldoutRefusal(few, 0.2, 45), Catch::Contains("only 9 of the 45 configurations are held out") &&
                                                       Catch::Contains("at least 50 in all with --holdout 0.2"));
+}
+
+TEST_CASE("holdoutSplit: the default holds out 20 %, and the 10 configurations the test needs where as many are left",
+          "[calib][heldout]") {
+  // Configurations in all -> held out by default: 20 % of 15 is 3 (fewer than 10 are left to fit with
+  // 10 out, so 20 % stays and the refusal says so); 20 and 40 hold out 10 (20 % would be 4 and 8); from
+  // 50 on 20 % is already 10 or more.
+  for (const auto& [n, expected] : std::vector<std::pair<int, int>>{{15, 3}, {19, 4}, {20, 10}, {39, 10}, {40, 10}, {50, 10}, {80, 16}}) {
+    CAPTURE(n);
+    const std::vector<MarkerObservation> obs = repeated(n, 2, 11);  // two rows per configuration: whole ones held out
+    const std::vector<int> part = calib::holdoutSplit(obs, std::nullopt, 3);
+    std::set<std::vector<double>> held;
+    int rows = 0;
+    for (std::size_t k = 0; k < obs.size(); ++k) {
+      if (part[k] != 1) continue;
+      held.insert(std::vector<double>(obs[k].sample.q_rad.data(), obs[k].sample.q_rad.data() + obs[k].sample.q_rad.size()));
+      ++rows;
+    }
+    CHECK(static_cast<int>(held.size()) == expected);
+    CHECK(rows == 2 * expected);
+  }
+  // A share given is taken as it is; 0 fits everything; outside [0, 1) is refused naming --holdout.
+  const std::vector<int> half = calib::holdoutSplit(repeated(40, 1, 11), 0.5, 3);
+  CHECK(std::count(half.begin(), half.end(), 1) == 20);
+  const std::vector<int> none = calib::holdoutSplit(repeated(40, 1, 11), 0.0, 3);
+  CHECK(std::count(none.begin(), none.end(), 1) == 0);
+  CHECK_THROWS_WITH(calib::holdoutSplit(repeated(40, 1, 11), 1.0, 3), Catch::StartsWith("--holdout: "));
+}
+
+TEST_CASE("heldoutVerdict: worse, too few and not significant are refused, each in its own words", "[calib][heldout]") {
+  const std::vector<MarkerObservation> obs = repeated(12, 1, 13);
+  std::mt19937_64 rng = sim::makeRng(13);
+  std::uniform_real_distribution<double> u(0.5, 1.5);
+  std::vector<Eigen::VectorXd> small, large;
+  for (std::size_t k = 0; k < obs.size(); ++k) {
+    small.push_back(Eigen::Vector3d(1e-4 * u(rng), 0.0, 0.0));  // 0.1 mm
+    large.push_back(Eigen::Vector3d(0.0, 1e-2 * u(rng), 0.0));  // 10 mm
+  }
+  // A gain of 100x on 12 configurations: accepted.
+  const calib::HeldoutVerdict gain = calib::heldoutVerdict(obs, large, small, std::nullopt, 60);
+  CHECK(gain.refusal.empty());
+  CHECK_FALSE(gain.worse);
+  CHECK(gain.gain.significant);
+  // The same the other way round: worse, and said so.
+  const calib::HeldoutVerdict worse = calib::heldoutVerdict(obs, small, large, std::nullopt, 60);
+  CHECK(worse.worse);
+  CHECK_THAT(worse.refusal, Catch::StartsWith("the calibrated model predicts the 12 held-out configurations worse than the nominal arm"));
+  // Worse on 5 configurations says only that 5 are too few to tell, with the default's advice.
+  const std::vector<MarkerObservation> five(obs.begin(), obs.begin() + 5);
+  const calib::HeldoutVerdict few = calib::heldoutVerdict(five, std::vector<Eigen::VectorXd>(small.begin(), small.begin() + 5),
+                                                          std::vector<Eigen::VectorXd>(large.begin(), large.begin() + 5), std::nullopt, 25);
+  CHECK(few.worse);
+  CHECK_THAT(few.refusal, Catch::StartsWith("only 5 of the 25 configurations are held out") &&
+                              Catch::Contains("at least 20 in all: the default hold-out then keeps 10 of them out"));
 }

@@ -290,8 +290,9 @@ void splitHoldout(CalibrationRun& run, CalibrateResult& r) {
     if (run.meas[k].found()) usable.push_back(k);
   }
   r.usable = static_cast<int>(usable.size());
-  const std::vector<int> part =
-      calib::holdoutSplit(imageMeasuredData(run.d, run.meas, usable).observations, run.o.holdout, run.o.seed);
+  const std::vector<calib::MarkerObservation> obs = imageMeasuredData(run.d, run.meas, usable).observations;
+  run.configurations = calib::countConfigurations(obs);
+  const std::vector<int> part = calib::holdoutSplit(obs, run.o.holdout, run.o.seed);
   for (std::size_t i = 0; i < usable.size(); ++i) (part[i] == 1 ? run.hold : run.ident).push_back(usable[i]);
   r.identification = static_cast<int>(run.ident.size());
   r.held_out = static_cast<int>(run.hold.size());
@@ -405,18 +406,13 @@ void judge(const CalibrationRun& run, CalibrateResult& r) {
   if (!run.hold.empty()) {
     const calib::Fit fit = imageFit(run, r);
     const std::vector<calib::MarkerObservation> held = imageMeasuredData(run.d, run.meas, run.hold).observations;
-    const std::vector<calib::MarkerObservation> usable = [&] {
-      std::vector<std::size_t> all = run.ident;
-      all.insert(all.end(), run.hold.begin(), run.hold.end());
-      return imageMeasuredData(run.d, run.meas, all).observations;
-    }();
     std::vector<Eigen::VectorXd> before, after;
     for (const calib::MarkerObservation& x : held) {
       before.push_back(r.frames ? calib::markerResidual(r.frames->fit.model, r.frames->reference_p, x)
                                 : calib::markerResidual(fit.model, Eigen::VectorXd::Zero(fit.model.layout.size()), x));
       after.push_back(calib::markerResidual(fit.model, fit.p, x));
     }
-    r.verdict = calib::heldoutVerdict(held, before, after, run.o.holdout, calib::countConfigurations(usable));
+    r.verdict = calib::heldoutVerdict(held, before, after, run.o.holdout, run.configurations);
     r.worse = r.verdict.worse;
     if (!r.verdict.refusal.empty()) r.refusals.push_back(r.verdict.refusal);
   }
@@ -461,12 +457,6 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
                                "identified parameters with their 1-sigma");
   }
   const std::string report = calibrationReport(run, r, figure_lines);
-  if (r.frames) {
-    sim::writeFileAtomic(run.out + "/scene_frames.yaml",
-                         "# base_T_board and flange_T_camera estimated by orbcal calibrate --estimate-frames (paste into the scene)\n"
-                         "base_T_board: " + sim::transformYaml(r.frames->base_T_board) +
-                             "\nflange_T_camera: " + sim::transformYaml(r.frames->flange_T_camera) + "\n");
-  }
   writeReport(run.out, report);
   folder.commit();
   r.report_path = folder.finalPath() + "/report.md";

@@ -22,6 +22,7 @@ struct CalibrationRun {
   std::string measurements_path;  ///< where measurements.csv ends up
   std::vector<vision::Measurement> meas;
   std::vector<std::size_t> ident, hold;  ///< sample indices, sorted
+  int configurations = 0;                ///< among the usable images (calib::countConfigurations)
   calib::MethodSpec method;
   std::unique_ptr<calib::MeasurementModel> model;  ///< of the identification samples
   std::optional<sim::TrueArm> true_arm;            ///< a simulated dataset's plant
@@ -44,8 +45,9 @@ std::string joinWords(const std::vector<std::string>& words);
 std::string parameterList(const calib::ParameterClasses& classes, const std::vector<int>& which);
 /// report.md of an image calibration; `figure_lines` are the figures' Markdown.
 std::string calibrationReport(const CalibrationRun& run, const CalibrateResult& r, const std::string& figure_lines);
-/// model.yaml (imageFit, sim/model_io.hpp), robot_calibrated.yaml (its arm; and .urdf for a URDF robot) and
-/// estimates.csv into run.out.
+/// What an accepted image calibration writes into run.out: model.yaml (imageFit) with robot_calibrated.yaml,
+/// the exports (workflow::writeModelAndExports), estimates.csv, and with estimated frames scene_frames.yaml
+/// (model.yaml's frames as the scene's keys), with a fitted distortion camera_calibrated.yaml.
 void writeCalibratedFiles(const CalibrationRun& run, CalibrateResult& r);
 /// samples.csv: per-image errors against the measured poses, nominal and calibrated, outliers marked.
 void writeSampleErrors(const CalibrationRun& run, const CalibrateResult& r);

@@ -243,9 +243,7 @@ std::string calibrate_detail::calibrationReport(const CalibrationRun& run, const
                           ? "; `camera_calibrated.yaml` (the camera with the fitted distortion, ROS camera_info)"
                           : "") +
                      "; measurements in `"
-                   : "No calibrated files were written (see the top). `samples.csv` (per-image errors)" +
-                     std::string(r.frames ? "; `scene_frames.yaml` (the estimated frames, to paste into the scene)" : "") +
-                     "; measurements in `")
+                   : "No calibrated files were written (see the top). `samples.csv` (per-image errors); measurements in `")
      << run.measurements_path << "`.\n";
   return md.str();
 }
@@ -274,6 +272,12 @@ void calibrate_detail::writeCalibratedFiles(const CalibrationRun& run, Calibrate
   r.urdf_path = run.out + "/robot_calibrated.urdf";
   const Eigen::VectorXd* y_true = d.manifest.true_errors ? &*d.manifest.true_errors : nullptr;
   sim::writeFileAtomic(run.out + "/estimates.csv", estimatesCsv(fit, &r.classes, y_true));
+  if (r.frames) {  // model.yaml's frames (world = the board, marker = the camera) as the scene writes them
+    sim::writeFileAtomic(run.out + "/scene_frames.yaml",
+                         "# base_T_board and flange_T_camera of model.yaml, estimated by orbcal calibrate --estimate-frames (paste "
+                         "into the scene)\nbase_T_board: " + sim::transformYaml(cm.model.world_T_base.front().inverse()) +
+                             "\nflange_T_camera: " + sim::transformYaml(cm.model.flange_T_marker.front()) + "\n");
+  }
   if (r.frames && r.frames->corners && r.frames->corners->distortion) {
     // The camera with the fitted distortion added, as a ROS camera_info file a scene's camera: {file: ...} reads.
     sim::Camera camera = d.scene.camera;
