@@ -10,14 +10,12 @@
 #include <filesystem>
 #include <functional>
 #include <future>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
 #include <thread>
-#include <yaml-cpp/yaml.h>
 
 #include "orbcal/render/distortion.hpp"
 #include "orbcal/render/renderer.hpp"
@@ -27,8 +25,11 @@
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/truth.hpp"
+#include "dataset_copies.hpp"
 
 namespace orbcal::render {
+
+using namespace dataset_copies;  // the inputs copied into the dataset folder
 
 namespace {
 
@@ -136,173 +137,6 @@ bool usableImage(const std::string& path, const sim::Camera& camera) {
   return !img.empty() && img.type() == CV_8UC1 && img.cols == camera.width_px && img.rows == camera.height_px;
 }
 
-/// A mesh file the scene uses, as copied into the dataset folder.
-struct MeshCopy {
-  std::string relative;    ///< path inside the dataset folder, '/'-separated
-  std::string bytes;       ///< the file's content
-  bool rewritten = false;  ///< the copied scene.yaml names it by `relative` instead of as written
-};
-
-/// True when `relative` (inside the dataset folder) is the dataset's own file or folder, or under it.
-bool reservedInDataset(const std::filesystem::path& relative, const sim::DatasetManifest& m) {
-  const std::string first = relative.begin()->string();
-  return first == m.robot_file || first == sim::kDatasetUrdfFile || first == m.scene_file || first == m.samples_file ||
-         first == "manifest.yaml" ||
-         first == "images" || (!m.error_set_file.empty() && first == m.error_set_file);
-}
-
-/// Where each mesh goes in the dataset folder, so that the copied scene.yaml (at DIR/scene.yaml; relative
-/// mesh paths resolve against its folder) finds it: a relative path without ".." keeps its place,
-/// DIR/<path>; an absolute one, one with "..", or one that would land on the dataset's own files goes to
-/// DIR/meshes/<file name> (made unique) and is rewritten in the copied scene. Reads every mesh.
-std::vector<MeshCopy> planMeshCopies(const RenderSettings& settings, const sim::DatasetManifest& m) {
-  std::vector<MeshCopy> copies(settings.meshes.size());
-  std::map<std::string, std::string> taken;  // relative path in the dataset -> the bytes it holds
-  // Kept paths first, so that relocated meshes never take a kept one's place.
-  for (std::size_t i = 0; i < settings.meshes.size(); ++i) {
-    const MeshSpec& spec = settings.meshes[i];
-    try {
-      copies[i].bytes = sim::readTextSource(spec.file);
-    } catch (const sim::InputError& e) {
-      throw sim::InputError(settings.source + ": " + spec.key + ": cannot read mesh '" + spec.file + "' to copy it into "
-                            "the dataset: " + e.what());
-    }
-    // ".." is checked as written: DIR/a/../x.obj does not resolve unless DIR/a exists.
-    bool up = false;
-    for (const auto& part : std::filesystem::path(spec.file_as_written)) up |= part == "..";
-    const std::filesystem::path written = std::filesystem::path(spec.file_as_written).lexically_normal();
-    if (written.is_absolute() || up || written.empty() || reservedInDataset(written, m)) {
-      copies[i].rewritten = true;
-      continue;
-    }
-    copies[i].relative = written.generic_string();
-    taken.emplace(copies[i].relative, copies[i].bytes);  // the same path always resolves to the same file
-  }
-  for (std::size_t i = 0; i < settings.meshes.size(); ++i) {
-    MeshCopy& c = copies[i];
-    if (!c.rewritten) continue;
-    const std::filesystem::path name = std::filesystem::path(settings.meshes[i].file).filename();
-    std::string relative = "meshes/" + name.string();
-    for (int n = 2;; ++n) {
-      const auto it = taken.find(relative);
-      if (it == taken.end() || it->second == c.bytes) break;  // free, or the same content already there
-      relative = "meshes/" + name.stem().string() + "-" + std::to_string(n) + name.extension().string();
-    }
-    c.relative = relative;
-    taken.emplace(relative, c.bytes);
-  }
-  return copies;
-}
-
-/// Text of the YAML string `s`, double-quoted.
-std::string yamlQuoted(const std::string& s) {
-  std::string q = "\"";
-  for (char ch : s) {
-    if (ch == '"' || ch == '\\') q += '\\';
-    q += ch;
-  }
-  return q + "\"";
-}
-
-/// Where the one-line scalar `node` of `text` (parsed from it) ends: past its closing quote, or past its
-/// value when plain; npos when it is not written on one line.
-std::size_t scalarEnd(const std::string& text, const YAML::Node& node) {
-  const std::size_t begin = static_cast<std::size_t>(node.Mark().pos);
-  const std::string value = node.Scalar();
-  const char open = begin < text.size() ? text[begin] : '\0';
-  if (open == '"' || open == '\'') {
-    for (std::size_t k = begin + 1; k < text.size() && text[k] != '\n'; ++k) {
-      if (open == '"' && text[k] == '\\') {
-        ++k;
-      } else if (text[k] == open) {
-        if (open == '\'' && k + 1 < text.size() && text[k + 1] == '\'') {
-          ++k;  // '' is a quote inside a single-quoted string
-        } else {
-          return k + 1;
-        }
-      }
-    }
-    return std::string::npos;
-  }
-  return text.compare(begin, value.size(), value) == 0 ? begin + value.size() : std::string::npos;
-}
-
-/// The scene text with the `file:` value of each rewritten mesh replaced by its place in the dataset,
-/// everything else (comments, layout) unchanged, and a comment at the top saying what was rewritten.
-std::string rewriteMeshPaths(const std::string& scene_text, const RenderSettings& settings,
-                             const std::vector<MeshCopy>& copies) {
-  struct Edit {
-    std::size_t begin, end;
-    std::string text;
-  };
-  std::vector<Edit> edits;
-  std::string note;
-  const YAML::Node root = YAML::Load(scene_text);  // parsed before (loadRenderSettings): no syntax errors here
-  for (std::size_t i = 0; i < copies.size(); ++i) {
-    if (!copies[i].rewritten) continue;
-    const MeshSpec& spec = settings.meshes[i];
-    const YAML::Node node = root["meshes"][i]["file"];
-    const std::size_t begin = static_cast<std::size_t>(node.Mark().pos);
-    const std::string value = node.Scalar();
-    const std::size_t end = scalarEnd(scene_text, node);
-    if (end == std::string::npos) {
-      throw sim::InputError(settings.source + ": " + spec.key + ": cannot rewrite this mesh path in the dataset's copy "
-                            "of the scene (write it on one line, plain or quoted)");
-    }
-    edits.push_back({begin, end, yamlQuoted(copies[i].relative)});
-    note += "#   " + spec.key + ": " + value + "\n";
-  }
-  if (edits.empty()) return scene_text;
-  std::sort(edits.begin(), edits.end(), [](const Edit& a, const Edit& b) { return a.begin > b.begin; });
-  std::string text = scene_text;
-  for (const Edit& e : edits) text.replace(e.begin, e.end - e.begin, e.text);
-  // Check the rewrite: the copied scene must name each relocated mesh by its place in the dataset.
-  const RenderSettings check = parseRenderSettings(sim::ConfigNode::parse(text, settings.source), "");
-  for (std::size_t i = 0; i < copies.size(); ++i) {
-    if (check.meshes.size() != copies.size() || (copies[i].rewritten && check.meshes[i].file_as_written != copies[i].relative)) {
-      throw sim::InputError(settings.source + ": " + settings.meshes[i].key +
-                            ": cannot rewrite this mesh path in the dataset's copy of the scene");
-    }
-  }
-  return "# orbcal render: copied into this dataset with these mesh paths rewritten to the copies in meshes/;\n"
-         "# they were:\n" + note + text;
-}
-
-/// A scene whose camera is {file: PATH} (sim::Scene::camera_file): the camera file goes into the dataset
-/// as camera.EXT (camera-2.EXT, ... if a mesh copy holds that name), appended to `files`, and the copied
-/// scene's camera.file names it (whether PATH was relative, absolute or had ".."), so the dataset
-/// stands alone. Returns the scene text to copy.
-std::string placeCameraFile(const sim::Scene& scene, const std::string& scene_copy, std::vector<MeshCopy>& files) {
-  if (scene.camera_file.empty()) return scene_copy;
-  MeshCopy c;
-  c.bytes = sim::readTextSource(scene.camera_file);  // read before by sim::loadScene
-  c.rewritten = true;
-  const std::filesystem::path original(scene.camera_file);
-  const std::string ext = original.has_extension() ? original.extension().string() : ".yaml";
-  c.relative = "camera" + ext;
-  for (int n = 2;; ++n) {
-    const auto same = [&](const MeshCopy& f) { return f.relative == c.relative; };
-    const auto it = std::find_if(files.begin(), files.end(), same);
-    if (it == files.end() || it->bytes == c.bytes) break;
-    c.relative = "camera-" + std::to_string(n) + ext;
-  }
-  const YAML::Node node = YAML::Load(scene_copy)["camera"]["file"];
-  const std::size_t begin = static_cast<std::size_t>(node.Mark().pos);
-  const std::size_t end = scalarEnd(scene_copy, node);
-  if (end == std::string::npos) {
-    throw sim::InputError(scene.source + ": camera.file: cannot rewrite this path in the dataset's copy of the scene "
-                          "(write it on one line, plain or quoted)");
-  }
-  std::string text = scene_copy;
-  text.replace(begin, end - begin, yamlQuoted(c.relative));
-  if (YAML::Load(text)["camera"]["file"].Scalar() != c.relative) {
-    throw sim::InputError(scene.source + ": camera.file: cannot rewrite this path in the dataset's copy of the scene");
-  }
-  files.push_back(c);
-  return "# orbcal render: camera.file rewritten to the copy " + c.relative + " in this dataset; it was: " +
-         node.Scalar() + "\n" + text;
-}
-
 /// Removes `path` (a file; absent is fine) for --force; throws InputError naming it when it stays.
 void removeForForce(const std::string& path, bool folder) {
   std::error_code ec;
@@ -349,124 +183,148 @@ struct RemoveNewFolderOnFailure {
   }
 };
 
-}  // namespace
+/// What a run reads, all of it checked before anything is written.
+struct RunInputs {
+  sim::Arm nominal;
+  sim::Scene scene;
+  RenderSettings settings;
+  sim::TrueArm truth;
+  sim::Camera plant_camera;  ///< what the images are taken through: the scene's camera with the error set's distortion
+  std::string scene_text;    ///< the scene file as read
+};
 
-DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& progress) {
-  if (job.out.empty()) throw sim::InputError("--out: the dataset folder must be given");
-  if (job.count < 1) throw sim::InputError("--count: must be at least 1");
-  std::optional<sim::DatasetShard> shard;
-  if (job.shard) shard = sim::datasetShard(job.shard->first, job.shard->second, job.count, "--shard");
-  const int first = shard ? shard->first_sample : 0, end = shard ? shard->end_sample : job.count;
-  // Inputs: everything is read and checked before anything is written.
-  std::string robot_text = sim::readTextSource(job.robot);
-  const std::string scene_text = sim::readTextSource(job.scene);
-  const sim::Arm nominal = sim::loadArm(sim::RobotSource{job.robot, job.base_link, job.tip_link});
+/// The files the dataset folder holds besides its images, manifest.yaml and samples.csv, as written.
+struct InputCopies {
+  std::string robot_text;       ///< robot.yaml
+  std::string urdf_text;        ///< robot.urdf of a URDF robot; empty for a robot YAML
+  std::string scene_copy;       ///< scene.yaml, paths rewritten to the copies
+  std::vector<MeshCopy> files;  ///< the meshes and the camera file
+};
+
+/// Reads and checks the robot, the scene and its render settings, and the error set; the robot's text
+/// as the dataset keeps it goes to copies.robot_text and copies.urdf_text.
+RunInputs readRunInputs(const DatasetJob& job, InputCopies& copies) {
+  RunInputs in;
+  copies.robot_text = sim::readTextSource(job.robot);
+  in.scene_text = sim::readTextSource(job.scene);
+  in.nominal = sim::loadArm(sim::RobotSource{job.robot, job.base_link, job.tip_link});
   // A URDF robot: the dataset keeps the URDF (robot.urdf) and, as robot.yaml, the chain read from it
   // (convention urdf, naming robot.urdf and the links), which every reader of datasets loads as it is.
-  std::string urdf_text;
+  const sim::Arm& nominal = in.nominal;
   if (nominal.convention == sim::DhConvention::kUrdf && !nominal.urdf.empty()) {
-    urdf_text = sim::readTextSource(nominal.urdf.file);
+    copies.urdf_text = sim::readTextSource(nominal.urdf.file);
     sim::Arm copy = nominal;
     copy.urdf.file = sim::kDatasetUrdfFile;
-    robot_text = sim::formatArm(copy, "The chain " + nominal.urdf.base_link + " -> " + nominal.urdf.tip_link + " of " +
-                                          job.robot + " (copied as " + sim::kDatasetUrdfFile + "), read by orbcal render");
+    copies.robot_text = sim::formatArm(copy, "The chain " + nominal.urdf.base_link + " -> " + nominal.urdf.tip_link + " of " +
+                                                 job.robot + " (copied as " + sim::kDatasetUrdfFile + "), read by orbcal render");
   }
-  const sim::Scene scene = sim::loadScene(job.scene);
-  const RenderSettings settings = loadRenderSettings(job.scene);
-  const sim::TrueArm truth = sim::makeTrueArm(nominal, job.errors, "--errors");
-  // The images are taken through the plant's camera (see below). Its distortion map (~50 ms of CPU) is
-  // built on a thread of its own while the folder is checked and the configurations are generated.
-  const sim::Camera plant_camera = truth.camera(scene.camera);
-  std::future<DistortionMap> distortion_map;
-  if (plant_camera.hasDistortion()) {
-    distortion_map = std::async(std::launch::async, [plant_camera] { return makeDistortionMap(plant_camera); });
-  }
+  in.scene = sim::loadScene(job.scene);
+  in.settings = loadRenderSettings(job.scene);
+  in.truth = sim::makeTrueArm(nominal, job.errors, "--errors");
+  in.plant_camera = in.truth.camera(in.scene.camera);
+  return in;
+}
 
-  sim::Dataset dataset;
-  dataset.folder = job.out;
-  sim::DatasetManifest& m = dataset.manifest;
-  if (truth.fromFile()) m.error_set_file = sim::kDatasetErrorSetFile;  // before the meshes are placed
-  // The meshes go into the folder too, so that the dataset stands alone (see planMeshCopies).
-  std::vector<MeshCopy> meshes = planMeshCopies(settings, m);
-  const std::string scene_copy = placeCameraFile(scene, rewriteMeshPaths(scene_text, settings, meshes), meshes);
+/// The manifest of samples first..end-1 (of the shard, if any) rendered from `in` as `job` asks.
+sim::DatasetManifest runManifest(const DatasetJob& job, const RunInputs& in, const std::optional<sim::DatasetShard>& shard,
+                                 int first, int end) {
+  sim::DatasetManifest m;
+  if (in.truth.fromFile()) m.error_set_file = sim::kDatasetErrorSetFile;  // before the meshes are placed
   m.program_version = ORBCAL_VERSION;
   m.num_samples = end - first;
   m.shard = shard;
-  m.true_errors = truth.geometryErrors();
-  m.true_errors_per_joint = nominal.paramsPerJoint();
-  m.error_set = truth.fromFile() ? "file" : job.errors.name;
+  m.true_errors = in.truth.geometryErrors();
+  m.true_errors_per_joint = in.nominal.paramsPerJoint();
+  m.error_set = in.truth.fromFile() ? "file" : job.errors.name;
   m.joint_noise_sigma_rad = job.joint_noise_sigma_rad;
   m.configuration_seed = job.configuration_seed;
   m.noise_seed = job.noise_seed;
   m.render_seed = job.render_seed;
+  return m;
+}
 
-  // The folder is locked while this run writes it (a second writer is refused); a folder this run
-  // creates is removed again when the run fails before its first image is written.
+/// The outermost folder that making `out` creates; empty when `out` exists.
+std::filesystem::path outermostNewFolder(const std::string& out) {
   std::error_code ec;
-  std::filesystem::path created;  // the outermost folder this run creates (empty: none)
-  for (std::filesystem::path p = job.out; !p.empty() && !std::filesystem::exists(p, ec); p = p.parent_path()) {
+  std::filesystem::path created;
+  for (std::filesystem::path p = out; !p.empty() && !std::filesystem::exists(p, ec); p = p.parent_path()) {
     created = p;
     if (p == p.parent_path()) break;
   }
-  sim::makeDirectories(job.out);
-  const sim::FolderLock lock(job.out, "orbcal render");
-  const RemoveNewFolderOnFailure cleanup{job.out, created.string()};  // runs before the lock is released
+  return created;
+}
 
-  // Resume or refuse.
-  const std::string manifest_path = job.out + "/manifest.yaml";
-  DatasetRunReport report;
-  if (std::filesystem::exists(manifest_path, ec)) {
-    std::vector<std::string> differ;  // what is not the same, for the message
-    try {
-      const sim::DatasetManifest old = sim::parseManifest(sim::readTextSource(manifest_path), manifest_path);
-      // The manifest prints numbers exactly, so a reparsed new manifest compares equal to the old one
-      // when (and only when) the inputs are the same.
-      const sim::DatasetManifest fresh = sim::parseManifest(sim::formatManifest(m), manifest_path);
-      if (!(old == fresh)) {
-        differ = sim::manifestDifferences(old, fresh);
-      }
-    } catch (const sim::InputError& e) {
-      differ.push_back(std::string("manifest.yaml (") + e.what() + ")");
+/// What in the folder of `dataset` (which holds a manifest.yaml at manifest_path) is not what this run
+/// would write: the manifest, a copied input, or an unreadable manifest. Empty: the run can resume.
+std::vector<std::string> differingInputs(const sim::Dataset& dataset, const std::string& manifest_path,
+                                         const InputCopies& copies, const sim::TrueArm& truth) {
+  const sim::DatasetManifest& m = dataset.manifest;
+  std::vector<std::string> differ;
+  try {
+    const sim::DatasetManifest old = sim::parseManifest(sim::readTextSource(manifest_path), manifest_path);
+    // The manifest prints numbers exactly, so a reparsed new manifest compares equal to the old one
+    // when (and only when) the inputs are the same.
+    const sim::DatasetManifest fresh = sim::parseManifest(sim::formatManifest(m), manifest_path);
+    if (!(old == fresh)) {
+      differ = sim::manifestDifferences(old, fresh);
     }
-    if (!fileEquals(dataset.path(m.robot_file), robot_text)) differ.push_back(m.robot_file);
-    if (!urdf_text.empty() && !fileEquals(dataset.path(sim::kDatasetUrdfFile), urdf_text)) differ.push_back(sim::kDatasetUrdfFile);
-    if (!fileEquals(dataset.path(m.scene_file), scene_copy)) differ.push_back(m.scene_file);
-    if (truth.fromFile() && !fileEquals(dataset.path(m.error_set_file), truth.file_text)) {
-      differ.push_back(m.error_set_file);
-    }
-    for (const MeshCopy& c : meshes) {
-      if (!fileEquals(dataset.path(c.relative), c.bytes)) differ.push_back(c.relative);
-    }
-    if (differ.empty()) {
-      report.resumed = true;
-      removeTemporaryImages(dataset.path("images"));
-    } else if (!job.force) {
-      std::string list;
-      for (const std::string& d : differ) list += (list.empty() ? "" : ", ") + d;
-      throw sim::InputError(manifest_path + ": the folder holds a dataset made from different inputs (differs: " + list +
-                            "); use another --out folder or --force to replace it");
-    } else {
-      removeForForce(dataset.path(m.samples_file), false);
-      removeForForce(manifest_path, false);
-      if (!truth.fromFile()) removeForForce(dataset.path(sim::kDatasetErrorSetFile), false);  // an earlier run's
-      removeForForce(dataset.path("images"), true);
-    }
+  } catch (const sim::InputError& e) {
+    differ.push_back(std::string("manifest.yaml (") + e.what() + ")");
   }
+  if (!fileEquals(dataset.path(m.robot_file), copies.robot_text)) differ.push_back(m.robot_file);
+  if (!copies.urdf_text.empty() && !fileEquals(dataset.path(sim::kDatasetUrdfFile), copies.urdf_text)) {
+    differ.push_back(sim::kDatasetUrdfFile);
+  }
+  if (!fileEquals(dataset.path(m.scene_file), copies.scene_copy)) differ.push_back(m.scene_file);
+  if (truth.fromFile() && !fileEquals(dataset.path(m.error_set_file), truth.file_text)) {
+    differ.push_back(m.error_set_file);
+  }
+  for (const MeshCopy& c : copies.files) {
+    if (!fileEquals(dataset.path(c.relative), c.bytes)) differ.push_back(c.relative);
+  }
+  return differ;
+}
 
-  // Configurations on the nominal arm; the plant's joints and the true board pose (sample i of the
-  // plant: its covariates at t_i, the approach direction from sample i - 1). A shard takes the samples
-  // first..end-1 of that same sequence: the configurations are the first `end` of job.count (the
-  // generator stops there, with job.count's attempt budget) and the joint noise is drawn for every
-  // sample before `end`, in order.
-  const auto t_plan = std::chrono::steady_clock::now();
-  report.first_sample = first;
-  report.end_sample = end;
+/// Resume or refuse: true when the folder (locked by the caller) holds an unfinished dataset made from
+/// the same inputs (its leftover temporary images removed); false for a folder without a manifest, or
+/// with --force one made from other inputs, whose samples.csv, manifest and images are removed. Throws
+/// InputError naming what differs otherwise.
+bool resumeOrReplace(const DatasetJob& job, const sim::Dataset& dataset, const InputCopies& copies,
+                     const sim::TrueArm& truth) {
+  const sim::DatasetManifest& m = dataset.manifest;
+  const std::string manifest_path = dataset.path("manifest.yaml");
+  std::error_code ec;
+  if (!std::filesystem::exists(manifest_path, ec)) return false;
+  const std::vector<std::string> differ = differingInputs(dataset, manifest_path, copies, truth);
+  if (differ.empty()) {
+    removeTemporaryImages(dataset.path("images"));
+    return true;
+  }
+  if (!job.force) {
+    std::string list;
+    for (const std::string& d : differ) list += (list.empty() ? "" : ", ") + d;
+    throw sim::InputError(manifest_path + ": the folder holds a dataset made from different inputs (differs: " + list +
+                          "); use another --out folder or --force to replace it");
+  }
+  removeForForce(dataset.path(m.samples_file), false);
+  removeForForce(manifest_path, false);
+  if (!truth.fromFile()) removeForForce(dataset.path(sim::kDatasetErrorSetFile), false);  // an earlier run's
+  removeForForce(dataset.path("images"), true);
+  return false;
+}
+
+/// Configurations on the nominal arm; the plant's joints and the true board pose (sample i of the
+/// plant: its covariates at t_i, the approach direction from sample i - 1), appended to dataset.samples.
+/// A shard takes the samples first..end-1 of that same sequence: the configurations are the first `end`
+/// of job.count (the generator stops there, with job.count's attempt budget) and the joint noise is
+/// drawn for every sample before `end`, in order.
+void planSamples(const DatasetJob& job, const RunInputs& in, int first, int end, sim::Dataset& dataset) {
   sim::GeneratorSettings gen;
   gen.count = job.count;
   gen.stop_after = end;
   gen.seed = job.configuration_seed;
   gen.threads = job.generator_threads;
-  const std::vector<Eigen::VectorXd> commanded = sim::generateConfigurations(nominal, scene, gen);
+  const std::vector<Eigen::VectorXd> commanded = sim::generateConfigurations(in.nominal, in.scene, gen);
   std::mt19937_64 noise_rng = sim::makeRng(job.noise_seed, kJointNoiseStream);
   Eigen::VectorXd q_true_previous;
   for (int i = 0; i < end; ++i) {
@@ -477,33 +335,39 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
       s.image = imageName(i);
       s.q_rad = commanded[i];
       s.q_true_rad = q_true;
-      s.camera_T_board_true = sim::cameraTBoard(truth.flangePose(i, q_true, i > 0 ? &q_true_previous : nullptr), scene);
+      s.camera_T_board_true =
+          sim::cameraTBoard(in.truth.flangePose(i, q_true, i > 0 ? &q_true_previous : nullptr), in.scene);
       dataset.samples.push_back(std::move(s));
     }
     q_true_previous = std::move(q_true);
   }
-  report.plan_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_plan).count();
+}
 
-  // Inputs copied in and the manifest, then the images, then samples.csv.
-  sim::makeDirectories(job.out);
-  sim::makeDirectories(dataset.path("images"));
-  if (!report.resumed) {
-    sim::writeFileAtomic(dataset.path(m.robot_file), robot_text);
-    if (!urdf_text.empty()) sim::writeFileAtomic(dataset.path(sim::kDatasetUrdfFile), urdf_text);
-    if (truth.fromFile()) sim::writeFileAtomic(dataset.path(m.error_set_file), truth.file_text);
-    for (const MeshCopy& c : meshes) {
-      sim::makeDirectories(std::filesystem::path(dataset.path(c.relative)).parent_path().string());
-      sim::writeFileAtomic(dataset.path(c.relative), c.bytes);
-    }
-    sim::writeFileAtomic(dataset.path(m.scene_file), scene_copy);
-    sim::writeFileAtomic(manifest_path, sim::formatManifest(m));
+/// Writes the copied inputs and then the manifest into the dataset's folder (each file atomically).
+void writeInputCopies(const sim::Dataset& dataset, const InputCopies& copies, const sim::TrueArm& truth) {
+  const sim::DatasetManifest& m = dataset.manifest;
+  sim::writeFileAtomic(dataset.path(m.robot_file), copies.robot_text);
+  if (!copies.urdf_text.empty()) sim::writeFileAtomic(dataset.path(sim::kDatasetUrdfFile), copies.urdf_text);
+  if (truth.fromFile()) sim::writeFileAtomic(dataset.path(m.error_set_file), truth.file_text);
+  for (const MeshCopy& c : copies.files) {
+    sim::makeDirectories(std::filesystem::path(dataset.path(c.relative)).parent_path().string());
+    sim::writeFileAtomic(dataset.path(c.relative), c.bytes);
   }
+  sim::writeFileAtomic(dataset.path(m.scene_file), copies.scene_copy);
+  sim::writeFileAtomic(dataset.path("manifest.yaml"), sim::formatManifest(m));
+}
 
+/// Renders the images of dataset.samples that a resumed run does not keep, through the plant's camera
+/// (distortion_map: its distortion map, being built), drawing on this thread and finishing and writing
+/// the PNGs on the writer's; then flushes them to disk. Fills the report's image counts, MSAA, warnings
+/// and render time.
+void renderImages(const DatasetJob& job, const RunInputs& in, const sim::Dataset& dataset,
+                  std::future<DistortionMap>& distortion_map, const DatasetProgress& progress, DatasetRunReport& report) {
   // The images are taken through the plant's camera: the scene's plus the error-set file's distortion
   // effect, which the copied scene.yaml does not have (lens distortion the calibration does not model).
-  sim::Scene taken = scene;
-  taken.camera = plant_camera;
-  BoardRenderer renderer(taken, settings, &distortion_map);
+  sim::Scene taken = in.scene;
+  taken.camera = in.plant_camera;
+  BoardRenderer renderer(taken, in.settings, &distortion_map);
   report.msaa_samples = renderer.msaaSamples();
   report.warnings = renderer.warnings();
   const auto t0 = std::chrono::steady_clock::now();
@@ -513,7 +377,7 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
     for (int k = 0; k < total; ++k) {
       const sim::DatasetSample& s = dataset.samples[k];
       const std::string path = dataset.path(s.image);
-      if (report.resumed && usableImage(path, scene.camera)) {
+      if (report.resumed && usableImage(path, in.scene.camera)) {
         ++report.skipped;
       } else {
         // Drawn here (the GL context's thread), finished on the writer's: renderer.render() in two halves.
@@ -531,7 +395,53 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   // samples.csv, which marks the dataset finished, never reaches the disk before they do.
   sim::syncFileSystem(dataset.path("images"));
   report.render_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  sim::writeDatasetTables(dataset, nominal.numJoints());  // samples.csv, then manifest.yaml (unchanged)
+}
+
+}  // namespace
+
+DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& progress) {
+  if (job.out.empty()) throw sim::InputError("--out: the dataset folder must be given");
+  if (job.count < 1) throw sim::InputError("--count: must be at least 1");
+  std::optional<sim::DatasetShard> shard;
+  if (job.shard) shard = sim::datasetShard(job.shard->first, job.shard->second, job.count, "--shard");
+  const int first = shard ? shard->first_sample : 0, end = shard ? shard->end_sample : job.count;
+  InputCopies copies;
+  const RunInputs in = readRunInputs(job, copies);
+  // The images are taken through the plant's camera (renderImages). Its distortion map (~50 ms of CPU)
+  // is built on a thread of its own while the folder is checked and the configurations are generated.
+  std::future<DistortionMap> distortion_map;
+  if (in.plant_camera.hasDistortion()) {
+    distortion_map = std::async(std::launch::async, [plant_camera = in.plant_camera] { return makeDistortionMap(plant_camera); });
+  }
+
+  sim::Dataset dataset;
+  dataset.folder = job.out;
+  dataset.manifest = runManifest(job, in, shard, first, end);
+  // The meshes go into the folder too, so that the dataset stands alone (see planMeshCopies).
+  copies.files = planMeshCopies(in.settings, dataset.manifest);
+  copies.scene_copy = placeCameraFile(in.scene, rewriteMeshPaths(in.scene_text, in.settings, copies.files), copies.files);
+
+  // The folder is locked while this run writes it (a second writer is refused); a folder this run
+  // creates is removed again when the run fails before its first image is written.
+  const std::filesystem::path created = outermostNewFolder(job.out);
+  sim::makeDirectories(job.out);
+  const sim::FolderLock lock(job.out, "orbcal render");
+  const RemoveNewFolderOnFailure cleanup{job.out, created.string()};  // runs before the lock is released
+
+  DatasetRunReport report;
+  report.resumed = resumeOrReplace(job, dataset, copies, in.truth);
+  const auto t_plan = std::chrono::steady_clock::now();
+  report.first_sample = first;
+  report.end_sample = end;
+  planSamples(job, in, first, end, dataset);
+  report.plan_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_plan).count();
+
+  // Inputs copied in and the manifest, then the images, then samples.csv.
+  sim::makeDirectories(job.out);
+  sim::makeDirectories(dataset.path("images"));
+  if (!report.resumed) writeInputCopies(dataset, copies, in.truth);
+  renderImages(job, in, dataset, distortion_map, progress, report);
+  sim::writeDatasetTables(dataset, in.nominal.numJoints());  // samples.csv, then manifest.yaml (unchanged)
   return report;
 }
 
