@@ -201,6 +201,27 @@ std::vector<std::string> refusalsOf(const MeasuredCalibrateResult& r) {
   return out;
 }
 
+/// The report's first lines: each reason the calibration is not accepted, or that it is, and whether
+/// model.yaml was written.
+std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model) {
+  const std::string written = write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.";
+  const std::string rms = formatNumber("%.4f", r.heldout_before.position_rms_m * 1e3) + " -> " +
+                          formatNumber("%.4f", r.heldout_after.position_rms_m * 1e3) + " mm";
+  std::ostringstream md;
+  if (r.worse) md << "**The calibrated model predicts the held-out samples WORSE than the nominal arm (position RMS " << rms << ").** " << written << "\n\n";
+  if ((!r.worse || !r.gain.enough) && !r.refusal.empty()) md << "**The calibration is not accepted: " << r.refusal << ".** " << written << "\n\n";
+  if (!r.fit_refusal.empty()) md << "**The calibration is not accepted: " << r.fit_refusal << ".** " << written << "\n\n";
+  if (r.inconsistent) {
+    md << "**The fit is inconsistent with the given measurement noise: " << inconsistencyText(r) << ".** " << written << "\n\n";
+  }
+  if (!r.worse && r.refusals.empty()) {
+    md << "**Accepted: model.yaml was written ("
+       << (r.held_out > 0 ? "held-out position RMS, nominal arm -> calibrated: " + rms : "nothing held out: the checks on the fit alone decided")
+       << ").**\n\n";
+  }
+  return md.str();
+}
+
 }  // namespace
 
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) {
@@ -264,29 +285,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) 
   const bool rotation = measuresRotation(data);
   std::ostringstream md;
   md << "# Calibration of " << data.arm.name << " from measured data\n\n";
-  if (r.worse) {
-    md << "**The calibrated model predicts the held-out samples WORSE than the nominal arm (position RMS "
-       << formatNumber("%.4f", r.heldout_before.position_rms_m * 1e3) << " -> " << formatNumber("%.4f", r.heldout_after.position_rms_m * 1e3)
-       << " mm).** " << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.")
-       << "\n\n";
-  }
-  if ((!r.worse || !r.gain.enough) && !r.refusal.empty()) {
-    md << "**The calibration is not accepted: " << r.refusal << ".** "
-       << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.") << "\n\n";
-  }
-  if (!r.fit_refusal.empty()) {
-    md << "**The calibration is not accepted: " << r.fit_refusal << ".** "
-       << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.") << "\n\n";
-  }
-  if (r.inconsistent) {
-    md << "**The fit is inconsistent with the given measurement noise: " << inconsistencyText(r) << ".** "
-       << (write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.") << "\n\n";
-  }
-  if (write_model && !r.worse && !r.inconsistent && r.refusal.empty()) {
-    md << "**Accepted: the calibrated model predicts the held-out samples better than the nominal arm (position RMS "
-       << formatNumber("%.4f", r.heldout_before.position_rms_m * 1e3) << " -> " << formatNumber("%.4f", r.heldout_after.position_rms_m * 1e3)
-       << " mm); model.yaml was written.**\n\n";
-  }
+  md << verdictLines(r, write_model);
   md << "Description `" << o.description << "`: " << r.samples << " samples in " << data.numSessions() << " session(s); "
      << r.identification << " fitted, " << r.held_out << " held out (" << r.gain.configurations << " configurations; seed " << o.seed << ", per session).\n\n"
      << "Model: geometry (" << data.arm.numParams() << " DH errors) + registration (base " << sim::frameSharingName(data.base)
