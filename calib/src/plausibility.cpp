@@ -90,8 +90,8 @@ std::string confoundedEffects(const std::vector<sim::Effect>& effects) {
 
 }  // namespace
 
-double PlausibilityBounds::lengthMove(const sim::Arm& arm, int param) const {
-  const int joint = param / arm.paramsPerJoint();
+double PlausibilityBounds::lengthMove(const sim::Arm& arm, const sim::ParamInfo& param) const {
+  const int joint = std::max(0, param.joint);
   return std::max(kLengthShareOfLink * linkLength(arm, joint), kLengthShareOfReach * reach_m);
 }
 
@@ -182,7 +182,7 @@ void requirePlausibleGeometry(const sim::MeasuredData& data, const Fit& fit) {
     const double move = fit.p[k];
     const double sigma = fit.estimate.covariance.rows() > k ? std::sqrt(std::max(0.0, fit.estimate.covariance(k, k))) : 0.0;
     const bool angle = block.params[static_cast<std::size_t>(i)].quantity == sim::Quantity::kAngle;
-    const double bound = angle ? b.angle_move_rad : b.lengthMove(arm, i);
+    const double bound = angle ? b.angle_move_rad : b.lengthMove(arm, block.params[static_cast<std::size_t>(i)]);
     if (std::abs(move) <= bound + kMoveSigmas * sigma) continue;
     const auto in = [angle](double v) { return angle ? deg(v) : mm(v); };
     throw sim::InputError(dataName(data) + ": the calibrated geometry moves " + block.params[static_cast<std::size_t>(i)].name + " by " +

@@ -108,6 +108,7 @@ ParamBlock geometryBlock(const Arm& arm) {
   for (int i = 0; i < arm.numParams(); ++i) {
     b.params.push_back(isAngleParam(arm, i) ? angleParam(paramName(arm, i), kTypicalAngle)
                                             : lengthParam(paramName(arm, i), kTypicalLength));
+    b.params.back().joint = i / arm.paramsPerJoint();
   }
   return b;
 }

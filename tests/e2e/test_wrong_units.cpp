@@ -126,7 +126,7 @@ TEST_CASE("a wrong robot file whose calibration would move a link beyond its tol
   arm.joints[2].d_m += 0.03;
   test::write(dir + "/data/robot_long.yaml", sim::formatArm(arm, "iiwa7 with its third link 30 mm too long"));
   const calib::PlausibilityBounds bounds = calib::plausibilityBounds(arm);
-  REQUIRE(bounds.lengthMove(arm, sim::paramIndex(arm, 2, sim::kD)) < 0.03);
+  REQUIRE(bounds.lengthMove(arm, sim::geometryBlock(arm).params[static_cast<std::size_t>(sim::paramIndex(arm, 2, sim::kD))]) < 0.03);
   const std::string good = test::slurp(d.data.description);
   const std::string text = edited(good, "robot: \"robot.yaml\"", "robot: \"robot_long.yaml\"");
   for (const bool stated : {true, false}) {

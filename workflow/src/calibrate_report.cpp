@@ -21,23 +21,6 @@ namespace orbcal::workflow {
 
 using namespace calibrate_detail;
 
-ParameterColumns parameterColumns(const sim::Arm& arm) {
-  ParameterColumns c;
-  c.header = "| joint |";
-  std::string rule = "|---|";
-  const sim::ParamBlock g = sim::geometryBlock(arm);
-  for (int k = 0; k < arm.paramsPerJoint(); ++k) {
-    std::string key = sim::paramKey(arm, k);
-    const std::string stem = key.substr(0, key.rfind('_'));
-    std::string& list = g.params[static_cast<std::size_t>(k)].display_unit == "deg" ? c.angles : c.lengths;
-    list += (list.empty() ? "" : ", ") + stem;
-    c.header += " " + stem + " |";
-    rule += "---|";
-  }
-  c.header += "\n" + rule + "\n";
-  return c;
-}
-
 /// "theta1, x1, ..." for the parameters `which` (or "none").
 std::string calibrate_detail::parameterList(const calib::ParameterClasses& classes, const std::vector<int>& which) {
   std::vector<std::string> names;

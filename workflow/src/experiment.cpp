@@ -57,8 +57,7 @@ std::string inputsSection(const ExperimentOptions& o, const sim::Arm& arm, const
     << "- injected errors: `" << o.errors.name << "`; joint control noise " << fmt("%.4g", o.joint_noise_sigma_rad * sim::kRadToDeg)
     << " deg (1 sigma); seed " << o.seed << "\n"
     << "- program: orbcal " << ORBCAL_VERSION << "\n\n"
-    << "Injected errors (per joint: " << parameterColumns(arm).angles << " in deg; " << parameterColumns(arm).lengths
-    << " in mm):\n\n```\n"
+    << "Injected errors (per joint; angles in deg, lengths in mm):\n\n```\n"
     << sim::formatErrorSet(arm, y_true) << "```\n\n"
     << injectedEffects(truth, o.errors.name);
   return s.str();

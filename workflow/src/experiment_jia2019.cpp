@@ -62,8 +62,9 @@ Eigen::VectorXd jiaErrors(const sim::Arm& arm, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   Eigen::VectorXd y = Eigen::VectorXd::Zero(arm.numParams());
   const sim::ParamBlock g = sim::geometryBlock(arm);
-  for (int i = arm.paramsPerJoint(); i < arm.numParams(); ++i) {
-    const int joint = i / arm.paramsPerJoint();
+  for (int i = 0; i < g.size(); ++i) {
+    const int joint = g.params[static_cast<std::size_t>(i)].joint;
+    if (joint == 0) continue;
     if (sim::paramKind(arm, i) == sim::kBeta && std::abs(arm.joints[static_cast<std::size_t>(joint)].alpha_rad) > 1e-9) continue;
     const double mag = g.params[static_cast<std::size_t>(i)].quantity == sim::Quantity::kAngle ? (0.2 + 0.1 * u(rng)) * sim::kDegToRad : (0.5 + 0.5 * u(rng)) * 1e-3;
     y[i] = (u(rng) < 0.5 ? -1.0 : 1.0) * mag;
@@ -106,7 +107,10 @@ Fit identify(const calib::MeasurementModel& model, const sim::Arm& arm, bool cla
   const int geometry = model.layout().block(model.layout().find("geometry")).offset;
   calib::LseOptions lse;
   lse.weighted = true;
-  for (int k = 0; k < arm.paramsPerJoint(); ++k) lse.hold.push_back(geometry + k);
+  const sim::ParamBlock g = sim::geometryBlock(arm);
+  for (int k = 0; k < g.size(); ++k) {
+    if (g.params[static_cast<std::size_t>(k)].joint == 0) lse.hold.push_back(geometry + k);
+  }
   Fit f;
   f.estimate = calib::runLse(model, lse);
   f.y_geometry = f.estimate.y.segment(geometry, arm.numParams());

@@ -260,7 +260,10 @@ void runSelection(const ExperimentOptions& o) {
   // there: a frame-free measurement cannot see a rigid motion of the whole arm, and the kinds compare
   // on what each can see.
   Eigen::VectorXd y_true = truth.geometryErrors();
-  y_true.head(nominal.paramsPerJoint()).setZero();
+  const sim::ParamBlock geometry = sim::geometryBlock(nominal);
+  for (int i = 0; i < geometry.size(); ++i) {
+    if (geometry.params[static_cast<std::size_t>(i)].joint == 0) y_true[i] = 0.0;
+  }
   calib::MeasurementSetup base;
   base.noise.sigma_position_m = 0.1e-3;
   base.noise.sigma_rotation_rad = 0.05 * sim::kDegToRad;

@@ -37,8 +37,9 @@ struct PlausibilityBounds {
   double position_rms_m = 0.0;     ///< registration residual, 3-D position RMS: 5 % of the reach
   double rotation_rms_rad = 0.0;   ///< registration residual, rotation RMS: 5 deg
   double angle_move_rad = 0.0;     ///< an angle parameter's move: 10 deg
-  /// A length parameter's move: max(5 % of its link's nominal length, 1 % of the reach).
-  double lengthMove(const sim::Arm& arm, int param) const;
+  /// A length parameter's move: max(5 % of its link's nominal length, 1 % of the reach); `param` is a
+  /// geometry parameter of `arm` (sim::geometryBlock), whose joint names the link.
+  double lengthMove(const sim::Arm& arm, const sim::ParamInfo& param) const;
 };
 PlausibilityBounds plausibilityBounds(const sim::Arm& arm);
 

@@ -51,6 +51,7 @@ struct ParamInfo {
   double display_scale = 1;  ///< value [unit] * display_scale = value [display_unit]
   double typical = 1;        ///< typical magnitude (SI): prior 1-sigma and column scale
   Quantity quantity = Quantity::kOther;
+  int joint = -1;            ///< a geometry parameter's joint (its row of the table), from 0; -1 for every other
 };
 
 struct ParamBlock {

@@ -109,12 +109,6 @@ struct CalibrateResult {
 
 CalibrateResult runCalibrate(const CalibrateOptions& o);
 
-/// The per-joint parameter columns of the report's estimate table: its Markdown header (with the
-/// separator row) and the parameter names in deg and in mm ("theta, alpha", "a, d"; URDF: theta, x, ...).
-struct ParameterColumns {
-  std::string header, angles, lengths;
-};
-ParameterColumns parameterColumns(const sim::Arm& arm);
 /// One line: the identifiability analysis's kept (minimal identifiable set) and held parameters, by name.
 std::string formatKeptAndHeld(const calib::ParameterClasses& classes);
 
