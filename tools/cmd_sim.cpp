@@ -68,7 +68,7 @@ void addConfigsCommand(CLI::App& app) {
   addArmSceneOptions(*cmd, opt->as);
   cmd->add_option("-n,--count", opt->gen.count, "number of configurations")->capture_default_str()->check(CLI::Range(1, 1000000));
   cmd->add_option("--seed", opt->gen.seed, "random seed")->capture_default_str();
-  cmd->add_option("-o,--out", opt->out, "output CSV (index, q1_rad..qN_rad); written atomically")->capture_default_str();
+  cmd->add_option("-o,--out", opt->out, "output CSV (index, q1_rad..qN_rad, SI: a prismatic joint's qJ_m); written atomically")->capture_default_str();
   cmd->add_option("--select", opt->select, "choose the N configurations from a pool by this index: O1, O2, O3, O4 or O5");
   cmd->add_option("--pool", opt->pool, "pool size for --select")->capture_default_str()->check(CLI::Range(1, 1000000));
   cmd->add_option("--sigma-position-mm", opt->sigma_position_mm, "--select: pose measurement noise, position")

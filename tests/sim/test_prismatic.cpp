@@ -7,6 +7,7 @@
 
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/configurations.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/gravity.hpp"
 #include "orbcal/sim/ik.hpp"
@@ -235,6 +236,11 @@ TEST_CASE("a joint value is labelled and scaled by its type: columns, labels, ef
   for (int j = 2; j <= arm.numJoints(); ++j) csv += ",0";
   CHECK_THROWS_WITH(parseSamplesCsv(csv + "\n", "mine.csv", arm.numJoints(), &arm),
                     "mine.csv: line 2: q1_rad: 0.5 m (500 mm) is outside the joint limits [0, 400] mm of " + arm.source);
+  // A configurations file (SI) names the torso's column q1_m, and reads back.
+  const std::vector<Eigen::VectorXd> qs = orbcal::test::randomConfigs(arm, 3, 7);
+  const std::string configs = formatConfigurationsCsv(qs, &arm);
+  CHECK(configs.rfind("index,q1_m,q2_rad,", 0) == 0);
+  CHECK(parseConfigurationsCsv(configs, "c.csv", arm.numJoints()) == qs);
   // A joint box beyond the torso's travel is named in mm.
   const Eigen::VectorXd lo = Eigen::VectorXd::Constant(arm.numJoints(), 0.5), hi = Eigen::VectorXd::Constant(arm.numJoints(), 0.6);
   CHECK_THROWS_WITH(withJointBox(arm, lo, hi, "box"), "box: joint 1: the box 500..600 mm leaves no travel within the robot's limits 0..400 mm");

@@ -71,7 +71,7 @@ ConfigsResult runConfigs(const ConfigsOptions& o) {
     configs = sim::generateConfigurations(arm, scene, gen, &r.stats, [&](int d, int) { bar.update(d); });
   }
   if (o.select) r.selection = selectFromPool(o, arm, configs);
-  sim::writeFileAtomic(o.out, sim::formatConfigurationsCsv(configs));
+  sim::writeFileAtomic(o.out, sim::formatConfigurationsCsv(configs, &arm));
   r.written = static_cast<int>(configs.size());
   return r;
 }
