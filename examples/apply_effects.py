@@ -9,9 +9,10 @@ Run as a program it reads a CSV of configurations and writes their corrections:
 
     apply_effects.py EFFECTS.yaml SAMPLES.csv > corrections.csv
 
-SAMPLES.csv: a header, then one row per configuration with the columns q1..qN (rad) and, where the
-effects read them, tau1..tauN (the actuators' torques, N m) and dir1..dirN (the approach directions,
-+1, -1 or 0). The output has the columns dq1..dqN (rad), every number with 17 significant digits.
+SAMPLES.csv: a header, then one row per configuration with the columns q1..qN (rad; m for a prismatic
+joint) and, where the effects read them, tau1..tauN (the actuators' torques, N m; a prismatic joint's
+force, N) and dir1..dirN (the approach directions, +1, -1 or 0). The output has the columns dq1..dqN
+(rad; m for a prismatic joint), every number with 17 significant digits.
 Needs PyYAML (Debian: python3-yaml).
 """
 import csv

@@ -37,7 +37,7 @@ void addFkCommand(CLI::App& app) {
             "--json: every number exact); revolute joints in deg, prismatic in mm");
   addRobotOptions(*cmd, opt->as);
   cmd->add_option("joints", opt->joints, "joint values, one per joint: revolute [deg], prismatic [mm]")->required()->allow_extra_args();
-  cmd->add_flag("--json", opt->json, "print JSON (base_T_flange in m, position_mm, rpy_deg) with every number exact (%.17g)");
+  cmd->add_flag("--json", opt->json, "print JSON (joints as qN_deg / qN_mm, base_T_flange in m, position_mm, rpy_deg) with every number exact (%.17g)");
   cmd->callback([opt] {
     const sim::Arm arm = sim::loadArm(opt->as.robotSource());
     std::printf("%s", workflow::forwardKinematicsText(arm, sim::parseEdgeJointValues(arm, opt->joints), opt->json).c_str());
@@ -68,7 +68,7 @@ void addConfigsCommand(CLI::App& app) {
   addArmSceneOptions(*cmd, opt->as);
   cmd->add_option("-n,--count", opt->gen.count, "number of configurations")->capture_default_str()->check(CLI::Range(1, 1000000));
   cmd->add_option("--seed", opt->gen.seed, "random seed")->capture_default_str();
-  cmd->add_option("-o,--out", opt->out, "output CSV (index, q1_rad..qN_rad); written atomically")->capture_default_str();
+  cmd->add_option("-o,--out", opt->out, "output CSV (index, q1_rad..qN_rad, SI: a prismatic joint's qJ_m); written atomically")->capture_default_str();
   cmd->add_option("--select", opt->select, "choose the N configurations from a pool by this index: O1, O2, O3, O4 or O5");
   cmd->add_option("--pool", opt->pool, "pool size for --select")->capture_default_str()->check(CLI::Range(1, 1000000));
   cmd->add_option("--sigma-position-mm", opt->sigma_position_mm, "--select: pose measurement noise, position")
@@ -78,7 +78,7 @@ void addConfigsCommand(CLI::App& app) {
   cmd->add_option("--joint-noise-deg", opt->joint_noise_deg, "--select: joint control noise carried into R")
       ->capture_default_str()->check(CLI::NonNegativeNumber);
   cmd->add_option("--joint-box-deg", opt->joint_box_deg,
-                  "joint box narrower than the robot's limits: a lower and an upper bound per joint [deg], "
+                  "joint box narrower than the robot's limits: a lower and an upper bound per joint [deg; mm for a prismatic joint], "
                   "lo1 hi1 lo2 hi2 ... (e.g. the travel a cell allows)");
   cmd->add_option_function<double>(
       "--floor-z-m", [opt](double z) { opt->gen.floor_z_m = z; },
@@ -99,8 +99,8 @@ void addConfigsCommand(CLI::App& app) {
     if (opt->joint_box_deg.size() % 2 != 0) throw sim::InputError("--joint-box-deg: expected pairs of bounds, lo hi per joint");
     const Eigen::Index n = static_cast<Eigen::Index>(opt->joint_box_deg.size() / 2);
     const Eigen::Map<const Eigen::VectorXd, 0, Eigen::InnerStride<2>> lo(opt->joint_box_deg.data(), n), hi(opt->joint_box_deg.data() + 1, n);
-    c.box_lower_rad = lo * sim::kDegToRad;
-    c.box_upper_rad = hi * sim::kDegToRad;
+    c.box_lower_edge = lo;
+    c.box_upper_edge = hi;
     const workflow::ConfigsResult r = workflow::runConfigs(c);
     std::printf("%d configurations (%d attempts: IK failed %d, singular %d, board not visible %d, below the floor %d) -> %s\n",
                 r.written, r.stats.attempts, r.stats.ik_failed, r.stats.singular, r.stats.not_visible, r.stats.below_floor,

@@ -77,9 +77,18 @@ def curve(csv_path, png_path, xcol="n", xlabel="identification configurations", 
     fig.savefig(png_path, dpi=110)
 
 
+def column_values(rows, csv_path, column):
+    """The values of one column as numbers; a missing column is a one-line error naming the file. A
+    joint's value is q<j>_deg for a revolute joint and q<j>_mm for a prismatic one (orbcal diagnose's
+    residuals.csv labels each by its joint's type), its effort tau<j>_Nm or tau<j>_N."""
+    if rows and column not in rows[0]:
+        sys.exit(f"plot_report.py: {csv_path}: no column '{column}' (columns: {', '.join(rows[0])})")
+    return [float(r[column]) for r in rows]
+
+
 def residuals(csv_path, column, label, png_path, floor=None):
     rows = read_rows(csv_path)
-    x = [float(r[column]) for r in rows]
+    x = column_values(rows, csv_path, column)
     fig, ax = plt.subplots(figsize=(8, 5))
     ax.scatter(x, [float(r["base_mm"]) for r in rows], s=10, alpha=0.7, color="C0", label="geometry + registration")
     ax.scatter(x, [float(r["selected_mm"]) for r in rows], s=10, alpha=0.7, color="C1", label="selected model")
@@ -96,7 +105,7 @@ def residuals(csv_path, column, label, png_path, floor=None):
 def components(csv_path, column, label, png_path, of="selected", floor=None):
     """One model's held-out residual components (x, y, z, mm, signed) against one variable."""
     rows = read_rows(csv_path)
-    x = [float(r[column]) for r in rows]
+    x = column_values(rows, csv_path, column)
     fig, ax = plt.subplots(figsize=(8, 5))
     for i, c in enumerate(("x", "y", "z")):
         ax.scatter(x, [float(r["%s_%s_mm" % (of, c)]) for r in rows], s=10, alpha=0.7, color="C%d" % (i + 2), label=c)

@@ -45,14 +45,16 @@ std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, c
   std::vector<int> moving;
   for (int j = 0; j < J; ++j) {
     const std::string joint = "joint " + std::to_string(j + 1);
+    const std::string value = sim::jointValueName(data.arm, j);
     const Eigen::VectorXd q = column([&](const MarkerObservation& o, int) { return o.sample.q_rad[j]; });
     if (!varies(q)) continue;
     moving.push_back(j);
-    const Eigen::VectorXd q_deg = q * sim::kRadToDeg;
-    add(joint + " angle (harmonics 1, 2)", harmonics(q, 1, 2), joint + " angle (deg)", q_deg);
+    const Eigen::VectorXd q_edge = q * sim::jointEdgeScale(data.arm, j);
+    const std::string label = sim::jointEdgeLabel(data.arm, j);
+    add(value + " (harmonics 1, 2)", harmonics(q, 1, 2), label, q_edge);
     if (extended) {
       const Eigen::MatrixXd H = harmonics(q, 3, 6);
-      add(joint + " angle (harmonics 3-6)", H, joint + " angle (deg)", q_deg);
+      add(value + " (harmonics 3-6)", H, label, q_edge);
       if (stack) {
         Eigen::MatrixXd S(n * m, H.cols());
         for (int i = 0; i < n; ++i) S.middleRows(i * m, m) = (*whitened_jq)[static_cast<std::size_t>(i)].col(j) * H.row(i);
@@ -62,11 +64,12 @@ std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, c
     if (obs.front().sample.hasTorque()) {
       const Eigen::VectorXd t = column([&](const MarkerObservation& o, int) { return o.sample.tau_Nm[j]; });
       if (varies(t)) {
-        add(joint + " torque", t, joint + " torque (N m)", t);
+        const std::string effort = sim::jointEffortName(data.arm, j);
+        add(effort, t, sim::jointEffortLabel(data.arm, j), t);
         if (extended) {
           Eigen::MatrixXd T(n, 3);
           T << t, t.array().square().matrix(), t.array().cube().matrix();
-          add(joint + " torque (cubic)", T, joint + " torque (N m)", t);
+          add(effort + " (cubic)", T, sim::jointEffortLabel(data.arm, j), t);
         }
       }
     }
@@ -111,8 +114,11 @@ std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, c
       for (std::size_t b = a + 1; b < moving.size(); ++b) {
         const int i = moving[a], j = moving[b];
         const Eigen::VectorXd x = column([&](const MarkerObservation& o, int) { return o.sample.q_rad[i] * o.sample.q_rad[j]; });
-        const std::string pair = "joints " + std::to_string(i + 1) + " x " + std::to_string(j + 1) + " angles";
-        add(pair + " (product)", x, pair + " (deg^2)", x * sim::kRadToDeg * sim::kRadToDeg);
+        const bool angles = !data.arm.isPrismatic(i) && !data.arm.isPrismatic(j);
+        const std::string pair = "joints " + std::to_string(i + 1) + " x " + std::to_string(j + 1) + (angles ? " angles" : " values");
+        const std::string unit_i = sim::jointEdgeUnit(data.arm, i), unit_j = sim::jointEdgeUnit(data.arm, j);
+        add(pair + " (product)", x, pair + " (" + (unit_i == unit_j ? unit_i + "^2" : unit_i + " " + unit_j) + ")",
+            x * sim::jointEdgeScale(data.arm, i) * sim::jointEdgeScale(data.arm, j));
       }
     }
   }

@@ -420,7 +420,7 @@ std::vector<std::string> outsideTrustedRange(const sim::KinematicModel& model, c
       outside += x < e.lo() || x > e.hi();
     }
     if (outside == 0) continue;
-    const auto [column, label] = e.kind().revealingVariable(e);
+    const auto [column, label] = e.kind().revealingVariable(e, model.arm);
     const bool angle = column.rfind("q", 0) == 0;
     const double scale = angle ? sim::kRadToDeg : 1.0;
     out.push_back(sim::formatEffect(e) + ": " + std::to_string(outside) + " of " + std::to_string(observations.size()) +

@@ -177,7 +177,7 @@ std::vector<sim::MeasuredPose> samplesFrom(const sim::Arm& arm, const ArrayInput
     for (int j = 0; j < arm.numJoints(); ++j) {
       if (s.q_rad[j] >= arm.lower_rad[j] && s.q_rad[j] <= arm.upper_rad[j]) continue;
       const auto si = [](double v) { return sim::formatNumber("%.9g", v); };
-      const std::string unit = arm.isPrismatic(j) ? " m" : " rad";
+      const std::string unit = std::string(" ") + sim::jointSiUnit(arm, j);
       throw sim::InputError("q[" + std::to_string(k) + "]: joint " + std::to_string(j + 1) + ": " + si(s.q_rad[j]) + unit +
                             " is outside the joint limits [" + si(arm.lower_rad[j]) + ", " + si(arm.upper_rad[j]) + "]" + unit +
                             " of " + arm.source);
@@ -284,7 +284,7 @@ void bindMeasurements(py::module_& m) {
       .def("__len__", [](const sim::MeasuredData& d) { return d.poses.size(); }, "number of samples")
       .def_property_readonly("sessions", &sim::MeasuredData::numSessions, "number of sessions")
       .def_property_readonly("q", [](const sim::MeasuredData& d) { return stackRows(d, &sim::JointSample::q_rad); },
-                             "joint readings (N x dof, rad)")
+                             "joint readings (N x dof): rad for a revolute joint, m for a prismatic one")
       .def_property_readonly("poses", &poseStack, "measured world_T_marker (N x 4 x 4, m); rotation identity for position-only data")
       .def_property_readonly(
           "positions", [](const sim::MeasuredData& d) {
@@ -295,7 +295,7 @@ void bindMeasurements(py::module_& m) {
           "measured marker positions (N x 3, m)")
       .def_property_readonly("torques", [](const sim::MeasuredData& d) -> py::object {
             return d.has_torque ? py::cast(stackRows(d, &sim::JointSample::tau_Nm)) : py::none();
-          }, "joint torques (N x dof, N m; actuator sense) or None")
+          }, "joint torques (N x dof, N m; a prismatic joint's force, N; actuator sense) or None")
       .def_property_readonly("temperature", [](const sim::MeasuredData& d) -> py::object {
             return d.has_temperature ? py::cast(column(d, &sim::JointSample::temperature_C)) : py::none();
           }, "temperature per sample (degC) or None")
@@ -339,8 +339,8 @@ void bindMeasurements(py::module_& m) {
       py::arg("torques") = py::none(), py::arg("temperature") = py::none(), py::arg("time") = py::none(),
       py::arg("session") = py::none(), py::arg("noise") = py::dict(), py::arg("base") = "shared", py::arg("marker") = "shared",
       py::arg("world_T_base") = py::none(), py::arg("flange_T_marker") = py::none(),
-      "Measured data from arrays, without files: q (N x dof, rad), and positions (N x 3, m) or poses (N x 4 x 4, m), "
-      "optional torques (N x dof, N m, actuator sense), temperature (N, degC), time (N, s), session (N ints from 0), noise "
+      "Measured data from arrays, without files: q (N x dof; rad, m for a prismatic joint), and positions (N x 3, m) or poses (N x 4 x 4, m), "
+      "optional torques (N x dof, N m; N for a prismatic joint; actuator sense), temperature (N, degC), time (N, s), session (N ints from 0), noise "
       "{position_m, rotation_rad, joint_rad} (1 sigma per axis; absent ones are estimated from the fit), base and marker "
       "'shared' | 'per_session' (unknown frames, estimated) or 'known', with world_T_base / flange_T_marker (4x4, m) "
       "given exactly then. Approach directions follow from the sample order.");

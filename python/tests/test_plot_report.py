@@ -80,3 +80,22 @@ def test_residual_figures_draw_the_noise_floor_and_signed_components(plot_report
     x_component = ax.collections[0].get_offsets()
     assert [p[1] for p in x_component] == [0.2] * 10  # base_x_mm, signed, not selected_x_mm
     assert "geometry + registration" in ax.get_ylabel()
+
+
+def test_residual_figures_take_a_prismatic_joint_in_mm_and_name_a_missing_column(plot_report, tmp_path):
+    # diagnose's residuals.csv on an arm with a prismatic torso: q1_mm beside q2_deg.
+    header = ["index", "base_mm", "selected_mm", "q1_mm", "q2_deg", "base_x_mm", "base_y_mm", "base_z_mm"]
+    rows = [(i, 0.3, 0.08, 25.0 * i, 10.0 * i, 0.2, -0.1, 0.05) for i in range(10)]
+    csv = write_csv(tmp_path / "residuals.csv", header, rows)
+    plt.close("all")
+    plot_report.residuals(csv, "q1_mm", "joint 1 position (mm)", str(tmp_path / "r.png"))
+    ax = plt.gcf().axes[0]
+    assert ax.get_xlabel() == "joint 1 position (mm)"
+    assert [p[0] for p in ax.collections[0].get_offsets()] == [25.0 * i for i in range(10)]
+    plt.close("all")
+    plot_report.components(csv, "q1_mm", "joint 1 position (mm)", str(tmp_path / "c.png"), of="base")
+    assert [p[0] for p in plt.gcf().axes[0].collections[0].get_offsets()] == [25.0 * i for i in range(10)]
+    with pytest.raises(SystemExit) as e:
+        plot_report.residuals(csv, "q1_deg", "joint 1 angle (deg)", str(tmp_path / "r.png"))
+    assert str(e.value).startswith("plot_report.py: %s: no column 'q1_deg' (columns: index, " % csv)
+    assert "\n" not in str(e.value)

@@ -59,9 +59,35 @@ std::string paramKey(const Arm& arm, int index) {
   return std::string(paramStem(arm, index)) + (isAngleParam(arm, index) ? "_deg" : "_mm");
 }
 
+const char* jointSiUnit(const Arm& arm, int joint) { return arm.isPrismatic(joint) ? "m" : "rad"; }
+
 const char* jointEdgeUnit(const Arm& arm, int joint) { return arm.isPrismatic(joint) ? "mm" : "deg"; }
 
 double jointEdgeScale(const Arm& arm, int joint) { return arm.isPrismatic(joint) ? 1e3 : kRadToDeg; }
+
+std::string jointEdgeColumn(const Arm& arm, int joint) {
+  return "q" + std::to_string(joint + 1) + "_" + jointEdgeUnit(arm, joint);
+}
+
+std::string jointValueName(const Arm& arm, int joint) {
+  return "joint " + std::to_string(joint + 1) + (arm.isPrismatic(joint) ? " position" : " angle");
+}
+
+std::string jointEdgeLabel(const Arm& arm, int joint) {
+  return jointValueName(arm, joint) + " (" + jointEdgeUnit(arm, joint) + ")";
+}
+
+std::string jointEffortColumn(const Arm& arm, int joint) {
+  return "tau" + std::to_string(joint + 1) + (arm.isPrismatic(joint) ? "_N" : "_Nm");
+}
+
+std::string jointEffortName(const Arm& arm, int joint) {
+  return "joint " + std::to_string(joint + 1) + (arm.isPrismatic(joint) ? " force" : " torque");
+}
+
+std::string jointEffortLabel(const Arm& arm, int joint) {
+  return jointEffortName(arm, joint) + (arm.isPrismatic(joint) ? " (N)" : " (N m)");
+}
 
 std::string formatJointValue(const Arm& arm, int joint, double q) {
   return formatNumber("%.6g", q * jointEdgeScale(arm, joint)) + " " + jointEdgeUnit(arm, joint);

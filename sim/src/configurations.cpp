@@ -23,9 +23,11 @@ Arm withJointBox(Arm arm, const Eigen::VectorXd& lower_rad, const Eigen::VectorX
   for (int j = 0; j < n; ++j) {
     const double lo = std::max(arm.lower_rad[j], lower_rad[j]), hi = std::min(arm.upper_rad[j], upper_rad[j]);
     if (!(lo < hi)) {
-      throw InputError(what + ": joint " + std::to_string(j + 1) + ": the box " + formatNumber("%g", lower_rad[j] * kRadToDeg) + ".." +
-                       formatNumber("%g", upper_rad[j] * kRadToDeg) + " deg leaves no travel within the robot's limits " +
-                       formatNumber("%g", arm.lower_rad[j] * kRadToDeg) + ".." + formatNumber("%g", arm.upper_rad[j] * kRadToDeg) + " deg");
+      const double scale = jointEdgeScale(arm, j);
+      const std::string unit = std::string(" ") + jointEdgeUnit(arm, j);
+      throw InputError(what + ": joint " + std::to_string(j + 1) + ": the box " + formatNumber("%g", lower_rad[j] * scale) + ".." +
+                       formatNumber("%g", upper_rad[j] * scale) + unit + " leaves no travel within the robot's limits " +
+                       formatNumber("%g", arm.lower_rad[j] * scale) + ".." + formatNumber("%g", arm.upper_rad[j] * scale) + unit);
     }
     arm.lower_rad[j] = lo;
     arm.upper_rad[j] = hi;

@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "orbcal/sim/arm.hpp"
 #include "orbcal/sim/config.hpp"
 
 namespace orbcal::sim {
@@ -139,11 +140,11 @@ std::string jsonString(const std::string& text) {
   return out + "\"";
 }
 
-std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs) {
+std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs, const Arm* arm) {
   std::ostringstream out;
   out << "index";
   const Eigen::Index n = configs.empty() ? 0 : configs.front().size();
-  for (Eigen::Index j = 1; j <= n; ++j) out << ",q" << j << "_rad";
+  for (Eigen::Index j = 0; j < n; ++j) out << ",q" << j + 1 << "_" << (arm ? jointSiUnit(*arm, static_cast<int>(j)) : "rad");
   out << "\n";
   for (std::size_t k = 0; k < configs.size(); ++k) {
     out << k;
@@ -156,10 +157,15 @@ std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs)
 std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, const std::string& source, int n) {
   const CsvTable t = CsvTable::parse(text, source);
   std::vector<int> cols;
-  for (int j = 1; j <= n; ++j) cols.push_back(t.requireColumn("q" + std::to_string(j) + "_rad"));
-  if (t.column("q" + std::to_string(n + 1) + "_rad") >= 0) {
-    throw InputError(source + ": header: column 'q" + std::to_string(n + 1) + "_rad' but the robot has " +
-                     std::to_string(n) + " joints");
+  std::vector<bool> metres;  // a prismatic joint's column: qJ_m
+  for (int j = 1; j <= n; ++j) {
+    const std::string q = "q" + std::to_string(j);
+    metres.push_back(t.column(q + "_m") >= 0);
+    cols.push_back(metres.back() ? t.column(q + "_m") : t.requireColumn(q + "_rad"));
+  }
+  for (const char* unit : {"_rad", "_m"}) {
+    if (t.column("q" + std::to_string(n + 1) + unit) < 0) continue;
+    throw InputError(source + ": header: column 'q" + std::to_string(n + 1) + unit + "' but the robot has " + std::to_string(n) + " joints");
   }
   const int c_index = t.column("index");
   std::map<int, int> index_line;  // index -> line of its first row
@@ -175,6 +181,11 @@ std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, con
     const auto q = t.numbers(r, cols);
     if (!q) throw InputError(t.where(r) + ": q1_rad: joint angles are empty");
     for (int j = 0; j < n; ++j) {
+      if (metres[static_cast<std::size_t>(j)]) {
+        if (std::abs((*q)[j]) <= kMaxLengthM) continue;
+        throw InputError(t.where(r) + ": q" + std::to_string(j + 1) + "_m: " + formatNumber("%.9g", (*q)[j]) +
+                         " m is outside 10 km: no robot's joint reaches it");
+      }
       if (std::abs((*q)[j]) <= kMaxJointAngleRad) continue;
       throw InputError(t.where(r) + ": q" + std::to_string(j + 1) + "_rad: " + formatNumber("%.9g", (*q)[j]) +
                        " rad is outside " + kMaxJointAngleText + ": no robot's joint reaches it");

@@ -343,9 +343,11 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
     for (int j = 0; limits && j < n; ++j) {
       const double lo = limits->lower_rad[j], hi = limits->upper_rad[j], v = (*q)[j];
       if (v >= lo && v <= hi) continue;
-      const auto deg = [](double rad) { return formatNumber("%.6g", rad * kRadToDeg); };
-      throw InputError(t.where(r) + ": q" + std::to_string(j + 1) + "_rad: " + formatNumber("%.9g", v) + " rad (" + deg(v) +
-                       " deg) is outside the joint limits [" + deg(lo) + ", " + deg(hi) + "] deg of " + limits->source);
+      const std::string unit = jointEdgeUnit(*limits, j);
+      const auto edge = [&](double si) { return formatNumber("%.6g", si * jointEdgeScale(*limits, j)); };
+      throw InputError(t.where(r) + ": q" + std::to_string(j + 1) + "_rad: " + formatNumber("%.9g", v) + " " + jointSiUnit(*limits, j) +
+                       " (" + edge(v) + " " + unit + ") is outside the joint limits [" + edge(lo) + ", " + edge(hi) + "] " + unit +
+                       " of " + limits->source);
     }
     checkTruthColumns(t, r, c_qt, c_pose, limits);
     s.q_true_rad = t.numbers(r, c_qt);

@@ -106,9 +106,10 @@ std::string formatEffectsFile(const KinematicModel& m, const Eigen::VectorXd& p,
   }
   std::ostringstream s;
   s << commentLines(header)
-    << "# Joint N stands at qN + dqN: qN its reading (rad), dqN the sum of the formulas of its joint_angle entries, evaluated at\n"
-    << "# the readings q, the actuators' torques tau (N m, about the joint axis) and the approach directions dir (+1/-1, 0: did not\n"
-    << "# move). To reach qN, command c with c + dqN(c) = qN (c = qN - dqN(c), iterated). Parameters in SI. See docs/export.md.\n"
+    << "# Joint N stands at qN + dqN: qN its reading (rad; m for a prismatic joint), dqN the sum of the formulas of its joint_angle\n"
+    << "# entries, evaluated at the readings q, the actuators' torques tau (N m, about the joint axis; a prismatic joint's force\n"
+    << "# along it, N) and the approach directions dir (+1/-1, 0: did not move). To reach qN, command c with c + dqN(c) = qN\n"
+    << "# (c = qN - dqN(c), iterated). Parameters in SI. See docs/export.md.\n"
     << "format: orbcal-effects-1\n"
     << "robot: " << robot << "\n"
     << "sessions: " << m.sessions << "\n"

@@ -362,13 +362,16 @@ Layout outputLayout(const MeasuredData& d, int joints) {
   };
   Layout l;
   l.joints = {perJoint("q", "_rad"), kAngleUnits[0], {}, {}};
-  for (int j = 0; j < joints; ++j) l.joints.names[static_cast<std::size_t>(j)] = "q" + std::to_string(j + 1) + (d.arm.isPrismatic(j) ? "_m" : "_rad");
+  for (int j = 0; j < joints; ++j) l.joints.names[static_cast<std::size_t>(j)] = "q" + std::to_string(j + 1) + "_" + jointSiUnit(d.arm, j);
   if (d.points > 0) l.points = pointOutputColumns(d.points);
   else l.position = {{"x_m", "y_m", "z_m"}, kLengthUnits[0], {}, {}};
   bool rotation = false;
   for (const MeasuredPose& p : d.poses) rotation |= p.has_rotation;
   if (rotation) l.quaternion.names = {"qw", "qx", "qy", "qz"};
-  if (d.has_torque) l.torque = {perJoint("tau", "_Nm"), kTorqueUnits[0], {}, {}};
+  if (d.has_torque) {
+    l.torque = {perJoint("tau", "_Nm"), kTorqueUnits[0], {}, {}};
+    for (int j = 0; j < joints; ++j) l.torque.names[static_cast<std::size_t>(j)] = jointEffortColumn(d.arm, j);  // a force: tau1_N
+  }
   if (d.has_temperature) l.temperature = {{"temperature_C"}, kTemperatureUnits[0], {}, {}};
   if (d.has_time) l.time = {{"time_s"}, kTimeUnits[0], {}, {}};
   if (d.has_direction) l.direction.names = perJoint("dir", "");

@@ -6,6 +6,9 @@
 #include <random>
 
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/configurations.hpp"
+#include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/gravity.hpp"
 #include "orbcal/sim/ik.hpp"
 #include "orbcal/sim/identifiability.hpp"
@@ -212,6 +215,35 @@ TEST_CASE("a prismatic joint's zero offset is a length: names, units, error tabl
   const Eigen::VectorXd q = orbcal::test::randomConfigs(urdf, 1, 25)[0];
   const Eigen::Vector3d moved = forwardKinematics(withErrors(urdf, y), q).translation() - forwardKinematics(urdf, q).translation();
   CHECK((moved - Eigen::Vector3d(0, 0, 0.003)).norm() < 1e-12);
+}
+
+TEST_CASE("a joint value is labelled and scaled by its type: columns, labels, effort, messages", "[sim][prismatic]") {
+  const Arm arm = mobileArm();  // joint 1 the torso (prismatic), joint 2 the arm's first (revolute)
+  CHECK(jointEdgeColumn(arm, 0) == "q1_mm");
+  CHECK(jointEdgeColumn(arm, 1) == "q2_deg");
+  CHECK(jointEdgeLabel(arm, 0) == "joint 1 position (mm)");
+  CHECK(jointEdgeLabel(arm, 1) == "joint 2 angle (deg)");
+  CHECK(jointEffortColumn(arm, 0) == "tau1_N");
+  CHECK(jointEffortLabel(arm, 1) == "joint 2 torque (N m)");
+  CHECK(jointSiUnit(arm, 0) == std::string("m"));
+  CHECK(jointSiUnit(arm, 1) == std::string("rad"));
+  CHECK(formatJointValue(arm, 0, 0.25) == "250 mm");
+  CHECK(formatJointValue(arm, 1, kPi / 2) == "90 deg");
+  // An image dataset's reading beyond the torso's 0-0.4 m travel, in m and mm (not rad and deg).
+  std::string csv = "index,image";
+  for (int j = 1; j <= arm.numJoints(); ++j) csv += ",q" + std::to_string(j) + "_rad";
+  csv += "\n0,a.png,0.5";
+  for (int j = 2; j <= arm.numJoints(); ++j) csv += ",0";
+  CHECK_THROWS_WITH(parseSamplesCsv(csv + "\n", "mine.csv", arm.numJoints(), &arm),
+                    "mine.csv: line 2: q1_rad: 0.5 m (500 mm) is outside the joint limits [0, 400] mm of " + arm.source);
+  // A configurations file (SI) names the torso's column q1_m, and reads back.
+  const std::vector<Eigen::VectorXd> qs = orbcal::test::randomConfigs(arm, 3, 7);
+  const std::string configs = formatConfigurationsCsv(qs, &arm);
+  CHECK(configs.rfind("index,q1_m,q2_rad,", 0) == 0);
+  CHECK(parseConfigurationsCsv(configs, "c.csv", arm.numJoints()) == qs);
+  // A joint box beyond the torso's travel is named in mm.
+  const Eigen::VectorXd lo = Eigen::VectorXd::Constant(arm.numJoints(), 0.5), hi = Eigen::VectorXd::Constant(arm.numJoints(), 0.6);
+  CHECK_THROWS_WITH(withJointBox(arm, lo, hi, "box"), "box: joint 1: the box 500..600 mm leaves no travel within the robot's limits 0..400 mm");
 }
 
 TEST_CASE("identifiability: a URDF slide's offset is redundant with its origin's position along the axis", "[sim][prismatic]") {

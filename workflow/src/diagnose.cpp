@@ -367,15 +367,15 @@ std::string writeResiduals(const calib::Diagnosis& dg, const sim::MeasuredData& 
   std::ostringstream csv;
   const int n = data.arm.numJoints();
   csv << "index,session,base_mm,selected_mm";
-  for (int j = 1; j <= n; ++j) csv << ",q" << j << "_deg";
-  for (int j = 1; j <= n; ++j) csv << ",tau" << j << "_Nm";
+  for (int j = 0; j < n; ++j) csv << "," << sim::jointEdgeColumn(data.arm, j);
+  for (int j = 0; j < n; ++j) csv << "," << sim::jointEffortColumn(data.arm, j);
   for (int j = 1; j <= n; ++j) csv << ",dir" << j;
   csv << ",temperature_C,time_s,selected_x_mm,selected_y_mm,selected_z_mm,unexplained_axis,base_x_mm,base_y_mm,base_z_mm\n";
   for (std::size_t i = 0; i < obs.size(); ++i) {
     const sim::JointSample& s = obs[i].sample;
     csv << i << "," << s.session << "," << dg.residual_base[i].head<3>().norm() * 1e3 << ","
         << dg.residual_selected[i].head<3>().norm() * 1e3;
-    for (int j = 0; j < n; ++j) csv << "," << s.q_rad[j] * sim::kRadToDeg;
+    for (int j = 0; j < n; ++j) csv << "," << s.q_rad[j] * sim::jointEdgeScale(data.arm, j);
     for (int j = 0; j < n; ++j) csv << "," << (s.hasTorque() ? s.tau_Nm[j] : 0.0);
     for (int j = 0; j < n; ++j) csv << "," << (s.direction.size() == n ? s.direction[j] : 0.0);
     csv << "," << (s.hasTemperature() ? s.temperature_C : 0.0) << "," << (s.hasTime() ? s.time_s : 0.0);
@@ -398,7 +398,7 @@ std::string writeResiduals(const calib::Diagnosis& dg, const sim::MeasuredData& 
   std::string figures = drawFigure(o.callbacks, o.plots, out, "residuals " + table + "index sample" + rms_floor, "samples.png",
                                    "held-out position error per sample, before and after, with the noise floor");
   for (const sim::Effect& e : dg.selected) {
-    const auto [column, label] = e.kind().revealingVariable(e);
+    const auto [column, label] = e.kind().revealingVariable(e, data.arm);
     const std::string name = sim::effectName(e) + std::to_string(sim::effectJoints(e).empty() ? 0 : sim::effectJoints(e)[0] + 1);
     const std::string variable = shellQuote(column) + " " + shellQuote(label);
     figures += drawFigure(o.callbacks, o.plots, out, "residuals " + table + variable + rms_floor, "residuals_" + name + ".png",

@@ -1,6 +1,7 @@
 // `orbcal fk`, `orbcal configs` and `orbcal identifiability` (planning.hpp).
 #include "orbcal/workflow/planning.hpp"
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 
@@ -51,8 +52,12 @@ std::string selectFromPool(const ConfigsOptions& o, const sim::Arm& arm, std::ve
 
 ConfigsResult runConfigs(const ConfigsOptions& o) {
   const sim::Arm robot = sim::loadArm(o.robot);
-  const bool box = o.box_lower_rad.size() > 0 || o.box_upper_rad.size() > 0;
-  const sim::Arm arm = box ? sim::withJointBox(robot, o.box_lower_rad, o.box_upper_rad, "--joint-box-deg") : robot;
+  const bool box = o.box_lower_edge.size() > 0 || o.box_upper_edge.size() > 0;
+  const auto si = [&](Eigen::VectorXd v) {  // deg or mm -> rad or m; a wrong count is withJointBox's to refuse
+    for (Eigen::Index j = 0; j < std::min<Eigen::Index>(v.size(), robot.numJoints()); ++j) v[j] /= sim::jointEdgeScale(robot, static_cast<int>(j));
+    return v;
+  };
+  const sim::Arm arm = box ? sim::withJointBox(robot, si(o.box_lower_edge), si(o.box_upper_edge), "--joint-box-deg") : robot;
   const sim::Scene scene = sim::loadScene(o.scene);
   if (o.select && o.pool < o.gen.count) {
     throw sim::InputError("--pool: " + std::to_string(o.pool) + " is smaller than -n " + std::to_string(o.gen.count));
@@ -66,7 +71,7 @@ ConfigsResult runConfigs(const ConfigsOptions& o) {
     configs = sim::generateConfigurations(arm, scene, gen, &r.stats, [&](int d, int) { bar.update(d); });
   }
   if (o.select) r.selection = selectFromPool(o, arm, configs);
-  sim::writeFileAtomic(o.out, sim::formatConfigurationsCsv(configs));
+  sim::writeFileAtomic(o.out, sim::formatConfigurationsCsv(configs, &arm));
   r.written = static_cast<int>(configs.size());
   return r;
 }
@@ -114,8 +119,12 @@ std::string forwardKinematicsText(const sim::Arm& arm, const Eigen::VectorXd& q,
       for (Eigen::Index i = 0; i < v.size(); ++i) s += (i ? ", " : "") + sim::jsonNumber(v[i], "fk: " + key);
       return s + "]";
     };
-    out << "{\"robot\": " << sim::jsonString(arm.name) << ", \"joints_rad\": " << list(q, "joints_rad")
-        << ", \"base_T_flange\": [";
+    out << "{\"robot\": " << sim::jsonString(arm.name) << ", \"joints\": {";
+    for (int j = 0; j < arm.numJoints(); ++j) {  // as typed: "q1_mm" for a prismatic joint, "q2_deg" for a revolute one
+      const std::string key = sim::jointEdgeColumn(arm, j);
+      out << (j ? ", " : "") << sim::jsonString(key) << ": " << sim::jsonNumber(q[j] * sim::jointEdgeScale(arm, j), "fk: joints: " + key);
+    }
+    out << "}, \"base_T_flange\": [";
     for (int r = 0; r < 4; ++r) out << (r ? ", " : "") << list(T.matrix().row(r).transpose(), "base_T_flange");
     out << "], \"position_mm\": " << list(p, "position_mm") << ", \"rpy_deg\": " << list(rpy, "rpy_deg")
         << ", \"within_limits\": " << (within ? "true" : "false") << "}\n";

@@ -47,7 +47,7 @@ class BacklashKind final : public EffectKind {
   std::vector<Effect> candidates(const CandidateContext& c) const override {
     return c.direction ? perJointCandidates(c.joints) : std::vector<Effect>{};
   }
-  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
+  std::pair<std::string, std::string> revealingVariable(const Effect& e, const Arm&) const override {
     const std::string n = std::to_string(e.joints().front() + 1);
     return {"dir" + n, "joint " + n + " approach direction"};
   }

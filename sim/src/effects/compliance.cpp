@@ -125,8 +125,8 @@ class ComplianceKind final : public EffectKind {
     for (int j = 0; j < c.joints; ++j) out.emplace_back(*this, std::vector<int>{j}, 3);
     return out;
   }
-  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
-    return torqueVariable(e.joints().front());
+  std::pair<std::string, std::string> revealingVariable(const Effect& e, const Arm& arm) const override {
+    return torqueVariable(arm, e.joints().front());
   }
   std::string separateBy() const override {
     return "measure with several payloads (or poses that load the joints differently), so that each joint's torque varies "

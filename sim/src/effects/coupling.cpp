@@ -73,7 +73,9 @@ class CouplingKind final : public EffectKind {
     }
     return out;
   }
-  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override { return angleVariable(e.joints()[1]); }
+  std::pair<std::string, std::string> revealingVariable(const Effect& e, const Arm& arm) const override {
+    return angleVariable(arm, e.joints()[1]);
+  }
   std::string separateBy() const override {
     return "move each joint alone from a reference configuration, so that every joint's angle varies independently";
   }

@@ -82,8 +82,8 @@ class CyclicKind final : public EffectKind {
     }
     return out;
   }
-  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
-    return angleVariable(e.joints().front());
+  std::pair<std::string, std::string> revealingVariable(const Effect& e, const Arm& arm) const override {
+    return angleVariable(arm, e.joints().front());
   }
   std::string separateBy() const override { return widerRangeAdvice(); }
 };

@@ -50,7 +50,7 @@ class DriftKind final : public EffectKind {
   std::vector<Effect> candidates(const CandidateContext& c) const override {
     return c.time ? std::vector<Effect>{Drift{}} : std::vector<Effect>{};
   }
-  std::pair<std::string, std::string> revealingVariable(const Effect&) const override { return {"time_s", "time (s)"}; }
+  std::pair<std::string, std::string> revealingVariable(const Effect&, const Arm&) const override { return {"time_s", "time (s)"}; }
   std::string separateBy() const override { return "repeat a reference configuration throughout the run"; }
 };
 

@@ -129,14 +129,12 @@ std::pair<double, double> EffectKind::lengthScale(const Effect&, const ParamBloc
 
 void EffectKind::requireCovariates(const JointSample&, int) const {}
 
-std::pair<std::string, std::string> EffectKind::angleVariable(int j) {
-  const std::string n = std::to_string(j + 1);
-  return {"q" + n + "_deg", "joint " + n + " angle (deg)"};
+std::pair<std::string, std::string> EffectKind::angleVariable(const Arm& arm, int j) {
+  return {jointEdgeColumn(arm, j), jointEdgeLabel(arm, j)};
 }
 
-std::pair<std::string, std::string> EffectKind::torqueVariable(int j) {
-  const std::string n = std::to_string(j + 1);
-  return {"tau" + n + "_Nm", "joint " + n + " torque (N m)"};
+std::pair<std::string, std::string> EffectKind::torqueVariable(const Arm& arm, int j) {
+  return {jointEffortColumn(arm, j), jointEffortLabel(arm, j)};
 }
 
 std::string EffectKind::widerRangeAdvice() { return "move the joints over a wider range, with more distinct angles per joint"; }

@@ -91,8 +91,8 @@ class EmpiricalKind : public EffectKind {
   }
   /// None of its own: diagnose proposes empirical corrections on the variables its evidence names.
   std::vector<Effect> candidates(const CandidateContext&) const override { return {}; }
-  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
-    return torque_ ? torqueVariable(e.joints()[1]) : angleVariable(e.joints()[1]);
+  std::pair<std::string, std::string> revealingVariable(const Effect& e, const Arm& arm) const override {
+    return torque_ ? torqueVariable(arm, e.joints()[1]) : angleVariable(arm, e.joints()[1]);
   }
   std::string separateBy() const override {
     return "measure more configurations across the variable's range; an empirical term names no cause to separate";

@@ -105,10 +105,10 @@ class LinkBendingKind final : public EffectKind {
     }
     return false;
   }
-  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
+  std::pair<std::string, std::string> revealingVariable(const Effect& e, const Arm& arm) const override {
     // The torque of the joint at the link's near end grows with the load the link carries.
-    const std::string n = std::to_string(e.joints().front() + 1);
-    return {"tau" + n + "_Nm", "joint " + n + " torque (N m), which link " + n + "'s load drives"};
+    const auto [column, label] = torqueVariable(arm, e.joints().front());
+    return {column, label + ", which link " + std::to_string(e.joints().front() + 1) + "'s load drives"};
   }
   std::string separateBy() const override {
     return "measure with several payloads, so that the links' loads vary independently of the joints' torques";

@@ -37,7 +37,7 @@ class MountKind final : public EffectKind {
   std::vector<Effect> candidates(const CandidateContext& c) const override {
     return c.sessions > 1 && c.shared_marker ? std::vector<Effect>{Mount{}} : std::vector<Effect>{};
   }
-  std::pair<std::string, std::string> revealingVariable(const Effect&) const override { return {"session", "session"}; }
+  std::pair<std::string, std::string> revealingVariable(const Effect&, const Arm&) const override { return {"session", "session"}; }
   std::string separateBy() const override { return "add configurations that move the joints involved independently"; }
 };
 

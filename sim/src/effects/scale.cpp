@@ -28,8 +28,8 @@ class ScaleKind final : public EffectKind {
   }
   std::string correctionFormula(const Effect&, const ParamBlock& b) const override { return perJointLinearFormula(b, "q"); }
   std::vector<Effect> candidates(const CandidateContext& c) const override { return perJointCandidates(c.joints); }
-  std::pair<std::string, std::string> revealingVariable(const Effect& e) const override {
-    return angleVariable(e.joints().front());
+  std::pair<std::string, std::string> revealingVariable(const Effect& e, const Arm& arm) const override {
+    return angleVariable(arm, e.joints().front());
   }
   std::string separateBy() const override { return widerRangeAdvice(); }
 };

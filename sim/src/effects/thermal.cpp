@@ -39,7 +39,7 @@ class ThermalKind final : public EffectKind {
   std::vector<Effect> candidates(const CandidateContext& c) const override {
     return c.temperature ? std::vector<Effect>{Thermal{}} : std::vector<Effect>{};
   }
-  std::pair<std::string, std::string> revealingVariable(const Effect&) const override {
+  std::pair<std::string, std::string> revealingVariable(const Effect&, const Arm&) const override {
     return {"temperature_C", "temperature (degC)"};
   }
   std::string separateBy() const override { return "measure over a wider temperature range"; }

@@ -148,9 +148,23 @@ std::string paramKey(const Arm& arm, int index);
 const char* jointTypeName(JointType type);
 /// A joint value q (SI) as people read it: "12.5 deg" for a revolute joint, "120 mm" for a prismatic one.
 std::string formatJointValue(const Arm& arm, int joint, double q);
+/// SI unit of joint j's value, as the code holds it: "rad" (revolute) or "m" (prismatic).
+const char* jointSiUnit(const Arm& arm, int joint);
 /// Edge unit of joint j's value: "deg" (revolute) or "mm" (prismatic), and its scale from SI.
 const char* jointEdgeUnit(const Arm& arm, int joint);
 double jointEdgeScale(const Arm& arm, int joint);
+/// Joint j's value as a column of the tables people read (residuals.csv): "q2_deg" for a revolute
+/// joint, "q1_mm" for a prismatic one (joints from 1 in the name), holding q * jointEdgeScale.
+std::string jointEdgeColumn(const Arm& arm, int joint);
+/// Its name, "joint 2 angle" or "joint 1 position", and axis label, "joint 2 angle (deg)" or "joint 1 position (mm)".
+std::string jointValueName(const Arm& arm, int joint);
+std::string jointEdgeLabel(const Arm& arm, int joint);
+/// Joint j's actuator effort (a sample's tau_Nm entry, SI): a torque for a revolute joint, a force for a
+/// prismatic one. Column "tau2_Nm" or "tau1_N", name "joint 2 torque" or "joint 1 force", label
+/// "joint 2 torque (N m)" or "joint 1 force (N)".
+std::string jointEffortColumn(const Arm& arm, int joint);
+std::string jointEffortName(const Arm& arm, int joint);
+std::string jointEffortLabel(const Arm& arm, int joint);
 /// Joint values as people type them (deg for a revolute joint, mm for a prismatic one), in SI. Throws
 /// InputError "joint values: ..." for a wrong count or a word that is not a finite number.
 Eigen::VectorXd parseEdgeJointValues(const Arm& arm, const std::vector<std::string>& words);

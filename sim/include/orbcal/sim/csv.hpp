@@ -51,11 +51,15 @@ std::string jsonNumber(double v, const std::string& key);
 /// A JSON string: quotes, backslashes and control characters escaped.
 std::string jsonString(const std::string& text);
 
-/// Joint configurations: header "index,q1_rad,...,qN_rad", one row each.
-std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs);
-/// Reads them back: every angle finite and within kMaxJointAngleRad (ten turns: no robot file's joint
-/// limits reach beyond), the index column (optional) whole numbers from 0, none given twice. Throws
-/// InputError naming the file, the line and the column.
+struct Arm;
+
+/// Joint configurations: header "index,q1_rad,...,qN_rad", one row each, SI; with `arm`, a prismatic
+/// joint's column is "qJ_m" (its value a length, m).
+std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs, const Arm* arm = nullptr);
+/// Reads them back, joint J from column "qJ_rad" or "qJ_m": every angle finite and within
+/// kMaxJointAngleRad (ten turns: no robot file's joint limits reach beyond), every length within
+/// kMaxLengthM, the index column (optional) whole numbers from 0, none given twice. Throws InputError
+/// naming the file, the line and the column.
 std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, const std::string& source, int num_joints);
 
 }  // namespace orbcal::sim

@@ -150,8 +150,9 @@ class EffectKind {
   // Diagnosis.
   /// The effects of this kind diagnose tests on a dataset (one per joint, pair, link ...).
   virtual std::vector<Effect> candidates(const CandidateContext& c) const = 0;
-  /// The variable that reveals it: {residuals.csv column, axis label}, e.g. {"tau2_Nm", "joint 2 torque (N m)"}.
-  virtual std::pair<std::string, std::string> revealingVariable(const Effect& e) const = 0;
+  /// The variable that reveals it on `arm`: {residuals.csv column, axis label}, e.g. {"tau2_Nm", "joint 2
+  /// torque (N m)"}; a joint's value and effort in the units of its type (sim::jointEdgeColumn).
+  virtual std::pair<std::string, std::string> revealingVariable(const Effect& e, const Arm& arm) const = 0;
   /// The measurement that separates it from its look-alikes.
   virtual std::string separateBy() const = 0;
   /// The effect with what it takes from the data it will be fitted to (compliance: the torque scale its
@@ -161,10 +162,10 @@ class EffectKind {
   virtual void requireCovariates(const JointSample& s, int num_joints) const;
 
  protected:
-  /// The revealing variables of residuals.csv: joint j's angle {"q3_deg", "joint 3 angle (deg)"} and
-  /// torque {"tau3_Nm", "joint 3 torque (N m)"} (j from 0).
-  static std::pair<std::string, std::string> angleVariable(int j);
-  static std::pair<std::string, std::string> torqueVariable(int j);
+  /// The revealing variables of residuals.csv: joint j's value {"q3_deg", "joint 3 angle (deg)"} and
+  /// effort {"tau3_Nm", "joint 3 torque (N m)"} (j from 0; a prismatic joint's in mm and N).
+  static std::pair<std::string, std::string> angleVariable(const Arm& arm, int j);
+  static std::pair<std::string, std::string> torqueVariable(const Arm& arm, int j);
   /// What separates causes that follow a joint's angle (cyclic, scale, coupling).
   static std::string widerRangeAdvice();
   /// One effect per joint (the usual candidates of a joint effect).

@@ -24,8 +24,8 @@
 //       parameters: [{name: c2, value: 1.2e-05, unit: "rad/(N*m)"}]   # SI
 //     - {effect: mount, spec: "mount", applies_to: chain, description: "...", parameters: [...]}
 // An effect on several joints ("compliance:2,4") gives one entry per joint (per pair for coupling).
-// A joint stands at q + dq, q its reading (rad), dq the sum of its entries' formulas, evaluated at the
-// readings q, the actuators' torques tau (N m) and the approach directions dir (+1/-1/0).
+// A joint stands at q + dq, q its reading (rad; m for a prismatic joint), dq the sum of its entries' formulas, evaluated
+// at the readings q, the actuators' torques tau (N m; a prismatic joint's force, N) and the approach directions dir (+1/-1/0).
 #include <Eigen/Core>
 #include <string>
 

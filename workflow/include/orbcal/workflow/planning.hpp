@@ -17,8 +17,9 @@ struct ConfigsOptions {
   sim::RobotSource robot;
   std::string scene = "builtin:default_scene.yaml";
   sim::GeneratorSettings gen;                       ///< gen.count: the configurations kept; gen.floor_z_m: a floor
-  /// A joint box narrower than the robot's limits (sim::withJointBox), one bound per joint; empty: none.
-  Eigen::VectorXd box_lower_rad, box_upper_rad;
+  /// A joint box narrower than the robot's limits (sim::withJointBox), one bound per joint as people type
+  /// them: deg for a revolute joint, mm for a prismatic one (sim::jointEdgeScale); empty: none.
+  Eigen::VectorXd box_lower_edge, box_upper_edge;
   std::string out = "configurations.csv";           ///< written atomically
   std::optional<calib::ObservabilityIndex> select;  ///< choose gen.count of a pool by this index
   int pool = 1000;                                  ///< with select: the pool generated
@@ -35,9 +36,10 @@ struct ConfigsResult {
 /// gen.count that maximise the index are kept) and writes them to o.out. InputError when pool < count.
 ConfigsResult runConfigs(const ConfigsOptions& o);
 
-/// `orbcal fk`'s answer, base_T_flange of `arm` at joint angles q (rad). As text: the rotation matrix,
-/// the position in mm to the nanometre, roll-pitch-yaw in deg (R = Rz Ry Rx) to 1e-9 deg, and whether
-/// q is within the joint limits. With `json`: {"robot", "joints_rad" (as used), "base_T_flange" (4x4, metres),
+/// `orbcal fk`'s answer, base_T_flange of `arm` at joint values q (SI: rad, m for a prismatic joint). As
+/// text: the rotation matrix, the position in mm to the nanometre, roll-pitch-yaw in deg (R = Rz Ry Rx)
+/// to 1e-9 deg, and whether q is within the joint limits. With `json`: {"robot", "joints" ({"q1_mm": .., "q2_deg": ..}: each
+/// joint in its edge unit, sim::jointEdgeColumn), "base_T_flange" (4x4, metres),
 /// "position_mm", "rpy_deg", "within_limits"}, every number exact (sim::jsonNumber: reads back bit for bit).
 std::string forwardKinematicsText(const sim::Arm& arm, const Eigen::VectorXd& q, bool json);
 
