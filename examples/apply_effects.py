@@ -21,6 +21,10 @@ import sys
 
 import yaml
 
+# A prismatic joint's cyclic error repeats with the lead of its screw, as the formula states it:
+# sin(k * 2 * pi * qN / 0.005).
+LEAD_SCREW_M = 0.005
+
 
 def legendre(x, order):
     """[P1(x), ..., P_order(x)], the Legendre polynomials (Bonnet's recursion)."""
@@ -43,12 +47,13 @@ def spec_joints(spec):
     return joints, rng
 
 
-def joint_corrections(effects, q, tau=None, direction=None):
+def joint_corrections(effects, q, tau=None, direction=None, arm_joints=None):
     """dq (rad, one per joint) of the joint_angle entries of effects.yaml's `effects` list.
 
     q: the joint readings (rad); tau: the torques the actuators apply (N m, about each joint's axis;
     only compliance and empirical_torque read them); direction: the direction each joint approached
-    from, +1, -1 or 0 (only backlash reads it). Entries that apply to the chain are skipped.
+    from, +1, -1 or 0 (only backlash reads it); arm_joints: the file's `joints` list (a prismatic joint's
+    cyclic error is periodic in its screw's lead). Entries that apply to the chain are skipped.
     """
     dq = [0.0] * len(q)
     for e in effects:
@@ -60,9 +65,10 @@ def joint_corrections(effects, q, tau=None, direction=None):
         if kind == "compliance":  # the joint yields to its load: -(c tau + c3 tau^3)
             t = tau[j]
             dq[j] -= p[0] * t + (p[1] * t ** 3 if len(p) > 1 else 0.0)
-        elif kind == "cyclic":  # pairs (sin k, cos k), k = 1, 2, ...
+        elif kind == "cyclic":  # pairs (sin k, cos k), k = 1, 2, ...; a lead screw's travel: 2 pi q / lead
+            phase = 2 * math.pi * q[j] / LEAD_SCREW_M if arm_joints and arm_joints[j]["type"] == "prismatic" else q[j]
             for k in range(1, len(p) // 2 + 1):
-                dq[j] += p[2 * k - 2] * math.sin(k * q[j]) + p[2 * k - 1] * math.cos(k * q[j])
+                dq[j] += p[2 * k - 2] * math.sin(k * phase) + p[2 * k - 1] * math.cos(k * phase)
         elif kind == "scale":
             dq[j] += p[0] * q[j]
         elif kind == "backlash":
@@ -79,11 +85,11 @@ def joint_corrections(effects, q, tau=None, direction=None):
     return dq
 
 
-def compensate(effects, q_wanted, tau=None, direction=None, iterations=10):
+def compensate(effects, q_wanted, tau=None, direction=None, iterations=10, arm_joints=None):
     """The command c with c + dq(c) = q_wanted (fixed-point iteration; dq changes slowly with q)."""
     c = list(q_wanted)
     for _ in range(iterations):
-        dq = joint_corrections(effects, c, tau, direction)
+        dq = joint_corrections(effects, c, tau, direction, arm_joints)
         c = [w - d for w, d in zip(q_wanted, dq)]
     return c
 
@@ -104,7 +110,7 @@ def main(argv):
         for row in csv.DictReader(f):
             def column(name):
                 return [float(row[f"{name}{j + 1}"]) for j in range(n)] if f"{name}1" in row else None
-            dq = joint_corrections(model["effects"], column("q"), column("tau"), column("dir"))
+            dq = joint_corrections(model["effects"], column("q"), column("tau"), column("dir"), model["joints"])
             out.writerow([repr(v) for v in dq])
     return 0
 

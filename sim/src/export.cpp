@@ -75,9 +75,9 @@ std::vector<Entry> entriesOf(const KinematicModel& m) {
   return out;
 }
 
-/// The formula of an entry ("" when it is no joint-angle correction).
-std::string formulaOf(const Entry& x) {
-  return x.blocks.size() == 1 ? x.effect.kind().correctionFormula(x.effect, x.blocks.front()) : std::string();
+/// The formula of an entry of an arm's effects ("" when it is no joint-angle correction).
+std::string formulaOf(const Entry& x, const Arm& arm) {
+  return x.blocks.size() == 1 ? x.effect.kind().correctionFormula(x.effect, x.blocks.front(), arm) : std::string();
 }
 
 }  // namespace
@@ -114,10 +114,13 @@ std::string formatEffectsFile(const KinematicModel& m, const Eigen::VectorXd& p,
     << "robot: " << robot << "\n"
     << "sessions: " << m.sessions << "\n"
     << "joints: [";
-  for (int j = 0; j < m.arm.numJoints(); ++j) s << (j ? ", " : "") << "{joint: " << j + 1 << ", name: " << jsonString(urdfJointName(m.arm, j)) << "}";
+  for (int j = 0; j < m.arm.numJoints(); ++j) {
+    s << (j ? ", " : "") << "{joint: " << j + 1 << ", name: " << jsonString(urdfJointName(m.arm, j))
+      << ", type: " << jointTypeName(m.arm.joints[static_cast<std::size_t>(j)].type) << "}";
+  }
   s << "]\neffects:" << (m.effects.empty() ? " []" : "") << "\n";
   for (const Entry& x : entriesOf(m)) {
-    const std::string formula = formulaOf(x);
+    const std::string formula = formulaOf(x, m.arm);
     s << "  - effect: " << x.effect.name() << "\n    spec: " << jsonString(x.effect.spec()) << "\n";
     if (!formula.empty()) {
       const int j = x.effect.joints().front();
@@ -150,8 +153,10 @@ LoadedEffects loadEffectsFile(const std::string& path) {
   }
   for (int j = 0; j < arm.numJoints(); ++j) {
     const ConfigNode n = joints[static_cast<std::size_t>(j)];
-    n.requireOnlyKeys({"joint", "name"});
+    n.requireOnlyKeys({"joint", "name", "type"});
     if (n["joint"].asInt() != j + 1) n["joint"].fail("expected " + std::to_string(j + 1));
+    const std::string type = jointTypeName(arm.joints[static_cast<std::size_t>(j)].type);
+    if (n["type"].asString() != type) n["type"].fail("expected " + type + " (the robot's)");
     if (n["name"].asString() != urdfJointName(arm, j)) n["name"].fail("expected " + quoteInput(urdfJointName(arm, j)) + " (the robot's)");
   }
   const ConfigNode list = root["effects"];
@@ -174,7 +179,7 @@ LoadedEffects loadEffectsFile(const std::string& path) {
     const ConfigNode e = list[k];
     Entry x{effects[k], {}};
     for (const int blk : out.model.effect_blocks[k]) x.blocks.push_back(out.model.layout.block(blk));
-    const std::string formula = formulaOf(x);
+    const std::string formula = formulaOf(x, arm);
     if (e["applies_to"].asString() != (formula.empty() ? "chain" : "joint_angle")) {
       e["applies_to"].fail(std::string("expected ") + (formula.empty() ? "chain" : "joint_angle") + " for " + effects[k].spec());
     }

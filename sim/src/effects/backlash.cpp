@@ -38,7 +38,7 @@ class BacklashKind final : public EffectKind {
       if (J) (*J)(j, col) += s.direction[j];
     }
   }
-  std::string correctionFormula(const Effect&, const ParamBlock& b) const override { return perJointLinearFormula(b, "dir"); }
+  std::string correctionFormula(const Effect&, const ParamBlock& b, const Arm&) const override { return perJointLinearFormula(b, "dir"); }
   void requireCovariates(const JointSample& s, int) const override {
     if (s.direction.size() != s.q_rad.size()) {
       throw std::invalid_argument("the backlash effect needs the approach direction of every joint");

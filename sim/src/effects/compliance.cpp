@@ -104,7 +104,7 @@ class ComplianceKind final : public EffectKind {
       }
     }
   }
-  std::string correctionFormula(const Effect& e, const ParamBlock& b) const override {
+  std::string correctionFormula(const Effect& e, const ParamBlock& b, const Arm&) const override {
     const std::size_t per = e.order() == 3 ? 2 : 1;
     std::string f;
     for (std::size_t i = 0; i < b.joints.size(); ++i) {

@@ -57,7 +57,7 @@ class CouplingKind final : public EffectKind {
       if (J) (*J)(i, col) += s.q_rad[j];
     }
   }
-  std::string correctionFormula(const Effect&, const ParamBlock& b) const override {
+  std::string correctionFormula(const Effect&, const ParamBlock& b, const Arm&) const override {
     std::string f;
     for (std::size_t k = 0; k + 1 < b.joints.size(); k += 2) {
       f += (k ? "; dq" : "dq") + std::to_string(b.joints[k] + 1) + " = " + b.params[k / 2].name + " * q" + std::to_string(b.joints[k + 1] + 1);

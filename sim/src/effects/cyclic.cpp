@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/model.hpp"
 
@@ -59,14 +60,16 @@ class CyclicKind final : public EffectKind {
       }
     }
   }
-  std::string correctionFormula(const Effect& e, const ParamBlock& b) const override {
+  std::string correctionFormula(const Effect& e, const ParamBlock& b, const Arm& arm) const override {
     std::string f;
     std::size_t col = 0;
     for (std::size_t i = 0; i < b.joints.size(); ++i) {
       const std::string n = std::to_string(b.joints[i] + 1);
       f += (i ? "; dq" : "dq") + n + " =";
       for (int k = 1; k <= e.order(); ++k, col += 2) {
-        const std::string kq = "(" + std::to_string(k) + " * q" + n + ")";
+        // The phase of harmonic k: k qN on a revolute joint, k 2 pi qN / lead on a prismatic one (cyclicPhase).
+        const std::string kq = "(" + std::to_string(k) + " * " +
+                               (arm.isPrismatic(b.joints[i]) ? "2 * pi * q" + n + " / " + formatNumber("%.6g", kLeadScrewPeriodM) : "q" + n) + ")";
         f += (k > 1 ? " + " : " ") + b.params[col].name + " * sin" + kq + " + " + b.params[col + 1].name + " * cos" + kq;
       }
     }

@@ -80,7 +80,7 @@ class EmpiricalKind : public EffectKind {
     dq[i] += P.dot(p.segment(b.offset, e.order()));
     if (J) J->block(i, b.offset, 1, e.order()) += P.transpose();
   }
-  std::string correctionFormula(const Effect& e, const ParamBlock& b) const override {
+  std::string correctionFormula(const Effect& e, const ParamBlock& b, const Arm&) const override {
     std::string f = "dq" + std::to_string(e.joints()[0] + 1) + " =";
     for (int k = 1; k <= e.order(); ++k) f += (k > 1 ? " + " : " ") + b.params[static_cast<std::size_t>(k - 1)].name + " * P" + std::to_string(k) + "(x)";
     return f + ", x = (2 * " + (torque_ ? "tau" : "q") + std::to_string(e.joints()[1] + 1) + " - lo - hi) / (hi - lo), lo = " +

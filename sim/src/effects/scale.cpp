@@ -26,7 +26,7 @@ class ScaleKind final : public EffectKind {
       if (J) (*J)(j, col) += s.q_rad[j];
     }
   }
-  std::string correctionFormula(const Effect&, const ParamBlock& b) const override { return perJointLinearFormula(b, "q"); }
+  std::string correctionFormula(const Effect&, const ParamBlock& b, const Arm&) const override { return perJointLinearFormula(b, "q"); }
   std::vector<Effect> candidates(const CandidateContext& c) const override { return perJointCandidates(c.joints); }
   std::pair<std::string, std::string> revealingVariable(const Effect& e, const Arm& arm) const override {
     return angleVariable(arm, e.joints().front());

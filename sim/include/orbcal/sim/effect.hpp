@@ -134,10 +134,10 @@ class EffectKind {
                                   const Arm& arm, Eigen::VectorXd& dq, Eigen::MatrixXd* J_dq_p) const;
   /// The joint-angle correction of addJointCorrection written out for programs outside orbcal (the
   /// effects export, sim/export.hpp): "dq2 = -(c2 * tau2)", in the names of block `b`'s parameters (SI)
-  /// and the variables qN (joint N's reading, rad), tauN (its actuator's torque, N m) and dirN (its
-  /// approach direction, +1/-1/0), joints from 1; one formula per joint, "; " between them. "" for a kind
-  /// that is no joint-angle correction.
-  virtual std::string correctionFormula(const Effect& /*e*/, const ParamBlock& /*b*/) const { return ""; }
+  /// and the variables qN (joint N's reading, rad; m for a prismatic joint of `arm`), tauN (its actuator's
+  /// torque, N m; force, N) and dirN (its approach direction, +1/-1/0), joints from 1, and the constant pi;
+  /// one formula per joint, "; " between them. "" for a kind that is no joint-angle correction.
+  virtual std::string correctionFormula(const Effect& /*e*/, const ParamBlock& /*b*/, const Arm& /*arm*/) const { return ""; }
   /// Rigid inserts (appended to `out`), evaluated on the model's nominal `arm` at the joint readings `q`
   /// (what the fitted geometry and joint corrections would change in them is second order), so that
   /// their Jacobian columns are exact.
