@@ -174,8 +174,12 @@ HeldoutGain heldoutGain(const std::vector<MarkerObservation>& obs, const std::ve
   return g;
 }
 
-std::vector<int> holdoutSplit(const std::vector<MarkerObservation>& obs, std::optional<double> holdout, std::uint64_t seed) {
+void checkHoldout(std::optional<double> holdout) {
   if (holdout && !(*holdout >= 0.0 && *holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
+}
+
+std::vector<int> holdoutSplit(const std::vector<MarkerObservation>& obs, std::optional<double> holdout, std::uint64_t seed) {
+  checkHoldout(holdout);
   const double h = holdout ? *holdout : defaultHoldout(countConfigurations(obs));
   return h > 0.0 ? splitByConfiguration(obs, {1.0 - h, h}, seed) : std::vector<int>(obs.size(), 0);
 }

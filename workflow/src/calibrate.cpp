@@ -243,7 +243,7 @@ namespace {
 
 /// The options' checks that need no file: a bad value fails before any work.
 void checkCalibrateOptions(const CalibrateOptions& o) {
-  if (o.holdout && !(*o.holdout >= 0.0 && *o.holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
+  calib::checkHoldout(o.holdout);
   if (!o.effects.empty() && !o.estimate_frames) {
     throw sim::InputError("--effects: an image dataset's effects are fitted with its frames: add --estimate-frames");
   }

@@ -225,7 +225,7 @@ std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model) {
 }  // namespace
 
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) {
-  if (o.holdout && !(*o.holdout >= 0.0 && *o.holdout < 1.0)) throw sim::InputError("--holdout: must be within [0, 1)");
+  calib::checkHoldout(o.holdout);
   MeasuredCalibrateResult r;
   const sim::MeasuredData data = sim::loadMeasuredData(o.description);
   std::vector<sim::Effect> effects;

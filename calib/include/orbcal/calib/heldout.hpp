@@ -57,6 +57,9 @@ std::map<std::vector<long long>, std::vector<int>> configurationGroups(const std
 std::vector<int> splitByConfiguration(const std::vector<MarkerObservation>& obs, const std::vector<double>& shares,
                                       std::uint64_t seed);
 
+/// A share to hold out outside [0, 1): InputError naming --holdout (checked before any work).
+void checkHoldout(std::optional<double> holdout);
+
 /// The one fitted | held-out split of every calibration (images and measured data): splitByConfiguration
 /// with shares {1 - h, h}, h = `holdout` or, when empty, defaultHoldout(countConfigurations(obs)); h = 0
 /// fits everything. Returns 1 for each held-out observation, 0 for each fitted one. A share outside
