@@ -129,4 +129,10 @@ TEST_CASE("an image calibration with --estimate-frames --effects writes the fram
   CHECK(camera.fx_px == d.scene.camera.fx_px);
   CHECK(std::filesystem::exists(o.out + "/robot_calibrated.urdf"));
   CHECK(std::filesystem::exists(o.out + "/scene_frames.yaml"));
+  // d7 slides the flange along joint 7's axis, as the camera mount's z does: only their combination is
+  // determined, and the report's table says so for the model written.
+  const std::string report = test::slurp(o.out + "/report.md");
+  const std::size_t row = report.find("| d7 | geometry |");
+  REQUIRE(row != std::string::npos);
+  CHECK(report.substr(row, report.find('\n', row) - row).find("only in a combination with") != std::string::npos);
 }

@@ -156,7 +156,16 @@ calib::Fit calibrate_detail::cornerModelFit(const CornerEstimate& c) {
 }
 
 calib::Fit calibrate_detail::imageFit(const CalibrationRun& run, const CalibrateResult& r) {
-  if (r.frames && r.frames->corners) return cornerModelFit(*r.frames->corners);
+  if (r.frames && r.frames->corners) {
+    calib::Fit fit = cornerModelFit(*r.frames->corners);
+    // Geometry and both frames come first in both layouts: what the frames fit found unidentifiable
+    // together (d7 with the camera mount, ...) is so on the corners too: effects can add redundancies, not remove them.
+    const sim::ParamLayout& frames = r.frames->fit.model.layout;
+    bool same_prefix = frames.size() <= fit.model.layout.size();
+    for (int i = 0; same_prefix && i < frames.size(); ++i) same_prefix = frames.param(i).name == fit.model.layout.param(i).name;
+    if (same_prefix) fit.identifiability = r.frames->fit.identifiability;
+    return fit;
+  }
   if (r.frames) return r.frames->fit;
   calib::Fit fit;
   fit.model = sceneModel(run.d);
