@@ -422,7 +422,6 @@ void judge(const CalibrationRun& run, CalibrateResult& r) {
       after.push_back(calib::markerResidual(fit.model, fit.p, x));
     }
     r.verdict = calib::heldoutVerdict(held, before, after, run.o.holdout, run.configurations);
-    r.worse = r.verdict.worse;
     if (!r.verdict.refusal.empty()) r.refusals.push_back(r.verdict.refusal);
   }
   r.written = r.refusals.empty() || run.o.accept_worse;

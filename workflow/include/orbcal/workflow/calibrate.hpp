@@ -88,7 +88,6 @@ struct CalibrateResult {
   /// The one held-out rule (calib::heldoutVerdict) on the held-out camera poses: the nominal arm (the
   /// scene's frames, or with estimate_frames the frames fitted) against the model written (model.yaml).
   calib::HeldoutVerdict verdict;
-  bool worse = false;                       ///< the held-out position RMS grew (verdict.worse)
   /// The problems, one line each, first in the report and on the terminal; empty when all went well.
   std::vector<std::string> refusals;
   bool written = false;                     ///< model.yaml, robot_calibrated.yaml and estimates.csv were written
