@@ -91,27 +91,34 @@ std::vector<std::string> combinationPartners(const std::vector<sim::Redundancy>&
   return partners;
 }
 
+/// `classes` where they cover `layout` (one class per parameter), else nullptr.
+const calib::ParameterClasses* coveringClasses(const sim::ParamLayout& layout, const calib::ParameterClasses* classes) {
+  return classes && static_cast<int>(classes->classes.size()) == layout.size() ? classes : nullptr;
+}
+
+/// The injected value (SI) of parameter i of `layout` where it is a geometry parameter `truth` holds, else nullptr.
+const double* geometryTruth(const sim::ParamLayout& layout, const Eigen::VectorXd* truth, int i) {
+  const int g = layout.find("geometry");
+  if (!truth || g < 0) return nullptr;
+  const int k = i - layout.block(g).offset;
+  return k >= 0 && k < layout.block(g).size() && k < truth->size() ? &(*truth)[k] : nullptr;
+}
+
 }  // namespace
 
 std::string parameterTable(const calib::Fit& fit, const calib::ParameterClasses* classes, const Eigen::VectorXd* geometry_truth) {
   const sim::ParamLayout& L = fit.model.layout;
-  const bool classified = classes && static_cast<int>(classes->classes.size()) == L.size();
-  const int geometry = L.find("geometry");
-  const auto truthOf = [&](int i) -> const double* {
-    if (!geometry_truth || geometry < 0) return nullptr;
-    const int k = i - L.block(geometry).offset;
-    return k >= 0 && k < L.block(geometry).size() && k < geometry_truth->size() ? &(*geometry_truth)[k] : nullptr;
-  };
+  const calib::ParameterClasses* classified = coveringClasses(L, classes);
   std::string md = std::string("| parameter | block | value | 1-sigma | unit | determined |") + (geometry_truth ? " truth |" : "") +
                    "\n|---|---|---|---|---|---|" + (geometry_truth ? "---|" : "") + "\n";
   const std::vector<sim::ParameterRow> rows = parameterRows(fit);
   const std::vector<std::string> partners =
-      combinationPartners(classified ? classes->groups : fit.identifiability.redundancies, L.size());
+      combinationPartners(classified ? classified->groups : fit.identifiability.redundancies, L.size());
   for (int i = 0; i < L.size(); ++i) {
     const sim::ParamInfo& info = L.param(i);
     const sim::ParameterRow& r = rows[static_cast<std::size_t>(i)];
     const std::string& with = partners[static_cast<std::size_t>(i)];
-    const bool ineffective = classified && classes->classes[static_cast<std::size_t>(i)] == calib::ParamClass::kIneffective;
+    const bool ineffective = classified && classified->classes[static_cast<std::size_t>(i)] == calib::ParamClass::kIneffective;
     md += "| " + r.name + " | " + r.effect + " | " + formatNumber("%+.5g", r.value * info.display_scale) + " | " +
           (r.held ? std::string("held") : formatNumber("%.3g", r.sigma * info.display_scale)) + " | " + info.display_unit + " | " +
           (r.held ? std::string(ineffective ? "no: held at nominal (the measurement does not see it)"
@@ -119,12 +126,30 @@ std::string parameterTable(const calib::Fit& fit, const calib::ParameterClasses*
                   : with.empty() ? std::string("yes") : "only in a combination with " + with + " (the value alone is not)") +
           " |";
     if (geometry_truth) {
-      const double* t = truthOf(i);
+      const double* t = geometryTruth(L, geometry_truth, i);
       md += " " + (t ? formatNumber("%+.5g", *t * info.display_scale) : std::string()) + " |";
     }
     md += "\n";
   }
   return md;
+}
+
+std::string estimatesCsv(const calib::Fit& fit, const calib::ParameterClasses* classes, const Eigen::VectorXd* geometry_truth) {
+  std::ostringstream csv;
+  csv << "parameter,effect,unit,estimate,sigma,truth,held,class\n";
+  const sim::ParamLayout& L = fit.model.layout;
+  const calib::ParameterClasses* classified = coveringClasses(L, classes);
+  const std::vector<sim::ParameterRow> rows = parameterRows(fit);
+  for (int i = 0; i < L.size(); ++i) {
+    const sim::ParamInfo& info = L.param(i);
+    const sim::ParameterRow& r = rows[static_cast<std::size_t>(i)];
+    const double* t = geometryTruth(L, geometry_truth, i);
+    csv << r.name << "," << r.effect << "," << info.display_unit << "," << sim::exactNumber(r.value * info.display_scale) << ","
+        << (std::isfinite(r.sigma) ? sim::exactNumber(r.sigma * info.display_scale) : std::string()) << ","
+        << (t ? sim::exactNumber(*t * info.display_scale) : std::string()) << "," << (r.held ? 1 : 0) << ","
+        << (classified ? calib::paramClassName(classified->classes[static_cast<std::size_t>(i)]) : "") << "\n";
+  }
+  return csv.str();
 }
 
 namespace {

@@ -60,30 +60,3 @@ std::string measuredFigures(const Callbacks& callbacks, bool plots, const std::s
 }
 
 }  // namespace orbcal::workflow::measured_detail
-
-namespace orbcal::workflow {
-
-std::string estimatesCsv(const calib::Fit& fit, const calib::ParameterClasses* classes, const Eigen::VectorXd* geometry_truth) {
-  std::ostringstream csv;
-  csv << "parameter,effect,unit,estimate,sigma,truth,held,class\n";
-  const sim::ParamLayout& L = fit.model.layout;
-  const std::vector<sim::ParameterRow> rows = parameterRows(fit);
-  const bool classified = classes && static_cast<int>(classes->classes.size()) == L.size();
-  const int geometry = L.find("geometry");
-  const sim::ParamBlock* g = geometry >= 0 ? &L.block(geometry) : nullptr;
-  for (int i = 0; i < L.size(); ++i) {
-    const sim::ParamInfo& info = L.param(i);
-    const sim::ParameterRow& r = rows[static_cast<std::size_t>(i)];
-    const int in_geometry = g && i >= g->offset && i < g->offset + g->size() ? i - g->offset : -1;
-    csv << r.name << "," << r.effect << "," << info.display_unit << "," << sim::exactNumber(r.value * info.display_scale) << ","
-        << (std::isfinite(r.sigma) ? sim::exactNumber(r.sigma * info.display_scale) : std::string()) << ","
-        << (geometry_truth && in_geometry >= 0 && in_geometry < geometry_truth->size()
-                ? sim::exactNumber((*geometry_truth)[in_geometry] * info.display_scale)
-                : std::string())
-        << "," << (r.held ? 1 : 0) << "," << (classified ? calib::paramClassName(classes->classes[static_cast<std::size_t>(i)]) : "")
-        << "\n";
-  }
-  return csv.str();
-}
-
-}  // namespace orbcal::workflow
