@@ -363,6 +363,21 @@ bool startsTag(const std::string& s, std::size_t i, const char* name) {
 
 }  // namespace
 
+std::string xmlEscaped(std::string_view text) {
+  std::string out;
+  for (const char c : text) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      case '\'': out += "&apos;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
 std::string xmlComment(const std::string& text) {
   std::string c = text;
   for (std::size_t p = c.find("--"); p != std::string::npos; p = c.find("--")) c.replace(p, 2, "- -");

@@ -11,22 +11,6 @@ namespace orbcal::sim {
 
 namespace {
 
-/// `text` as an XML attribute value: & < > " ' escaped.
-std::string xmlEscaped(const std::string& text) {
-  std::string out;
-  for (const char c : text) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\'': out += "&apos;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
-
 std::string triple(const Eigen::Vector3d& v) {
   const Eigen::Vector3d w = v.array() + 0.0;  // -0 written as 0
   return exactNumber(w.x()) + " " + exactNumber(w.y()) + " " + exactNumber(w.z());

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "orbcal/sim/fileio.hpp"
+#include "orbcal/sim/urdf.hpp"
 
 namespace orbcal::workflow {
 
@@ -51,19 +52,8 @@ footer { margin-top: 3rem; font-size: .8rem; color: #666; }
 }
 )";
 
-std::string escape(std::string_view s) {
-  std::string out;
-  for (char c : s) {
-    switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
-    }
-  }
-  return out;
-}
+/// Markdown text as HTML: sim::xmlEscaped, the one escape of orbcal's markup writers.
+std::string escape(std::string_view s) { return sim::xmlEscaped(s); }
 
 std::string_view trim(std::string_view s) {
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);

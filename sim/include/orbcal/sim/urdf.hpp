@@ -18,6 +18,7 @@
 // links have none gets mass 0. A negative or non-finite mass is an error naming the link.
 // Errors are InputError "<file>: <what>", naming the link or joint.
 #include <string>
+#include <string_view>
 
 #include "orbcal/sim/arm.hpp"
 
@@ -39,6 +40,8 @@ Eigen::Isometry3d urdfJointOrigin(const Arm& arm, int j);
 
 /// "<!-- text -->\n", every "--" of `text` (which would end the comment) written "- -".
 std::string xmlComment(const std::string& text);
+/// `text` as XML (and HTML) character data or an attribute value: & < > " ' escaped.
+std::string xmlEscaped(std::string_view text);
 
 /// `xml` (the URDF `arm` was read from) with the <origin> of every chain joint replaced by
 /// urdfJointOrigin (full precision), everything else kept byte for byte; `comment` (if not empty)
