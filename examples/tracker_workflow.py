@@ -111,13 +111,15 @@ ax.set_ylabel("held-out position error (mm)")
 ax.set_title("3. diagnosis (day 1, cross-validated)")
 ax.legend(fontsize=8)
 ax = axes[1]
-names = ["nominal arm\n(held out, day 1)", "calibrated\n(held out, day 1)", "baseline\n(day 2)", "calibrated\n(day 2)"]
+names = ["nominal arm\nday 1, held out", "calibrated\nday 1, held out", "nominal arm\nday 2 (baseline)", "calibrated\nday 2"]
 values = [held["before"]["position_rms_m"], held["after"]["position_rms_m"], evaluation["baseline"]["position_rms_m"],
           evaluation["position_rms_m"]]
 ax.bar(names, np.array(values) * 1e3, color=["C0", "C1", "C0", "C1"])
 ax.axhline(np.sqrt(3) * 0.05, color="k", ls="--", lw=1, label="noise alone (sqrt(3) x 0.05 mm)")
 ax.set_ylabel("position RMS (mm)")
 ax.set_yscale("log")
+ax.set_ylim(0.5 * min(values) * 1e3, 8 * max(values) * 1e3)  # room for the legend above the bars
+ax.tick_params(axis="x", labelsize=8)
 ax.set_title("4.-5. held out and the other day")
 ax.legend(fontsize=8)
 ax = axes[2]

@@ -4,6 +4,7 @@
 // (an orbcal.Error carrying the Calibration) unless accept_worse=True, as the command line exits 1.
 #include <unistd.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>

@@ -5,6 +5,7 @@
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/jacobian.hpp"
 #include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/config.hpp"
 
 namespace orbcal::python {
 
@@ -57,7 +58,8 @@ py::array_t<double> forwardKinematicsOf(const sim::Arm& a, const Configurations&
     T.push_back(sim::forwardKinematics(a, qk).matrix());
   });
   return stacked(count(q), {4, 4}, several, [&](py::ssize_t k, double* d) {
-    Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(d) = T[static_cast<std::size_t>(k)];
+    Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>> out(d);
+    out = T[static_cast<std::size_t>(k)];
   });
 }
 
@@ -68,7 +70,8 @@ py::array_t<double> jacobianOf(const sim::Arm& a, const Configurations& q) {
   });
   const int n = a.numJoints();
   return stacked(count(q), {6, n}, several, [&](py::ssize_t k, double* d) {
-    Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor>>(d, 6, n) = J[static_cast<std::size_t>(k)];
+    Eigen::Map<Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::RowMajor>> out(d, 6, n);
+    out = J[static_cast<std::size_t>(k)];
   });
 }
 
@@ -90,7 +93,8 @@ py::array_t<double> gravityTorquesOf(const sim::Arm& a, const Configurations& q,
   });
   const int n = a.numJoints();
   return stacked(count(q), {n}, several, [&](py::ssize_t k, double* d) {
-    Eigen::Map<Eigen::VectorXd>(d, n) = tau[static_cast<std::size_t>(k)];
+    Eigen::Map<Eigen::VectorXd> out(d, n);
+    out = tau[static_cast<std::size_t>(k)];
   });
 }
 

@@ -171,7 +171,8 @@ def test_model_and_diagnosis_records(tracker, compliance_data):
     records = truth.to_records()
     assert [r["name"] for r in records] == truth.parameter_names
     assert set(records[0]) == {"name", "effect", "unit", "value", "sigma", "held"}
-    assert truth.as_dict()["parameters"] == records
+    assert [r["name"] for r in truth.as_dict()["parameters"]] == truth.parameter_names
+    assert np.array_equal([r["value"] for r in records], truth.values)
     d = orbcal.diagnose(orbcal.load_measurements(str(compliance_data / "measurements.yaml")))
     flat = d.to_records()
     assert flat and sum(len(e["parameters"]) for e in d.selected) == len(flat)
