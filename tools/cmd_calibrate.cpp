@@ -185,7 +185,7 @@ void addCalibrateCommand(CLI::App& app) {
       m.seed = o->seed;
       m.out = o->out;
       m.plots = o->images.plots;
-      m.callbacks = terminalCallbacks();
+      m.callbacks = terminalCallbacks(m.plots);
       if (o->noise_position_mm > 0) m.noise_position_m = o->noise_position_mm * 1e-3;
       if (o->noise_rotation_deg > 0) m.noise_rotation_rad = o->noise_rotation_deg * sim::kDegToRad;
       const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(m);
@@ -201,7 +201,7 @@ void addCalibrateCommand(CLI::App& app) {
     c.seed = o->seed;
     c.out = o->out;
     c.accept_worse = o->measured.accept_worse;
-    c.callbacks = terminalCallbacks();
+    c.callbacks = terminalCallbacks(c.plots);
     const workflow::CalibrateResult r = workflow::runCalibrate(c);
     printImages(r);
     if (!r.refusals.empty() && !c.accept_worse) throw CLI::RuntimeError(1);

@@ -49,7 +49,7 @@ void addDiagnoseCommand(CLI::App& app) {
   cmd->add_flag("--quiet", o->quiet, "no progress output");
   cmd->callback([o] {
     workflow::DiagnoseRunOptions options = *o;
-    options.callbacks = terminalCallbacks();
+    options.callbacks = terminalCallbacks(options.plots);
     const workflow::DiagnoseRunResult r = workflow::runDiagnose(options);
     std::printf("%s\n", r.diagnosis.verdict.c_str());
     for (const calib::ConfoundedSet& c : r.diagnosis.confounded) {
@@ -79,7 +79,7 @@ void addStudyCommand(CLI::App& app) {
   cmd->add_option("-o,--out", o->out, "also write the confusion table to DIR/diagnose_study.csv and DIR/report.md (and report.html)");
   cmd->callback([o] {
     workflow::StudyOptions options = *o;
-    options.callbacks = terminalCallbacks();
+    options.callbacks = terminalCallbacks(false);  // the study draws no figures
     const workflow::StudyResult r = workflow::runDiagnoseStudy(options);
     std::printf("%s\n%.1f s\n", workflow::formatStudy(r).c_str(), r.seconds);
   });

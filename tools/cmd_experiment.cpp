@@ -82,7 +82,7 @@ void addExperimentCommand(CLI::App& app) {
       ->check(CLI::IsMember({"images", "synthetic"}));
   cmd->callback([opt, cmd] {
     workflow::ExperimentOptions e = opt->e;
-    e.callbacks = terminalCallbacks();
+    e.callbacks = terminalCallbacks(e.plots);
     setInterruptNote("the datasets and images rendered so far are kept under " + e.out +
                      "/datasets: rerun the same command to resume from them");
     if (opt->preset == "table4") {

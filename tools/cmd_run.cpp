@@ -35,7 +35,7 @@ void addRunCommand(CLI::App& app) {
                 opt->identification, opt->validation, opt->out.c_str());
     std::fflush(stdout);
     workflow::ExperimentOptions e = *opt;
-    e.callbacks = terminalCallbacks();
+    e.callbacks = terminalCallbacks(e.plots);
     const workflow::Table4Result r = workflow::runTable4(e, "main");
     std::cout << "\n" << workflow::table4Headline(r);
   });

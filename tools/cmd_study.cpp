@@ -63,7 +63,7 @@ int doneCount(const std::vector<workflow::TaskState>& states) {
 }
 
 void mergeAndPrint(const std::string& dir, const std::string& out, bool plots) {
-  const workflow::MergeReport r = workflow::mergeStudy(dir, out, plots, terminalCallbacks());
+  const workflow::MergeReport r = workflow::mergeStudy(dir, out, plots, terminalCallbacks(plots));
   std::printf("merged: %zu files; report: %s\n", r.files.size(), r.report_path.c_str());
 }
 

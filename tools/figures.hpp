@@ -1,5 +1,6 @@
 #pragma once
-// The figure drawer of the `orbcal` program: tools/plot_report.py run by python3 (workflow/callbacks.hpp).
+// The figure drawer of the `orbcal` program: tools/plot_report.py run by python3 (workflow/callbacks.hpp),
+// one process for all the figures of a command.
 #include "orbcal/workflow/callbacks.hpp"
 
 namespace orbcal::tools {
@@ -12,7 +13,16 @@ namespace orbcal::tools {
 /// replace the script and the interpreter.
 std::string plotReportFigure(const workflow::FigureRequest& figure);
 
-/// The program's callbacks: the progress bar on stderr (progress.hpp) and plotReportFigure.
-workflow::Callbacks terminalCallbacks();
+/// The figure drawer of one command: one `python3 plot_report.py --batch` started now (it imports
+/// matplotlib while the command computes) draws every figure the command asks for, in turn, with the
+/// outcomes of plotReportFigure (an image line; a "not drawn" line and a warning without matplotlib;
+/// std::runtime_error naming the figure for any other failure). Where that process cannot start, ends,
+/// or does not answer as plot_report.py does (an ORBCAL_PLOT_SCRIPT without --batch), each figure from
+/// then on is drawn by plotReportFigure. The process is stopped when the last copy of the drawer goes.
+workflow::FigureFn batchFigureDrawer();
+
+/// The program's callbacks: the progress bar on stderr (progress.hpp) and, with `figures`, a
+/// batchFigureDrawer (without: plotReportFigure, which a workflow told not to draw never calls).
+workflow::Callbacks terminalCallbacks(bool figures = true);
 
 }  // namespace orbcal::tools

@@ -12,15 +12,27 @@
   plot_report.py samples samples.csv out.png          # orbcal calibrate: per-image errors before/after, outliers named
   plot_report.py parameters estimates.csv out.png     # orbcal calibrate: each parameter with its 1-sigma (and truth)
   plot_report.py heldout heldout.csv out.png          # orbcal calibrate (measured data): held-out errors, noise floor
+  plot_report.py --batch < figures.txt                # several figures in one process (orbcal draws a command's
+                                                   # figures so): one figure per line of stdin, its arguments as
+                                                   # above, shell-quoted; one answer line each on stdout, at once:
+                                                   # "ok", "missing: WHY" (no matplotlib) or "error: WHY"
 """
 import csv
+import io
+import shlex
 import sys
 from collections import OrderedDict
 
-import matplotlib
+try:
+    import matplotlib
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    MISSING = None
+except ImportError as missing:  # one figure: the error as before; a batch answers each figure with it
+    if sys.argv[1:2] != ["--batch"]:
+        raise
+    MISSING = "%s: %s" % (type(missing).__name__, missing)
 
 
 def read_rows(path):
@@ -239,7 +251,56 @@ def heldout(csv_path, png_path):
     fig.savefig(png_path, dpi=110)
 
 
+def one_line(text):
+    return " ".join(str(text).split())
+
+
+def warm_up():
+    """A small figure drawn into memory: the fonts, the text layout and the PNG writer are loaded
+    before the first figure is asked for (orbcal starts the batch while it computes)."""
+    fig, ax = plt.subplots(figsize=(2, 2))
+    ax.scatter([0.0, 1.0], [0.0, 1.0], s=10, alpha=0.7, label="x")
+    ax.axhline(0.5, color="k", ls="--", lw=1)
+    ax.set_xlabel("x (mm)")
+    ax.set_yscale("log")
+    ax.grid(True, alpha=0.3)
+    ax.legend(title="t", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(io.BytesIO(), format="png", dpi=110)
+    plt.close(fig)
+
+
+def batch(lines, answer):
+    """Draws the figure of each line (plot_report.py's arguments, shell-quoted) and answers each with
+    one line: ok, missing: WHY or error: WHY (the message a single run would end with)."""
+    if not MISSING:
+        warm_up()
+    for line in lines:
+        if not line.strip():
+            continue
+        if MISSING:
+            answer("missing: " + MISSING)
+            continue
+        try:
+            main(["plot_report.py"] + shlex.split(line))
+            answer("ok")
+        except SystemExit as e:  # a usage error or a named one (a missing column)
+            answer("error: " + ("plot_report.py: bad arguments: " + one_line(line) if e.code == __doc__ else one_line(e.code)))
+        except Exception as e:  # noqa: BLE001 - any error of one figure is its answer, the next figure is drawn
+            answer("error: %s: %s" % (type(e).__name__, one_line(e)))
+        finally:
+            plt.close("all")  # a figure's memory goes with it
+
+
+def answer_on_stdout(text):
+    sys.stdout.write(text + "\n")
+    sys.stdout.flush()
+
+
 def main(argv):
+    if argv[1:] == ["--batch"]:
+        batch(sys.stdin, answer_on_stdout)
+        return
     if len(argv) >= 4 and argv[1] in ("samples", "parameters", "heldout"):
         {"samples": samples, "parameters": parameters, "heldout": heldout}[argv[1]](argv[2], argv[3])
         return

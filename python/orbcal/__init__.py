@@ -1,18 +1,21 @@
 """orbcal from Python: robots, measured data, calibration, diagnosis, rendering and studies.
 
 SI units throughout (m, rad, N m, degC, s); numpy arrays in and out. Bad input raises orbcal.Error (a
-RuntimeError) carrying orbcal's one-line message, which names the file and the key.
+RuntimeError) carrying orbcal's one-line message, which names the file and the key; a calibration that
+`orbcal calibrate` refuses raises orbcal.Refused (an orbcal.Error whose .calibration says why).
 
     import orbcal
     robot = orbcal.load_robot("builtin:iiwa7.yaml")
     data, truth = orbcal.simulate(robot, samples=200, effects=["compliance:2"])
     diagnosis = orbcal.diagnose(data)
     print(diagnosis.verdict, diagnosis.selected)
+    calibration = orbcal.calibrate(data, effects=["compliance:2"])
+    print(calibration.accepted, calibration.heldout["after"]["position_rms_m"])
 """
-from ._orbcal import (Diagnosis, Error, Measurements, Model, Robot, calibrate, diagnose, evaluate,  # noqa: F401
-                      load_measurements, load_model, load_robot, measurements_from_arrays, render_dataset,
-                      run_study, simulate, version)
+from ._orbcal import (Calibration, Diagnosis, Error, Measurements, Model, Refused, Robot, __version__,  # noqa: F401
+                      calibrate, diagnose, evaluate, load_measurements, load_model, load_robot,
+                      measurements_from_arrays, render_dataset, run_study, simulate, version)
 
-__all__ = ["Diagnosis", "Error", "Measurements", "Model", "Robot", "calibrate", "diagnose", "evaluate",
-           "load_measurements", "load_model", "load_robot", "measurements_from_arrays", "render_dataset",
-           "run_study", "simulate", "version"]
+__all__ = ["Calibration", "Diagnosis", "Error", "Measurements", "Model", "Refused", "Robot", "__version__", "calibrate",
+           "diagnose", "evaluate", "load_measurements", "load_model", "load_robot", "measurements_from_arrays",
+           "render_dataset", "run_study", "simulate", "version"]

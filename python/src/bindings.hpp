@@ -37,12 +37,23 @@ std::vector<sim::Effect> parseEffects(const std::vector<std::string>& specs, int
 /// rotation_rms_rad, rotation_max_rad.
 py::dict residualDict(const calib::ResidualStats& s);
 
+/// The statistics of a fit: residuals at the fit (residualDict), chi2, dof, noise {position_m,
+/// rotation_rad, joint_rad}, noise_estimated, weak (parameter names).
+py::dict fitStatistics(const calib::Fit& fit);
+
+/// Parameter rows as records: one dict per parameter (name, effect, unit, value, sigma, held; SI).
+py::list parameterRecords(const std::vector<sim::ParameterRow>& rows);
+
+/// orbcal.Refused, the exception of a refused calibration (an orbcal.Error), made at the module's start.
+py::handle refusedType();
+
 /// Parameter rows of a model whose values are known exactly (a truth, a loaded model): sigma NaN.
 std::vector<sim::ParameterRow> exactRows(const sim::KinematicModel& model, const Eigen::VectorXd& p);
 
 void bindRobot(py::module_& m);
 void bindMeasurements(py::module_& m);
 void bindCalibrate(py::module_& m);
+void bindCalibration(py::module_& m);
 void bindDiagnose(py::module_& m);
 void bindWorkflow(py::module_& m);
 

@@ -1,7 +1,6 @@
-// orbcal.calibrate, orbcal.evaluate, orbcal.load_model and the Model class: the measured-data fit
-// (calib/measured_fit.hpp) of geometry + registration + chosen effects, the prediction of other data with a
-// calibrated model, and the model file (sim/model_io.hpp), as `orbcal calibrate DESC.yaml` and `orbcal
-// evaluate` run them.
+// orbcal.evaluate, orbcal.load_model and the Model class: a model of geometry + registration + effects
+// (what orbcal.calibrate makes, python/src/calibration.cpp), the prediction of other data with it, and the
+// model file (sim/model_io.hpp), as `orbcal evaluate` and `orbcal calibrate DESC.yaml` write them.
 #include <filesystem>
 
 #include "bindings.hpp"
@@ -13,20 +12,6 @@
 namespace orbcal::python {
 
 namespace {
-
-/// The fit's statistics: residuals at the fit, chi-square and its degrees of freedom, the noise used.
-py::dict fitStatistics(const calib::Fit& fit) {
-  py::dict d = residualDict(fit.residuals);
-  d["chi2"] = fit.chi2;
-  d["dof"] = fit.dof;
-  d["noise"] = py::dict(py::arg("position_m") = fit.noise.sigma_position_m, py::arg("rotation_rad") = fit.noise.sigma_rotation_rad,
-                        py::arg("joint_rad") = fit.noise.joint_noise_sigma_rad);
-  d["noise_estimated"] = fit.noise_estimated;
-  std::vector<std::string> weak;
-  for (int i : fit.weak) weak.push_back(fit.model.layout.param(i).name);
-  d["weak"] = weak;
-  return d;
-}
 
 /// The fit's noise settings as `orbcal calibrate DESC.yaml` makes them: the stated noise, else estimated.
 calib::FitOptions fitOptions(const sim::MeasuredData& data, const std::string& method) {
@@ -57,6 +42,12 @@ std::string exportModel(const PyModel& m, const std::string& folder) {
   return workflow::writeModelAndExports({m.model, m.p}, m.rows, folder, "Written by orbcal " ORBCAL_VERSION " from Python");
 }
 
+std::vector<std::string> effectSpecs(const PyModel& pm) {
+  std::vector<std::string> specs;
+  for (const sim::Effect& e : pm.model.effects) specs.push_back(sim::formatEffect(e));
+  return specs;
+}
+
 py::dict parameterDict(const PyModel& m) {
   py::dict out;
   for (const sim::ParameterRow& r : m.rows) {
@@ -67,6 +58,29 @@ py::dict parameterDict(const PyModel& m) {
 }
 
 }  // namespace
+
+/// The fit's statistics: residuals at the fit, chi-square and its degrees of freedom, the noise used.
+py::dict fitStatistics(const calib::Fit& fit) {
+  py::dict d = residualDict(fit.residuals);
+  d["chi2"] = fit.chi2;
+  d["dof"] = fit.dof;
+  d["noise"] = py::dict(py::arg("position_m") = fit.noise.sigma_position_m, py::arg("rotation_rad") = fit.noise.sigma_rotation_rad,
+                        py::arg("joint_rad") = fit.noise.joint_noise_sigma_rad);
+  d["noise_estimated"] = fit.noise_estimated;
+  std::vector<std::string> weak;
+  for (int i : fit.weak) weak.push_back(fit.model.layout.param(i).name);
+  d["weak"] = weak;
+  return d;
+}
+
+py::list parameterRecords(const std::vector<sim::ParameterRow>& rows) {
+  py::list out;
+  for (const sim::ParameterRow& r : rows) {
+    out.append(py::dict(py::arg("name") = r.name, py::arg("effect") = r.effect, py::arg("unit") = r.unit, py::arg("value") = r.value,
+                        py::arg("sigma") = r.sigma, py::arg("held") = r.held));
+  }
+  return out;
+}
 
 py::dict residualDict(const calib::ResidualStats& s) {
   return py::dict(py::arg("samples") = s.samples, py::arg("position_mean_m") = s.position_mean_m,
@@ -79,11 +93,7 @@ void bindCalibrate(py::module_& m) {
                       "A kinematic model: the geometry (DH rows with the identified errors folded in), the registration "
                       "frames, the effects with their parameters (SI), and every fitted parameter with its 1-sigma.")
       .def_property_readonly("robot", [](const PyModel& pm) { return pm.model.arm; }, "the model's arm (calibrated geometry)")
-      .def_property_readonly("effects", [](const PyModel& pm) {
-            std::vector<std::string> specs;
-            for (const sim::Effect& e : pm.model.effects) specs.push_back(sim::formatEffect(e));
-            return specs;
-          }, "the effects' specs ('compliance:2', joints from 1)")
+      .def_property_readonly("effects", &effectSpecs, "the effects' specs ('compliance:2', joints from 1)")
       .def_property_readonly("parameters", &parameterDict,
                              "every parameter by name: {value, sigma (NaN: not known), unit (SI), effect (its block), held}")
       .def_property_readonly("parameter_names", [](const PyModel& pm) {
@@ -109,6 +119,12 @@ void bindCalibrate(py::module_& m) {
       .def_readonly("statistics", &PyModel::statistics,
                     "of the fit that made it: residuals (samples, position_mean_m, position_rms_m, position_max_m, "
                     "rotation_rms_rad, rotation_max_rad), chi2, dof, noise, noise_estimated, weak; empty for a loaded or true model")
+      .def("to_records", [](const PyModel& pm) { return parameterRecords(pm.rows); },
+           "One dict per parameter (name, effect, unit, value, sigma, held; SI): pandas.DataFrame(model.to_records())")
+      .def("as_dict", [](const PyModel& pm) {
+            return py::dict(py::arg("robot") = pm.model.arm.name, py::arg("effects") = effectSpecs(pm),
+                            py::arg("parameters") = parameterRecords(pm.rows), py::arg("statistics") = pm.statistics);
+          }, "robot (name), effects (specs), parameters (records) and statistics as plain Python values")
       .def("save", &saveModel, py::arg("path"),
            "Writes the model file (format orbcal-model-2, as orbcal calibrate writes model.yaml) and its robot file beside "
            "it (robot.yaml for model.yaml, else NAME.robot.yaml), each atomically. Returns the model file's path.")
@@ -122,32 +138,6 @@ void bindCalibrate(py::module_& m) {
       });
 
   m.def(
-      "calibrate",
-      [](const sim::MeasuredData& data, const std::vector<std::string>& effects, const std::string& method,
-         const std::string& level, std::uint64_t seed) {
-        const std::vector<sim::Effect> fx = parseEffects(effects, data.arm.numJoints(), "effects");
-        const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(data, calib::needsTorque(fx));
-        calib::FitOptions fo = fitOptions(data, method);
-        const calib::LevelChoice choice = calib::resolveLevel(calib::parseLevel(level, "level"), data, obs, fx, fo, seed);
-        const sim::KinematicModel start = calib::startingModel(data, obs, fx);
-        fo.hold = calib::levelHold(start, choice.chosen, "level");
-        const calib::Fit fit = calib::fitMarkerModel(start, obs, fo);
-        const calib::CalibratedModel cm = calib::calibratedModel(fit);
-        py::dict stats = fitStatistics(fit);
-        stats["level"] = calib::levelName(choice.chosen);
-        stats["level_reason"] = calib::levelSentence(choice);
-        return PyModel{cm.model, cm.p, workflow::parameterRows(fit), stats};
-      },
-      py::arg("data"), py::arg("effects") = std::vector<std::string>{}, py::arg("method") = calib::kDefaultMethod, py::arg("level") = "auto",
-      py::arg("seed") = 1,
-      "Calibrates geometry + registration + the chosen effects ('compliance:2', 'cyclic:4', ...; joints from 1) on all "
-      "of `data`, with the noise the data states (else estimated from the residuals). method: 'LM', 'LSE', 'EKF' or a variant `orbcal calibrate --help` lists. "
-      "level: which geometric parameters are free: 'frames' (registration only), 'offsets' (joint zero offsets + frames), "
-      "'full', a list 'theta1,theta3,d2', or 'auto' (by cross-validation by configuration, seeded with `seed`; the "
-      "statistics' 'level' and 'level_reason' say which and why); effects are free at every level. "
-      "Returns the calibrated Model (no hold-out here: orbcal.evaluate predicts other data with it).");
-
-  m.def(
       "evaluate",
       [](const PyModel& model, const sim::MeasuredData& data_in) {
         sim::MeasuredData data = data_in;
@@ -157,15 +147,24 @@ void bindCalibrate(py::module_& m) {
         }
         if (!model.model.arm.masses.empty()) data.arm.masses = model.model.arm.masses;
         const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(data, calib::needsTorque(model.model.effects));
-        const calib::Fit fit = calib::predictWithModel({model.model, model.p}, data, obs, fitOptions(data, "LM"));
+        calib::FitOptions fo = fitOptions(data, "LM");
+        calib::Fit fit, baseline;
+        {
+          py::gil_scoped_release release;
+          fit = calib::predictWithModel({model.model, model.p}, data, obs, fo);
+          baseline = workflow::evaluationBaseline(data, obs, fo);
+        }
         py::dict d = residualDict(fit.residuals);
+        d["baseline"] = residualDict(baseline.residuals);
         d["warnings"] = calib::outsideTrustedRange(model.model, obs);
         return d;
       },
       py::arg("model"), py::arg("data"),
       "Predicts `data` with `model` as `orbcal evaluate` does: every geometric and effect parameter is the model's, only "
       "the frames the data calls per_session are refitted. Returns the prediction errors' statistics (samples, "
-      "position_mean_m, position_rms_m, position_max_m, rotation_rms_rad, rotation_max_rad) and warnings.");
+      "position_mean_m, position_rms_m, position_max_m, rotation_rms_rad, rotation_max_rad), the baseline's (the "
+      "same statistics of the data's nominal arm with every registration frame fitted to it, as evaluation.json's "
+      "'baseline') and warnings.");
 
   m.def(
       "load_model",

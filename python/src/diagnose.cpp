@@ -26,6 +26,19 @@ struct PyDiagnosis {
   py::object parsed;
 };
 
+/// The selected effects' parameters, one flat dict each.
+py::list selectedRecords(const PyDiagnosis& p) {
+  py::list out;
+  for (const py::handle effect : p.parsed["selected"]) {
+    for (const py::handle param : effect["parameters"]) {
+      py::dict row(py::arg("effect") = effect["effect"], py::arg("joints") = effect["joints"]);
+      for (const char* key : {"name", "value", "sigma", "unit"}) row[key == std::string("name") ? "parameter" : key] = param[key];
+      out.append(row);
+    }
+  }
+  return out;
+}
+
 }  // namespace
 
 void bindDiagnose(py::module_& m) {
@@ -57,6 +70,11 @@ void bindDiagnose(py::module_& m) {
           }, "the selected model fitted to all the data (what orbcal diagnose writes as model.yaml)")
       .def_property_readonly("seconds", [](const PyDiagnosis& p) { return p.d.seconds; }, "wall time of the diagnosis (s)")
       .def("to_json", [](const PyDiagnosis& p) { return p.json; }, "diagnosis.json as orbcal diagnose writes it (text)")
+      .def("as_dict", [](const PyDiagnosis& p) { return py::module_::import("json").attr("loads")(p.json); },
+           "diagnosis.json as plain Python values (a fresh copy)")
+      .def("to_records", &selectedRecords,
+           "One dict per parameter of the selected effects (effect, joints (from 1), parameter, value, sigma, unit; SI): "
+           "pandas.DataFrame(diagnosis.to_records())")
       .def("__repr__", [](const PyDiagnosis& p) { return "<orbcal.Diagnosis: " + p.d.verdict + ">"; });
 
   m.def(

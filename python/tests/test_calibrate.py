@@ -29,7 +29,7 @@ def test_the_truth_predicts_its_data_to_the_noise(tracker):
 def test_calibration_predicts_held_out_samples_near_the_noise(iiwa7, tracker, tmp_path):
     data, truth = tracker
     fit_rows, held_rows = np.arange(0, 200, 2), np.arange(1, 200, 2)
-    model = orbcal.calibrate(split(iiwa7, data, fit_rows), effects=[])
+    model = orbcal.calibrate(split(iiwa7, data, fit_rows), effects=[], holdout=0).model  # held out below, by hand
     assert model.statistics["samples"] == 100
     held = split(iiwa7, data, held_rows)
     after = orbcal.evaluate(model, held)
@@ -53,7 +53,7 @@ def test_calibration_predicts_held_out_samples_near_the_noise(iiwa7, tracker, tm
 
 def test_calibration_finds_a_hidden_compliance(iiwa7):
     data, truth = orbcal.simulate(iiwa7, samples=150, seed=8, effects=["compliance:2"], values=[2e-5])
-    model = orbcal.calibrate(data, effects=["compliance:2"])
+    model = orbcal.calibrate(data, effects=["compliance:2"]).model
     c = model.parameters["c2"]
     assert c["unit"] == "rad/(N*m)"
     assert abs(c["value"] - 2e-5) < 4 * c["sigma"]  # within 4 sigma of the injected value
@@ -61,7 +61,7 @@ def test_calibration_finds_a_hidden_compliance(iiwa7):
 
 def test_export_writes_what_the_command_line_writes(iiwa7, tmp_path):
     data, _ = orbcal.simulate(iiwa7, samples=120, seed=9, effects=["compliance:2"], values=[2e-5])
-    model = orbcal.calibrate(data, effects=["compliance:2"])
+    model = orbcal.calibrate(data, effects=["compliance:2"]).model
     path = model.export(str(tmp_path / "out"))
     assert path == str(tmp_path / "out" / "model.yaml")
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
@@ -97,16 +97,20 @@ def test_a_model_that_cannot_be_written_leaves_nothing(iiwa7, tracker, tmp_path)
 def test_calibration_levels_free_the_geometry_they_name(tracker):
     data, _ = tracker
     geometry = lambda model: {n: p for n, p in model.parameters.items() if p["effect"] == "geometry"}
-    frames = orbcal.calibrate(data, level="frames")
+    # The frames alone leave the DH errors (mm) against a 0.05 mm tracker: refused, as the command line refuses it.
+    with pytest.raises(orbcal.Refused) as refused:
+        orbcal.calibrate(data, level="frames")
+    assert refused.value.calibration.level == "frames" and refused.value.calibration.model is None
+    frames = orbcal.calibrate(data, level="frames", accept_worse=True).model
     assert frames.statistics["level"] == "frames"
     assert all(p["held"] and p["value"] == 0.0 for p in geometry(frames).values())
-    listed = orbcal.calibrate(data, level="theta2,d3")
+    listed = orbcal.calibrate(data, level="theta2,d3", accept_worse=True).model
     free = sorted(n for n, p in geometry(listed).items() if not p["held"])
     assert free == ["d3", "theta2"]
     # The default: chosen by cross-validation, which says what each level predicts. The DH errors (0.05 deg,
     # 0.5 mm) cost mm against a 0.05 mm tracker, so the full set wins here.
     chosen = orbcal.calibrate(data)
-    assert "cross-validation" in chosen.statistics["level_reason"]
-    assert chosen.statistics["level"] == "full"
+    assert chosen.accepted and "cross-validation" in chosen.level_reason
+    assert chosen.level == "full" and chosen.model.statistics["level"] == "full"
     with pytest.raises(orbcal.Error, match="level: 'bogus1' is not a parameter of this model"):
         orbcal.calibrate(data, level="theta1,bogus1")

@@ -1,8 +1,12 @@
 """The report figures (tools/plot_report.py) say what their legends say: one meaning per colour in
 samples.png, held and combination-only parameters drawn as such in parameters.png, a noise floor on
-the residual figures, signed components of the model asked for."""
+the residual figures, signed components of the model asked for; and --batch, which draws several figures
+in one process, answering each."""
 import importlib.util
+import os
 import pathlib
+import subprocess
+import sys
 
 import matplotlib
 import pytest
@@ -99,3 +103,40 @@ def test_residual_figures_take_a_prismatic_joint_in_mm_and_name_a_missing_column
         plot_report.residuals(csv, "q1_deg", "joint 1 angle (deg)", str(tmp_path / "r.png"))
     assert str(e.value).startswith("plot_report.py: %s: no column 'q1_deg' (columns: index, " % csv)
     assert "\n" not in str(e.value)
+
+
+def run_batch(lines, cwd, env=None):
+    """plot_report.py --batch fed `lines`; its answer lines."""
+    out = subprocess.run([sys.executable, str(SOURCE_DIR / "tools" / "plot_report.py"), "--batch"], input="".join(lines),
+                         capture_output=True, text=True, cwd=cwd, env=env, timeout=120, check=True)
+    return out.stdout.splitlines()
+
+
+def test_batch_draws_each_figure_of_its_input_and_answers_each_on_one_line(tmp_path):
+    header = ["parameter", "effect", "unit", "estimate", "sigma", "truth", "held", "class"]
+    write_csv(tmp_path / "estimates.csv", header, [("d1", "geometry", "mm", 0.1, 0.01, "", 0, "")])
+    write_csv(tmp_path / "residuals.csv", ["index", "q2_deg", "base_mm", "selected_mm"], [(0, 10.0, 0.2, 0.1), (1, 20.0, 0.3, 0.1)])
+    lines = ["parameters estimates.csv 'a b.png'\n",
+             "residuals residuals.csv q9_deg 'joint 9 (deg)' r.png\n",   # a column that is not there: named, the next drawn
+             "\n",                                                       # blank lines are skipped
+             "bogus\n",
+             "residuals residuals.csv q2_deg 'joint 2 (deg)' r.png --floor 0.05\n"]
+    answers = run_batch(lines, tmp_path)
+    assert answers[0] == "ok" and answers[3] == "ok"
+    assert answers[1].startswith("error: plot_report.py: residuals.csv: no column 'q9_deg' (columns: index, ")
+    assert answers[2] == "error: plot_report.py: bad arguments: bogus"
+    assert len(answers) == 4
+    assert (tmp_path / "a b.png").stat().st_size > 1000 and (tmp_path / "r.png").stat().st_size > 1000
+
+
+def test_batch_without_matplotlib_answers_missing_for_each_figure(tmp_path):
+    fake = tmp_path / "fake" / "matplotlib"
+    fake.mkdir(parents=True)
+    (fake / "__init__.py").write_text("raise ImportError(\"No module named 'matplotlib'\")\n")
+    env = dict(os.environ, PYTHONPATH=str(tmp_path / "fake"))
+    answers = run_batch(["parameters e.csv a.png\n", "heldout h.csv b.png\n"], tmp_path, env)
+    assert answers == ["missing: ImportError: No module named 'matplotlib'"] * 2
+    # One figure alone still fails with Python's own error, as before.
+    single = subprocess.run([sys.executable, str(SOURCE_DIR / "tools" / "plot_report.py"), "parameters", "e.csv", "a.png"],
+                            capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120)
+    assert single.returncode != 0 and single.stderr.strip().splitlines()[-1] == "ImportError: No module named 'matplotlib'"

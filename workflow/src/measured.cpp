@@ -251,8 +251,12 @@ std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model) {
 
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) {
   calib::checkHoldout(o.holdout);
+  return runMeasuredCalibrate(sim::loadMeasuredData(o.description), o);
+}
+
+MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, const MeasuredCalibrateOptions& o) {
+  calib::checkHoldout(o.holdout);
   MeasuredCalibrateResult r;
-  const sim::MeasuredData data = sim::loadMeasuredData(o.description);
   std::vector<sim::Effect> effects;
   for (const std::string& e : o.effects) effects.push_back(sim::parseEffect(e, data.arm.numJoints(), "--effects"));
   const std::vector<calib::MarkerObservation> all = calib::observationsFrom(data, calib::needsTorque(effects));
@@ -384,6 +388,11 @@ std::string evaluationResidualsCsv(const std::vector<calib::MarkerObservation>& 
 
 }  // namespace
 
+calib::Fit evaluationBaseline(const sim::MeasuredData& data, const std::vector<calib::MarkerObservation>& obs, calib::FitOptions fo) {
+  fo.analyze = false;
+  return calib::fitRegistration(calib::startingModel(data, obs, {}), obs, fo);
+}
+
 EvaluateResult runEvaluate(const std::string& model_file, const std::string& description, const std::string& out) {
   const sim::LoadedModel lm = sim::loadModelFile(model_file);
   sim::MeasuredData data = sim::loadMeasuredData(description);
@@ -401,9 +410,7 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   r.fit = calib::predictWithModel({lm.model, lm.p}, data, obs, fo);
   r.refitted = r.fit.model.layout.size() - static_cast<int>(r.fit.estimate.held.size());
   calib::requirePlausibleResidual(data, r.fit.residuals, "the prediction residual of " + model_file);
-  calib::FitOptions bo = fo;
-  bo.analyze = false;
-  const calib::Fit baseline = calib::fitRegistration(calib::startingModel(data, obs, {}), obs, bo);
+  const calib::Fit baseline = evaluationBaseline(data, obs, fo);
   r.baseline = baseline.residuals;
   sim::OutputFolder folder(out, "orbcal evaluate");  // the inputs are read and plausible
   r.warnings = calib::outsideTrustedRange(lm.model, obs);

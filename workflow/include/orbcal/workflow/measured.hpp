@@ -52,7 +52,13 @@ struct MeasuredCalibrateResult {
   std::string model_path, report_path;
 };
 
+/// `orbcal calibrate DESC.yaml`: reads o.description and calibrates it (the overload below).
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o);
+/// The one measured-data calibration, on data already read (the command line's and Python's alike):
+/// hold-out split, fit, plausibility checks, held-out verdict and refusals, model files (when accepted
+/// or o.accept_worse) and report.md in o.out (default <o.description's folder>/calibration);
+/// o.description names the data in the report and the files' headers.
+MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, const MeasuredCalibrateOptions& o);
 
 /// What every calibration writes into `out` (image datasets and measured data alike): model.yaml and
 /// `robot_name` (sim/model_io.hpp) and, for programs outside orbcal (sim/export.hpp,
@@ -91,6 +97,9 @@ struct EvaluateResult {
   std::vector<std::string> warnings;  ///< empirical corrections applied outside their fitted range
   std::string json_path, report_path, residuals_path;
 };
+/// The baseline of an evaluation: the description's nominal arm with every registration frame fitted to
+/// `obs` (no geometry, no effects), with the noise of `fo` (no identifiability analysis).
+calib::Fit evaluationBaseline(const sim::MeasuredData& data, const std::vector<calib::MarkerObservation>& obs, calib::FitOptions fo);
 EvaluateResult runEvaluate(const std::string& model_file, const std::string& description, const std::string& out);
 
 /// Writes measurements.yaml + session CSVs + robot.yaml into `out`, and the truth (a model file) into
