@@ -9,6 +9,7 @@
 #include "figures.hpp"
 #include "orbcal/workflow/measured.hpp"
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/effect_syntax.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/se3.hpp"
 
@@ -114,7 +115,8 @@ void addCalibrateCommand(CLI::App& app) {
       "Calibrate an arm. From an image dataset (folder): the DH errors (with --estimate-frames also base_T_board and "
       "flange_T_camera, and with --effects the effects, fitted on the detected corners). From measured data (a "
       "measurement description, .yaml): geometry + the unknown registration frames + the chosen effects (--effects). "
-      "Both are written as model.yaml (and, for other programs, robot_calibrated.urdf, frames.yaml, effects.yaml). "
+      "Both are written as model.yaml (and, for other programs, robot_calibrated.urdf, frames.yaml, effects.yaml), with "
+      "report.md and report.html (every file written: docs/reports.md). "
       "Both are judged by one rule on held-out configurations: a model that predicts them worse than the nominal arm, or "
       "not significantly better, a fit inconsistent with its noise (chi-square test; measured data: when the noise is "
       "given), is refused (exit 1, no calibrated file) unless --accept-worse. Measured data whose registration or "
@@ -124,9 +126,9 @@ void addCalibrateCommand(CLI::App& app) {
                   "estimator, for images and measured data alike: " + calib::methodNames() + " (default " +
                       calib::kDefaultMethod + ")");
   cmd->add_option("--effects", o->measured.effects,
-                  "effects to fit, effect:joints (joints from 1): compliance:2,4 cyclic:2 (2 harmonics; "
-                  "cyclic:2/3 for 3) scale:1 backlash:1 thermal drift mount; image datasets (with --estimate-frames, "
-                  "fitted on the detected corners): these and distortion (lens distortion the scene's camera lacks)");
+                  "effects to fit, e.g. compliance:2,4 cyclic:2/3; the catalog: " + sim::effectSyntaxList() +
+                      " (J a joint from 1, K the order: cyclic:2/3 has 3 harmonics); image datasets (with --estimate-frames, "
+                      "fitted on the detected corners): these and distortion (lens distortion the scene's camera lacks)");
   cmd->add_option("--level", o->level,
                   "measured data: which geometric parameters are free: frames (the registration frames only, the nominal "
                   "geometry kept), offsets (joint zero offsets + frames), full (every identifiable parameter), a list of "

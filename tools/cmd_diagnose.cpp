@@ -21,7 +21,8 @@ void addDiagnoseCommand(CLI::App& app) {
       "(compliance and stiffening compliance, cyclic, scale, backlash, thermal, drift, mount, coupling, link_bending; on "
       "image datasets also the lens distortion), with which parameters, how much better the extended model predicts "
       "held-out data, and what is left above the noise (verdict clean, effects or unexplained; empirical corrections "
-      "where no cause fits). Writes report.md and report.html (verdict first), diagnosis.json, model.yaml, figures.");
+      "where no cause fits). Writes report.md and report.html (verdict first), diagnosis.json, model.yaml + robot.yaml, "
+      "residuals.csv, figures (the list: docs/reports.md).");
   cmd->add_option("input", o->input, "measurement description (.yaml) or image dataset folder")->required();
   cmd->add_option("-o,--out", o->out, "output folder (default: diagnosis/ beside the input)");
   cmd->add_option("--folds", o->diagnose.folds, "cross-validation folds")->capture_default_str()->check(CLI::Range(2, 20));

@@ -5,6 +5,7 @@
 #include "cli.hpp"
 #include "orbcal/workflow/measured.hpp"
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/effect_syntax.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
 
@@ -22,7 +23,8 @@ void addEvaluateCommand(CLI::App& app) {
       "Predict measured data with a calibrated model (model.yaml of orbcal calibrate, or a simulation's truth): every "
       "geometric and effect parameter is the model's, only the per-session frames of the new data are refitted. "
       "Writes evaluation.json (position mean/RMS/max in mm, rotation RMS in deg where rotations are measured, and the same "
-      "for the baseline: the nominal arm with its frames fitted to the data), residuals.csv (per sample) and evaluation.md.");
+      "for the baseline: the nominal arm with its frames fitted to the data), residuals.csv (per sample), evaluation.md and "
+      "report.html (the list: docs/reports.md).");
   cmd->add_option("--model", o->model, "model file (model.yaml)")->required();
   cmd->add_option("--data", o->data, "measurement description (.yaml) of the data to predict")->required();
   cmd->add_option("-o,--out", o->out, "output folder")->required();
@@ -63,7 +65,9 @@ void addSimulateCommand(CLI::App& app) {
   cmd->add_option("--sessions", o->spec.sessions, "sessions (files), samples split evenly")->capture_default_str()->check(CLI::Range(1, 1000));
   cmd->add_option("--payload-kg", o->spec.payload_kg, "payload per session [kg] (one value: all sessions)")->capture_default_str();
   cmd->add_option("--seed", o->spec.seed, "seed of everything drawn")->capture_default_str();
-  cmd->add_option("--inject", o->inject, "effects in the true arm, effect:joints (joints from 1), e.g. compliance:2 cyclic:4 thermal");
+  cmd->add_option("--inject", o->inject,
+                  "effects in the true arm, e.g. compliance:2 cyclic:4 thermal; the catalog: " + sim::effectSyntaxList() +
+                      " (J a joint from 1, K the order)");
   cmd->add_option("--values", o->values,
                   "their parameter values in SI, in layout order (default: drawn, at least half a typical magnitude)");
   cmd->add_option("--geometry", o->geometry, "DH errors of the true arm: random, zero or table3")

@@ -574,7 +574,7 @@ def surfaces(seeds):
                       ranges=[("position_mm", ["1e9", "-1", "0"]), ("rotation_deg", ["1e9", "-1"]),
                               ("joint_deg", ["1e9", "-0.5"])]),
              commands=[calibrate_desc, diagnose]),
-        dict(name="measured CSV", files=dict(sim, **cal), target="sim/session_0.csv", kinds=CSV_MUTATIONS,
+        dict(name="measured CSV", files=dict(sim, **cal), target="sim/session_1.csv", kinds=CSV_MUTATIONS,
              ctx=dict(numeric=[r"(?!index).*"], tiny=[r"q\d_rad", r"[xyz]_m", r"tau\d_Nm"],  # the description names no index
                       required=[r"q\d_rad", r"[xyz]_m", r"q[wxyz]", r"tau\d_Nm", "temperature_C", "time_s"],
                       ranges=[(r"tau\d_Nm", ["1e12", "-1e12"]), ("temperature_C", ["1e6", "-1e6", "-300"]),

@@ -1,5 +1,6 @@
-// orbcal: rendered calibration datasets, image-to-parameters calibration experiments, and model
-// diagnosis for serial arms with an eye-in-hand camera. Subcommands are git style: `orbcal <cmd> --help`.
+// orbcal: kinematic calibration and model diagnosis of serial arms from tracker or motion-capture data
+// or from images of an eye-in-hand camera; rendered datasets and the papers' experiments. Subcommands
+// are git style: `orbcal <cmd> --help`.
 #include <iostream>
 
 #include "cli.hpp"
@@ -69,8 +70,14 @@ void addRobotOptions(CLI::App& cmd, std::string& robot, std::string& base_link, 
 
 int main(int argc, char** argv) {
   CLI::App app{"orbcal " ORBCAL_VERSION
-               ": kinematic calibration of serial arms with an eye-in-hand camera.\n"
-               "Run `orbcal run` for the main job on the built-in SSRMS arm and scene; `orbcal <command> --help` for each command.",
+               ": kinematic calibration of serial robot arms (a robot YAML in DH or a URDF).\n"
+               "From a laser tracker's or motion-capture system's CSV files, described by a small YAML: `orbcal calibrate "
+               "DESC.yaml` (geometry, the unknown tracker and marker frames, effects such as joint compliance), `orbcal "
+               "diagnose DESC.yaml` (what the model misses, and its physical cause), `orbcal evaluate` (a model on other "
+               "data); `orbcal simulate` writes such data to try them.\n"
+               "From images of a calibration board seen by a camera on the arm: `orbcal render` (datasets with known "
+               "errors), `orbcal calibrate DATASET_DIR`; `orbcal run` is the main job on the built-in SSRMS arm and scene.\n"
+               "`orbcal <command> --help` for each command.",
                "orbcal"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("orbcal ") + ORBCAL_VERSION);

@@ -199,9 +199,17 @@ def parameters(csv_path, png_path):
         ax.set_ylabel(unit)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
-    axes[0, 0].set_title("Identified parameter errors (grey: held as unidentifiable; orange: only a combination is determined)")
+    axes[0, 0].set_title(parameters_title({parameter_kind(r) for r in rows}))
     fig.tight_layout()
     fig.savefig(png_path, dpi=110)
+    return fig
+
+
+def parameters_title(kinds):
+    """The figure's title, naming only the colours its panels use (`kinds`: parameter_kind's values)."""
+    notes = [text for kind, text in (("held", "grey: held as unidentifiable"),
+                                     ("relative", "orange: only a combination is determined")) if kind in kinds]
+    return "Identified parameter errors" + (" (%s)" % "; ".join(notes) if notes else "")
 
 
 def parameter_kind(row):

@@ -216,7 +216,7 @@ std::string heldoutRefusal(const HeldoutGain& g, std::optional<double> holdout, 
 std::string formatHeldoutGain(const HeldoutGain& g) {
   using sim::formatNumber;
   return std::to_string(g.configurations) + " held-out configurations; the gain over the nominal arm, one-sided paired test of "
-         "their squared position errors (calib/heldout.hpp): t = " + formatNumber("%.2f", g.t) + ", p = " +
+         "their squared position errors: t = " + formatNumber("%.2f", g.t) + ", p = " +
          formatNumber("%.2g", g.p_value) + " (accepted at p < " + formatNumber("%g", kHeldoutGainAlpha) + " with at least " +
          std::to_string(kMinHeldoutConfigurations) + " configurations)";
 }

@@ -77,7 +77,7 @@ def test_array_errors(iiwa7, tracker):
 def test_bad_csv_cell_names_the_file_line_and_column(tracker, tmp_path):
     data, _ = tracker
     description = data.save(str(tmp_path / "run"), "builtin:iiwa7.yaml")
-    csv = tmp_path / "run" / "session_0.csv"
+    csv = tmp_path / "run" / "session_1.csv"
     lines = csv.read_text().splitlines()
     cells = lines[5].split(",")
     cells[2] = "nan?"  # q2_rad of the fifth sample

@@ -37,6 +37,8 @@ struct Layout {
   Unit length;  ///< of the matrix's translation (position carries its own)
   Unit prismatic;  ///< joints.prismatic_unit: of the prismatic joints' columns (joints.unit: the revolute ones')
   std::vector<ColumnGroup> points;  ///< pose.points: the marker points of a rigid body, one group each
+  ColumnClaims claims;     ///< the key that named each column (for a message about a column the files lack)
+  std::string description;  ///< the description's file, for messages that point at its keys
   /// Every group, in the order the writer puts them in a row (after the index).
   std::array<ColumnGroup*, 8> groups() {
     return {&joints, &torque, &temperature, &time, &matrix, &position, &quaternion, &direction};
@@ -72,7 +74,18 @@ ColumnGroup readColumn(const ConfigNode& node, const std::vector<Unit>& units, C
   return g;
 }
 
+/// A quaternion_xyzw key (a layout orbcal does not read) is refused with the key to write instead.
+void refuseXyzwQuaternion(const ConfigNode& pose) {
+  if (!pose.has("quaternion_xyzw")) return;
+  const ConfigNode q = pose["quaternion_xyzw"];
+  std::string instead = "[w, x, y, z]";
+  if (q.size() == 4) instead = "[" + q[3].asString() + ", " + q[0].asString() + ", " + q[1].asString() + ", " + q[2].asString() + "]";
+  q.fail("orbcal reads a quaternion's columns in w, x, y, z order: list the same columns in that order under "
+         "quaternion_wxyz (here quaternion_wxyz: " + printable(instead, 80) + ")");
+}
+
 void readPoseLayout(const ConfigNode& pose, Layout& l, ColumnClaims& claims) {
+  refuseXyzwQuaternion(pose);
   pose.requireOnlyKeys({"matrix", "position", "quaternion_wxyz", "points", "length_unit"});
   l.length = readUnit(valueOf(pose, "length_unit"), kLengthUnits);
   const auto matrix = optionalValueOf(pose, "matrix");
@@ -130,7 +143,8 @@ Layout readLayout(const ConfigNode& root, const Arm& arm) {
   const auto joints = static_cast<std::size_t>(arm.numJoints());
   const std::string per_joint = "one per joint of " + arm.source;
   Layout l;
-  ColumnClaims claims;
+  l.description = root.source();
+  ColumnClaims& claims = l.claims;
   const ConfigNode jn = valueOf(root, "joints");
   l.joints = readColumns(jn, joints, per_joint, kAngleUnits, claims, {"prismatic_unit"});
   if (arm.hasPrismatic() && !jn.has("prismatic_unit")) jn.fail("prismatic_unit (m or mm) is required: " + arm.source + " has a prismatic joint");
@@ -218,15 +232,15 @@ void readNoise(const ConfigNode& root, MeasuredData& d) {
 // ---------------------------------------------------------------------------------------------
 // The CSV files.
 
-/// `l` with the column index of every name in `t` (InputError naming the file for a missing one).
+/// `l` with the column index of every name in `t` (InputError naming the file and the key for a missing one).
 Layout bindColumns(Layout l, const CsvTable& t) {
   for (ColumnGroup* g : l.groups()) {
     g->index.clear();
-    for (const std::string& name : g->names) g->index.push_back(t.requireColumn(name));
+    for (const std::string& name : g->names) g->index.push_back(requireNamedColumn(t, name, l.claims, l.description));
   }
   for (ColumnGroup& g : l.points) {
     g.index.clear();
-    for (const std::string& name : g.names) g.index.push_back(t.requireColumn(name));
+    for (const std::string& name : g.names) g.index.push_back(requireNamedColumn(t, name, l.claims, l.description));
   }
   return l;
 }
@@ -245,7 +259,8 @@ Eigen::VectorXd readJoints(const CsvTable& t, std::size_t r, const Layout& l, co
     if (q[j] >= arm.lower_rad[j] && q[j] <= arm.upper_rad[j]) continue;
     const auto in = [&u](double si) { return formatNumber("%.9g", u.fromSi(si)); };
     throw InputError(t.where(r) + ": " + g.names[static_cast<std::size_t>(j)] + ": " + in(q[j]) + " " + u.name +
-                     " is outside the joint limits [" + in(arm.lower_rad[j]) + ", " + in(arm.upper_rad[j]) + "] " + u.name + " of " + arm.source);
+                     " is outside the joint limits [" + in(arm.lower_rad[j]) + ", " + in(arm.upper_rad[j]) + "] " + u.name + " of " +
+                     arm.source + angleUnitHint(u.fromSi(q[j]), u, arm, static_cast<int>(j), l.description));
   }
   return q;
 }
@@ -544,7 +559,7 @@ std::string writeMeasuredData(const MeasuredData& data, const std::string& folde
   makeDirectories(folder);
   std::vector<std::string> files;
   for (std::size_t s = 0; s < sessions.size(); ++s) {
-    files.push_back("session_" + std::to_string(s) + ".csv");
+    files.push_back("session_" + std::to_string(s + 1) + ".csv");  // from 1, as frames.yaml numbers sessions
     std::vector<std::string> names;  // the columns before the points
     for (const ColumnGroup* g : layout.groups()) names.insert(names.end(), g->names.begin(), g->names.end());
     const auto cells = [&layout](const MeasuredPose& p) { return rowCells(p, layout); };

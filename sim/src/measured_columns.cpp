@@ -66,4 +66,27 @@ Eigen::VectorXd readGroup(const CsvTable& t, std::size_t r, const ColumnGroup& g
   return v;
 }
 
+/// The index of column `name` in `t`; a missing one is an InputError naming the file, the
+/// description's key that asked for the column (joints.columns[6]) and the header's columns.
+int requireNamedColumn(const CsvTable& t, const std::string& name, const ColumnClaims& claims, const std::string& description) {
+  const int c = t.column(name);
+  if (c >= 0) return c;
+  const auto key = claims.find(name);
+  std::string header;
+  for (std::size_t i = 0; i < t.header().size() && i < 24; ++i) header += (i ? ", " : "") + printable(t.header()[i], 40);
+  if (t.header().size() > 24) header += ", ... (" + std::to_string(t.header().size()) + " in all)";
+  throw InputError(t.source() + ": header: missing column " + quoteInput(name) + ", which " +
+                   (key != claims.end() ? key->second : std::string("a key")) + " of " + description +
+                   " names (the header has: " + header + ")");
+}
+
+/// "; read in deg it is within them: ..." where a revolute joint's value outside its limits in rad
+/// would be within them in deg (degree columns declared rad), else "".
+std::string angleUnitHint(double value, const Unit& u, const Arm& arm, int j, const std::string& description) {
+  if (std::string(u.name) != "rad" || arm.isPrismatic(j)) return "";
+  const double as_deg = value * kDegToRad;
+  if (!(as_deg >= arm.lower_rad[j] && as_deg <= arm.upper_rad[j])) return "";
+  return "; read in deg it is within them: if the columns hold degrees, write joints.unit: deg in " + description;
+}
+
 }  // namespace orbcal::sim::measured_columns

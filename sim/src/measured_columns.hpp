@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "orbcal/sim/arm.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/measured.hpp"
@@ -83,5 +84,14 @@ void checkWithin(const CsvTable& t, std::size_t r, int col, double si, const Uni
 
 /// The cells of `g` on row r, in SI units, each within the group's range.
 Eigen::VectorXd readGroup(const CsvTable& t, std::size_t r, const ColumnGroup& g);
+
+/// The index of column `name` in `t`; a missing one is an InputError naming the file, the key of the
+/// description (its file: `description`) that asked for the column (joints.columns[6], from `claims`)
+/// and the header's columns.
+int requireNamedColumn(const CsvTable& t, const std::string& name, const ColumnClaims& claims, const std::string& description);
+
+/// "; read in deg it is within them: ..." where joint j's `value` (in unit `u`), outside its limits,
+/// would be within them read in deg (degree columns declared rad), else "".
+std::string angleUnitHint(double value, const Unit& u, const Arm& arm, int j, const std::string& description);
 
 }  // namespace orbcal::sim::measured_columns

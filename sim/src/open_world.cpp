@@ -344,7 +344,7 @@ OpenWorldDataset generateOpenWorld(const OpenWorldSpec& spec) {
   MeasuredData& d = out.data;
   d.robot_file = spec.arm.source;
   d.arm = spec.arm;
-  d.files = {"session_0.csv"};
+  d.files = {"session_1.csv"};
   d.base = d.marker = FrameSharing::kShared;
   d.noise_position_m = spec.noise_position_m;
   d.noise_rotation_rad = spec.noise_rotation_rad;

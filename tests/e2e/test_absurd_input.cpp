@@ -116,8 +116,8 @@ std::string robotError(const std::string& dir, const std::string& shipped, const
 TEST_CASE("absurd input: a measured x_m of -1e308 is refused by calibrate, diagnose and evaluate at its cell", "[e2e][absurd]") {
   const std::string dir = test::tempDir("absurd-1e308");
   const std::string desc = simulated(dir + "/data");
-  setCell(dir + "/data/session_0.csv", 4, "x_m", "-1e308");
-  const std::string line = dir + "/data/session_0.csv: line 6: x_m: -1e+308 m is outside -10000 m to 10000 m (a position within 10 km)";
+  setCell(dir + "/data/session_1.csv", 4, "x_m", "-1e308");
+  const std::string line = dir + "/data/session_1.csv: line 6: x_m: -1e+308 m is outside -10000 m to 10000 m (a position within 10 km)";
   // Before: calibrate and diagnose died of SIGSEGV in an SVD, evaluate wrote `inf` into evaluation.json
   // after 38 lines of Ceres log. Now each says the file, line and column, and writes nothing.
   checkRefused(runOrbcal(dir, "calibrate " + desc + " -o cal"), line);
@@ -181,7 +181,7 @@ TEST_CASE("absurd input: a PNG cut short is an unreadable image, without libpng'
 TEST_CASE("absurd input: measured torques, temperatures and times are refused outside their physical ranges", "[e2e][absurd]") {
   const std::string dir = test::tempDir("absurd-covariates");
   const std::string desc = simulated(dir);
-  const std::string csv = dir + "/session_1.csv", good = slurp(csv);
+  const std::string csv = dir + "/session_2.csv", good = slurp(csv);
   const auto message = [&](std::size_t row, const std::string& column, const std::string& value) {
     write(csv, good);
     setCell(csv, row, column, value);
@@ -200,7 +200,7 @@ TEST_CASE("absurd input: measured torques, temperatures and times are refused ou
   write(csv, good);
   editFile(desc, "unit: degC", "unit: K");
   CHECK(inputError([&] { sim::loadMeasuredData(desc); }) ==
-        dir + "/session_0.csv: line 2: temperature_C: 20 K is outside 123.15 K to 473.15 K (an arm's temperature)");
+        dir + "/session_1.csv: line 2: temperature_C: 20 K is outside 123.15 K to 473.15 K (an arm's temperature)");
 }
 
 TEST_CASE("absurd input: a pose matrix translation of 1e308 mm is refused at its column in mm", "[e2e][absurd]") {
@@ -433,7 +433,7 @@ TEST_CASE("clear messages: study option values are checked before any task runs"
 TEST_CASE("clear messages: a file that cannot be read is named with the file and key that named it", "[e2e][absurd]") {
   const std::string dir = test::tempDir("absurd-cannot-read");
   const std::string desc = simulated(dir + "/data");
-  editFile(desc, "\"session_1.csv\"", "\"session_9.csv\"");
+  editFile(desc, "\"session_2.csv\"", "\"session_9.csv\"");
   CHECK(inputError([&] { sim::loadMeasuredData(desc); }) ==
         desc + ": files[1]: " + dir + "/data/session_9.csv: cannot read: no such file or not readable");
   editFile(desc, "robot: \"robot.yaml\"", "robot: \"no-robot.yaml\"");

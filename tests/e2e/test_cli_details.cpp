@@ -1,11 +1,13 @@
 // Details of the command line: a study file in another folder with a relative -o, the built-in
-// iiwa7's joint limits against KUKA's data sheet, and simulate's --quiet.
+// iiwa7's joint limits against KUKA's data sheet, simulate's --quiet, every effect of the catalog in
+// --help and the manual, and what `orbcal --help` says orbcal is for.
 #include <sys/wait.h>
 
 #include <catch2/catch.hpp>
 #include <filesystem>
 
 #include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/effect_syntax.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/measured.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -70,7 +72,7 @@ TEST_CASE("orbcal simulate --quiet: as the other commands take it, the same data
   REQUIRE(runOrbcal(dir, "simulate -o loud -n 20 --sessions 1 --seed 2") == 0);
   REQUIRE(runOrbcal(dir, "simulate -o quiet -n 20 --sessions 1 --seed 2 --quiet") == 0);
   CHECK(test::slurp(dir + "/stderr.txt").empty());
-  CHECK(test::slurp(dir + "/quiet/session_0.csv") == test::slurp(dir + "/loud/session_0.csv"));
+  CHECK(test::slurp(dir + "/quiet/session_1.csv") == test::slurp(dir + "/loud/session_1.csv"));
   CHECK(test::slurp(dir + "/quiet/truth/model.yaml") == test::slurp(dir + "/loud/truth/model.yaml"));
 }
 
@@ -81,5 +83,37 @@ TEST_CASE("figure arguments are quoted for the shell whatever they hold (a label
     CAPTURE(word);
     CHECK(status == 0);
     CHECK(out == word);
+  }
+}
+
+TEST_CASE("every effect of the catalog is in calibrate's and simulate's --help and in the manual's effect table", "[e2e][effects]") {
+  const std::string dir = test::tempDir("effects-help");
+  const std::string calibrate = (test::runOrbcal(dir, "calibrate --help"), test::slurp(dir + "/stdout.txt"));
+  const std::string simulate = (test::runOrbcal(dir, "simulate --help"), test::slurp(dir + "/stdout.txt"));
+  const std::string manual = test::slurp(test::sourcePath("docs/own-robot-and-measured-data.md"));
+  REQUIRE(sim::catalog().size() >= 11);  // the catalog as this test was written; more may come, never fewer
+  for (const sim::EffectKind* k : sim::catalog()) {
+    const std::string syntax = sim::effectSyntax(*k);
+    CAPTURE(k->name(), syntax);
+    CHECK_THAT(syntax, Catch::StartsWith(k->name()));
+    CHECK_THAT(calibrate, Contains(" " + syntax + " ") || Contains(" " + syntax + " ("));
+    CHECK_THAT(simulate, Contains(" " + syntax + " ") || Contains(" " + syntax + " ("));
+    // A row of the catalog's table names it: "| `compliance` |", or beside a sibling "| `empirical`, `empirical_torque` |".
+    bool row = false;
+    std::istringstream lines(manual);
+    for (std::string line; std::getline(lines, line);) {
+      row = row || (line.rfind("| `", 0) == 0 && line.substr(0, line.find(" | ", 2)).find("`" + k->name() + "`") != std::string::npos);
+    }
+    CHECK(row);
+  }
+}
+
+TEST_CASE("orbcal --help says what orbcal is for: tracker and motion-capture data as well as images", "[e2e]") {
+  const std::string dir = test::tempDir("top-help");
+  REQUIRE(test::runOrbcal(dir, "--help").status == 0);
+  const std::string help = test::slurp(dir + "/stdout.txt");
+  for (const char* words : {"laser tracker", "motion-capture", "orbcal calibrate DESC.yaml", "orbcal diagnose", "orbcal evaluate",
+                            "orbcal simulate", "camera on the arm", "orbcal run"}) {
+    CHECK_THAT(help, Contains(words));
   }
 }

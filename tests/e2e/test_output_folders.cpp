@@ -159,10 +159,10 @@ TEST_CASE("no stale result: a folder holding a file the command did not write is
   // file and a staging folder) is taken over.
   test::write(dir + "/data/.orbcal.lock", "process 1 (orbcal simulate)\n");
   fs::create_directories(dir + "/.data.tmp-999999/truth");
-  test::write(dir + "/.data.tmp-999999/session_0.csv", "half written\n");
+  test::write(dir + "/.data.tmp-999999/session_1.csv", "half written\n");
   REQUIRE(runOrbcal(dir, "simulate -o data -n 80 --sessions 1 --seed 7 --quiet").status == 0);
   CHECK(stagedBeside(dir + "/data").empty());
-  CHECK(filesOf(dir + "/data").count("session_0.csv") == 1);
+  CHECK(filesOf(dir + "/data").count("session_1.csv") == 1);
 }
 
 TEST_CASE("no stale result: two diagnose runs into one folder, the second is refused by the lock", "[e2e][stale]") {

@@ -47,7 +47,7 @@ TEST_CASE("diagnose: residuals.csv gives the torso's position in mm and the arm'
   REQUIRE(diag.status == 0);
 
   // The data file (SI: the torso in m, the arm in rad) is the independent source of the joint readings.
-  const sim::CsvTable data = sim::CsvTable::parse(test::slurp(dir + "/data/session_0.csv"), "session_0.csv");
+  const sim::CsvTable data = sim::CsvTable::parse(test::slurp(dir + "/data/session_1.csv"), "session_1.csv");
   const sim::CsvTable res = sim::CsvTable::parse(test::slurp(dir + "/diag/residuals.csv"), "residuals.csv");
   REQUIRE(res.rows() == data.rows());
   CHECK(res.column("q1_deg") < 0);

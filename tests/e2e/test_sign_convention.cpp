@@ -83,7 +83,7 @@ std::string saggingData(const std::string& folder, const std::vector<double>& pa
   std::normal_distribution<double> n01(0.0, 1.0);
   const double c = 1e-4;
   for (std::size_t s = 0; s < payloads.size(); ++s) {
-    d.files.push_back("session_" + std::to_string(s) + ".csv");
+    d.files.push_back("session_" + std::to_string(s + 1) + ".csv");
     for (const Eigen::VectorXd& q : test::randomConfigs(d.arm, 150, 20 + s)) {
       const Eigen::VectorXd grad = energyGradient(d.arm, q, payloads[s]);
       Eigen::VectorXd link = q;

@@ -141,3 +141,34 @@ TEST_CASE("a wrong robot file whose calibration would move a link beyond its tol
     CHECK(test::slurp(dir + "/stderr.txt").find("robot: " + dir + "/data/robot_long.yaml") != std::string::npos);
   }
 }
+
+TEST_CASE("messages point at the fix: a missing column names its key, degrees read as rad joints.unit, an x, y, z, w "
+          "quaternion the key to write", "[e2e][measured][badinput]") {
+  const std::string dir = test::tempDir("messages-fix");
+  sim::SimulationSpec s;
+  s.samples = 20;
+  s.seed = 23;
+  const sim::SimulatedData d = workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), s, dir + "/data");
+  const std::string good = test::slurp(d.data.description);
+  // The same samples with the joints in degrees, the description still saying rad.
+  sim::MeasuredData in_deg = d.data;
+  for (sim::MeasuredPose& p : in_deg.poses) p.sample.q_rad *= sim::kRadToDeg;
+  sim::writeMeasuredData(in_deg, dir + "/data_deg", dir + "/data/robot.yaml");
+  test::write(dir + "/data/renamed.yaml", edited(good, "columns: [q1_rad, q2_rad, q3_rad,", "columns: [q1_rad, q2_rad, joint3,"));
+  test::write(dir + "/data/xyzw.yaml", edited(good, "quaternion_wxyz: [qw, qx, qy, qz]", "quaternion_xyzw: [qx, qy, qz, qw]"));
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {dir + "/data/renamed.yaml", "missing column 'joint3', which joints.columns[2] of " + dir + "/data/renamed.yaml names"},
+      {dir + "/data/xyzw.yaml", "pose.quaternion_xyzw: orbcal reads a quaternion's columns in w, x, y, z order: list the same "
+                                "columns in that order under quaternion_wxyz (here quaternion_wxyz: [qw, qx, qy, qz])"},
+      {dir + "/data_deg/measurements.yaml",
+       "read in deg it is within them: if the columns hold degrees, write joints.unit: deg in " + dir + "/data_deg/measurements.yaml"}};
+  for (const auto& [desc, message] : cases) {
+    CAPTURE(desc);
+    const Run r = runOrbcal(dir, "calibrate '" + desc + "' -o cal");
+    CAPTURE(r.out, r.err);
+    CHECK(r.status == 1);
+    CHECK(std::count(r.err.begin(), r.err.end(), '\n') == 1);  // one line
+    CHECK(r.err.find(message) != std::string::npos);
+    checkNoResult(dir + "/cal");
+  }
+}

@@ -190,7 +190,23 @@ TEST_CASE("measured data: every bad cell is named by file, line and column", "[s
   }
   SECTION("a column of the description missing from the file") {
     const std::string header = with(kHeader, ",t2", ",t_2");
-    CHECK(csvError("missing-column", kRowB, header) == csvPath("missing-column") + ": header: missing column 't2'");
+    // The key that asked for it, in which file, and what the header has instead.
+    CHECK(csvError("missing-column", kRowB, header) ==
+          csvPath("missing-column") + ": header: missing column 't2', which covariates.torque.columns[1] of " +
+              folderOf("missing-column") + "/desc.yaml names (the header has: j1, j2, m00, m01, m02, m03, m10, m11, m12, "
+              "m13, m20, m21, m22, m23, m30, m31, m32, m33, t1, t_2)");
+    CHECK_THAT(csvError("missing-joint", kRowB, with(kHeader, "j1,", "joint1,")),
+               Contains(": header: missing column 'j1', which joints.columns[0] of "));
+  }
+  SECTION("degrees declared rad: outside the limits in rad, within them in deg, joints.unit is named") {
+    const std::string desc = with(kMatrixDescription, "unit: deg}", "unit: rad}");
+    const Files f = writeFiles("deg-as-rad", desc, kHeader + "\n" + kRowA + "\n" + kRowB + "\n");
+    CHECK(loadError(f.description) == f.csv + ": line 2: j1: 10 rad is outside the joint limits [-1.57079633, 1.57079633] rad of " +
+                                          f.dir + "/robot.yaml; read in deg it is within them: if the columns hold degrees, "
+                                          "write joints.unit: deg in " + f.description);
+    // A value beyond the limits in either unit gets no such hint.
+    const Files g = writeFiles("far-out", desc, kHeader + "\n" + with(kRowA, "10,-20,", "100,-20,") + "\n");
+    CHECK_THAT(loadError(g.description), Contains("100 rad is outside the joint limits") && !Contains("joints.unit"));
   }
   SECTION("a duplicate column name") {
     CHECK(csvError("duplicate", kRowB, with(kHeader, ",t2", ",t1")) ==
@@ -277,6 +293,11 @@ TEST_CASE("measured data: a bad description names the file and the key", "[sim][
   CHECK(error("files: [data.csv]", "files: [nothing.csv]") ==
         desc + ": files[0]: " + folderOf("desc") + "/nothing.csv: cannot read: no such file or not readable");
   CHECK_THAT(error("{matrix:", "{position: [x, y, z], matrix:"), Catch::StartsWith(desc + ": pose: expected either 'matrix'"));
+  // A quaternion x, y, z, w: the key to write instead, with the columns in orbcal's order.
+  CHECK(error("{matrix: [m00, m01, m02, m03, m10, m11, m12, m13, m20, m21, m22, m23, m30, m31, m32, m33]",
+              "{position: [m03, m13, m23], quaternion_xyzw: [m00, m01, m02, m10]") ==
+        desc + ": pose.quaternion_xyzw: orbcal reads a quaternion's columns in w, x, y, z order: list the same columns in that "
+               "order under quaternion_wxyz (here quaternion_wxyz: [m10, m00, m01, m02])");
   CHECK(error("registration: {base: shared, marker: per_session}\n",
               "registration: {base: shared, marker: per_session}\nnoise: {position_mm: 0}\n") ==
         desc + ": noise.position_mm: '0' is outside 1e-06 mm to 100 mm (1 sigma per axis)");

@@ -260,8 +260,9 @@ std::string unexplainedSection(const calib::Diagnosis& d, double alpha) {
     md << "estimated from these residuals: no stated noise and no repeated configurations to test against";
   }
   md << "); above it: " << mm(l.excess_rms_m) << " mm RMS, " << sim::formatNumber("%.0f", 100.0 * l.excess_share)
-     << " % of the held-out mean square. Parameters estimated on the other folds add about "
-     << sim::formatNumber("%.1f", 100.0 * (l.estimation_factor - 1.0)) << " % to the mean square the noise gives; the test counts it.\n\n";
+     << " % of the held-out mean square. Part of a held-out error is the model's own uncertainty (each fold's parameters "
+     << "were fitted to the other folds' noisy data): it raises the mean square expected from the noise by about "
+     << sim::formatNumber("%.1f", 100.0 * (l.estimation_factor - 1.0)) << " %, and the test allows for it.\n\n";
   if (l.tested) {
     md << "Lack-of-fit test (" << (l.source == calib::NoiseSource::kStated ? "chi-square of the whitened held-out position rows, " : "F against pure error, ")
        << sim::formatNumber("%.0f", l.dof1) << (l.dof2 > 0 ? ", " + sim::formatNumber("%.0f", l.dof2) : std::string()) << " dof): statistic "

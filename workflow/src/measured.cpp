@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
 #include <filesystem>
 #include <sstream>
 
@@ -104,6 +105,21 @@ const double* geometryTruth(const sim::ParamLayout& layout, const Eigen::VectorX
   return k >= 0 && k < layout.block(g).size() && k < truth->size() ? &(*truth)[k] : nullptr;
 }
 
+/// A compliance (rad/(N*m)) also as the stiffness people quote, 1/c in N*m/rad with its 1-sigma
+/// (sigma_c / c^2), one line after the table for each fitted one; "" when there is none.
+std::string stiffnessLines(const calib::Fit& fit) {
+  std::string out;
+  const std::vector<sim::ParameterRow> rows = parameterRows(fit);
+  for (int i = 0; i < fit.model.layout.size(); ++i) {
+    const sim::ParamInfo& info = fit.model.layout.param(i);
+    const sim::ParameterRow& r = rows[static_cast<std::size_t>(i)];
+    if (info.display_unit != "rad/(N*m)" || r.held || !(r.value > 0.0)) continue;
+    out += "- " + r.name + ": stiffness " + formatNumber("%.5g", 1.0 / r.value) + " N*m/rad (1-sigma " +
+           formatNumber("%.3g", r.sigma / (r.value * r.value)) + ")\n";
+  }
+  return out.empty() ? out : "\nAs stiffness (1 / compliance):\n\n" + out;
+}
+
 }  // namespace
 
 std::string parameterTable(const calib::Fit& fit, const calib::ParameterClasses* classes, const Eigen::VectorXd* geometry_truth) {
@@ -131,7 +147,7 @@ std::string parameterTable(const calib::Fit& fit, const calib::ParameterClasses*
     }
     md += "\n";
   }
-  return md;
+  return md + stiffnessLines(fit);
 }
 
 std::string estimatesCsv(const calib::Fit& fit, const calib::ParameterClasses* classes, const Eigen::VectorXd* geometry_truth) {
@@ -247,6 +263,17 @@ std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model) {
   return md.str();
 }
 
+/// The geometric parameters in people's words: "28 DH errors (4 per joint)", or for a URDF chain "49 errors
+/// of the joints iiwa_joint_1 ... iiwa_joint_7 (7 each: zero offset, origin x, y, z, roll, pitch, yaw)".
+std::string geometryWords(const sim::Arm& arm) {
+  const int n = arm.numJoints(), per = n > 0 ? arm.numParams() / n : 0;
+  if (arm.convention != sim::DhConvention::kUrdf || arm.urdf.joint_names.size() != static_cast<std::size_t>(n) || n == 0) {
+    return std::to_string(arm.numParams()) + " DH errors (" + std::to_string(per) + " per joint)";
+  }
+  return std::to_string(arm.numParams()) + " errors of the joints " + arm.urdf.joint_names.front() + " ... " + arm.urdf.joint_names.back() + " (" +
+         std::to_string(per) + " each: zero offset, origin x, y, z, roll, pitch, yaw)";
+}
+
 }  // namespace
 
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) {
@@ -317,7 +344,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   md << verdictLines(r, write_model);
   md << "Description `" << o.description << "`: " << r.samples << " samples in " << data.numSessions() << " session(s); "
      << r.identification << " fitted, " << r.held_out << " held out (" << r.gain.configurations << " configurations; seed " << o.seed << ", per session).\n\n"
-     << "Model: geometry (" << data.arm.numParams() << " DH errors) + registration (base " << sim::frameSharingName(data.base)
+     << "Model: geometry (" << geometryWords(data.arm) << ") + registration (base " << sim::frameSharingName(data.base)
      << ", marker " << sim::frameSharingName(data.marker) << ")";
   for (const std::string& e : o.effects) md << " + " << e;
   md << "; " << r.fit.model.layout.size() << " parameters, " << r.fit.estimate.held.size() << " held (by the level or as unidentifiable).\n\n"
@@ -386,6 +413,22 @@ std::string evaluationResidualsCsv(const std::vector<calib::MarkerObservation>& 
   return csv.str();
 }
 
+/// evaluate's verdict, the report's first paragraph (boxed on the page): the prediction against the
+/// nominal arm with its frames fitted to the same data, and the floor the stated tracker noise alone
+/// gives (sqrt(3) sigma per axis: the RMS of a 3-D error), where the description states it.
+std::string evaluationVerdict(const calib::ResidualStats& prediction, const calib::ResidualStats& baseline,
+                              const std::optional<double>& noise_position_m) {
+  const bool better = prediction.position_rms_m < baseline.position_rms_m;
+  const auto mm = [](double m) { return sim::formatNumber("%.4f", m * 1e3) + " mm"; };
+  std::string v = std::string("**The model predicts these data ") + (better ? "better" : "no better") +
+                  " than the nominal arm: position RMS " + mm(prediction.position_rms_m) + " against " +
+                  mm(baseline.position_rms_m) + " (the nominal arm with its frames fitted to these data).**";
+  if (noise_position_m) {
+    v += " The tracker noise the description states alone gives about " + mm(std::sqrt(3.0) * *noise_position_m) + " RMS.";
+  }
+  return v + "\n\n";
+}
+
 }  // namespace
 
 calib::Fit evaluationBaseline(const sim::MeasuredData& data, const std::vector<calib::MarkerObservation>& obs, calib::FitOptions fo) {
@@ -423,7 +466,7 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   sim::writeFileAtomic(folder.path() + "/residuals.csv", evaluationResidualsCsv(obs, r.fit, baseline, rotation));
   std::ostringstream md;
   md << "# Evaluation of `" << model_file << "` on `" << description << "`\n\n"
-     << "Every geometric and effect parameter is the model's; "
+     << evaluationVerdict(r.fit.residuals, r.baseline, data.noise_position_m) << "Every geometric and effect parameter is the model's; "
      << (r.refitted > 0 ? "the per-session frames of the data were refitted (" + std::to_string(r.refitted) + " parameters)."
                         : std::string("nothing was refitted (the data's frames are the model's)."))
      << " The baseline is the nominal arm of the description with every registration frame fitted to this data.\n\n"

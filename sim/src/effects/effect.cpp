@@ -7,6 +7,7 @@
 
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/effect_syntax.hpp"
 #include "orbcal/sim/model.hpp"
 
 namespace orbcal::sim {
@@ -25,6 +26,16 @@ const std::vector<const EffectKind*>& catalog() {
   static const std::vector<const EffectKind*> kinds{ORBCAL_EFFECT_KINDS(ORBCAL_LIST_KIND)};
 #undef ORBCAL_LIST_KIND
   return kinds;
+}
+
+std::string effectSyntax(const EffectKind& k) {
+  return k.name() + (k.takesJoints() ? ":J,..." : "") + (k.maxOrder() > 0 ? "[/K]" : "");
+}
+
+std::string effectSyntaxList() {
+  std::string list;
+  for (const EffectKind* k : catalog()) list += (list.empty() ? "" : " ") + effectSyntax(*k);
+  return list;
 }
 
 const EffectKind* findEffectKind(const std::string& name) {

@@ -133,7 +133,7 @@ MeasuredData loadMeasuredData(const std::string& description_path);
 /// stays against the flank that move left it on); before any move of the session it is 0.
 void fillApproachDirections(std::vector<MeasuredPose>& poses, double threshold_rad = 1e-6);
 
-/// Writes `data` as a description plus one CSV per session (session_0.csv, session_1.csv, ...) into
+/// Writes `data` as a description plus one CSV per session (session_1.csv, session_2.csv, ...: numbered from 1, as frames.yaml numbers sessions) into
 /// `folder` (created; every file written atomically), with the columns: index, q1_rad..qN_rad,
 /// [tau1_Nm..tauN_Nm], [temperature_C], [time_s], x_m, y_m, z_m, [qw, qx, qy, qz], [dir1..dirN]
 /// (the pose as position and quaternion; no quaternion when no sample has_rotation; covariates as
