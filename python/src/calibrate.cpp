@@ -19,6 +19,7 @@ py::dict fitStatistics(const calib::Fit& fit) {
   py::dict d = residualDict(fit.residuals);
   d["chi2"] = fit.chi2;
   d["dof"] = fit.dof;
+  d["effective_parameters"] = fit.effective_parameters;
   d["noise"] = py::dict(py::arg("position_m") = fit.noise.sigma_position_m, py::arg("rotation_rad") = fit.noise.sigma_rotation_rad,
                         py::arg("joint_rad") = fit.noise.joint_noise_sigma_rad);
   d["noise_estimated"] = fit.noise_estimated;
@@ -108,7 +109,7 @@ void bindCalibrate(py::module_& m) {
           }, "their 1-sigma (SI; NaN where not known, 0 where held)")
       .def_readonly("statistics", &PyModel::statistics,
                     "of the fit that made it: residuals (samples, position_mean_m, position_rms_m, position_max_m, "
-                    "rotation_rms_rad, rotation_max_rad), chi2, dof, noise, noise_estimated, weak; empty for a loaded or true model")
+                    "rotation_rms_rad, rotation_max_rad), chi2, dof, effective_parameters, noise, noise_estimated, weak; empty for a loaded or true model")
       .def("save", &saveModel, py::arg("path"),
            "Writes the model file (format orbcal-model-2, as orbcal calibrate writes model.yaml) and its robot file beside "
            "it (robot.yaml for model.yaml, else NAME.robot.yaml), each atomically. Returns the model file's path.")
@@ -130,8 +131,7 @@ void bindCalibrate(py::module_& m) {
         calib::FitOptions fo = fitOptions(data, method);
         const calib::LevelChoice choice = calib::resolveLevel(calib::parseLevel(level, "level"), data, obs, fx, fo, seed);
         const sim::KinematicModel start = calib::startingModel(data, obs, fx);
-        fo.hold = calib::levelHold(start, choice.chosen, "level");
-        const calib::Fit fit = calib::fitMarkerModel(start, obs, fo);
+        const calib::Fit fit = calib::fitMarkerModel(start, obs, calib::levelOptions(fo, start, choice.chosen, "level"));
         const calib::CalibratedModel cm = calib::calibratedModel(fit);
         py::dict stats = fitStatistics(fit);
         stats["level"] = calib::levelName(choice.chosen);
