@@ -22,12 +22,22 @@ void printMeasured(const workflow::MeasuredCalibrateResult& r, const std::string
   const auto refused = [&](const std::string& why) {
     std::fprintf(stderr, "orbcal: calibrate: %s: %s%s\n", description.c_str(), why.c_str(), not_written);
   };
+  for (const std::string& w : r.warnings) std::fprintf(stderr, "warning: %s: %s\n", description.c_str(), w.c_str());
   for (const std::string& why : r.refusals) refused(why);
   std::printf("%s\n", calib::levelSentence(r.level).c_str());
   std::printf("%d samples: %d fitted, %d held out; %d parameters, %zu held (by the level or as unidentifiable)\n", r.samples,
               r.identification, r.held_out, r.fit.model.layout.size(), r.fit.estimate.held.size());
   std::printf("noise (1 sigma per axis): %s%s\n", workflow::noiseText(r.fit.noise, r.fit.residuals.rotation_samples > 0).c_str(),
               r.fit.noise_estimated ? " (estimated)" : "");
+  if (r.cross_validated) {
+    std::printf("cross-validated position RMS (each of the %d configurations predicted by fits to the others): nominal arm %.4f mm -> "
+                "calibrated %.4f mm (t = %.2f, p = %.2g)\n", r.gain.configurations, r.heldout_before.position_rms_m * 1e3,
+                r.heldout_after.position_rms_m * 1e3, r.gain.t, r.gain.p_value);
+  }
+  if (r.fit.prior_scale > 0.0) {
+    std::printf("map: the geometry's prior at %.3g times its typical sizes leaves %.1f effective parameters\n", r.fit.prior_scale,
+                r.fit.effective_parameters);
+  }
   if (r.held_out > 0) {
     std::printf("held-out position RMS: nominal arm %.4f mm -> calibrated %.4f mm (max %.4f -> %.4f mm)\n",
                 r.heldout_before.position_rms_m * 1e3, r.heldout_after.position_rms_m * 1e3, r.heldout_before.position_max_m * 1e3,
@@ -131,9 +141,11 @@ void addCalibrateCommand(CLI::App& app) {
                       "fitted on the detected corners): these and distortion (lens distortion the scene's camera lacks)");
   cmd->add_option("--level", o->level,
                   "measured data: which geometric parameters are free: frames (the registration frames only, the nominal "
-                  "geometry kept), offsets (joint zero offsets + frames), full (every identifiable parameter), a list of "
-                  "parameter names (theta1,theta3,d2; + frames), or auto: the level of the smallest cross-validated "
-                  "held-out error on the fitted configurations. Effects come on top")
+                  "geometry kept), offsets (joint zero offsets + frames), map (every parameter, the geometry shrunk toward the "
+                  "nominal arm by a prior of typical sizes whose strength the data set: a maximum a-posteriori fit), full "
+                  "(every identifiable parameter), a list of parameter names (theta1,theta3,d2; + frames), or auto: the "
+                  "level of the smallest held-out error in cross-validation repeated with several splits of the fitted "
+                  "configurations. Effects come on top")
       ->capture_default_str();
   cmd->add_option_function<double>(
          "--joint-noise-deg", [o](double d) { o->images.joint_noise_sigma_rad = d * sim::kDegToRad; },

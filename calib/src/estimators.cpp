@@ -4,6 +4,7 @@
 #include <ceres/normal_prior.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <algorithm>
 #include <chrono>
@@ -82,7 +83,65 @@ void stackedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, bool wei
   stackedSystem(m, linearizeAll(m, y), weighted, A, b);
 }
 
+/// A Gaussian prior as pseudo-observations: for every parameter with prior_sigma_i > 0 one row
+/// e_i^T / sigma_i of A and (mean_i - y_i) / sigma_i of b (the innovation of "y_i = mean_i").
+void appendPriorRows(const Eigen::VectorXd& sigma, const Eigen::VectorXd& mean, const Eigen::VectorXd& y, Eigen::MatrixXd& A,
+                     Eigen::VectorXd& b) {
+  std::vector<Eigen::Index> rows;
+  for (Eigen::Index i = 0; i < sigma.size(); ++i) {
+    if (sigma[i] > 0.0) rows.push_back(i);
+  }
+  if (rows.empty()) return;
+  const Eigen::Index r0 = A.rows(), n = static_cast<Eigen::Index>(rows.size());
+  A.conservativeResize(r0 + n, Eigen::NoChange);
+  b.conservativeResize(r0 + n);
+  A.bottomRows(n).setZero();
+  for (Eigen::Index r = 0; r < n; ++r) {
+    const Eigen::Index i = rows[static_cast<std::size_t>(r)];
+    A(r0 + r, i) = 1.0 / sigma[i];
+    b[r0 + r] = ((mean.size() ? mean[i] : 0.0) - y[i]) / sigma[i];
+  }
+}
+
 }  // namespace
+
+Shrinkage shrinkage(const MeasurementModel& m, const Eigen::VectorXd& y, const std::vector<int>& held,
+                    const Eigen::VectorXd& prior_sigma, const std::vector<int>& subset) {
+  const int n = m.numParams();
+  std::vector<int> free;
+  for (int p = 0; p < n; ++p) {
+    if (!std::binary_search(held.begin(), held.end(), p)) free.push_back(p);
+  }
+  Shrinkage out;
+  out.posterior_diagonal = Eigen::VectorXd::Zero(n);
+  if (free.empty()) return out;
+  const Eigen::MatrixXd J = whitenedJacobian(m, y);
+  const auto nf = static_cast<Eigen::Index>(free.size());
+  // In typical-magnitude units (Jacobi scaling), so that the decomposition's tolerance means the same
+  // for every column: D A D and D P D, with D = diag(typical).
+  const Eigen::VectorXd typical = m.layout().typical();
+  Eigen::MatrixXd Jf(J.rows(), nf);
+  Eigen::VectorXd Pf = Eigen::VectorXd::Zero(nf), d(nf);
+  for (Eigen::Index c = 0; c < nf; ++c) {
+    const int i = free[static_cast<std::size_t>(c)];
+    d[c] = typical[i];
+    Jf.col(c) = J.col(i) * d[c];
+    if (prior_sigma.size() && prior_sigma[i] > 0.0) Pf[c] = d[c] * d[c] / (prior_sigma[i] * prior_sigma[i]);
+  }
+  const Eigen::MatrixXd A = Jf.transpose() * Jf;
+  Eigen::MatrixXd N = A;
+  N.diagonal() += Pf;
+  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(N);
+  const Eigen::MatrixXd S = cod.pseudoInverse();  // (A + P)^-1 in scaled units; the pseudo-inverse where P leaves A singular
+  const Eigen::MatrixXd SA = S * A;
+  for (Eigen::Index c = 0; c < nf; ++c) {
+    const int i = free[static_cast<std::size_t>(c)];
+    out.effective += SA(c, c);
+    out.posterior_diagonal[i] = S(c, c) * d[c] * d[c];
+    if (std::find(subset.begin(), subset.end(), i) != subset.end()) out.gamma += SA(c, c);
+  }
+  return out;
+}
 
 EkfOptions EkfOptions::paperLiteral() {
   EkfOptions o;
@@ -124,7 +183,12 @@ Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
   // A held parameter has no prior and no process variance: its rows of P, and so of every gain, are zero.
   Eigen::VectorXd P0 = diagonalSigmas(m, o.prior_sigma_angle_rad, o.prior_sigma_length_m, 1.0).array().square();
   Eigen::VectorXd Q = diagonalSigmas(m, o.process_sigma_angle_rad, o.process_sigma_length_m, 0.0).array().square();
-  for (int p : e.held) P0[p] = Q[p] = 0.0;
+  for (Eigen::Index p = 0; p < o.prior_sigma.size(); ++p) {
+    if (o.prior_sigma[p] <= 0.0) continue;
+    P0[p] = o.prior_sigma[p] * o.prior_sigma[p];
+    if (o.prior_mean.size()) e.y[p] = o.prior_mean[p];
+  }
+  for (int p : e.held) P0[p] = Q[p] = 0.0, e.y[p] = 0.0;
   Eigen::MatrixXd P = P0.asDiagonal();
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
   for (int k = 0; k < m.numSamples(); ++k) {
@@ -187,6 +251,7 @@ Estimate runLse(const MeasurementModel& m, const LseOptions& o) {
   TruncatedSolve step;
   for (int it = 0; it < o.max_iterations; ++it) {
     stackedSystem(m, e.y, o.weighted, A, b);
+    appendPriorRows(o.prior_sigma, o.prior_mean, e.y, A, b);
     for (int p : e.held) A.col(p).setZero();
     step = truncatedSolve(A, b);
     e.y += step.dy;

@@ -71,7 +71,9 @@ Estimate runMethod(const MethodSpec& method, const sim::Arm& nominal, const std:
   return runMethod(method, poseModel(nominal, obs, method.noise));
 }
 
-Estimate runMethod(MethodSpec method, const MeasurementModel& model, const FitControls& controls) {
+namespace {
+
+Estimate runOnce(MethodSpec method, const MeasurementModel& model, const FitControls& controls) {
   for (std::vector<int>* hold : {&method.ekf.hold, &method.lse.hold, &method.lm.hold}) {
     hold->insert(hold->end(), controls.hold.begin(), controls.hold.end());
     std::sort(hold->begin(), hold->end());
@@ -82,8 +84,8 @@ Estimate runMethod(MethodSpec method, const MeasurementModel& model, const FitCo
   method.lm.covariance = method.lm.covariance && controls.covariance;
   method.lm.normal_equations = method.lm.normal_equations || controls.normal_equations;
   if (controls.prior_sigma.size() > 0) {
-    method.lm.prior_sigma = controls.prior_sigma;
-    method.lm.prior_mean = controls.prior_mean;
+    method.lm.prior_sigma = method.lse.prior_sigma = method.ekf.prior_sigma = controls.prior_sigma;
+    method.lm.prior_mean = method.lse.prior_mean = method.ekf.prior_mean = controls.prior_mean;
   }
   Estimate e;
   switch (method.kind) {
@@ -93,6 +95,49 @@ Estimate runMethod(MethodSpec method, const MeasurementModel& model, const FitCo
   }
   e.method = method.name;
   return e;
+}
+
+/// The evidence's prior scale stays within these (a prior of 1e-3 typical sizes holds the parameters at
+/// their mean for any data a calibration sees; 1e2 leaves them free).
+constexpr double kMinPriorScale = 1e-3, kMaxPriorScale = 1e2;
+constexpr int kMaxEvidenceIterations = 40;
+
+/// FitControls::scaled_prior's fixed point.
+Estimate runWithEvidence(const MethodSpec& method, const MeasurementModel& model, FitControls c) {
+  const int n = model.numParams();
+  if (c.prior_sigma.size() == 0) c.prior_sigma = Eigen::VectorXd::Zero(n);
+  std::vector<int> scaled;
+  for (int i = 0; i < n; ++i) {
+    if (c.scaled_prior[i] > 0.0) scaled.push_back(i);
+  }
+  double tau = 1.0;
+  Estimate e;
+  Shrinkage s;
+  for (int it = 0; it < kMaxEvidenceIterations; ++it) {
+    for (int i : scaled) c.prior_sigma[i] = tau * c.scaled_prior[i];
+    e = runOnce(method, model, c);
+    s = shrinkage(model, e.y, e.held, c.prior_sigma, scaled);
+    double q = 0.0;  // sum of the squared scaled deviations from the prior mean
+    for (int i : scaled) {
+      if (std::binary_search(e.held.begin(), e.held.end(), i)) continue;
+      const double dev = (e.y[i] - (c.prior_mean.size() ? c.prior_mean[i] : 0.0)) / c.scaled_prior[i];
+      q += dev * dev;
+    }
+    const double next = s.gamma > 1e-9 && q > 0.0 ? std::clamp(std::sqrt(q / s.gamma), kMinPriorScale, kMaxPriorScale) : kMinPriorScale;
+    e.prior_scale = tau;  // the scale e was fitted with
+    const bool done = std::abs(std::log(next / tau)) < 1e-3;
+    tau = next;
+    if (done) break;
+  }
+  e.effective_parameters = s.effective;
+  return e;
+}
+
+}  // namespace
+
+Estimate runMethod(MethodSpec method, const MeasurementModel& model, const FitControls& controls) {
+  if (controls.scaled_prior.size() > 0) return runWithEvidence(method, model, controls);
+  return runOnce(std::move(method), model, controls);
 }
 
 Comparison compareMethods(const sim::Arm& nominal, const Eigen::VectorXd& y_true, const std::vector<PoseObservation>& obs,

@@ -108,7 +108,10 @@ CrossValidation crossValidateFits(const std::vector<MarkerObservation>& obs, con
                                   const std::function<sim::KinematicModel(const std::vector<MarkerObservation>&)>& start,
                                   const FitOptions& options, const Eigen::VectorXd& p0) {
   if (fold.size() != obs.size()) throw std::invalid_argument("crossValidateFits: one fold per observation expected");
-  using FoldResult = std::pair<double, std::vector<std::pair<std::size_t, Eigen::VectorXd>>>;
+  struct FoldResult {
+    double sse = 0.0, effective = 0.0;
+    std::vector<std::pair<std::size_t, Eigen::VectorXd>> residual;
+  };
   std::vector<std::future<FoldResult>> jobs;
   for (int f = 0; f < folds; ++f) {
     if (std::find(fold.begin(), fold.end(), f) == fold.end()) continue;
@@ -128,19 +131,25 @@ CrossValidation crossValidateFits(const std::vector<MarkerObservation>& obs, con
       const MarkerPoseModel held(model, test, fit.noise, fit.p);
       std::vector<Eigen::VectorXd> nu;  // the held-out residuals, at fit.p
       const double sse = 2.0 * weightedCost(held, Eigen::VectorXd::Zero(held.numParams()), &nu);
-      FoldResult out{sse, {}};
-      for (std::size_t t = 0; t < test.size(); ++t) out.second.emplace_back(test_index[t], std::move(nu[t]));
+      FoldResult out{sse, fit.effective_parameters, {}};
+      for (std::size_t t = 0; t < test.size(); ++t) out.residual.emplace_back(test_index[t], std::move(nu[t]));
       return out;
     }));
   }
   CrossValidation r;
   r.residual.resize(obs.size());
   for (auto& j : jobs) {
-    auto [sse, res] = j.get();
-    r.sse += sse;
-    for (auto& [i, v] : res) r.residual[i] = std::move(v);
+    FoldResult f = j.get();
+    r.sse += f.sse;
+    r.effective_parameters += f.effective / static_cast<double>(jobs.size());
+    for (auto& [i, v] : f.residual) r.residual[i] = std::move(v);
   }
   return r;
+}
+
+std::vector<double> configurationLosses(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& residual) {
+  if (residual.size() != obs.size()) throw std::invalid_argument("configurationLosses: one residual per observation expected");
+  return configurationLoss(configurationGroups(obs), residual);
 }
 
 HeldoutGain heldoutGain(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& before,
@@ -196,6 +205,11 @@ double defaultHoldout(int configurations) {
 std::string heldoutRefusal(const HeldoutGain& g, std::optional<double> holdout, int total) {
   using sim::formatNumber;
   if (g.significant) return "";
+  if (!g.enough && g.cross_validated) {
+    return "only " + std::to_string(g.configurations) + " configurations, and at least " + std::to_string(kMinHeldoutConfigurations) +
+           " are needed to tell a gain from noise even when each is predicted by a fit without it (cross-validation): "
+           "measure more configurations";
+  }
   if (!g.enough) {
     const std::string advice =
         holdout ? "at least " + std::to_string(static_cast<int>(std::ceil(kMinHeldoutConfigurations / *holdout - 1e-9))) +
@@ -204,37 +218,94 @@ std::string heldoutRefusal(const HeldoutGain& g, std::optional<double> holdout, 
                       std::to_string(kMinHeldoutConfigurations) + " of them out) or give a larger --holdout";
     return "only " + std::to_string(g.configurations) + " of the " + std::to_string(total) +
            " configurations are held out, and at least " + std::to_string(kMinHeldoutConfigurations) +
-           " are needed to tell a held-out gain from noise: measure more configurations (" + advice;
+           " are needed to tell a held-out gain from noise: measure more configurations (" + advice +
+           (holdout && total >= kMinHeldoutConfigurations ? ", or leave --holdout out to judge the set by cross-validation" : "");
   }
-  return "the held-out gain is not significant: position RMS " + formatNumber("%.4f", g.before_rms_m * 1e3) + " -> " +
-         formatNumber("%.4f", g.after_rms_m * 1e3) + " mm over " + std::to_string(g.configurations) +
-         " held-out configurations, one-sided paired test of their squared errors t = " + formatNumber("%.2f", g.t) +
-         ", p = " + formatNumber("%.2g", g.p_value) + " (needs p < " + formatNumber("%g", kHeldoutGainAlpha) +
-         "): measure more configurations, or fit fewer effects";
+  return std::string(g.cross_validated ? "the cross-validated gain is not significant" : "the held-out gain is not significant") +
+         ": position RMS " + formatNumber("%.4f", g.before_rms_m * 1e3) + " -> " + formatNumber("%.4f", g.after_rms_m * 1e3) +
+         " mm over " + std::to_string(g.configurations) +
+         (g.cross_validated ? " configurations, each predicted by a fit without it" : " held-out configurations") +
+         ", one-sided paired test of their squared errors t = " + formatNumber("%.2f", g.t) + ", p = " + formatNumber("%.2g", g.p_value) +
+         " (needs p < " + formatNumber("%g", kHeldoutGainAlpha) + "): measure more configurations, or fit fewer effects";
 }
 
 std::string formatHeldoutGain(const HeldoutGain& g) {
   using sim::formatNumber;
-  return std::to_string(g.configurations) + " held-out configurations; the gain over the nominal arm, one-sided paired test of "
-         "their squared position errors: t = " + formatNumber("%.2f", g.t) + ", p = " +
-         formatNumber("%.2g", g.p_value) + " (accepted at p < " + formatNumber("%g", kHeldoutGainAlpha) + " with at least " +
-         std::to_string(kMinHeldoutConfigurations) + " configurations)";
+  return std::to_string(g.configurations) +
+         (g.cross_validated ? " configurations, each predicted once by a fit that never saw it (leave-one-configuration-out "
+                              "cross-validation; the set is too small to hold " + std::to_string(kMinHeldoutConfigurations) + " out)"
+                            : std::string(" held-out configurations")) +
+         "; the gain over the nominal arm, one-sided paired test of their squared position errors: t = " +
+         formatNumber("%.2f", g.t) + ", p = " + formatNumber("%.2g", g.p_value) + " (accepted at p < " +
+         formatNumber("%g", kHeldoutGainAlpha) + " with at least " + std::to_string(kMinHeldoutConfigurations) + " configurations)";
 }
 
-HeldoutVerdict heldoutVerdict(const std::vector<MarkerObservation>& held, const std::vector<Eigen::VectorXd>& before,
-                              const std::vector<Eigen::VectorXd>& after, std::optional<double> holdout, int total) {
+namespace {
+
+HeldoutVerdict verdictOf(const HeldoutGain& gain, bool worse, std::optional<double> holdout, int total) {
   using sim::formatNumber;
   HeldoutVerdict v;
-  v.gain = heldoutGain(held, before, after);
-  v.worse = !held.empty() && v.gain.after_rms_m > v.gain.before_rms_m;
+  v.gain = gain;
+  v.worse = worse;
   if (v.worse && v.gain.enough) {
     v.refusal = "the calibrated model predicts the " + std::to_string(v.gain.configurations) +
-                " held-out configurations worse than the nominal arm (position RMS " + formatNumber("%.4f", v.gain.before_rms_m * 1e3) +
-                " -> " + formatNumber("%.4f", v.gain.after_rms_m * 1e3) + " mm)";
+                (v.gain.cross_validated ? " configurations, each by a fit without it," : " held-out configurations") +
+                " worse than the nominal arm (position RMS " + formatNumber("%.4f", v.gain.before_rms_m * 1e3) + " -> " +
+                formatNumber("%.4f", v.gain.after_rms_m * 1e3) + " mm)";
   } else {
     v.refusal = heldoutRefusal(v.gain, holdout, total);
   }
   return v;
+}
+
+}  // namespace
+
+HeldoutVerdict heldoutVerdict(const std::vector<MarkerObservation>& held, const std::vector<Eigen::VectorXd>& before,
+                              const std::vector<Eigen::VectorXd>& after, std::optional<double> holdout, int total) {
+  const HeldoutGain gain = heldoutGain(held, before, after);
+  return verdictOf(gain, !held.empty() && gain.after_rms_m > gain.before_rms_m, holdout, total);
+}
+
+bool judgeByCrossValidation(int configurations, std::optional<double> holdout) {
+  return !holdout && configurations < 2 * kMinHeldoutConfigurations;
+}
+
+HeldoutVerdict crossValidatedVerdict(const std::vector<MarkerObservation>& obs, const FoldPredictor& predict,
+                                     std::vector<Eigen::VectorXd>* before_out, std::vector<Eigen::VectorXd>* after_out) {
+  const auto groups = configurationGroups(obs);
+  const int total = static_cast<int>(groups.size());
+  std::vector<Eigen::VectorXd> before(obs.size()), after(obs.size());
+  if (total < kMinHeldoutConfigurations) {
+    HeldoutGain g;
+    g.configurations = total;
+    g.cross_validated = true;
+    return verdictOf(g, false, std::nullopt, total);
+  }
+  std::vector<std::pair<std::vector<int>, std::future<FoldPrediction>>> jobs;
+  for (const auto& [key, members] : groups) {
+    std::vector<int> test = members, train;
+    std::sort(test.begin(), test.end());
+    for (int i = 0; i < static_cast<int>(obs.size()); ++i) {
+      if (!std::binary_search(test.begin(), test.end(), i)) train.push_back(i);
+    }
+    jobs.emplace_back(test, std::async(std::launch::async, [&predict, train, test] { return predict(train, test); }));
+  }
+  for (auto& [test, job] : jobs) {
+    FoldPrediction f = job.get();
+    if (f.before.size() != test.size() || f.after.size() != test.size()) {
+      throw std::invalid_argument("crossValidatedVerdict: the predictor must give one residual per test observation");
+    }
+    for (std::size_t t = 0; t < test.size(); ++t) {
+      before[static_cast<std::size_t>(test[t])] = std::move(f.before[t]);
+      after[static_cast<std::size_t>(test[t])] = std::move(f.after[t]);
+    }
+  }
+  HeldoutGain gain = heldoutGain(obs, before, after);
+  gain.cross_validated = true;
+  const bool worse = gain.after_rms_m > gain.before_rms_m;
+  if (before_out) *before_out = std::move(before);
+  if (after_out) *after_out = std::move(after);
+  return verdictOf(gain, worse, std::nullopt, total);
 }
 
 }  // namespace orbcal::calib

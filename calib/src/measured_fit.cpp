@@ -150,9 +150,14 @@ Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o, const sim:
   controls.fix_unidentifiable = o.fix_unidentifiable;
   controls.covariance = o.analyze;
   controls.normal_equations = o.normal_equations;
-  if (o.geometry_prior) {
+  if (o.geometry_prior || o.map) {
     controls.prior_sigma = geometryPriorSigma(layout);
     controls.prior_mean = -p0;  // centred on the starting model: p = p0 + y = 0
+  }
+  if (o.map) {
+    controls.scaled_prior = Eigen::VectorXd::Zero(layout.size());
+    const int g = layout.find("geometry");
+    if (g >= 0) controls.scaled_prior.segment(layout.block(g).offset, layout.block(g).size()) = layout.typical().segment(layout.block(g).offset, layout.block(g).size());
   }
   return runMethod(findMethod(comparisonMethods(o.joint_noise_sigma_rad), o.method, "method"), m, controls);
 }
@@ -314,7 +319,9 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     fit.p = fit.p0 + fit.estimate.y;
     fit.chi2 = 2.0 * fit.estimate.cost;
     const int free = m.numParams() - static_cast<int>(fit.estimate.held.size());
-    fit.dof = std::max(1, rows - free);
+    fit.effective_parameters = o.map ? fit.estimate.effective_parameters : free;
+    fit.prior_scale = fit.estimate.prior_scale;
+    fit.dof = std::max(1, rows - static_cast<int>(std::lround(fit.effective_parameters)));
     if (round + 1 == rounds) {
       if (o.analyze) fit.observability = observability(m, Eigen::VectorXd::Zero(m.numParams()), fit.estimate.held);
       break;

@@ -64,6 +64,7 @@ py::dict fitStatistics(const calib::Fit& fit) {
   py::dict d = residualDict(fit.residuals);
   d["chi2"] = fit.chi2;
   d["dof"] = fit.dof;
+  d["effective_parameters"] = fit.effective_parameters;
   d["noise"] = py::dict(py::arg("position_m") = fit.noise.sigma_position_m, py::arg("rotation_rad") = fit.noise.sigma_rotation_rad,
                         py::arg("joint_rad") = fit.noise.joint_noise_sigma_rad);
   d["noise_estimated"] = fit.noise_estimated;
@@ -118,7 +119,7 @@ void bindCalibrate(py::module_& m) {
           }, "their 1-sigma (SI; NaN where not known, 0 where held)")
       .def_readonly("statistics", &PyModel::statistics,
                     "of the fit that made it: residuals (samples, position_mean_m, position_rms_m, position_max_m, "
-                    "rotation_rms_rad, rotation_max_rad), chi2, dof, noise, noise_estimated, weak; empty for a loaded or true model")
+                    "rotation_rms_rad, rotation_max_rad), chi2, dof, effective_parameters, noise, noise_estimated, weak; empty for a loaded or true model")
       .def("to_records", [](const PyModel& pm) { return parameterRecords(pm.rows); },
            "One dict per parameter (name, effect, unit, value, sigma, held; SI): pandas.DataFrame(model.to_records())")
       .def("as_dict", [](const PyModel& pm) {

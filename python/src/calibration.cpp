@@ -32,7 +32,7 @@ py::dict heldoutDict(const workflow::MeasuredCalibrateResult& r) {
   return py::dict(py::arg("samples") = r.held_out, py::arg("configurations") = r.gain.configurations,
                   py::arg("before") = residualDict(r.heldout_before), py::arg("after") = residualDict(r.heldout_after),
                   py::arg("t") = r.gain.t, py::arg("p_value") = r.gain.p_value, py::arg("enough") = r.gain.enough,
-                  py::arg("significant") = r.gain.significant);
+                  py::arg("significant") = r.gain.significant, py::arg("cross_validated") = r.cross_validated);
 }
 
 /// Everything of a calibration as plain Python values (numbers, strings, lists, dicts), JSON-friendly.
@@ -145,7 +145,8 @@ void bindCalibration(py::module_& m) {
       .def_property_readonly("heldout", [](const PyCalibration& c) { return heldoutDict(c.r); },
                              "held-out prediction: samples, configurations, before (nominal arm, registration fitted) and after "
                              "(calibrated) residual statistics (m, rad), and the gain's one-sided paired test (t, p_value, "
-                             "enough configurations, significant)")
+                             "enough configurations, significant; cross_validated: a set too small to hold out, every configuration predicted by a fit "
+                             "without it)")
       .def_property_readonly("samples", [](const PyCalibration& c) { return c.r.samples; }, "samples in all")
       .def_property_readonly("fitted", [](const PyCalibration& c) { return c.r.identification; }, "samples fitted")
       .def_property_readonly("level", [](const PyCalibration& c) { return calib::levelName(c.r.level.chosen); },

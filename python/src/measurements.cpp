@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "bindings.hpp"
+#include "orbcal/sim/joint_limits.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/measured.hpp"
@@ -169,18 +170,17 @@ std::vector<sim::MeasuredPose> samplesFrom(const sim::Arm& arm, const ArrayInput
   }
   if (in.session && static_cast<Eigen::Index>(in.session->size()) != N) throw py::value_error("session: one index per sample");
   std::vector<sim::MeasuredPose> out;
+  sim::JointLimitWarnings near_limits;
   for (Eigen::Index k = 0; k < N; ++k) {
     sim::MeasuredPose p = samplePose(in.poses, in.positions, static_cast<std::size_t>(k));
     sim::JointSample& s = p.sample;
     s.q_rad = in.q.row(k).transpose();
     sim::checkJointVector(arm, s.q_rad, ("q[" + std::to_string(k) + "]").c_str());
     for (int j = 0; j < arm.numJoints(); ++j) {
-      if (s.q_rad[j] >= arm.lower_rad[j] && s.q_rad[j] <= arm.upper_rad[j]) continue;
-      const auto si = [](double v) { return sim::formatNumber("%.9g", v); };
-      const std::string unit = std::string(" ") + sim::jointSiUnit(arm, j);
-      throw sim::InputError("q[" + std::to_string(k) + "]: joint " + std::to_string(j + 1) + ": " + si(s.q_rad[j]) + unit +
-                            " is outside the joint limits [" + si(arm.lower_rad[j]) + ", " + si(arm.upper_rad[j]) + "]" + unit +
-                            " of " + arm.source);
+      if (near_limits.accept(arm, j, s.q_rad[j])) continue;
+      throw sim::InputError("q[" + std::to_string(k) + "]: joint " + std::to_string(j + 1) + ": " + sim::formatNumber("%.9g", s.q_rad[j]) +
+                            " " + sim::jointSiUnit(arm, j) + " (" + sim::formatJointValue(arm, j, s.q_rad[j]) + ") " +
+                            sim::outsideLimitsText(arm, j));
     }
     const std::string at = "[" + std::to_string(k) + "]";
     if (in.torques) requireFinite(s.tau_Nm = in.torques->row(k).transpose(), "torques" + at);
@@ -190,6 +190,7 @@ std::vector<sim::MeasuredPose> samplesFrom(const sim::Arm& arm, const ArrayInput
     s.session = in.session ? (*in.session)[static_cast<std::size_t>(k)] : 0;
     out.push_back(std::move(p));
   }
+  for (const std::string& w : near_limits.lines(arm)) py::module_::import("warnings").attr("warn")(w);
   return out;
 }
 

@@ -50,7 +50,12 @@ def test_array_errors(iiwa7, tracker):
         orbcal.measurements_from_arrays(iiwa7, q=data.q, positions=data.positions[:10])
     q = data.q.copy()
     q[7, 3] = 4.0  # beyond the iiwa7's +-120 deg on joint 4
-    with pytest.raises(orbcal.Error, match=r"^q\[7\]: joint 4: 4 rad is outside the joint limits \[-2.0943\d*, 2.0943\d*\] rad of builtin:iiwa7.yaml$"):
+    with pytest.raises(orbcal.Error, match=r"^q\[7\]: joint 4: 4 rad \(229.183 deg\) is outside the joint limits \[-120, 120\] deg "
+                       r"of builtin:iiwa7.yaml by more than 2% of the joint's range \(4.8 deg\)$"):
+        orbcal.measurements_from_arrays(iiwa7, q=q, positions=data.positions)
+    # Within 2% of the joint's 240 deg range past the limit (an encoder past a soft limit): accepted, with a warning.
+    q[7, 3] = np.radians(120.0 + 4.0)
+    with pytest.warns(UserWarning, match=r"joint 4: 1 reading past its upper limit 120 deg of builtin:iiwa7.yaml, by up to 4 deg"):
         orbcal.measurements_from_arrays(iiwa7, q=q, positions=data.positions)
     poses = data.poses.copy()
     poses[3, 0, 0] += 0.01

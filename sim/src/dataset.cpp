@@ -1,6 +1,8 @@
 #include <algorithm>
 #include "orbcal/sim/dataset.hpp"
 
+#include "orbcal/sim/joint_limits.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -341,13 +343,10 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
     if (!q) throw InputError(t.where(r) + ": q1_rad: joint readings are empty");
     s.q_rad = *q;
     for (int j = 0; limits && j < n; ++j) {
-      const double lo = limits->lower_rad[j], hi = limits->upper_rad[j], v = (*q)[j];
-      if (v >= lo && v <= hi) continue;
-      const std::string unit = jointEdgeUnit(*limits, j);
-      const auto edge = [&](double si) { return formatNumber("%.6g", si * jointEdgeScale(*limits, j)); };
+      const double v = (*q)[j];
+      if (!clearlyOutsideLimits(*limits, j, v)) continue;  // within the limits, or past one by a reading's slack (nearLimitWarnings)
       throw InputError(t.where(r) + ": q" + std::to_string(j + 1) + "_rad: " + formatNumber("%.9g", v) + " " + jointSiUnit(*limits, j) +
-                       " (" + edge(v) + " " + unit + ") is outside the joint limits [" + edge(lo) + ", " + edge(hi) + "] " + unit +
-                       " of " + limits->source);
+                       " (" + formatJointValue(*limits, j, v) + ") " + outsideLimitsText(*limits, j));
     }
     checkTruthColumns(t, r, c_qt, c_pose, limits);
     s.q_true_rad = t.numbers(r, c_qt);

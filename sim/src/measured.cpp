@@ -1,5 +1,7 @@
 #include "orbcal/sim/measured.hpp"
 
+#include "orbcal/sim/joint_limits.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -250,17 +252,18 @@ std::string columnsAt(const CsvTable& t, std::size_t r, const std::string& first
   return t.where(r) + ": " + first + ".." + last + ": ";
 }
 
-Eigen::VectorXd readJoints(const CsvTable& t, std::size_t r, const Layout& l, const Arm& arm) {
+Eigen::VectorXd readJoints(const CsvTable& t, std::size_t r, const Layout& l, const Arm& arm, JointLimitWarnings& limits) {
   const ColumnGroup& g = l.joints;
   Eigen::VectorXd q(static_cast<Eigen::Index>(g.index.size()));
   for (Eigen::Index j = 0; j < q.size(); ++j) {
     const Unit& u = arm.isPrismatic(static_cast<int>(j)) ? l.prismatic : g.unit;
     q[j] = u.toSi(t.number(r, g.index[static_cast<std::size_t>(j)]));
-    if (q[j] >= arm.lower_rad[j] && q[j] <= arm.upper_rad[j]) continue;
-    const auto in = [&u](double si) { return formatNumber("%.9g", u.fromSi(si)); };
-    throw InputError(t.where(r) + ": " + g.names[static_cast<std::size_t>(j)] + ": " + in(q[j]) + " " + u.name +
-                     " is outside the joint limits [" + in(arm.lower_rad[j]) + ", " + in(arm.upper_rad[j]) + "] " + u.name + " of " +
-                     arm.source + angleUnitHint(u.fromSi(q[j]), u, arm, static_cast<int>(j), l.description));
+    if (limits.accept(arm, static_cast<int>(j), q[j])) continue;
+    const bool edge_unit = u.name == jointEdgeUnit(arm, static_cast<int>(j));  // else also said in deg or mm, as the limits are
+    throw InputError(t.where(r) + ": " + g.names[static_cast<std::size_t>(j)] + ": " + formatNumber("%.9g", u.fromSi(q[j])) + " " +
+                     u.name + (edge_unit ? "" : " (" + formatJointValue(arm, static_cast<int>(j), q[j]) + ")") + " " +
+                     outsideLimitsText(arm, static_cast<int>(j)) +
+                     angleUnitHint(u.fromSi(q[j]), u, arm, static_cast<int>(j), l.description));
   }
   return q;
 }
@@ -316,12 +319,12 @@ Eigen::VectorXd readDirections(const CsvTable& t, std::size_t r, const ColumnGro
   return d;
 }
 
-MeasuredPose readPose(const CsvTable& t, std::size_t r, const Layout& l, const Arm& arm, int session) {
+MeasuredPose readPose(const CsvTable& t, std::size_t r, const Layout& l, const Arm& arm, int session, JointLimitWarnings& limits) {
   MeasuredPose p;
   p.where = t.where(r);
   JointSample& s = p.sample;
   s.session = session;
-  s.q_rad = readJoints(t, r, l, arm);
+  s.q_rad = readJoints(t, r, l, arm, limits);
   if (l.matrix.given()) {
     p.world_T_marker = readMatrixPose(t, r, l);
   } else if (l.position.given()) {
@@ -345,7 +348,7 @@ void checkTimeOrder(const CsvTable& t, std::size_t r, const ColumnGroup& time, d
                    std::to_string(t.line(r - 1)) + " (time runs backwards; the rows of a file are samples in the order taken)");
 }
 
-void readSession(const std::string& path, int session, const Layout& layout, MeasuredData& d) {
+void readSession(const std::string& path, int session, const Layout& layout, MeasuredData& d, JointLimitWarnings& limits) {
   const std::string named_by = d.description + ": files[" + std::to_string(session) + "]";
   const CsvTable t = [&] {
     const std::string text = readTextNamedBy(path, named_by);
@@ -358,7 +361,7 @@ void readSession(const std::string& path, int session, const Layout& layout, Mea
   if (t.rows() == 0) throw InputError(path + ": no data rows (expected one sample per line after the header)");
   const Layout bound = bindColumns(layout, t);
   for (std::size_t r = 0; r < t.rows(); ++r) {
-    MeasuredPose p = readPose(t, r, bound, d.arm, session);
+    MeasuredPose p = readPose(t, r, bound, d.arm, session, limits);
     if (bound.time.given()) checkTimeOrder(t, r, bound.time, r > 0 ? d.poses.back().sample.time_s : 0.0, p.sample.time_s);
     if (bound.points.empty()) d.poses.push_back(std::move(p));
     else readPointRow(t, r, bound.points, p, d.poses);
@@ -518,7 +521,8 @@ MeasuredData loadMeasuredData(const std::string& description_path) {
   const Layout layout = readLayout(root, d.arm);
   readRegistration(root, d);
   readNoise(root, d);
-  for (std::size_t s = 0; s < d.files.size(); ++s) readSession(d.files[s], static_cast<int>(s), layout, d);
+  JointLimitWarnings limits;
+  for (std::size_t s = 0; s < d.files.size(); ++s) readSession(d.files[s], static_cast<int>(s), layout, d, limits);
   d.has_torque = layout.torque.given();
   d.has_temperature = layout.temperature.given();
   d.has_time = layout.time.given();

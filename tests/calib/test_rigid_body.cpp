@@ -198,14 +198,12 @@ TEST_CASE("with 37 noisy postures cross-validation picks a smaller level, which 
   const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(d, false);
   const calib::LevelChoice c = calib::chooseLevel(d, obs, {}, statedNoise(d), 1);
   INFO(calib::levelSentence(c));
-  REQUIRE(c.scores.size() == 3);
+  REQUIRE(c.scores.size() == 4);
   REQUIRE(c.configurations == 37);
   // The premise, measured on 200 new postures of the truth: the full set predicts worse than the chosen.
   const sim::KinematicModel start = calib::startingModel(d, obs, {});
   const auto fitAt = [&](calib::LevelKind kind) {
-    calib::FitOptions o = statedNoise(d);
-    o.hold = calib::levelHold(start, {kind, {}}, "level");
-    return calib::fitMarkerModel(start, obs, o);
+    return calib::fitMarkerModel(start, obs, calib::levelOptions(statedNoise(d), start, {kind, {}}, "level"));
   };
   const double full = newPostureRms(fitAt(calib::LevelKind::kFull), t, 200);
   const double chosen = newPostureRms(fitAt(c.chosen.kind), t, 200);

@@ -47,9 +47,10 @@ TEST_CASE("the default level is chosen by cross-validation and says why", "[e2e]
   REQUIRE(test::runOrbcal(dir, "simulate --robot " + robot + " --markers 4 --missing-markers 0.2 -n 80 --seed 5 -o data").status == 0);
   const test::OrbcalRun cal = test::runOrbcal(dir, "calibrate data/measurements.yaml -o cal");
   INFO(cal.out << cal.err);
-  CHECK_THAT(cal.out, Contains("chosen by 5-fold cross-validation on ") && Contains("frames ") &&
-                          Contains("offsets ") && Contains("full "));
-  CHECK_THAT(test::slurp(dir + "/cal/report.md"), Contains("chosen by 5-fold cross-validation"));
+  CHECK_THAT(cal.out, Contains("chosen by 5-fold cross-validation repeated 8 times with other splits on ") && Contains("frames ") &&
+                          Contains("offsets ") && Contains(" map ") && Contains("effective") && Contains("full ") &&
+                          Contains("predicted best by") && Contains("against the runner-up"));
+  CHECK_THAT(test::slurp(dir + "/cal/report.md"), Contains("chosen by 5-fold cross-validation repeated 8 times"));
 
   const test::OrbcalRun bad = test::runOrbcal(dir, "calibrate data/measurements.yaml --level theta1,bogus2 -o cal2");
   CHECK(bad.status != 0);

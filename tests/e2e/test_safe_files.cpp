@@ -307,7 +307,7 @@ TEST_CASE("safe files: a joint reading outside the robot's limits in samples.csv
   };
   CHECK(calibrateError(dir, "samples.csv", first_reading_5) ==
         dir + "/dataset/samples.csv: line 2: q1_rad: 5 rad (286.479 deg) is outside the joint limits [-270, 270] deg of " +
-            dir + "/dataset/robot.yaml");
+            dir + "/dataset/robot.yaml by more than 2% of the joint's range (10.8 deg)");
 }
 
 // ---- item 4: calibrate -o writes nothing into the dataset ----

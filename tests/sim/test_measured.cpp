@@ -5,6 +5,7 @@
 #include <fstream>
 #include <random>
 
+#include "orbcal/sim/joint_limits.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/io.hpp"
@@ -234,7 +235,19 @@ TEST_CASE("measured data: every bad cell is named by file, line and column", "[s
   SECTION("a joint reading outside the robot's limits") {
     const Files f = writeFiles("limits", kMatrixDescription, kHeader + "\n" + with(kRowA, "10,-20", "10,-95") + "\n");
     CHECK(loadError(f.description) ==
-          f.csv + ": line 2: j2: -95 deg is outside the joint limits [-90, 90] deg of " + f.dir + "/robot.yaml");
+          f.csv + ": line 2: j2: -95 deg is outside the joint limits [-90, 90] deg of " + f.dir +
+              "/robot.yaml by more than 2% of the joint's range (3.6 deg)");
+  }
+  SECTION("a joint reading past a limit by less than 2% of the joint's range: accepted, with a warning naming joint and excess") {
+    const Files f = writeFiles("near-limits", kMatrixDescription, kHeader + "\n" + with(kRowA, "10,-20", "10,-91.5") + "\n");
+    const MeasuredData d = loadMeasuredData(f.description);
+    REQUIRE(d.poses.size() == 1);
+    CHECK(d.poses[0].sample.q_rad[1] == Approx(-91.5 * kDegToRad));
+    std::vector<Eigen::VectorXd> q;
+    for (const MeasuredPose& p : d.poses) q.push_back(p.sample.q_rad);
+    const std::vector<std::string> warnings = nearLimitWarnings(d.arm, q);
+    REQUIRE(warnings.size() == 1);
+    CHECK_THAT(warnings[0], Catch::StartsWith("joint 2: 1 reading past its lower limit -90 deg of " + f.dir + "/robot.yaml, by up to 1.5 deg"));
   }
   SECTION("a file without data rows") {
     const Files f = writeFiles("no-rows", kMatrixDescription, kHeader + "\n\n\n");

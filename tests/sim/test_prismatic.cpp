@@ -5,6 +5,7 @@
 #include <catch2/catch.hpp>
 #include <random>
 
+#include "orbcal/sim/joint_limits.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/configurations.hpp"
 #include "orbcal/sim/csv.hpp"
@@ -235,7 +236,15 @@ TEST_CASE("a joint value is labelled and scaled by its type: columns, labels, ef
   csv += "\n0,a.png,0.5";
   for (int j = 2; j <= arm.numJoints(); ++j) csv += ",0";
   CHECK_THROWS_WITH(parseSamplesCsv(csv + "\n", "mine.csv", arm.numJoints(), &arm),
-                    "mine.csv: line 2: q1_rad: 0.5 m (500 mm) is outside the joint limits [0, 400] mm of " + arm.source);
+                    "mine.csv: line 2: q1_rad: 0.5 m (500 mm) is outside the joint limits [0, 400] mm of " + arm.source +
+                        " by more than 2% of the joint's range (8 mm)");
+  // 5 mm past the travel (within 2% of it, 8 mm): accepted with a warning naming the joint and the excess.
+  const std::vector<DatasetSample> near =
+      parseSamplesCsv(csv.substr(0, csv.find(",0.5")) + ",0.405" + csv.substr(csv.find(",0.5") + 4) + "\n", "mine.csv", arm.numJoints(), &arm);
+  REQUIRE(near.size() == 1);
+  const std::vector<std::string> warnings = nearLimitWarnings(arm, {near[0].q_rad});
+  REQUIRE(warnings.size() == 1);
+  CHECK_THAT(warnings[0], Catch::Contains("joint 1 (") && Catch::Contains("past its upper limit 400 mm") && Catch::Contains("by up to 5 mm"));
   // A configurations file (SI) names the torso's column q1_m, and reads back.
   const std::vector<Eigen::VectorXd> qs = orbcal::test::randomConfigs(arm, 3, 7);
   const std::string configs = formatConfigurationsCsv(qs, &arm);

@@ -17,6 +17,7 @@
 #include "orbcal/sim/export.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/io.hpp"
+#include "orbcal/sim/joint_limits.hpp"
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/urdf_export.hpp"
@@ -206,6 +207,41 @@ calib::FitOptions fitOptionsOf(const MeasuredCalibrateOptions& o, const sim::Mea
   return fo;
 }
 
+/// The joint readings of `data` accepted past a limit (sim::nearLimitWarnings), one line per joint.
+std::vector<std::string> readingWarnings(const sim::MeasuredData& data) {
+  std::vector<Eigen::VectorXd> q;
+  for (const sim::MeasuredPose& p : data.poses) q.push_back(p.sample.q_rad);
+  return sim::nearLimitWarnings(data.arm, q);
+}
+
+/// What the calibration is judged on: the held-out observations and their residuals under the nominal
+/// arm and the calibrated model, and the verdict (calib::heldoutVerdict or crossValidatedVerdict).
+struct Judgement {
+  std::vector<calib::MarkerObservation> obs;
+  std::vector<Eigen::VectorXd> before, after;
+  calib::HeldoutVerdict verdict;
+};
+
+/// A set too small for a held-out split: every configuration predicted by the nominal arm and by the
+/// calibrated model fitted (at `level`, the registration of the reference likewise) to all the others.
+Judgement crossValidatedJudgement(const sim::MeasuredData& data, const std::vector<calib::MarkerObservation>& all,
+                                  const std::vector<sim::Effect>& effects, const calib::Level& level, calib::FitOptions fo) {
+  fo.analyze = false;
+  const calib::FoldPredictor predict = [&](const std::vector<int>& train_index, const std::vector<int>& test_index) {
+    std::vector<calib::MarkerObservation> train, test;
+    for (int i : train_index) train.push_back(all[static_cast<std::size_t>(i)]);
+    for (int i : test_index) test.push_back(all[static_cast<std::size_t>(i)]);
+    const sim::KinematicModel start = calib::startingModel(data, train, effects);
+    const calib::Fit reference = calib::fitRegistration(start, train, fo);
+    const calib::Fit fit = calib::fitMarkerModel(start, train, calib::levelOptions(fo, start, level, "--level"));
+    return calib::FoldPrediction{residualsOf(start, reference.p, test), residualsOf(start, fit.p, test)};
+  };
+  Judgement j;
+  j.obs = all;
+  j.verdict = calib::crossValidatedVerdict(all, predict, &j.before, &j.after);
+  return j;
+}
+
 }  // namespace
 
 std::string writeModelAndExports(const calib::CalibratedModel& cm, const std::vector<sim::ParameterRow>& rows, const std::string& out,
@@ -249,7 +285,9 @@ std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model) {
   const std::string rms = formatNumber("%.4f", r.heldout_before.position_rms_m * 1e3) + " -> " +
                           formatNumber("%.4f", r.heldout_after.position_rms_m * 1e3) + " mm";
   std::ostringstream md;
-  if (r.worse) md << "**The calibrated model predicts the held-out samples WORSE than the nominal arm (position RMS " << rms << ").** " << written << "\n\n";
+  const std::string samples = r.cross_validated ? "samples, each by a fit without its configuration," : "held-out samples";
+  for (const std::string& w : r.warnings) md << "**Warning:** " << w << ".\n\n";
+  if (r.worse) md << "**The calibrated model predicts the " << samples << " WORSE than the nominal arm (position RMS " << rms << ").** " << written << "\n\n";
   if ((!r.worse || !r.gain.enough) && !r.refusal.empty()) md << "**The calibration is not accepted: " << r.refusal << ".** " << written << "\n\n";
   if (!r.fit_refusal.empty()) md << "**The calibration is not accepted: " << r.fit_refusal << ".** " << written << "\n\n";
   if (r.inconsistent) {
@@ -257,7 +295,9 @@ std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model) {
   }
   if (!r.worse && r.refusals.empty()) {
     md << "**Accepted: model.yaml was written ("
-       << (r.held_out > 0 ? "held-out position RMS, nominal arm -> calibrated: " + rms : "nothing held out: the checks on the fit alone decided")
+       << (r.held_out > 0 ? "held-out position RMS, nominal arm -> calibrated: " + rms
+           : r.cross_validated ? "cross-validated position RMS, nominal arm -> calibrated: " + rms
+                               : "nothing held out: the checks on the fit alone decided")
        << ").**\n\n";
   }
   return md.str();
@@ -289,10 +329,14 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   const std::vector<calib::MarkerObservation> all = calib::observationsFrom(data, calib::needsTorque(effects));
   r.samples = static_cast<int>(all.size());
 
+  const int configurations = calib::countConfigurations(all);
+  r.cross_validated = calib::judgeByCrossValidation(configurations, o.holdout);
   std::vector<calib::MarkerObservation> ident, held;
-  splitHeldOut(all, o, ident, held);
+  if (r.cross_validated) ident = all;
+  else splitHeldOut(all, o, ident, held);
   r.identification = static_cast<int>(ident.size());
   r.held_out = static_cast<int>(held.size());
+  r.warnings = readingWarnings(data);
 
   calib::FitOptions fo = fitOptionsOf(o, data);
   sim::KinematicModel start;
@@ -304,7 +348,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   // The reference: the nominal arm with only the registration fitted; a physically impossible one (or
   // calibrated geometry) is refused before anything is written.
   r.level = calib::resolveLevel(o.level, data, ident, effects, fo, o.seed);
-  fo.hold = calib::levelHold(start, r.level.chosen, "--level");
+  const calib::FitOptions unleveled = fo;
+  fo = calib::levelOptions(fo, start, r.level.chosen, "--level");
   const calib::Fit reference = calib::fitRegistration(start, ident, fo);
   calib::requirePlausibleResidual(data, reference.residuals, "the nominal arm's registration residual");
   r.fit = calib::fitMarkerModel(start, ident, fo);
@@ -312,17 +357,23 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   // The inputs are read and checked: the output folder now holds this run's outcome only (sim::OutputFolder).
   sim::OutputFolder folder(o.out.empty() ? folderOf(o.description) + "/calibration" : o.out, "orbcal calibrate");
   const std::string& out = folder.path();
-  const std::vector<Eigen::VectorXd> before = residualsOf(start, reference.p, held), after = residualsOf(start, r.fit.p, held);
-  r.heldout_before = calib::residualStats(before);
-  r.heldout_after = calib::residualStats(after);
-  const calib::HeldoutVerdict verdict = calib::heldoutVerdict(held, before, after, o.holdout, calib::countConfigurations(all));
+  Judgement judged;
+  if (r.cross_validated) {
+    judged = crossValidatedJudgement(data, all, effects, r.level.chosen, unleveled);
+  } else {
+    judged = {held, residualsOf(start, reference.p, held), residualsOf(start, r.fit.p, held), {}};
+    judged.verdict = calib::heldoutVerdict(held, judged.before, judged.after, o.holdout, configurations);
+  }
+  const calib::HeldoutVerdict& verdict = judged.verdict;
+  r.heldout_before = calib::residualStats(judged.before);
+  r.heldout_after = calib::residualStats(judged.after);
   r.gain = verdict.gain;
   // The frames level without effects is the reference itself (the nominal arm, registration fitted):
   // there is no gain over it to test; nor is there one when nothing is held out: the checks on the fit
   // alone (consistency, fitRefusal) decide then.
   const bool reference_level = r.level.chosen.kind == calib::LevelKind::kFrames && effects.empty();
   r.worse = !reference_level && verdict.worse;
-  r.refusal = reference_level || held.empty() ? "" : verdict.refusal;
+  r.refusal = reference_level || (held.empty() && !r.cross_validated) ? "" : verdict.refusal;
   r.fit_refusal = calib::fitRefusal(r.fit, ident, fo);
 
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit);
@@ -343,18 +394,28 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   md << "# Calibration of " << data.arm.name << " from measured data\n\n";
   md << verdictLines(r, write_model);
   md << "Description `" << o.description << "`: " << r.samples << " samples in " << data.numSessions() << " session(s); "
-     << r.identification << " fitted, " << r.held_out << " held out (" << r.gain.configurations << " configurations; seed " << o.seed << ", per session).\n\n"
+     << (r.cross_validated ? "all " + std::to_string(r.identification) + " fitted; judged by cross-validation over their " +
+                                 std::to_string(configurations) + " configurations (too few to hold " +
+                                 std::to_string(calib::kMinHeldoutConfigurations) + " out), each predicted by the nominal arm and the "
+                                 "calibrated model fitted at the same level to the others.\n\n"
+                           : std::to_string(r.identification) + " fitted, " + std::to_string(r.held_out) + " held out (" +
+                                 std::to_string(r.gain.configurations) + " configurations; seed " + std::to_string(o.seed) +
+                                 ", per session).\n\n")
      << "Model: geometry (" << geometryWords(data.arm) << ") + registration (base " << sim::frameSharingName(data.base)
      << ", marker " << sim::frameSharingName(data.marker) << ")";
   for (const std::string& e : o.effects) md << " + " << e;
-  md << "; " << r.fit.model.layout.size() << " parameters, " << r.fit.estimate.held.size() << " held (by the level or as unidentifiable).\n\n"
+  md << "; " << r.fit.model.layout.size() << " parameters, " << r.fit.estimate.held.size() << " held (by the level or as unidentifiable)"
+     << (fo.map ? "; the geometry's prior at " + formatNumber("%.3g", r.fit.prior_scale) + " times its typical sizes (by the evidence) leaves " +
+                      formatNumber("%.1f", r.fit.effective_parameters) + " effective parameters"
+                : std::string())
+     << ".\n\n"
      << "Calibrated at " << calib::levelSentence(r.level) << ".\n\n"
      << "Measurement noise (1 sigma per axis): " << noiseText(r.fit.noise, rotation)
      << (r.fit.noise_estimated ? " (estimated from the residuals)" : " (given)") << "; joint readings "
      << formatNumber("%.4f", r.fit.noise.joint_noise_sigma_rad * sim::kRadToDeg) << " deg"
      << (data.noise_joint_rad ? " (given)" : " (not given: not modelled)") << ". chi-square " << formatNumber("%.1f", r.fit.chi2)
      << " for " << r.fit.dof << " degrees of freedom.\n\n"
-     << "## Held-out prediction\n\n" << statsTableHeader(rotation) << statsTableRow("nominal arm, registration fitted", r.heldout_before, rotation)
+     << (r.cross_validated ? "## Cross-validated prediction\n\n" : "## Held-out prediction\n\n") << statsTableHeader(rotation) << statsTableRow("nominal arm, registration fitted", r.heldout_before, rotation)
      << statsTableRow("calibrated", r.heldout_after, rotation) << "\n" << calib::formatHeldoutGain(r.gain)
      << ".\n\n## Fit residuals\n\n" << statsTableHeader(rotation)
      << statsTableRow("calibrated (fitted samples)", r.fit.residuals, rotation)
@@ -366,7 +427,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
      << "Determined no better than their typical magnitude (1-sigma above it; the data barely informs them): "
      << weakList(r.fit) << ".\n\n"
      << "## Parameters\n\n" << parameterTable(r.fit) << "\n" << sim::signConventions(effects) << "\n## Figures\n\n"
-     << measured_detail::measuredFigures(o.callbacks, o.plots, out, r.fit, held, before, after, write_model)
+     << measured_detail::measuredFigures(o.callbacks, o.plots, out, r.fit, judged.obs, judged.before, judged.after, write_model)
      << "\n## Files\n\n" << (write_model ? "`model.yaml` with `robot.yaml` (orbcal's model: `orbcal evaluate`, `--robot robot.yaml`), "
                                               "`estimates.csv` (every parameter); for other programs `robot_calibrated.urdf` (the "
                                               "calibrated chain), `frames.yaml` (the registration frames) and `effects.yaml` (the "
@@ -456,7 +517,8 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   const calib::Fit baseline = evaluationBaseline(data, obs, fo);
   r.baseline = baseline.residuals;
   sim::OutputFolder folder(out, "orbcal evaluate");  // the inputs are read and plausible
-  r.warnings = calib::outsideTrustedRange(lm.model, obs);
+  r.warnings = readingWarnings(data);
+  for (const std::string& w : calib::outsideTrustedRange(lm.model, obs)) r.warnings.push_back(w);
   const bool rotation = measuresRotation(data);
   std::string json = residualJson(r.fit.residuals, out + "/evaluation.json");
   json.insert(json.size() - 1, ", \"refitted_parameters\": " + std::to_string(r.refitted) + ", \"baseline\": " +

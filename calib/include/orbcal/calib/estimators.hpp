@@ -25,6 +25,11 @@ struct Estimate {
   bool converged = false;
   std::vector<int> held;       ///< parameters held at zero: the options' hold, and (LSE, LM) the unidentifiable ones
   double cost = 0.0;           ///< 0.5 sum nu^T R^-1 nu at the estimate (all methods, for comparison)
+  /// With a prior whose strength was estimated (FitControls::scaled_prior): its scale tau (the prior
+  /// sigma over the given typical sizes) and the estimate's effective number of parameters
+  /// (shrinkage()); 0 otherwise.
+  double prior_scale = 0.0;
+  double effective_parameters = 0.0;
 };
 
 struct EkfOptions {
@@ -40,6 +45,10 @@ struct EkfOptions {
   /// Parameters held at zero whatever the data says: their prior and process variances are zero, so
   /// no gain ever reaches them (Estimate::held lists them, sorted).
   std::vector<int> hold;
+  /// A Gaussian prior y_i ~ N(prior_mean_i, prior_sigma_i^2) where prior_sigma_i > 0 (empty: none):
+  /// it replaces those parameters' P0 and starts the state at its mean, as LmOptions' and LseOptions'
+  /// prior enters theirs.
+  Eigen::VectorXd prior_sigma, prior_mean;
   /// Wang et al. 2023 as written: P0 sigma 0.01 deg / 0.01 mm, Q = 0, J at the nominal parameters.
   static EkfOptions paperLiteral();
 };
@@ -55,6 +64,9 @@ struct LseOptions {
   /// appears and Gauss-Newton oscillates along it.
   bool fix_unidentifiable = true;
   std::vector<int> hold;        ///< parameters held at zero whatever the data says
+  /// A Gaussian prior as LmOptions' (empty: none): pseudo-observations y_i = prior_mean_i with variance
+  /// prior_sigma_i^2, one whitened row each beside the measurements' (weighted or not).
+  Eigen::VectorXd prior_sigma, prior_mean;
 };
 
 struct LmOptions {
@@ -100,6 +112,21 @@ void whitenedSystem(const MeasurementModel& model, const Eigen::VectorXd& y, Eig
 /// 0.5 sum_k nu_k(y)^T R_k^-1 nu_k(y); `innovations` (if given) gets every nu_k(y), from the same
 /// predictions.
 double weightedCost(const MeasurementModel& model, const Eigen::VectorXd& y, std::vector<Eigen::VectorXd>* innovations = nullptr);
+
+/// How much an estimate at y uses its free parameters (all but `held`): with A = H^T R^-1 H of the free
+/// parameters (the whitened Jacobian's normal matrix) and P = diag(1/prior_sigma^2) (0 where a
+/// parameter has no prior; `prior_sigma` empty: none), the effective number of parameters is
+/// tr((A + P)^-1 A), the trace of the hat matrix, the sum of the eigen-shrinkage factors (Hastie,
+/// Tibshirani and Friedman 2009, sec. 3.4.1): the free count without a prior, less with one. `gamma` is
+/// the same sum over the parameters in `subset` (MacKay 1992's number of well-determined parameters
+/// among those a prior's strength is estimated for), `posterior_diagonal` the diagonal of (A + P)^-1.
+struct Shrinkage {
+  double effective = 0.0;
+  double gamma = 0.0;
+  Eigen::VectorXd posterior_diagonal;
+};
+Shrinkage shrinkage(const MeasurementModel& model, const Eigen::VectorXd& y, const std::vector<int>& held,
+                    const Eigen::VectorXd& prior_sigma, const std::vector<int>& subset = {});
 
 /// Parameters to hold so that the rest are identifiable: sim::numericalRank of the whitened Jacobian
 /// at y with the layout's typical magnitudes, the `held` parameters left out (they are in the result,

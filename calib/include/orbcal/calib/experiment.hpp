@@ -44,7 +44,16 @@ struct FitControls {
   bool fix_unidentifiable = true;   ///< LSE, LM: also hold one parameter per unidentifiable group
   bool covariance = true;           ///< LM: the estimate's covariance (LmOptions::covariance)
   bool normal_equations = false;    ///< LM: LmOptions::normal_equations
-  Eigen::VectorXd prior_sigma, prior_mean;  ///< LM: a Gaussian prior (LmOptions::prior_sigma); empty: none
+  /// A Gaussian prior (LmOptions::prior_sigma) for every estimator: LM's prior residuals, LSE's
+  /// pseudo-observations, the EKF's P0; empty: none.
+  Eigen::VectorXd prior_sigma, prior_mean;
+  /// The maximum a-posteriori estimate with the prior's strength from the data: on the parameters
+  /// where scaled_prior_i > 0 the prior sigma is tau * scaled_prior_i (ridge regression toward
+  /// prior_mean, weighted by 1/scaled_prior^2), and tau maximises the evidence of the linearized model
+  /// (MacKay 1992; in geodesy the prior's variance component, Koch and Kusche 2002): refit, then
+  /// tau^2 = sum ((y_i - mean_i) / scaled_prior_i)^2 / gamma, gamma the well-determined parameters
+  /// among them (shrinkage()), until tau changes by less than 0.1 %. Empty: the prior as given.
+  Eigen::VectorXd scaled_prior;
 };
 
 Estimate runMethod(const MethodSpec& method, const sim::Arm& nominal, const std::vector<PoseObservation>& observations);

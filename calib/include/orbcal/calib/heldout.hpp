@@ -74,6 +74,7 @@ int countConfigurations(const std::vector<MarkerObservation>& obs);
 struct CrossValidation {
   double sse = 0.0;                       ///< held-out whitened SSE (each fold's fitted noise)
   std::vector<Eigen::VectorXd> residual;  ///< held-out residual per observation ([position; rotation] or [position])
+  double effective_parameters = 0.0;      ///< the folds' mean Fit::effective_parameters
 };
 /// `fold`: the fold of each observation, 0..folds-1 (splitByConfiguration); `start(train)`: the starting
 /// model of a fold's training observations, every fold's with the same layout; `p0`: the starting
@@ -83,9 +84,14 @@ CrossValidation crossValidateFits(const std::vector<MarkerObservation>& obs, con
                                   const std::function<sim::KinematicModel(const std::vector<MarkerObservation>&)>& start,
                                   const FitOptions& options, const Eigen::VectorXd& p0 = {});
 
+/// Position loss |r_pos|^2 (m^2) of each configuration of `obs` (configurationGroups' order), averaged
+/// over its rows: the unit of every paired comparison of held-out errors.
+std::vector<double> configurationLosses(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& residual);
+
 /// The held-out gain of a calibrated model over the nominal arm (registration fitted) and its test.
 struct HeldoutGain {
-  int configurations = 0;          ///< held out
+  int configurations = 0;          ///< held out (cross-validated: all, each predicted once)
+  bool cross_validated = false;    ///< by crossValidatedVerdict: every configuration predicted by a fit without it
   double before_rms_m = 0.0;       ///< position RMS over the held-out rows: nominal arm
   double after_rms_m = 0.0;        ///< calibrated
   double t = 0.0;                  ///< the paired statistic (0 with fewer than two configurations)
@@ -123,5 +129,27 @@ struct HeldoutVerdict {
 /// (`after`); `holdout` and `total` as heldoutRefusal takes them.
 HeldoutVerdict heldoutVerdict(const std::vector<MarkerObservation>& held, const std::vector<Eigen::VectorXd>& before,
                               const std::vector<Eigen::VectorXd>& after, std::optional<double> holdout, int total);
+
+/// A set too small for a held-out split is judged by cross-validation over all of its configurations:
+/// with the hold-out left to its default (none given), fewer than 2 kMinHeldoutConfigurations
+/// configurations would hold out fewer than kMinHeldoutConfigurations.
+bool judgeByCrossValidation(int configurations, std::optional<double> holdout);
+
+/// One fold of a cross-validated judgement: the residuals of the observations `test` (indices into the
+/// set, in order) under the nominal arm and the calibrated model, both fitted to `train` alone (the
+/// nominal arm's frames included), whatever the data (camera poses from images, tracker poses).
+struct FoldPrediction {
+  std::vector<Eigen::VectorXd> before, after;
+};
+using FoldPredictor = std::function<FoldPrediction(const std::vector<int>& train, const std::vector<int>& test)>;
+
+/// The held-out rule (heldoutVerdict: the paired one-sided test of per-configuration squared errors,
+/// nominal vs calibrated, at least kMinHeldoutConfigurations) on residuals that no fit saw: leave one
+/// configuration out, every configuration predicted once by `predict` fitted to all the others (the
+/// folds in parallel). Fewer than kMinHeldoutConfigurations configurations in all are refused unfitted:
+/// cross-validation cannot justify them either. `before` and `after` (when given) get every
+/// observation's cross-validated residuals.
+HeldoutVerdict crossValidatedVerdict(const std::vector<MarkerObservation>& obs, const FoldPredictor& predict,
+                                     std::vector<Eigen::VectorXd>* before = nullptr, std::vector<Eigen::VectorXd>* after = nullptr);
 
 }  // namespace orbcal::calib

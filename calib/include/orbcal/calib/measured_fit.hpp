@@ -70,6 +70,12 @@ struct FitOptions {
   /// of the cost (on the real iiwa7 runs: hundreds of iterations toward a 0.2 m link error), stay at
   /// physical sizes and the fit converges.
   bool geometry_prior = true;
+  /// The maximum a-posteriori level (calib/levels.hpp `map`): the geometry's prior is ridge regression
+  /// toward the nominal arm, 1-sigma tau times the typical magnitudes (sim::ParamInfo::typical), with
+  /// tau estimated from the data by the evidence (FitControls::scaled_prior); the frames keep the
+  /// geometry_prior's guard, effects none. Fit::effective_parameters then says how many parameters the
+  /// fit effectively used, and the noise estimate's degrees of freedom are rows minus those.
+  bool map = false;
 };
 
 struct Fit {
@@ -89,7 +95,11 @@ struct Fit {
   /// joint whose torque never leaves the sensor's noise).
   std::vector<int> weak;
   double chi2 = 0.0;          ///< sum of whitened squared residuals at the fit
-  int dof = 0;                ///< rows - free parameters
+  int dof = 0;                ///< rows - free parameters (FitOptions::map: rows - effective_parameters, rounded)
+  /// The free parameters, or with FitOptions::map the effective number of them (Estimate::
+  /// effective_parameters: the hat matrix's trace), and the map prior's scale tau (0 without map).
+  double effective_parameters = 0.0;
+  double prior_scale = 0.0;
 };
 /// FitOptions::geometry_prior's 1-sigma per parameter of `layout`: the typical magnitude on the
 /// geometry and frame blocks, 0 (no prior) on the effects'. The prior is centred on the starting model

@@ -37,6 +37,12 @@ struct MeasuredCalibrateResult {
   calib::ResidualStats heldout_before;   ///< geometry-free model (nominal arm, registration fitted)
   calib::ResidualStats heldout_after;    ///< the calibrated model
   int samples = 0, identification = 0, held_out = 0;
+  /// Too few configurations for a held-out split (calib::judgeByCrossValidation): every sample fitted, and
+  /// the gain judged by leave-one-configuration-out cross-validation (heldout_before/after and gain are
+  /// then of the cross-validated residuals of all the samples).
+  bool cross_validated = false;
+  /// Accepted with a warning, one line each: joint readings past a limit (sim::nearLimitWarnings).
+  std::vector<std::string> warnings;
   bool worse = false;                    ///< held-out position RMS grew (never at the frames level without effects: the reference itself)
   calib::HeldoutGain gain;               ///< the held-out gain and its test (calib/heldout.hpp)
   std::string refusal;                   ///< why the held-out gain is not accepted (calib::heldoutVerdict); empty: accepted or none held out
@@ -94,7 +100,7 @@ struct EvaluateResult {
   /// The baseline beside the model: the description's nominal arm with every registration frame fitted
   /// to this data (no geometry, no effects).
   calib::ResidualStats baseline;
-  std::vector<std::string> warnings;  ///< empirical corrections applied outside their fitted range
+  std::vector<std::string> warnings;  ///< joint readings past a limit; empirical corrections applied outside their fitted range
   std::string json_path, report_path, residuals_path;
 };
 /// The baseline of an evaluation: the description's nominal arm with every registration frame fitted to
