@@ -132,7 +132,7 @@ void bindCalibrate(py::module_& m) {
         const sim::KinematicModel start = calib::startingModel(data, obs, fx);
         fo.hold = calib::levelHold(start, choice.chosen, "level");
         const calib::Fit fit = calib::fitMarkerModel(start, obs, fo);
-        const calib::CalibratedModel cm = calib::calibratedModel(fit);
+        const calib::CalibratedModel cm = calib::calibratedModel(fit, obs);
         py::dict stats = fitStatistics(fit);
         stats["level"] = calib::levelName(choice.chosen);
         stats["level_reason"] = calib::levelSentence(choice);
@@ -160,12 +160,28 @@ void bindCalibrate(py::module_& m) {
         const calib::Fit fit = calib::predictWithModel({model.model, model.p}, data, obs, fitOptions(data, "LM"));
         py::dict d = residualDict(fit.residuals);
         d["warnings"] = calib::outsideTrustedRange(model.model, obs);
+        py::list ranges;  // per driving variable of each effect with a fitted range: how far the samples leave it
+        for (const sim::RangeExcess& x : calib::rangeExcesses(model.model, obs)) {
+          py::dict r;
+          r["effect"] = x.effect;
+          r["variable"] = x.variable.column;
+          r["unit"] = x.variable.unit;
+          r["lo"] = x.range.lo;
+          r["hi"] = x.range.hi;
+          r["samples_outside"] = x.outside;
+          r["max_excess"] = x.max_excess;
+          r["excess"] = x.excess;
+          ranges.append(r);
+        }
+        d["beyond_range"] = ranges;
         return d;
       },
       py::arg("model"), py::arg("data"),
       "Predicts `data` with `model` as `orbcal evaluate` does: every geometric and effect parameter is the model's, only "
       "the frames the data calls per_session are refitted. Returns the prediction errors' statistics (samples, "
-      "position_mean_m, position_rms_m, position_max_m, rotation_rms_rad, rotation_max_rad) and warnings.");
+      "position_mean_m, position_rms_m, position_max_m, rotation_rms_rad, rotation_max_rad), warnings, and beyond_range: per "
+      "driving variable of each effect with a fitted range (model.yaml's range:, recorded by calibrate and diagnose), the "
+      "range (lo, hi, in its display unit), samples_outside, max_excess and each sample's excess (0 inside).");
 
   m.def(
       "load_model",

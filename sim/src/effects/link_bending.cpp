@@ -48,6 +48,12 @@ class LinkBendingKind final : public EffectKind {
     n.masses = true;
     return n;
   }
+  /// The torque of the joint at the link's near end, which the load the link carries drives.
+  std::vector<DrivingVariable> drivingVariables(const Effect& e, const Arm& arm) const override {
+    std::vector<DrivingVariable> v;
+    for (const int j : e.joints()) v.push_back(torqueDriver(arm, j));
+    return v;
+  }
   std::vector<ParamBlock> blocks(const Effect& e, const Arm& arm, int) const override {
     ParamBlock b;
     b.effect = name();
