@@ -77,7 +77,7 @@ std::string beyondRangeAdvice(const std::vector<sim::Effect>& effects, const sim
     }
     if (!(lo <= hi)) continue;
     const bool load = v.extremes == sim::DrivingVariable::Extremes::kMagnitude;
-    out += (out.empty() ? "" : ", ") + v.name + " outside " + sim::formatNumber("%.1f", lo) + ".." + sim::formatNumber("%.1f", hi) +
+    out += (out.empty() ? "" : ", ") + v.name + " outside " + sim::formatNumber("%.3g", lo) + ".." + sim::formatNumber("%.3g", hi) +
            " " + v.unit + (load ? " (e.g. a heavier payload)" : "");
   }
   return out.empty() ? out : "data beyond the ranges this data covers, where their predictions part: " + out;

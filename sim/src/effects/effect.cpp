@@ -90,7 +90,7 @@ std::vector<RangeExcess> rangeExcesses(const std::vector<Effect>& effects, const
 }
 
 std::string rangeExcessText(const RangeExcess& r) {
-  const auto num = [](double v) { return formatNumber("%.1f", v); };
+  const auto num = [](double v) { return formatNumber("%.3g", v); };
   return r.effect + ": " + std::to_string(r.outside) + " of " + std::to_string(r.excess.size()) + " samples leave " +
          r.variable.name + "'s fitted range " + num(r.range.lo) + ".." + num(r.range.hi) + " " + r.variable.unit + ", by up to " +
          num(r.max_excess) + " " + r.variable.unit +
