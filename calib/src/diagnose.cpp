@@ -381,13 +381,10 @@ void forwardSelect(const Diagnoser& d, const sim::MeasuredData& data, const std:
       if (tests[i].significant) order.push_back(i);
     }
     std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return tests[a].score / std::max(1, tests[a].rank) > tests[b].score / std::max(1, tests[b].rank); });
-    // One order of a cause (cyclic:2 or cyclic:2/6) competes, its lowest significant one (in the place of
-    // its most significant); a higher order is chosen once it is selected, where the data ask for it.
+    // One order of a cause (cyclic:2 or cyclic:2/6) competes; its order is chosen once it is selected.
     std::vector<std::size_t> distinct;
     for (std::size_t i : order) {
-      const auto same = std::find_if(distinct.begin(), distinct.end(), [&](std::size_t k) { return sharesCause(tests[k].effect, tests[i].effect); });
-      if (same == distinct.end()) distinct.push_back(i);
-      else if (tests[i].effect.order() < tests[*same].effect.order()) *same = i;
+      if (std::none_of(distinct.begin(), distinct.end(), [&](std::size_t k) { return sharesCause(tests[k].effect, tests[i].effect); })) distinct.push_back(i);
     }
     order = distinct;
     if (order.size() > 5) order.resize(5);
