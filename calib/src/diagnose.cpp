@@ -14,6 +14,7 @@
 #include <thread>
 
 #include "diagnose_candidates.hpp"
+#include "diagnose_folds.hpp"
 #include "diagnose_text.hpp"
 #include "orbcal/calib/plausibility.hpp"
 #include "orbcal/sim/config.hpp"
@@ -28,34 +29,6 @@ namespace orbcal::calib {
 namespace {
 
 using sim::Effect;
-
-struct Folds {
-  std::vector<int> fold;  ///< fold of each observation
-  int k = 0;
-};
-
-/// Folds by configuration (splitByConfiguration, equal shares): repeated measurements of one
-/// configuration stay in one fold, and every fold's training set sees every session.
-Folds makeFolds(const std::vector<MarkerObservation>& obs, int k, std::uint64_t seed) {
-  Folds f;
-  f.k = k;
-  f.fold = splitByConfiguration(obs, std::vector<double>(static_cast<std::size_t>(k), 1.0), seed);
-  return f;
-}
-
-struct CvResult {
-  double sse = 0.0;                           ///< held-out whitened SSE
-  std::vector<Eigen::VectorXd> residual;      ///< held-out residual per observation
-  bool ok = true;
-};
-
-/// Two effects that claim one cause (a key in common: cyclic:2 and cyclic:2/6, compliance:3 and
-/// compliance:3/3) cannot both be in a model.
-bool sharesCause(const Effect& a, const Effect& b) {
-  if (&a.kind() != &b.kind()) return false;
-  const std::vector<std::string> ka = a.kind().keys(a), kb = b.kind().keys(b);
-  return std::any_of(ka.begin(), ka.end(), [&](const std::string& k) { return std::find(kb.begin(), kb.end(), k) != kb.end(); });
-}
 
 struct OrderChoice {
   Effect effect;
@@ -84,22 +57,33 @@ class Diagnoser {
   /// fit of all the data whose effects are the first of `effects`), every fold starts from its frames
   /// and parameters (the added effects at zero) instead of the closed-form start: the same optimum,
   /// fewer iterations.
-  CvResult crossValidate(const std::vector<Effect>& effects, const Fit* warm = nullptr) const {
+  /// With `extremes` (driving variables' columns, prepared by prepareExtremes): also each one's extremes
+  /// held out (CvResult::extremes).
+  CvResult crossValidate(const std::vector<Effect>& effects, const Fit* warm = nullptr,
+                         const std::vector<std::string>& extremes = {}) const {
     // A cold start depends on the effects alone: backward elimination and the shares of the excess
     // ask again for models already cross-validated (the base model, a prefix of the selection).
     std::string key;
     for (const Effect& e : effects) key += sim::formatEffect(e) + " ";
+    for (const std::string& c : extremes) key += "|" + c;
     if (!warm) {
       const auto hit = cold_cvs_.find(key);
       if (hit != cold_cvs_.end()) return hit->second;
     }
-    CvResult r = crossValidateFolds(effects, warm);
+    CvResult r = crossValidateFolds(effects, warm, extremes);
     if (!warm) cold_cvs_.emplace(key, r);
     return r;
   }
 
-  CvResult crossValidateFolds(const std::vector<Effect>& effects, const Fit* warm) const {
-    if (o_.one_step_folds) return oneStepFolds(effects, warm);
+  /// The extremes folds of `vars` (extremesFold), before crossValidate asks for them (from several threads).
+  void prepareExtremes(const std::vector<sim::DrivingVariable>& vars) const {
+    for (const sim::DrivingVariable& v : vars) {
+      if (!extreme_folds_.count(v.column)) extreme_folds_.emplace(v.column, extremesFold(obs_, v, kExtremesShare));
+    }
+  }
+
+  CvResult crossValidateFolds(const std::vector<Effect>& effects, const Fit* warm, const std::vector<std::string>& extremes) const {
+    if (o_.one_step_folds) return oneStepFolds(effects, warm, extremes);
     std::optional<sim::KinematicModel> warm_model;
     Eigen::VectorXd warm_p;
     if (warm) {
@@ -116,7 +100,14 @@ class Diagnoser {
       return warm_model ? *warm_model : startingModel(data_, train, effects);
     };
     const CrossValidation cv = crossValidateFits(obs_, folds_.fold, folds_.k, start, fold_options, warm_p);
-    return {cv.sse, cv.residual, true};
+    CvResult r{cv.sse, cv.residual, true, {}};
+    for (const std::string& c : extremes) {
+      // One fold: the extremes (1 in extremesFold) held out, fitted on the rest.
+      std::vector<int> fold = extreme_folds_.at(c);
+      for (int& f : fold) f = 1 - f;
+      r.extremes[c] = crossValidateFits(obs_, fold, 1, start, fold_options, warm_p).sse;
+    }
+    return r;
   }
 
   /// The fit of `effects` to all the data, from `warm` (its frames and parameters, the added effects
@@ -137,7 +128,7 @@ class Diagnoser {
   /// (with the geometry prior's rows S = diag(1/sigma^2)); fold f's step solves, on the free
   /// parameters, (A_t^T A_t + S) dp = A_t^T b_t - S p over its training rows t, and its held-out
   /// residuals are evaluated at p + dp.
-  CvResult oneStepFolds(const std::vector<Effect>& effects, const Fit* warm) const {
+  CvResult oneStepFolds(const std::vector<Effect>& effects, const Fit* warm, const std::vector<std::string>& extremes) const {
     const Fit full = fitLean(effects, warm);
     const sim::KinematicModel& model = full.model;
     const MarkerPoseModel m(model, obs_, noise_, full.p);
@@ -168,13 +159,14 @@ class Diagnoser {
     const Eigen::VectorXd g_all = Af.transpose() * b;
     CvResult r;
     r.residual.resize(obs_.size());
-    for (int f = 0; f < folds_.k; ++f) {
+    // The held-out whitened SSE of the observations with fold[k] == f, their residuals into r.residual.
+    const auto holdOut = [&](const std::vector<int>& fold, int f, bool keep) {
       Eigen::MatrixXd N = N_all;
       Eigen::VectorXd g = g_all;
       std::vector<MarkerObservation> test;
       std::vector<std::size_t> test_index;
       for (std::size_t k = 0; k < obs_.size(); ++k) {
-        if (folds_.fold[k] != f) continue;
+        if (fold[k] != f) continue;
         const auto rows = Eigen::seqN(first_row[k], first_row[k + 1] - first_row[k]);
         N -= Af(rows, Eigen::all).transpose() * Af(rows, Eigen::all);
         g -= Af(rows, Eigen::all).transpose() * b(rows);
@@ -188,9 +180,12 @@ class Diagnoser {
       for (Eigen::Index c = 0; c < nf; ++c) p[free[static_cast<std::size_t>(c)]] += step[c] * scale[c];
       const MarkerPoseModel held(model, test, noise_, p);
       std::vector<Eigen::VectorXd> nu;  // the held-out residuals, at p
-      r.sse += 2.0 * weightedCost(held, Eigen::VectorXd::Zero(held.numParams()), &nu);
-      for (std::size_t t = 0; t < test.size(); ++t) r.residual[test_index[t]] = std::move(nu[t]);
-    }
+      const double sse = 2.0 * weightedCost(held, Eigen::VectorXd::Zero(held.numParams()), &nu);
+      for (std::size_t t = 0; keep && t < test.size(); ++t) r.residual[test_index[t]] = std::move(nu[t]);
+      return sse;
+    };
+    for (int f = 0; f < folds_.k; ++f) r.sse += holdOut(folds_.fold, f, true);
+    for (const std::string& c : extremes) r.extremes[c] = holdOut(extreme_folds_.at(c), 1, false);
     return r;
   }
 
@@ -294,21 +289,26 @@ class Diagnoser {
 
   std::vector<Effect> catalog() const { return catalogCandidates(data_, obs_, o_); }
 
-  /// The order of a chosen cause with orders (cyclic: harmonics 1..max_order; compliance: degree 1 or 3) that
-  /// earns the most cross-validated gain after its penalty per parameter; `cv` is the chosen order's.
+  /// The order of a chosen cause with orders (cyclic: harmonics 1..max_order; compliance: degree 1 or 3):
+  /// from the lowest, a higher order replaces the current choice only where it earns more after its
+  /// penalty per parameter both on the random folds and with the extremes of its driving variables held
+  /// out (a cubic fitted inside the training range must also predict its edges better). `cv` is the
+  /// chosen order's, with `extremes` (the chosen's driving variables' columns).
   OrderChoice refineOrder(const std::vector<Effect>& selected, const Effect& chosen, const CvResult& cv,
-                          const Fit& current_fit, double cv_current) const {
-    OrderChoice best{chosen, cv};
+                          const Fit& current_fit, const std::vector<std::string>& extremes) const {
     const sim::EffectKind& kind = chosen.kind();
-    if (kind.maxOrder() == 0) return best;
+    if (kind.maxOrder() == 0) return {chosen, cv};
     const auto params = [&](const Effect& e) {
       int n = 0;
       for (const sim::ParamBlock& b : sim::effectBlocks(e, data_.arm, data_.numSessions())) n += b.size();
       return n;
     };
-    const auto penalized = [&](const OrderChoice& c) { return cv_current - c.cv.sse - o_.penalty_per_param * params(c.effect); };
+    std::vector<OrderChoice> orders;
     for (int k = 1; k <= std::min(kind.maxOrder(), std::max(o_.max_order, chosen.order())); ++k) {
-      if (k == chosen.order()) continue;
+      if (k == chosen.order()) {
+        orders.push_back({chosen, cv});
+        continue;
+      }
       const Effect e = Effect(kind, chosen.joints(), k, chosen.reference()).withRange(chosen.lo(), chosen.hi());
       try {
         kind.check(e, data_.arm.numJoints(), "order");
@@ -317,10 +317,15 @@ class Diagnoser {
       }
       std::vector<Effect> trial = selected;
       trial.push_back(e);
-      OrderChoice c{e, crossValidate(trial, &current_fit)};
-      if (penalized(c) > penalized(best)) best = std::move(c);
+      orders.push_back({e, crossValidate(trial, &current_fit, extremes)});
     }
-    return best;
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < orders.size(); ++k) {
+      const double extra = o_.penalty_per_param * (params(orders[k].effect) - params(orders[best].effect));
+      const bool edges = extremes.empty() || orders[best].cv.extremesSse() - orders[k].cv.extremesSse() > extra;
+      if (orders[best].cv.sse - orders[k].cv.sse > extra && edges) best = k;
+    }
+    return orders[best];
   }
 
   void setNoise(const MarkerNoise& n) {
@@ -335,6 +340,7 @@ class Diagnoser {
   Folds folds_;
   MarkerNoise noise_;
   mutable std::map<std::string, CvResult> cold_cvs_;  ///< cross-validations from the closed-form start, by effects
+  mutable std::map<std::string, std::vector<int>> extreme_folds_;  ///< extremesFold by driving variable's column
 };
 
 /// Evidence: held-out residuals against each variable (F test of a linear regression, pooled over the
@@ -358,7 +364,8 @@ struct ModelSelection {
 /// Forward selection from `pool`: at each step the significant candidates (score tests, Holm) are
 /// cross-validated and the best penalized gain is added while one is positive; the confounded sets
 /// and every step's tests go to `out`.
-void forwardSelect(const Diagnoser& d, const DiagnoseOptions& o, const std::vector<Effect>& pool, ModelSelection& sel, Diagnosis& out) {
+void forwardSelect(const Diagnoser& d, const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o,
+                   const std::vector<Effect>& pool, ModelSelection& sel, Diagnosis& out) {
   for (; sel.steps < o.max_effects; ++sel.steps) {
     const int step = sel.steps + 1;
     std::vector<Effect> remaining;
@@ -384,32 +391,41 @@ void forwardSelect(const Diagnoser& d, const DiagnoseOptions& o, const std::vect
     std::optional<std::size_t> best;
     double best_gain = 0.0;
     std::map<std::size_t, CvResult> cvs;
+    // Every candidate is also scored with the extremes of each driving variable of the candidates held
+    // out ("leave the extremes out"): the same held-out samples for all of them.
+    std::vector<Effect> fitted;
+    for (std::size_t i : order) fitted.push_back(tests[i].effect);
+    const std::vector<sim::DrivingVariable> drivers = drivingVariablesOf(fitted, data.arm);
+    d.prepareExtremes(drivers);
+    std::vector<std::string> extremes;
+    for (const sim::DrivingVariable& v : drivers) extremes.push_back(v.column);
     std::vector<std::future<CvResult>> jobs;  // the candidates side by side, on every core
     for (std::size_t i : order) {
-      jobs.push_back(std::async(std::launch::async, [&d, &sel, &tests, i] {
+      jobs.push_back(std::async(std::launch::async, [&d, &sel, &tests, &extremes, i] {
         std::vector<Effect> trial = sel.effects;
         trial.push_back(tests[i].effect);
-        return d.crossValidate(trial, &sel.fit);
+        return d.crossValidate(trial, &sel.fit, extremes);
       }));
     }
     for (std::size_t j = 0; j < order.size(); ++j) {
       cvs[order[j]] = jobs[j].get();
       tests[order[j]].cv_gain = sel.cv.sse - cvs[order[j]].sse;
     }
-    // The largest penalized gain; then parsimony: among the candidates whose gain comes within the
-    // confounding margin of it (the data cannot tell them apart), the one with the fewest parameters.
+    // The largest penalized gain; then, among the candidates whose gain comes within the confounding
+    // margin of it (the random folds cannot tell them apart), the one that predicts the held-out
+    // extremes best after its penalty per parameter: parsimony, and no advantage that lives only inside
+    // the training range.
     const auto penalized = [&](std::size_t i) { return *tests[i].cv_gain - o.penalty_per_param * tests[i].params; };
     for (std::size_t i : order) {
       if (penalized(i) > 0.0 && (!best || penalized(i) > penalized(*best))) best = i;
     }
     if (best) {
       const double top = *tests[*best].cv_gain;
+      const auto edges = [&](std::size_t i) { return cvs[i].extremesSse() + o.penalty_per_param * tests[i].params; };
+      const std::size_t first = *best;
       for (std::size_t i : order) {
-        if (penalized(i) > 0.0 && *tests[i].cv_gain >= (1.0 - o.confounding_gain_margin) * top &&
-            (tests[i].params < tests[*best].params ||
-             (tests[i].params == tests[*best].params && *tests[i].cv_gain > *tests[*best].cv_gain))) {
-          best = i;
-        }
+        if (i == first || penalized(i) <= 0.0 || *tests[i].cv_gain < (1.0 - o.confounding_gain_margin) * top) continue;
+        if (edges(i) < edges(*best) || (edges(i) == edges(*best) && *tests[i].cv_gain > *tests[*best].cv_gain)) best = i;
       }
       best_gain = *tests[*best].cv_gain;
     }
@@ -427,13 +443,15 @@ void forwardSelect(const Diagnoser& d, const DiagnoseOptions& o, const std::vect
       }
       if (set.effects.size() > 1 || set.with_geometry) {
         set.separate_by = separationAdvice(set.effects);
+        const std::string beyond = beyondRangeAdvice(set.effects, data.arm, obs);
+        if (set.effects.size() > 1 && !beyond.empty()) set.separate_by += "; or " + beyond;
         out.confounded.push_back(set);
       }
     }
     out.candidates.insert(out.candidates.end(), tests.begin(), tests.end());
     if (!best) break;
     // The order of the chosen cause (cyclic harmonics, a compliance's degree) by its cross-validated gain.
-    const OrderChoice chosen = d.refineOrder(sel.effects, tests[*best].effect, cvs[*best], sel.fit, sel.cv.sse);
+    const OrderChoice chosen = d.refineOrder(sel.effects, tests[*best].effect, cvs[*best], sel.fit, extremes);
     tests[*best].effect = chosen.effect;
     cvs[*best] = chosen.cv;
     sel.effects.push_back(tests[*best].effect);
@@ -526,10 +544,10 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   // Forward selection: the catalog's causes; then, where their model still leaves significant structure
   // (the lack-of-fit test), empirical corrections, selected the same way.
   ModelSelection sel{{}, cv_base, out.base_fit, 0};
-  forwardSelect(d, o, d.catalog(), sel, out);
+  forwardSelect(d, data, obs, o, d.catalog(), sel, out);
   if (o.empirical && sel.steps < o.max_effects &&
       lackOfFit(data, obs, sel.fit, out.base_fit.noise, sel.cv.residual, stated, folds, o.alpha).left()) {
-    forwardSelect(d, o, empiricalCandidates(data, obs, o.max_order), sel, out);
+    forwardSelect(d, data, obs, o, empiricalCandidates(data, obs, o.max_order), sel, out);
   }
   backwardEliminate(d, data, o, out.base_fit, sel);
 
@@ -550,6 +568,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
     }
   }
   out.confounded = kept;
+  out.alternatives = alternativesOf(out, [&d](const std::vector<Effect>& effects) { return d.fitAll(effects); });
 
   // Lack of fit of the selected model (the base model when nothing is selected).
   out.lack_of_fit = lackOfFit(data, obs, out.fit, out.base_fit.noise, out.residual_selected, stated, folds, o.alpha);

@@ -366,6 +366,14 @@ CalibratedModel calibratedModel(const Fit& fit) {
   return {std::move(f.model), std::move(f.p)};
 }
 
+CalibratedModel calibratedModel(const Fit& fit, const std::vector<MarkerObservation>& fitted_on) {
+  CalibratedModel c = calibratedModel(fit);
+  std::vector<sim::JointSample> samples;
+  for (const MarkerObservation& o : fitted_on) samples.push_back(o.sample);
+  for (sim::Effect& e : c.model.effects) e = sim::recordFittedRanges(e, c.model.arm, samples);
+  return c;
+}
+
 Fit predictWithModel(const CalibratedModel& c, const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
                      const FitOptions& options) {
   using sim::FrameSharing;
@@ -417,23 +425,16 @@ Fit predictWithModel(const CalibratedModel& c, const sim::MeasuredData& data, co
   return fitMarkerModel(m, obs, o, p0);
 }
 
+std::vector<sim::RangeExcess> rangeExcesses(const sim::KinematicModel& model, const std::vector<MarkerObservation>& observations) {
+  std::vector<sim::JointSample> samples;
+  for (const MarkerObservation& o : observations) samples.push_back(o.sample);
+  return sim::rangeExcesses(model.effects, model.arm, samples);
+}
+
 std::vector<std::string> outsideTrustedRange(const sim::KinematicModel& model, const std::vector<MarkerObservation>& observations) {
   std::vector<std::string> out;
-  for (const sim::Effect& e : model.effects) {
-    if (!e.kind().empirical()) continue;
-    int outside = 0;
-    for (const MarkerObservation& o : observations) {
-      const double x = e.kind().variable(e, o.sample);
-      outside += x < e.lo() || x > e.hi();
-    }
-    if (outside == 0) continue;
-    const auto [column, label] = e.kind().revealingVariable(e, model.arm);
-    const bool angle = column.rfind("q", 0) == 0;
-    const double scale = angle ? sim::kRadToDeg : 1.0;
-    out.push_back(sim::formatEffect(e) + ": " + std::to_string(outside) + " of " + std::to_string(observations.size()) +
-                  " samples lie outside the range of " + label + ", " + sim::formatNumber("%.1f", e.lo() * scale) + ".." +
-                  sim::formatNumber("%.1f", e.hi() * scale) + (angle ? " deg" : " N m") +
-                  ", it was fitted on: this empirical correction is not to be trusted there");
+  for (const sim::RangeExcess& r : rangeExcesses(model, observations)) {
+    if (r.outside > 0) out.push_back(sim::rangeExcessText(r));
   }
   return out;
 }

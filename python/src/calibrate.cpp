@@ -158,6 +158,20 @@ void bindCalibrate(py::module_& m) {
         py::dict d = residualDict(fit.residuals);
         d["baseline"] = residualDict(baseline.residuals);
         d["warnings"] = calib::outsideTrustedRange(model.model, obs);
+        py::list ranges;  // per driving variable of each effect with a fitted range: how far the samples leave it
+        for (const sim::RangeExcess& x : calib::rangeExcesses(model.model, obs)) {
+          py::dict r;
+          r["effect"] = x.effect;
+          r["variable"] = x.variable.column;
+          r["unit"] = x.variable.unit;
+          r["lo"] = x.range.lo;
+          r["hi"] = x.range.hi;
+          r["samples_outside"] = x.outside;
+          r["max_excess"] = x.max_excess;
+          r["excess"] = x.excess;
+          ranges.append(r);
+        }
+        d["beyond_range"] = ranges;
         return d;
       },
       py::arg("model"), py::arg("data"),
@@ -165,7 +179,9 @@ void bindCalibrate(py::module_& m) {
       "the frames the data calls per_session are refitted. Returns the prediction errors' statistics (samples, "
       "position_mean_m, position_rms_m, position_max_m, rotation_rms_rad, rotation_max_rad), the baseline's (the "
       "same statistics of the data's nominal arm with every registration frame fitted to it, as evaluation.json's "
-      "'baseline') and warnings.");
+      "'baseline'), warnings, and beyond_range: per "
+      "driving variable of each effect with a fitted range (model.yaml's range:, recorded by calibrate and diagnose), the "
+      "range (lo, hi, in its display unit), samples_outside, max_excess and each sample's excess (0 inside).");
 
   m.def(
       "load_model",

@@ -114,3 +114,24 @@ def test_calibration_levels_free_the_geometry_they_name(tracker):
     assert chosen.level == "full" and chosen.model.statistics["level"] == "full"
     with pytest.raises(orbcal.Error, match="level: 'bogus1' is not a parameter of this model"):
         orbcal.calibrate(data, level="theta1,bogus1")
+
+
+def test_evaluate_says_which_samples_leave_the_fitted_torque_range(iiwa7):
+    # A compliance of joint 2 fitted on the samples with the smaller |torque| of joint 2, evaluated on the rest:
+    # every one of those leaves the fitted range, by up to the difference of the largest torques.
+    data, _ = orbcal.simulate(iiwa7, samples=200, seed=5, effects=["compliance:2"], payload_kg=1.25)
+    tau = np.abs(data.torques[:, 1])
+    low, high = np.flatnonzero(tau <= np.median(tau)), np.flatnonzero(tau > np.median(tau))
+    model = orbcal.calibrate(split(iiwa7, data, low), effects=["compliance:2"], level="full")
+    inside = orbcal.evaluate(model, split(iiwa7, data, low))
+    assert [r["samples_outside"] for r in inside["beyond_range"]] == [0] and inside["warnings"] == []
+    outside = orbcal.evaluate(model, split(iiwa7, data, high))
+    (r,) = outside["beyond_range"]
+    assert r["effect"] == "compliance:2" and r["variable"] == "tau2_Nm" and r["unit"] == "N m"
+    assert r["hi"] > r["lo"]
+    excess = np.array(r["excess"])
+    expected = np.maximum(0.0, np.maximum(r["lo"] - data.torques[high, 1], data.torques[high, 1] - r["hi"]))
+    assert len(excess) == len(high) and np.allclose(excess, expected, atol=1e-9)
+    assert r["samples_outside"] == np.count_nonzero(expected > 0) > 0
+    assert r["max_excess"] == pytest.approx(expected.max())
+    assert any("compliance:2" in w and "joint 2 torque" in w for w in outside["warnings"])

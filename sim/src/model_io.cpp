@@ -46,7 +46,7 @@ Arm besideFolder(Arm arm, const std::string& folder) {
 
 std::string writeModelFile(const KinematicModel& m, const Eigen::VectorXd& p, const std::vector<ParameterRow>& rows,
                            const std::string& folder, const std::string& header, const std::string& model_name,
-                           const std::string& robot_name) {
+                           const std::string& robot_name, const std::vector<std::string>& alternatives) {
   if (p.size() != m.layout.size()) throw std::invalid_argument("writeModelFile: wrong parameter count");
   makeDirectories(folder);
   writeFileAtomic(folder + "/" + robot_name, formatArm(besideFolder(m.arm, folder), header));
@@ -80,7 +80,23 @@ std::string writeModelFile(const KinematicModel& m, const Eigen::VectorXd& p, co
         first = false;
       }
     }
-    s << "}}\n";
+    s << "}";
+    // The ranges of the variables that drive it over the data it was fitted on (display units).
+    const std::vector<FittedRange>& ranges = m.effects[k].fittedRanges();
+    if (!ranges.empty()) {
+      s << ", range: {";
+      for (std::size_t i = 0; i < ranges.size(); ++i) {
+        const std::string where = folder + "/" + model_name + ": effects[" + std::to_string(k) + "].range." + ranges[i].column;
+        s << (i ? ", " : "") << ranges[i].column << ": [" << number(ranges[i].lo, where) << ", " << number(ranges[i].hi, where) << "]";
+      }
+      s << "}";
+    }
+    s << "}\n";
+  }
+  if (!alternatives.empty()) {
+    s << "alternatives: [";
+    for (std::size_t k = 0; k < alternatives.size(); ++k) s << (k ? ", " : "") << "\"" << alternatives[k] << "\"";
+    s << "]\n";
   }
   s << "parameters:" << (rows.empty() ? " []" : "") << "\n";
   for (const ParameterRow& r : rows) {
@@ -114,6 +130,23 @@ Eigen::VectorXd readEffectValues(const ConfigNode& list, const KinematicModel& m
     params.requireOnlyKeys(allowed);
   }
   return p;
+}
+
+/// An effect's `range:` (optional): one [lo, hi] per driving variable of its kind, lo <= hi, no other key.
+Effect readFittedRanges(const ConfigNode& e, const Effect& effect, const Arm& arm) {
+  if (!e.has("range")) return effect;
+  const ConfigNode range = e["range"];
+  std::vector<std::string> allowed;
+  std::vector<FittedRange> out;
+  for (const DrivingVariable& v : effect.kind().drivingVariables(effect, arm)) {
+    allowed.push_back(v.column);
+    if (!range.has(v.column)) continue;
+    const Eigen::VectorXd lh = range[v.column].asVector(2);
+    if (!(lh[0] <= lh[1])) range[v.column].fail("expected [lo, hi] with lo <= hi");
+    out.push_back({v.column, lh[0], lh[1]});
+  }
+  range.requireOnlyKeys(allowed);
+  return effect.withFittedRanges(std::move(out));
 }
 
 /// A 1-sigma of the parameter list: a finite number from 0 (asDouble refuses '.nan' and infinities).
@@ -162,7 +195,7 @@ Arm loadRobotNamedBy(const ConfigNode& root, const std::string& path) {
 
 LoadedModel loadModelFile(const std::string& path) {
   const ConfigNode root = ConfigNode::load(path);
-  root.requireOnlyKeys({"format", "robot", "sessions", "registration", "effects", "parameters"});
+  root.requireOnlyKeys({"format", "robot", "sessions", "registration", "effects", "parameters", "alternatives"});
   // Format 1 wrote a compliance with the other sign (dq = +c tau); files without one read the same.
   const std::string format = root["format"].asString();
   if (format != "orbcal-model-2" && format != "orbcal-model-1") root["format"].fail("expected orbcal-model-2");
@@ -189,8 +222,8 @@ LoadedModel loadModelFile(const std::string& path) {
   const ConfigNode list = root["effects"];
   for (std::size_t k = 0; k < list.size(); ++k) {
     const ConfigNode e = list[k];
-    e.requireOnlyKeys({"spec", "parameters"});
-    effects.push_back(parseEffect(e["spec"].asString(), arm.numJoints(), path + ": effects[" + std::to_string(k) + "].spec"));
+    e.requireOnlyKeys({"spec", "parameters", "range"});
+    effects.push_back(readFittedRanges(e, parseEffect(e["spec"].asString(), arm.numJoints(), path + ": effects[" + std::to_string(k) + "].spec"), arm));
     if (format == "orbcal-model-1" && !effects.back().kind().signConvention().empty()) {
       e["spec"].fail("a format orbcal-model-1 file gave " + effects.back().name() +
                      " the other sign; calibrate again (orbcal-model-2: positive compliance sags)");
@@ -215,6 +248,16 @@ LoadedModel loadModelFile(const std::string& path) {
     }
   }
   checkParameterList(root["parameters"], full, effect_values);
+  if (root.has("alternatives")) {
+    const ConfigNode alts = root["alternatives"];
+    for (std::size_t k = 0; k < alts.size(); ++k) {
+      const std::string name = alts[k].asString();
+      if (name.empty() || std::filesystem::path(name).is_absolute() || name.find("..") != std::string::npos) {
+        alts[k].fail("expected a file name beside the model file");
+      }
+      out.alternatives.push_back((std::filesystem::path(path).parent_path() / name).string());
+    }
+  }
   return out;
 }
 

@@ -486,9 +486,21 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   const calib::Diagnosis& dg = r.diagnosis;
 
   sim::writeFileAtomic(out + "/diagnosis.json", diagnosisJson(dg, r.distortion));
-  const calib::CalibratedModel cm = calib::calibratedModel(dg.fit);
+  // The alternatives the data cannot tell from the selection beside it (alternativeN.yaml, listed in
+  // model.yaml): `orbcal evaluate` says how far their predictions part on new data.
+  std::vector<std::string> alternatives;
+  for (std::size_t k = 0; k < dg.alternatives.size(); ++k) {
+    const std::string name = "alternative" + std::to_string(k + 1);
+    const calib::CalibratedModel am = calib::calibratedModel(dg.alternatives[k].fit, obs);
+    sim::writeModelFile(am.model, am.p, parameterRows(dg.alternatives[k].fit), out,
+                        "An alternative to model.yaml the data of " + o.input + " could not tell from it (orbcal diagnose " ORBCAL_VERSION ")",
+                        name + ".yaml", name + ".robot.yaml");
+    alternatives.push_back(name + ".yaml");
+  }
+  const calib::CalibratedModel cm = calib::calibratedModel(dg.fit, obs);
   sim::writeModelFile(cm.model, cm.p, parameterRows(dg.fit), out,
-                                     "Selected by orbcal " ORBCAL_VERSION " (orbcal diagnose) from " + o.input);
+                                     "Selected by orbcal " ORBCAL_VERSION " (orbcal diagnose) from " + o.input, "model.yaml", "robot.yaml",
+                      alternatives);
 
   const std::string figures = writeResiduals(dg, data, obs, out, o);
 
@@ -530,8 +542,11 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   md << "\n" << unexplainedSection(dg, o.diagnose.alpha);
   if (r.distortion.tested) md << distortionSection(r.distortion, o.diagnose);
   md << testsSection(dg, o.diagnose);
-  md << "\n## Figures\n\n" << figures << "\nFiles: `diagnosis.json`, `model.yaml` (the selected model, for `orbcal evaluate`), "
-     << "`residuals.csv`.\n";
+  md << "\n## Figures\n\n" << figures << "\nFiles: `diagnosis.json`, `model.yaml` (the selected model, for `orbcal evaluate`, with "
+     << "the range of each effect's driving variables it was fitted on)"
+     << (alternatives.empty() ? std::string() : ", `alternative1.yaml`.. (the confounded alternatives, each the selection with one effect "
+                                                "replaced; `orbcal evaluate` says how far their predictions part on new data)")
+     << ", `residuals.csv`.\n";
   writeReport(out, md.str());
   folder.commit();
   r.json_path = folder.finalPath() + "/diagnosis.json";

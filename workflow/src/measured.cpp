@@ -21,6 +21,7 @@
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/urdf_export.hpp"
+#include "extrapolation.hpp"
 #include "measured_figures.hpp"
 
 namespace orbcal::workflow {
@@ -376,7 +377,9 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   r.refusal = reference_level || (held.empty() && !r.cross_validated) ? "" : verdict.refusal;
   r.fit_refusal = calib::fitRefusal(r.fit, ident, fo);
 
-  const calib::CalibratedModel cm = calib::calibratedModel(r.fit);
+  const calib::CalibratedModel cm = calib::calibratedModel(r.fit, ident);
+  // Held-out samples beyond the ranges the identification data covered: their figures extrapolate.
+  r.extrapolation = calib::outsideTrustedRange(cm.model, held);
   std::ostringstream header;
   header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate) from " << o.description << "\n"
          << "nominal: " << data.robot_file << "; effects: " << (o.effects.empty() ? "none" : "");
@@ -416,8 +419,9 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
      << (data.noise_joint_rad ? " (given)" : " (not given: not modelled)") << ". chi-square " << formatNumber("%.1f", r.fit.chi2)
      << " for " << r.fit.dof << " degrees of freedom.\n\n"
      << (r.cross_validated ? "## Cross-validated prediction\n\n" : "## Held-out prediction\n\n") << statsTableHeader(rotation) << statsTableRow("nominal arm, registration fitted", r.heldout_before, rotation)
-     << statsTableRow("calibrated", r.heldout_after, rotation) << "\n" << calib::formatHeldoutGain(r.gain)
-     << ".\n\n## Fit residuals\n\n" << statsTableHeader(rotation)
+     << statsTableRow("calibrated", r.heldout_after, rotation) << "\n" << calib::formatHeldoutGain(r.gain) << ".\n\n";
+  for (const std::string& w : r.extrapolation) md << "**Held out beyond the fitted range:** " << w << ".\n\n";
+  md << "## Fit residuals\n\n" << statsTableHeader(rotation)
      << statsTableRow("calibrated (fitted samples)", r.fit.residuals, rotation)
      << "\n## What this data cannot identify\n\n```\n" << sim::formatIdentifiability(r.fit.identifiability) << "```\n\n"
      << "Held parameters stay at their nominal value; the rest carry their observable combinations.\n\n"
@@ -457,19 +461,21 @@ std::vector<int> configurationIds(const std::vector<calib::MarkerObservation>& o
 /// residuals.csv of an evaluation: one row per sample, the model's prediction error (the signed
 /// position components in mm, in the residual's frame: the marker's for full poses, the measuring
 /// system's for positions; its length; the rotation angle in deg where measured) and the baseline's.
-std::string evaluationResidualsCsv(const std::vector<calib::MarkerObservation>& obs, const calib::Fit& model,
+std::string evaluationResidualsCsv(const std::vector<calib::MarkerObservation>& obs, const EvaluateResult& e,
                                    const calib::Fit& baseline, bool rotation) {
+  const calib::Fit& model = e.fit;
   const std::vector<int> config = configurationIds(obs);
   const auto num = [](double v) { return "," + formatNumber("%.6g", v); };
   std::ostringstream csv;
-  csv << "index,session,configuration,x_mm,y_mm,z_mm,position_mm" << (rotation ? ",rotation_deg" : "") << ",baseline_position_mm\n";
+  csv << "index,session,configuration,x_mm,y_mm,z_mm,position_mm" << (rotation ? ",rotation_deg" : "") << ",baseline_position_mm"
+      << extrapolation::csvHeader(e) << "\n";
   for (std::size_t i = 0; i < obs.size(); ++i) {
     const Eigen::VectorXd r = calib::markerResidual(model.model, model.p, obs[i]);
     const Eigen::VectorXd b = calib::markerResidual(baseline.model, baseline.p, obs[i]);
     csv << i << "," << obs[i].sample.session << "," << config[i] << num(r[0] * 1e3) << num(r[1] * 1e3) << num(r[2] * 1e3)
         << num(r.head<3>().norm() * 1e3);
     if (rotation) csv << (obs[i].has_rotation ? num(r.tail<3>().norm() * sim::kRadToDeg) : std::string(","));
-    csv << num(b.head<3>().norm() * 1e3) << "\n";
+    csv << num(b.head<3>().norm() * 1e3) << extrapolation::csvCells(e, i) << "\n";
   }
   return csv.str();
 }
@@ -519,13 +525,16 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
   sim::OutputFolder folder(out, "orbcal evaluate");  // the inputs are read and plausible
   r.warnings = readingWarnings(data);
   for (const std::string& w : calib::outsideTrustedRange(lm.model, obs)) r.warnings.push_back(w);
+  r.excess = calib::rangeExcesses(lm.model, obs);
+  r.alternatives = extrapolation::compareAlternatives(lm.alternatives, data, obs, fo, r.fit, r.excess);
   const bool rotation = measuresRotation(data);
   std::string json = residualJson(r.fit.residuals, out + "/evaluation.json");
   json.insert(json.size() - 1, ", \"refitted_parameters\": " + std::to_string(r.refitted) + ", \"baseline\": " +
                                    residualJson(r.baseline, out + "/evaluation.json: baseline") + ", \"model\": " +
-                                   sim::jsonString(model_file) + ", \"data\": " + sim::jsonString(description));
+                                   sim::jsonString(model_file) + ", \"data\": " + sim::jsonString(description) +
+                                   extrapolation::jsonFields(r, out + "/evaluation.json"));
   sim::writeFileAtomic(folder.path() + "/evaluation.json", json + "\n");
-  sim::writeFileAtomic(folder.path() + "/residuals.csv", evaluationResidualsCsv(obs, r.fit, baseline, rotation));
+  sim::writeFileAtomic(folder.path() + "/residuals.csv", evaluationResidualsCsv(obs, r, baseline, rotation));
   std::ostringstream md;
   md << "# Evaluation of `" << model_file << "` on `" << description << "`\n\n"
      << evaluationVerdict(r.fit.residuals, r.baseline, data.noise_position_m) << "Every geometric and effect parameter is the model's; "
@@ -535,7 +544,7 @@ EvaluateResult runEvaluate(const std::string& model_file, const std::string& des
      << statsTableHeader(rotation) << statsTableRow("prediction", r.fit.residuals, rotation)
      << statsTableRow("baseline: nominal arm, frames fitted", r.baseline, rotation)
      << "\nPer sample (with its configuration): `residuals.csv`.\n";
-  for (const std::string& w : r.warnings) md << "\n**Warning:** " << w << ".\n";
+  md << extrapolation::reportSection(r);
   writeReport(folder.path(), md.str(), "evaluation.md");
   folder.commit();
   r.json_path = out + "/evaluation.json";

@@ -69,6 +69,11 @@ class ComplianceKind final : public EffectKind {
     n.torque = true;
     return n;
   }
+  std::vector<DrivingVariable> drivingVariables(const Effect& e, const Arm& arm) const override {
+    std::vector<DrivingVariable> v;
+    for (const int j : e.joints()) v.push_back(torqueDriver(arm, j));
+    return v;
+  }
   bool acceptsPrismatic() const override { return true; }  // along the axis: dq = -c f, f the actuator's force
   std::vector<ParamBlock> blocks(const Effect& e, const Arm& arm, int) const override {
     // 1e-4 rad/(N m): a harmonic drive of ~10^4 N m/rad (the iiwa's joints: Bischoff et al. 2010), or,

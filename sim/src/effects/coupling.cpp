@@ -38,6 +38,11 @@ class CouplingKind final : public EffectKind {
     }
     return k;
   }
+  std::vector<DrivingVariable> drivingVariables(const Effect& e, const Arm& arm) const override {
+    std::vector<DrivingVariable> v;  // joint i off by k q_j: q_j drives it
+    for (std::size_t k = 0; k + 1 < e.joints().size(); k += 2) v.push_back(angleDriver(arm, e.joints()[k + 1]));
+    return v;
+  }
   std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
     ParamBlock b;
     b.effect = name();

@@ -33,6 +33,11 @@ class CyclicKind final : public EffectKind {
   int defaultOrder() const override { return 2; }
   int maxOrder() const override { return 8; }
   bool acceptsPrismatic() const override { return true; }
+  std::vector<DrivingVariable> drivingVariables(const Effect& e, const Arm& arm) const override {
+    std::vector<DrivingVariable> v;
+    for (const int j : e.joints()) v.push_back(angleDriver(arm, j));
+    return v;
+  }
   std::vector<ParamBlock> blocks(const Effect& e, const Arm& arm, int) const override {
     // On a prismatic joint 0.01 mm: a ball screw's lead deviation over one turn is of micrometres to tens of them.
     return {jointBlockOf(e, [&](ParamBlock& b, const std::string& j, int joint) {

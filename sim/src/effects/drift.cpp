@@ -22,6 +22,15 @@ class DriftKind final : public EffectKind {
     n.time = true;
     return n;
   }
+  std::vector<DrivingVariable> drivingVariables(const Effect&, const Arm&) const override {
+    DrivingVariable v;
+    v.column = "time_s";
+    v.name = "time";
+    v.unit = "s";
+    v.extremes = DrivingVariable::Extremes::kUpper;  // a drift extrapolates forward in time
+    v.value = [](const JointSample& s) { return s.time_s; };
+    return {v};
+  }
   std::vector<ParamBlock> blocks(const Effect&, const Arm&, int) const override {
     ParamBlock b;
     b.effect = name();

@@ -57,6 +57,58 @@ std::string signConventions(const std::vector<Effect>& effects) {
   return out;
 }
 
+Effect recordFittedRanges(const Effect& e, const Arm& arm, const std::vector<JointSample>& samples) {
+  std::vector<FittedRange> ranges;
+  for (const DrivingVariable& v : e.kind().drivingVariables(e, arm)) {
+    FittedRange r{v.column, std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+    for (const JointSample& s : samples) {
+      const double x = v.value(s) * v.scale;
+      if (!std::isfinite(x)) continue;
+      r.lo = std::min(r.lo, x);
+      r.hi = std::max(r.hi, x);
+    }
+    if (r.lo <= r.hi) ranges.push_back(r);
+  }
+  return e.withFittedRanges(std::move(ranges));
+}
+
+std::vector<FittedRange> trustedRanges(const Effect& e, const Arm& arm) {
+  if (!e.fittedRanges().empty() || !e.kind().empirical()) return e.fittedRanges();
+  std::vector<FittedRange> out;
+  for (const DrivingVariable& v : e.kind().drivingVariables(e, arm)) out.push_back({v.column, e.lo() * v.scale, e.hi() * v.scale});
+  return out;
+}
+
+std::vector<RangeExcess> rangeExcesses(const std::vector<Effect>& effects, const Arm& arm, const std::vector<JointSample>& samples) {
+  std::vector<RangeExcess> out;
+  for (const Effect& e : effects) {
+    const std::vector<FittedRange> ranges = trustedRanges(e, arm);
+    for (const DrivingVariable& v : e.kind().drivingVariables(e, arm)) {
+      const auto r = std::find_if(ranges.begin(), ranges.end(), [&](const FittedRange& f) { return f.column == v.column; });
+      if (r == ranges.end()) continue;
+      RangeExcess x{e.spec(), e.kind().empirical(), v, *r, {}, 0, 0.0};
+      for (const JointSample& s : samples) {
+        const double value = v.value(s) * v.scale;
+        const double beyond = std::isfinite(value) ? std::max({0.0, r->lo - value, value - r->hi}) : 0.0;
+        x.excess.push_back(beyond);
+        x.outside += beyond > 0.0;
+        x.max_excess = std::max(x.max_excess, beyond);
+      }
+      out.push_back(std::move(x));
+    }
+  }
+  return out;
+}
+
+std::string rangeExcessText(const RangeExcess& r) {
+  const auto num = [](double v) { return formatNumber("%.3g", v); };
+  return r.effect + ": " + std::to_string(r.outside) + " of " + std::to_string(r.excess.size()) + " samples leave " +
+         r.variable.name + "'s fitted range " + num(r.range.lo) + ".." + num(r.range.hi) + " " + r.variable.unit + ", by up to " +
+         num(r.max_excess) + " " + r.variable.unit +
+         (r.empirical ? ": this empirical correction is not to be trusted there"
+                           : ": its prediction there is an extrapolation of what the data showed");
+}
+
 std::string ofJoints(const std::vector<int>& joints) {
   std::string js;
   for (std::size_t i = 0; i < joints.size(); ++i) {
@@ -72,6 +124,12 @@ Effect::Effect(const EffectKind& kind, std::vector<int> joints, int order, doubl
       joints_(std::move(joints)),
       order_(order == 0 ? kind.defaultOrder() : order),
       reference_(std::isnan(reference) ? kind.defaultReference() : reference) {}
+
+Effect Effect::withFittedRanges(std::vector<FittedRange> ranges) const {
+  Effect e = *this;
+  e.ranges_ = std::move(ranges);
+  return e;
+}
 
 Effect Effect::withRange(double lo, double hi) const {
   Effect e = *this;
@@ -146,6 +204,27 @@ std::pair<std::string, std::string> EffectKind::angleVariable(const Arm& arm, in
 
 std::pair<std::string, std::string> EffectKind::torqueVariable(const Arm& arm, int j) {
   return {jointEffortColumn(arm, j), jointEffortLabel(arm, j)};
+}
+
+DrivingVariable EffectKind::angleDriver(const Arm& arm, int j) {
+  DrivingVariable v;
+  v.column = jointEdgeColumn(arm, j);
+  v.name = jointValueName(arm, j);
+  v.unit = jointEdgeUnit(arm, j);
+  v.scale = jointEdgeScale(arm, j);
+  v.extremes = DrivingVariable::Extremes::kBothEnds;
+  v.value = [j](const JointSample& s) { return s.q_rad[j]; };
+  return v;
+}
+
+DrivingVariable EffectKind::torqueDriver(const Arm& arm, int j) {
+  DrivingVariable v;
+  v.column = jointEffortColumn(arm, j);
+  v.name = jointEffortName(arm, j);
+  v.unit = arm.isPrismatic(j) ? "N" : "N m";
+  v.extremes = DrivingVariable::Extremes::kMagnitude;
+  v.value = [j](const JointSample& s) { return s.hasTorque() ? s.tau_Nm[j] : 0.0; };
+  return v;
 }
 
 std::string EffectKind::widerRangeAdvice() { return "move the joints over a wider range, with more distinct angles per joint"; }

@@ -63,6 +63,9 @@ class EmpiricalKind : public EffectKind {
   double variable(const Effect& e, const JointSample& s) const override {
     return torque_ ? s.tau_Nm[e.joints()[1]] : s.q_rad[e.joints()[1]];
   }
+  std::vector<DrivingVariable> drivingVariables(const Effect& e, const Arm& arm) const override {
+    return {torque_ ? torqueDriver(arm, e.joints()[1]) : angleDriver(arm, e.joints()[1])};
+  }
   std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
     ParamBlock b;
     b.effect = name();

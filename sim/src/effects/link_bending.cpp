@@ -48,6 +48,22 @@ class LinkBendingKind final : public EffectKind {
     n.masses = true;
     return n;
   }
+  /// The link's bending load: its far end's deflection per unit 1/EI (N m^3, unitDeflection), which the
+  /// pose and the masses it carries set (its near joint's torque need not follow it: joint 7's axis runs
+  /// along its link).
+  std::vector<DrivingVariable> drivingVariables(const Effect& e, const Arm& arm) const override {
+    std::vector<DrivingVariable> out;
+    for (const int l : e.joints()) {
+      DrivingVariable v;
+      v.column = "bending" + std::to_string(l + 1) + "_Nm3";
+      v.name = "link " + std::to_string(l + 1) + "'s bending load";
+      v.unit = "N m^3";
+      v.extremes = DrivingVariable::Extremes::kMagnitude;
+      v.value = [arm, l](const JointSample& s) { return unitDeflection(arm, chainFrames(arm, s.q_rad), l).head<3>().norm(); };
+      out.push_back(std::move(v));
+    }
+    return out;
+  }
   std::vector<ParamBlock> blocks(const Effect& e, const Arm& arm, int) const override {
     ParamBlock b;
     b.effect = name();

@@ -12,6 +12,11 @@ class ScaleKind final : public EffectKind {
     return "the gear ratio or encoder resolution the controller assumes differs from the real one: dq = s q";
   }
   bool acceptsPrismatic() const override { return true; }  // a lead screw's pitch or an encoder's scale: dq = s q in m
+  std::vector<DrivingVariable> drivingVariables(const Effect& e, const Arm& arm) const override {
+    std::vector<DrivingVariable> v;
+    for (const int j : e.joints()) v.push_back(angleDriver(arm, j));
+    return v;
+  }
   std::vector<ParamBlock> blocks(const Effect& e, const Arm&, int) const override {
     // 2e-4 (200 ppm): the order of the joint-scale errors identified on industrial arms.
     return {jointBlock(e, [](ParamBlock& b, const std::string& j) {

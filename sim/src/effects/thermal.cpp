@@ -21,6 +21,14 @@ class ThermalKind final : public EffectKind {
     n.temperature = true;
     return n;
   }
+  std::vector<DrivingVariable> drivingVariables(const Effect&, const Arm&) const override {
+    DrivingVariable v;
+    v.column = "temperature_C";
+    v.name = "temperature";
+    v.unit = "degC";
+    v.value = [](const JointSample& s) { return s.temperature_C; };
+    return {v};
+  }
   std::vector<ParamBlock> blocks(const Effect&, const Arm&, int) const override {
     ParamBlock b;
     b.effect = name();

@@ -72,7 +72,16 @@ struct CandidateResult {
 struct ConfoundedSet {
   std::vector<sim::Effect> effects;  ///< may hold one effect confounded with the geometry
   bool with_geometry = false;        ///< the geometry/registration absorbs most of it
-  std::string separate_by;           ///< the measurement that would separate them
+  /// The measurement that would separate them, with the ranges of their driving variables beyond which
+  /// their predictions part (diagnose's model.yaml lists the alternatives; `orbcal evaluate` compares).
+  std::string separate_by;
+};
+
+/// A model the data cannot tell from the selected one: the selection with one selected effect replaced
+/// by another member of its confounded set, fitted on all the data.
+struct Alternative {
+  std::vector<sim::Effect> effects;
+  Fit fit;
 };
 
 struct HeldoutStats {
@@ -90,6 +99,9 @@ struct Diagnosis {
   Fit fit;                       ///< the selected model on all the data
   Fit base_fit;                  ///< geometry + registration on all the data
   std::vector<ConfoundedSet> confounded;
+  /// Per confounded set of a selected effect, per other member: the alternative model (written beside
+  /// model.yaml, so that evaluate says how far their predictions part on new data).
+  std::vector<Alternative> alternatives;
   std::vector<CandidateResult> candidates;  ///< every step's tests
   std::vector<VariableTest> evidence;       ///< base model's held-out residuals vs variables
   HeldoutStats heldout;

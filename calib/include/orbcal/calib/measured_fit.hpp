@@ -114,14 +114,20 @@ struct CalibratedModel {
   Eigen::VectorXd p;  ///< the effect parameters (frames and geometry folded into the model)
 };
 CalibratedModel calibratedModel(const Fit& fit);
+/// The same, each effect recording the range its driving variables cover in `fitted_on`, the samples
+/// the fit saw (sim::recordFittedRanges; model.yaml's `range:`).
+CalibratedModel calibratedModel(const Fit& fit, const std::vector<MarkerObservation>& fitted_on);
 
 /// Predicts other data with a calibrated model: every geometric and effect parameter is kept, and so
 /// is every frame the data's description calls shared or known (the model's); the frames it calls
 /// per_session (e.g. a marker re-mounted for this run) and mount changes are refitted (closed-form
 /// start, then LM). Returns the fit of those frames; its `residuals` are the prediction errors.
-/// One warning per empirical effect of `model` (sim/src/effects/empirical.cpp) whose variable leaves the
-/// range it was fitted on in some of `observations`: "empirical:3,3/4@...: 12 of 200 samples lie outside
-/// joint 3's angle range -10.0..85.0 deg it was fitted on; its correction is not to be trusted there".
+/// How far `observations` leave the fitted ranges of `model`'s effects (sim::rangeExcesses): one entry per
+/// driving variable with a recorded range (an empirical correction's: its basis's domain).
+std::vector<sim::RangeExcess> rangeExcesses(const sim::KinematicModel& model, const std::vector<MarkerObservation>& observations);
+/// One warning per driving variable some of `observations` leave the fitted range of
+/// (sim::rangeExcessText): "compliance:4/3: 40 of 198 samples leave joint 4 torque's fitted range
+/// -2.1..21.4 N m, by up to 13.2 N m: its prediction there is an extrapolation of what the data showed".
 std::vector<std::string> outsideTrustedRange(const sim::KinematicModel& model, const std::vector<MarkerObservation>& observations);
 
 Fit predictWithModel(const CalibratedModel& calibrated, const sim::MeasuredData& data,

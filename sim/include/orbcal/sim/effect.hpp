@@ -28,6 +28,27 @@ struct ParamBlock;
 struct ParamInfo;
 class EffectKind;
 
+/// A variable an effect's correction is a function of (a joint's torque or angle, the temperature, the
+/// time): the range of the data it was fitted on is recorded over it (model.yaml), evaluations say where
+/// new data leave that range, and diagnose validates by holding out its extremes.
+struct DrivingVariable {
+  std::string column;  ///< its name in model.yaml and residuals.csv, in display units: "tau4_Nm", "q3_deg", "temperature_C"
+  std::string name;    ///< people's words: "joint 4 torque"
+  std::string unit;    ///< display unit: "N m", "deg", "mm", "N", "degC", "s"
+  double scale = 1.0;  ///< display value = SI value * scale
+  /// Which samples carry the largest load: the largest |x| (a torque or force, whose sign is a direction),
+  /// both ends (an angle, a temperature), or the largest x (time: the latest).
+  enum class Extremes { kMagnitude, kBothEnds, kUpper };
+  Extremes extremes = Extremes::kBothEnds;
+  std::function<double(const JointSample&)> value;  ///< SI
+};
+
+/// The range [lo, hi] (display units) a driving variable covered in the data an effect was fitted on.
+struct FittedRange {
+  std::string column;  ///< DrivingVariable::column
+  double lo = 0.0, hi = 0.0;
+};
+
 /// One cause of the catalog on given joints: a kind plus what it is applied to. Joints are numbered
 /// from 0 inside the code and from 1 wherever people read or write them.
 class Effect {
@@ -51,6 +72,10 @@ class Effect {
   double hi() const { return hi_; }
   /// "compliance:2,4", "cyclic:3/4", "coupling:3,2" (parseEffect's syntax).
   std::string spec() const;
+  /// The ranges of its driving variables over the data it was fitted on (recordFittedRanges); empty
+  /// where not recorded (an effect not fitted, a model file written before ranges were recorded).
+  Effect withFittedRanges(std::vector<FittedRange> ranges) const;
+  const std::vector<FittedRange>& fittedRanges() const { return ranges_; }
 
  private:
   const EffectKind* kind_ = nullptr;
@@ -58,6 +83,7 @@ class Effect {
   int order_ = 0;
   double reference_ = 0.0;
   double lo_ = 0.0, hi_ = 0.0;
+  std::vector<FittedRange> ranges_;
 };
 
 /// What an effect reads besides the joint readings.
@@ -126,6 +152,9 @@ class EffectKind {
   /// What may occur once in a model ("compliance:2"; a global effect: its name). Default: one key per joint.
   virtual std::vector<std::string> keys(const Effect& e) const;
   virtual EffectNeeds needs() const { return {}; }
+  /// The variables its correction is a function of (none by default: a mount change, a backlash's
+  /// direction). One place per kind: ranges, extrapolation warnings and diagnose's extremes folds read it.
+  virtual std::vector<DrivingVariable> drivingVariables(const Effect& /*e*/, const Arm& /*arm*/) const { return {}; }
   /// Parameter blocks (one per effect; mount: one per session after the first).
   virtual std::vector<ParamBlock> blocks(const Effect& e, const Arm& arm, int num_sessions) const = 0;
 
@@ -166,6 +195,9 @@ class EffectKind {
   /// effort {"tau3_Nm", "joint 3 torque (N m)"} (j from 0; a prismatic joint's in mm and N).
   static std::pair<std::string, std::string> angleVariable(const Arm& arm, int j);
   static std::pair<std::string, std::string> torqueVariable(const Arm& arm, int j);
+  /// Joint j's value (angle or position) and effort (torque or force) as driving variables (j from 0).
+  static DrivingVariable angleDriver(const Arm& arm, int j);
+  static DrivingVariable torqueDriver(const Arm& arm, int j);
   /// What separates causes that follow a joint's angle (cyclic, scale, coupling).
   static std::string widerRangeAdvice();
   /// One effect per joint (the usual candidates of a joint effect).
@@ -192,6 +224,28 @@ std::string signConventions(const std::vector<Effect>& effects);
 bool fitsJointTypes(const Effect& e, const Arm& arm);
 /// Throws InputError "<what>: <effect> does not apply to joint N, a prismatic joint (...)" unless fitsJointTypes.
 void checkJointTypes(const Effect& e, const Arm& arm, const std::string& what);
+
+/// Records on `e` the range each of its driving variables covers in `samples` (the data it is fitted on).
+Effect recordFittedRanges(const Effect& e, const Arm& arm, const std::vector<JointSample>& samples);
+/// The ranges to check new data against: the recorded ones; for an empirical effect without them, its
+/// basis's domain [lo, hi] (its spec's).
+std::vector<FittedRange> trustedRanges(const Effect& e, const Arm& arm);
+
+/// How far samples leave one driving variable's fitted range.
+struct RangeExcess {
+  std::string effect;       ///< the effect's spec
+  bool empirical = false;   ///< an empirical correction (EffectKind::empirical): not to be trusted outside
+  DrivingVariable variable;
+  FittedRange range;        ///< display units
+  std::vector<double> excess;  ///< per sample: display units beyond the range (0 inside)
+  int outside = 0;          ///< samples beyond it
+  double max_excess = 0.0;  ///< display units
+};
+/// One entry per driving variable with a range of each effect of `effects`, in order.
+std::vector<RangeExcess> rangeExcesses(const std::vector<Effect>& effects, const Arm& arm, const std::vector<JointSample>& samples);
+/// "compliance:4/3: 40 of 198 samples leave joint 4 torque's fitted range -2.1..21.4 N m, by up to 13.2 N m: its
+/// prediction there is an extrapolation" (the empirical corrections': "is not to be trusted there").
+std::string rangeExcessText(const RangeExcess& r);
 
 /// " of joint 2", " of joints 2 and 4" (people's words for joints numbered from 0).
 std::string ofJoints(const std::vector<int>& joints);

@@ -14,7 +14,11 @@
 //     world_T_base: [{xyz_m: [...], rpy_deg: [...]}]         # one, or one per session
 //     flange_T_marker: [{...}, {...}]
 //   effects:
-//     - {spec: "compliance:2,4", parameters: {c2: 1.2e-05, c4: 3.1e-06}}   # SI values; c > 0 sags
+//     - {spec: "compliance:2,4", parameters: {c2: 1.2e-05, c4: 3.1e-06},  # SI values; c > 0 sags
+//        range: {tau2_Nm: [-61.2, 58.0], tau4_Nm: [-20.4, 21.9]}}       # optional: what its driving variables
+//                                      # covered in the data it was fitted on (display units, as the key says)
+//   alternatives: [alternative1.yaml]  # optional (diagnose): models the data could not tell from this one,
+//                                      # relative to this file; `orbcal evaluate` compares their predictions
 //   parameters:                        # for people: every fitted parameter (SI) and its 1-sigma (finite, >= 0)
 //     - {name: theta2, effect: geometry, value: 1e-4, sigma: 2e-6, unit: rad, held: false}
 //
@@ -41,7 +45,7 @@ struct ParameterRow {
 /// that is not finite: std::runtime_error, nothing written). Returns the path of the model file.
 std::string writeModelFile(const KinematicModel& model, const Eigen::VectorXd& p, const std::vector<ParameterRow>& rows,
                            const std::string& folder, const std::string& header, const std::string& model_name = "model.yaml",
-                           const std::string& robot_name = "robot.yaml");
+                           const std::string& robot_name = "robot.yaml", const std::vector<std::string>& alternatives = {});
 
 /// The robot that the file `path` (a model or effects file, parsed as `root`) names at its key `robot`:
 /// a path relative to the file's folder, an absolute one, or builtin:NAME. Errors name the file and key.
@@ -50,6 +54,7 @@ Arm loadRobotNamedBy(const ConfigNode& root, const std::string& path);
 struct LoadedModel {
   KinematicModel model;
   Eigen::VectorXd p;  ///< effect parameters in model.layout (geometry and frames zero)
+  std::vector<std::string> alternatives;  ///< model files the data could not tell from it (paths as readable from here)
 };
 /// Reads a model file; errors are InputError naming the file and the key: effect values outside their
 /// physical bounds, and a parameter list that does not match the model (see above).

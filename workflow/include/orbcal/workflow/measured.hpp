@@ -55,6 +55,9 @@ struct MeasuredCalibrateResult {
   /// Every reason the calibration is not accepted, one line each (the fit's inconsistency, refusal,
   /// fit_refusal), as the terminal and the report's top say them; empty: accepted.
   std::vector<std::string> refusals;
+  /// Held-out samples beyond the range the identification samples covered, one line per driving variable
+  /// of an effect (calib::outsideTrustedRange): there the held-out figures measure extrapolation.
+  std::vector<std::string> extrapolation;
   std::string model_path, report_path;
 };
 
@@ -94,13 +97,28 @@ std::string inconsistencyText(const MeasuredCalibrateResult& r);
 /// their variants; case as written); InputError naming `what` otherwise.
 std::string parseFitMethod(const std::string& name, const std::string& what);
 
+/// A confounded alternative of the evaluated model (diagnose's alternativeN.yaml) predicting the same data.
+struct AlternativePrediction {
+  std::string path;                  ///< its model file
+  std::string effects;               ///< its effects' specs, "compliance:2 link_bending:3"
+  calib::ResidualStats residuals;    ///< its own prediction errors on the data
+  std::vector<double> divergence_m;  ///< per sample: how far its predicted position lies from the model's
+  int beyond = 0;                    ///< samples beyond some fitted range of the model's effects
+  double beyond_rms_m = 0.0, beyond_max_m = 0.0;  ///< the divergence there (0 without such samples)
+  double within_rms_m = 0.0;         ///< and on the others
+};
+
 struct EvaluateResult {
   calib::Fit fit;  ///< per-session frames refitted; residuals = prediction errors
   int refitted = 0;  ///< parameters the evaluation fitted to the data (the per-session frames' free ones)
   /// The baseline beside the model: the description's nominal arm with every registration frame fitted
   /// to this data (no geometry, no effects).
   calib::ResidualStats baseline;
-  std::vector<std::string> warnings;  ///< joint readings past a limit; empirical corrections applied outside their fitted range
+  /// Joint readings past a limit (sim/joint_limits.hpp), then effects applied outside the range of the data they were fitted on, one line per driving variable
+  /// (calib::outsideTrustedRange): how many samples, and by how much at most.
+  std::vector<std::string> warnings;
+  std::vector<sim::RangeExcess> excess;  ///< the same per sample (residuals.csv's `beyond_range`)
+  std::vector<AlternativePrediction> alternatives;  ///< the model file's `alternatives:`, each predicting the data
   std::string json_path, report_path, residuals_path;
 };
 /// The baseline of an evaluation: the description's nominal arm with every registration frame fitted to

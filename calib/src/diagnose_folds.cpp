@@ -1,0 +1,113 @@
+// The held-out samples diagnose scores its models on: random folds and the extremes of driving variables.
+#include "diagnose_folds.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "orbcal/calib/heldout.hpp"
+#include "orbcal/sim/csv.hpp"
+
+namespace orbcal::calib {
+
+Folds makeFolds(const std::vector<MarkerObservation>& obs, int k, std::uint64_t seed) {
+  Folds f;
+  f.k = k;
+  f.fold = splitByConfiguration(obs, std::vector<double>(static_cast<std::size_t>(k), 1.0), seed);
+  return f;
+}
+
+double CvResult::extremesSse() const {
+  double t = 0.0;
+  for (const auto& [column, sse] : extremes) t += sse;
+  return t;
+}
+
+std::vector<sim::DrivingVariable> drivingVariablesOf(const std::vector<sim::Effect>& effects, const sim::Arm& arm) {
+  std::vector<sim::DrivingVariable> out;
+  for (const sim::Effect& e : effects) {
+    for (sim::DrivingVariable& v : e.kind().drivingVariables(e, arm)) {
+      if (std::none_of(out.begin(), out.end(), [&](const sim::DrivingVariable& o) { return o.column == v.column; })) out.push_back(std::move(v));
+    }
+  }
+  return out;
+}
+
+std::vector<int> extremesFold(const std::vector<MarkerObservation>& obs, const sim::DrivingVariable& v, double share) {
+  std::vector<double> x;
+  for (const MarkerObservation& o : obs) x.push_back(v.value(o.sample));
+  std::vector<double> sorted = x;
+  std::sort(sorted.begin(), sorted.end());
+  const double median = sorted.empty() ? 0.0 : sorted[sorted.size() / 2];
+  const auto load = [&](double value) {
+    switch (v.extremes) {
+      case sim::DrivingVariable::Extremes::kMagnitude: return std::abs(value);
+      case sim::DrivingVariable::Extremes::kUpper: return value;
+      case sim::DrivingVariable::Extremes::kBothEnds: break;
+    }
+    return std::abs(value - median);
+  };
+  // Each configuration by its largest load, so that repeats of one go to one side together.
+  std::vector<std::pair<double, const std::vector<int>*>> groups;
+  const std::map<std::vector<long long>, std::vector<int>> by_config = configurationGroups(obs);
+  for (const auto& [key, members] : by_config) {
+    double l = -std::numeric_limits<double>::infinity();
+    for (const int i : members) l = std::max(l, load(x[static_cast<std::size_t>(i)]));
+    groups.emplace_back(l, &members);
+  }
+  std::stable_sort(groups.begin(), groups.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  const auto wanted = static_cast<std::size_t>(std::ceil(share * static_cast<double>(groups.size())));
+  const std::size_t held = groups.size() < 2 ? 0 : std::min(std::max<std::size_t>(wanted, 1), groups.size() - 1);
+  std::vector<int> fold(obs.size(), 0);
+  for (std::size_t g = 0; g < held; ++g) {
+    for (const int i : *groups[g].second) fold[static_cast<std::size_t>(i)] = 1;
+  }
+  return fold;
+}
+
+std::string beyondRangeAdvice(const std::vector<sim::Effect>& effects, const sim::Arm& arm, const std::vector<MarkerObservation>& obs) {
+  std::string out;
+  for (const sim::DrivingVariable& v : drivingVariablesOf(effects, arm)) {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (const MarkerObservation& o : obs) {
+      const double x = v.value(o.sample) * v.scale;
+      if (!std::isfinite(x)) continue;
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    if (!(lo <= hi)) continue;
+    const bool load = v.extremes == sim::DrivingVariable::Extremes::kMagnitude;
+    out += (out.empty() ? "" : ", ") + v.name + " outside " + sim::formatNumber("%.3g", lo) + ".." + sim::formatNumber("%.3g", hi) +
+           " " + v.unit + (load ? " (e.g. a heavier payload)" : "");
+  }
+  return out.empty() ? out : "data beyond the ranges this data covers, where their predictions part: " + out;
+}
+
+/// Two effects that claim one cause (a key in common: cyclic:2 and cyclic:2/6, compliance:3 and
+/// compliance:3/3) cannot both be in a model.
+bool sharesCause(const sim::Effect& a, const sim::Effect& b) {
+  if (&a.kind() != &b.kind()) return false;
+  const std::vector<std::string> ka = a.kind().keys(a), kb = b.kind().keys(b);
+  return std::any_of(ka.begin(), ka.end(), [&](const std::string& k) { return std::find(kb.begin(), kb.end(), k) != kb.end(); });
+}
+
+/// The alternatives of the selection (Diagnosis::alternatives): each other member of a kept confounded
+/// set in place of the selected effect it is confounded with, where it shares no cause with the rest.
+std::vector<Alternative> alternativesOf(const Diagnosis& out, const std::function<Fit(const std::vector<sim::Effect>&)>& fit) {
+  std::vector<Alternative> alts;
+  for (const ConfoundedSet& c : out.confounded) {
+    for (std::size_t m = 1; m < c.effects.size(); ++m) {
+      std::vector<sim::Effect> effects;
+      bool clash = false;
+      for (const sim::Effect& s : out.selected) {
+        const bool replaced = sharesCause(s, c.effects.front());
+        clash |= !replaced && sharesCause(s, c.effects[m]);
+        effects.push_back(replaced ? c.effects[m] : s);
+      }
+      if (!clash) alts.push_back({effects, fit(effects)});
+    }
+  }
+  return alts;
+}
+
+}  // namespace orbcal::calib
