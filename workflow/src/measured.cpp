@@ -6,6 +6,8 @@
 #include <sstream>
 
 #include "orbcal/workflow/report_html.hpp"
+#include "orbcal/workflow/measured_images.hpp"
+#include "orbcal/sim/image_views.hpp"
 #include "orbcal/calib/consistency.hpp"
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/calib/heldout.hpp"
@@ -252,6 +254,13 @@ std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model) {
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) {
   calib::checkHoldout(o.holdout);
   MeasuredCalibrateResult r;
+  if (sim::describesImages(o.description)) {  // images: the hand-eye and board frames (measured_images.hpp)
+    auto images = std::make_shared<ImageCalibrateResult>(runImageCalibrate(o));
+    r.refusals = images->refusals;
+    r.report_path = images->report_path;
+    r.images = std::move(images);
+    return r;
+  }
   const sim::MeasuredData data = sim::loadMeasuredData(o.description);
   std::vector<sim::Effect> effects;
   for (const std::string& e : o.effects) effects.push_back(sim::parseEffect(e, data.arm.numJoints(), "--effects"));
