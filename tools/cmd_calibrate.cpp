@@ -25,9 +25,9 @@ void printImageViews(const workflow::ImageCalibrateResult& r, const std::string&
               sim::handEyeSetupName(r.setup));
   if (r.fit.corners > 0) {
     const Eigen::Vector3d t = r.hand_T_eye.translation() * 1e3;
-    std::printf("%s: [%.2f, %.2f, %.2f] mm (1-sigma %.2f mm, %.3f deg)\n",
+    std::printf("%s: [%.2f, %.2f, %.2f] mm (1-sigma per axis at most %.2f mm, %.3f deg)\n",
                 r.setup == sim::HandEyeSetup::kEyeInHand ? "flange_T_camera" : "flange_T_board", t.x(), t.y(), t.z(),
-                r.hand_sigma.head<3>().norm() * 1e3, r.hand_sigma.tail<3>().norm() * sim::kRadToDeg);
+                r.hand_sigma.head<3>().maxCoeff() * 1e3, r.hand_sigma.tail<3>().maxCoeff() * sim::kRadToDeg);
     std::printf("cross-validated per-view residual RMS: %.3f px, %.3f mm (fitted %.3f px, %.3f mm; detection noise %.3f px)\n",
                 r.heldout_rms_px, r.heldout_rms_mm, r.fitted_rms_px, r.fitted_rms_mm, r.detection_sigma_px);
   }

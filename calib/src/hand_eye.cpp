@@ -5,7 +5,7 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "orbcal/calib/heldout.hpp"
+#include "orbcal/calib/heldout_groups.hpp"
 #include "orbcal/calib/registration.hpp"
 
 namespace orbcal::calib {

@@ -3,7 +3,7 @@
 #include <future>
 #include <stdexcept>
 
-#include "orbcal/calib/heldout.hpp"
+#include "orbcal/calib/heldout_groups.hpp"
 
 namespace orbcal::calib {
 

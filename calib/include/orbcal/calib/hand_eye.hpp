@@ -77,7 +77,7 @@ ViewResidual viewResidual(const HandEyeView& view, const HandEyeFrames& frames, 
 /// repeated in the file), numbered from 0 in the order of their first view.
 std::vector<int> viewConfigurations(const std::vector<HandEyeView>& views);
 
-/// Leave-one-configuration-out cross-validation of the corner fit (calib::leaveOneGroupOut): per view
+/// Leave-one-configuration-out cross-validation of the corner fit (calib/heldout_groups.hpp): per view
 /// its residual under the fit without its configuration, and each refit's frames (for the jackknife).
 struct HandEyeCrossValidation {
   std::vector<ViewResidual> heldout;   ///< per view

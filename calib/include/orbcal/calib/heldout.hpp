@@ -124,12 +124,4 @@ struct HeldoutVerdict {
 HeldoutVerdict heldoutVerdict(const std::vector<MarkerObservation>& held, const std::vector<Eigen::VectorXd>& before,
                               const std::vector<Eigen::VectorXd>& after, std::optional<double> holdout, int total);
 
-/// Leave-one-group-out cross-validation for sets too small to hold out kMinHeldoutConfigurations
-/// (10 to 30 camera views, where a fifth held out says nothing): every group (configuration) in turn is
-/// held out, `fold(train, held)` fits the items `train` and predicts the items `held`. `group`: the
-/// group of each item, 0..G-1. The folds run in parallel (`fold` must be safe to call concurrently);
-/// a group with no other group beside it is not run. Returns G.
-int leaveOneGroupOut(const std::vector<int>& group,
-                     const std::function<void(const std::vector<int>& train, const std::vector<int>& held)>& fold);
-
 }  // namespace orbcal::calib
