@@ -8,6 +8,7 @@
 #include "cli.hpp"
 #include "figures.hpp"
 #include "orbcal/workflow/measured.hpp"
+#include "orbcal/workflow/measured_images.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/effect_syntax.hpp"
 #include "orbcal/sim/csv.hpp"
@@ -17,7 +18,26 @@ namespace orbcal::tools {
 
 namespace {
 
+/// A description of images: its refusals on stderr, then the frames, the cross-validated residuals and the files.
+void printImageViews(const workflow::ImageCalibrateResult& r, const std::string& description) {
+  for (const std::string& why : r.refusals) std::fprintf(stderr, "orbcal: calibrate: %s: %s\n", description.c_str(), why.c_str());
+  for (const std::string& w : r.warnings) std::fprintf(stderr, "orbcal: calibrate: warning: %s\n", w.c_str());
+  std::printf("%zu images, board found in %d (%d configurations); %s\n", r.views.size(), r.used, r.configurations,
+              sim::handEyeSetupName(r.setup));
+  if (r.fit.corners > 0) {
+    const Eigen::Vector3d t = r.hand_T_eye.translation() * 1e3;
+    std::printf("%s: [%.2f, %.2f, %.2f] mm (1-sigma per axis at most %.2f mm, %.3f deg)\n",
+                r.setup == sim::HandEyeSetup::kEyeInHand ? "flange_T_camera" : "flange_T_board", t.x(), t.y(), t.z(),
+                r.hand_sigma.head<3>().maxCoeff() * 1e3, r.hand_sigma.tail<3>().maxCoeff() * sim::kRadToDeg);
+    std::printf("cross-validated per-view residual RMS: %.3f px, %.3f mm (fitted %.3f px, %.3f mm; detection noise %.3f px)\n",
+                r.heldout_rms_px, r.heldout_rms_mm, r.fitted_rms_px, r.fitted_rms_mm, r.detection_sigma_px);
+  }
+  if (!r.frames_path.empty()) std::printf("frames: %s\n", r.frames_path.c_str());
+  std::printf("report: %s\n", r.report_path.c_str());
+}
+
 void printMeasured(const workflow::MeasuredCalibrateResult& r, const std::string& description) {
+  if (r.images) return printImageViews(*r.images, description);
   const char* not_written = r.model_path.empty() ? "; model.yaml not written (--accept-worse writes it)" : "";
   const auto refused = [&](const std::string& why) {
     std::fprintf(stderr, "orbcal: calibrate: %s: %s%s\n", description.c_str(), why.c_str(), not_written);

@@ -513,6 +513,7 @@ std::vector<std::vector<const MeasuredPose*>> posesBySession(const MeasuredData&
 
 MeasuredData loadMeasuredData(const std::string& description_path) {
   const ConfigNode root = ConfigNode::load(description_path);
+  if (root.has("images")) root["images"].fail("a description of images (sim/image_views.hpp): `orbcal calibrate` reads it, for the hand-eye and board frames");
   root.requireOnlyKeys({"format", "robot", "files", "joints", "pose", "covariates", "registration", "noise",
                         "world_T_base", "flange_T_marker"});
   MeasuredData d;

@@ -40,6 +40,8 @@ CharucoDetection detectCharuco(const cv::Mat& gray, const sim::Board& board, con
     }
   }
   d.markers = static_cast<int>(kept_ids.size());
+  d.marker_ids = kept_ids;
+  d.marker_corners = kept_corners;
   if (kept_ids.empty()) {
     d.reason = "no board found";
     d.detail = "no ArUco marker of the board's " + board.dictionary + " ids 0.." + std::to_string(board_markers - 1);

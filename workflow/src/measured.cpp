@@ -7,6 +7,8 @@
 #include <sstream>
 
 #include "orbcal/workflow/report_html.hpp"
+#include "orbcal/workflow/measured_images.hpp"
+#include "orbcal/sim/image_views.hpp"
 #include "orbcal/calib/consistency.hpp"
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/calib/heldout.hpp"
@@ -319,6 +321,14 @@ std::string geometryWords(const sim::Arm& arm) {
 
 MeasuredCalibrateResult runMeasuredCalibrate(const MeasuredCalibrateOptions& o) {
   calib::checkHoldout(o.holdout);
+  if (sim::describesImages(o.description)) {  // images: the hand-eye and board frames (measured_images.hpp)
+    MeasuredCalibrateResult r;
+    auto images = std::make_shared<ImageCalibrateResult>(runImageCalibrate(o));
+    r.refusals = images->refusals;
+    r.report_path = images->report_path;
+    r.images = std::move(images);
+    return r;
+  }
   return runMeasuredCalibrate(sim::loadMeasuredData(o.description), o);
 }
 

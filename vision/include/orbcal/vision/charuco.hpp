@@ -20,6 +20,8 @@ struct CharucoDetection {
   std::vector<int> ids;                 ///< inner corner identities (sim::cornerInBoard), ascending
   std::vector<Eigen::Vector2d> corners_px;  ///< one per id (px, OpenCV's pixel convention)
   int markers = 0;                      ///< ArUco markers of this board found
+  std::vector<int> marker_ids;          ///< their ids, as found
+  std::vector<std::vector<cv::Point2f>> marker_corners;  ///< their 4 corners each (px), as cv::aruco::detectMarkers gives them
   bool found() const { return status == ImageStatus::kFound; }
 };
 

@@ -3,6 +3,7 @@
 // + chosen effects, held-out check, model.yaml), `orbcal evaluate` (predict other data with a
 // calibrated model) and `orbcal simulate` (tracker-style data with hidden effects and its truth).
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,8 @@
 #include "orbcal/workflow/callbacks.hpp"
 
 namespace orbcal::workflow {
+
+struct ImageCalibrateResult;  // measured_images.hpp
 
 struct MeasuredCalibrateOptions {
   std::string description;
@@ -59,6 +62,9 @@ struct MeasuredCalibrateResult {
   /// of an effect (calib::outsideTrustedRange): there the held-out figures measure extrapolation.
   std::vector<std::string> extrapolation;
   std::string model_path, report_path;
+  /// A description of images (sim::describesImages): the hand-eye calibration's result
+  /// (runImageCalibrate); then `refusals` and `report_path` are its, and the fields above are unset.
+  std::shared_ptr<const ImageCalibrateResult> images;
 };
 
 /// `orbcal calibrate DESC.yaml`: reads o.description and calibrates it (the overload below).

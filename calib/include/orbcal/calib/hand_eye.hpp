@@ -1,0 +1,94 @@
+#pragma once
+// Hand-eye calibration on the corners of real images: the two frames that close the chain from the
+// arm's flange poses to the board's corners seen by the camera, with no robot model beyond the flange
+// poses (given by the controller, or the nominal arm's at the joint readings).
+//
+// The chain is the registration chain of measured data (calib/registration.hpp), with
+//   eye in hand (camera on the flange, board fixed): world = board,  marker = camera,
+//       board_T_camera_k = board_T_base * base_T_flange_k * flange_T_camera;
+//   eye to hand (camera fixed, board on the flange):  world = camera, marker = board,
+//       camera_T_board_k = camera_T_base * base_T_flange_k * flange_T_board.
+// X = world_T_base and Z = flange_T_marker are the unknowns. The start is closed-form: Shah's (2013)
+// robot-world / hand-eye rotations (OpenCV's calibrateRobotWorldHandEye) and least-squares
+// translations (calib::initialRegistration) on each view's own board pose (PnP). The fit then
+// minimises the corner reprojection error over all views (Levenberg-Marquardt on the 12 corrections
+// X = X0 exp(dx), Z = Z0 exp(dz), sim::posePlus; central-difference Jacobian):
+//   nu_k,i = uv_k,i - project(camera, camera_T_board_k(X, Z) P_i),   P_i = sim::cornerInBoard(board, id).
+//
+// Uncertainty: a robot's pose error moves all corners of a view together, so the corner residuals are
+// not independent and the Gauss-Newton covariance is too small; the frames' 1-sigma is the jackknife
+// over the configurations (leave one out; Efron and Stein 1981): var = (G - 1) / G * sum (theta_g -
+// mean)^2 of the refits, per axis of the frame's parent (jackknifeSigma).
+#include <Eigen/Geometry>
+#include <string>
+#include <vector>
+
+#include "orbcal/sim/image_views.hpp"
+#include "orbcal/sim/scene.hpp"
+#include "orbcal/sim/se3.hpp"
+
+namespace orbcal::calib {
+
+/// One view: the flange pose, the detected corners (by identity) and the view's own board pose.
+struct HandEyeView {
+  Eigen::Isometry3d base_T_flange = Eigen::Isometry3d::Identity();
+  std::vector<Eigen::Vector2d> corners_px;
+  std::vector<int> ids;                    ///< inner corner of each of corners_px (sim::cornerInBoard)
+  Eigen::Isometry3d camera_T_board = Eigen::Isometry3d::Identity();  ///< PnP of this view alone
+  double pnp_sigma_px = 0.0;               ///< that PnP's residual sigma per coordinate (vision::BoardPose)
+};
+
+/// The two frames: X = world_T_base, Z = flange_T_marker (names by setup in the file comment).
+struct HandEyeFrames {
+  Eigen::Isometry3d world_T_base = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d flange_T_marker = Eigen::Isometry3d::Identity();
+};
+
+/// camera_T_board of view `base_T_flange` under `frames` and `setup`.
+Eigen::Isometry3d predictedCameraTBoard(const HandEyeFrames& frames, const Eigen::Isometry3d& base_T_flange, sim::HandEyeSetup setup);
+
+/// The closed-form start (file comment). std::invalid_argument on fewer than 3 views or flange
+/// rotations about fewer than two axes.
+HandEyeFrames closedFormHandEye(const std::vector<HandEyeView>& views, sim::HandEyeSetup setup);
+
+struct HandEyeFit {
+  HandEyeFrames frames;
+  double rms_px = 0.0;        ///< over every corner coordinate
+  int corners = 0;            ///< detected corners used
+  int iterations = 0;
+  bool converged = false;
+};
+
+/// The corner-level fit from `start` on the views `which` (all when empty).
+HandEyeFit fitHandEyeCorners(const std::vector<HandEyeView>& views, const sim::Camera& camera, const sim::Board& board,
+                             sim::HandEyeSetup setup, const HandEyeFrames& start, const std::vector<int>& which = {});
+
+/// A view's residuals under `frames`: the RMS over its corner coordinates of the reprojection residual
+/// (px), and the RMS over its corners of the residual's length carried to the corner's distance,
+/// |nu_i| z_i / sqrt(fx fy) (m: how far from the corner, across the line of sight, the chain puts it).
+struct ViewResidual {
+  double rms_px = 0.0;  ///< per coordinate
+  double rms_m = 0.0;   ///< per corner (a distance)
+};
+ViewResidual viewResidual(const HandEyeView& view, const HandEyeFrames& frames, const sim::Camera& camera, const sim::Board& board,
+                          sim::HandEyeSetup setup);
+
+/// Configurations of the views: views whose flange poses agree within 1 um and 1 urad are one (a row
+/// repeated in the file), numbered from 0 in the order of their first view.
+std::vector<int> viewConfigurations(const std::vector<HandEyeView>& views);
+
+/// Leave-one-configuration-out cross-validation of the corner fit (calib/heldout_groups.hpp): per view
+/// its residual under the fit without its configuration, and each refit's frames (for the jackknife).
+struct HandEyeCrossValidation {
+  std::vector<ViewResidual> heldout;   ///< per view
+  int configurations = 0;
+  std::vector<HandEyeFrames> refits;   ///< one per configuration held out
+};
+HandEyeCrossValidation crossValidateHandEye(const std::vector<HandEyeView>& views, const sim::Camera& camera, const sim::Board& board,
+                                            sim::HandEyeSetup setup, const HandEyeFit& full);
+
+/// The jackknife 1-sigma of a frame a_T_b from its G leave-one-out refits (file comment), per axis of
+/// the parent frame a: [translation (m); rotation (rad), logSO3(R_refit R_full^T)]; zero below 2 refits.
+sim::Vector6d jackknifeSigma(const std::vector<Eigen::Isometry3d>& refits, const Eigen::Isometry3d& full);
+
+}  // namespace orbcal::calib

@@ -1,0 +1,65 @@
+#pragma once
+// `orbcal calibrate DESCRIPTION.yaml` on a description of real images (sim/image_views.hpp): the board
+// detected in every image (what a capture tool drew masked as the description says), the hand-eye and
+// board frames from a closed-form start and the corner-level fit (calib/hand_eye.hpp), judged by
+// leave-one-configuration-out cross-validation (10 to 30 views are too few to hold out a fifth), and
+// written as frames.yaml (the two frames with their jackknife 1-sigma), views.csv (per view: the
+// detection, the fitted and the cross-validated residuals in px and mm) and report.md.
+//
+// workflow::runMeasuredCalibrate calls it for a description with `images:`; Python can call either.
+#include <string>
+#include <vector>
+
+#include "orbcal/calib/hand_eye.hpp"
+#include "orbcal/sim/image_views.hpp"
+#include "orbcal/workflow/measured.hpp"
+
+namespace orbcal::workflow {
+
+/// What became of one row of the description.
+struct ImageViewOutcome {
+  std::string image, where;
+  bool used = false;               ///< the board was found and the view entered the fit
+  std::string reason;              ///< why not (the detection's reason and detail)
+  int corners = 0;
+  double pnp_rms_px = 0.0;         ///< the view's own PnP residual (RMS distance, px)
+  double pnp_sigma_px = 0.0;       ///< its noise per pixel coordinate, sqrt(SSE / (2N - 6))
+  int ignored_px = 0;              ///< pixels masked and filled before detection
+  Eigen::Isometry3d camera_T_board = Eigen::Isometry3d::Identity();  ///< the view's own PnP (used views), orbcal's board frame
+  Eigen::Isometry3d base_T_flange = Eigen::Isometry3d::Identity();   ///< as read (m)
+  std::vector<int> lost_markers;   ///< markers the pose puts in view that were not decoded
+  calib::ViewResidual fitted, heldout;  ///< under the full fit, and under the fit without its configuration
+};
+
+/// At least this many configurations with a detected board: the jackknife then has 3 or more refits,
+/// and the closed form 3 or more motions.
+constexpr int kMinHandEyeConfigurations = 4;
+
+struct ImageCalibrateResult {
+  sim::HandEyeSetup setup = sim::HandEyeSetup::kEyeInHand;
+  std::vector<ImageViewOutcome> views;   ///< one per row
+  int used = 0, configurations = 0;
+  calib::HandEyeFrames start;            ///< the closed form's
+  calib::HandEyeFit fit;
+  calib::HandEyeCrossValidation cv;
+  /// The frames as written, in the board frame of the description's convention: hand_T_eye is
+  /// flange_T_camera (eye in hand) or flange_T_board (eye to hand); base_T_other is base_T_board or
+  /// base_T_camera. Their jackknife 1-sigma (calib::jackknifeSigma).
+  Eigen::Isometry3d hand_T_eye = Eigen::Isometry3d::Identity(), base_T_other = Eigen::Isometry3d::Identity();
+  sim::Vector6d hand_sigma = sim::Vector6d::Zero(), base_sigma = sim::Vector6d::Zero();
+  /// RMS over the used views of the cross-validated (held-out) and fitted residuals, and the median
+  /// PnP noise (the detection's, known independently of the chain).
+  double heldout_rms_px = 0.0, heldout_rms_mm = 0.0, fitted_rms_px = 0.0, fitted_rms_mm = 0.0, detection_sigma_px = 0.0;
+  std::vector<std::string> warnings;     ///< re-orthonormalised poses, ...
+  std::vector<std::string> refusals;     ///< empty: accepted
+  double seconds = 0.0;                  ///< wall time of detection + fit + cross-validation
+  std::string frames_path, views_path, report_path;
+};
+
+/// The whole run: read, detect, fit, cross-validate, write (into o.out, default <description's
+/// folder>/calibration). o.level must be auto or frames (no robot parameters are fitted from images
+/// yet); o.effects empty; o.holdout empty (the judge is cross-validation): InputError naming the option
+/// otherwise.
+ImageCalibrateResult runImageCalibrate(const MeasuredCalibrateOptions& o);
+
+}  // namespace orbcal::workflow

@@ -1,0 +1,201 @@
+#include "orbcal/workflow/measured_images.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <future>
+
+#include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/config.hpp"
+#include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/fileio.hpp"
+#include "orbcal/vision/real_views.hpp"
+#include "orbcal/workflow/report_html.hpp"
+#include "measured_images_detail.hpp"
+
+namespace orbcal::workflow {
+
+using namespace measured_images_detail;
+
+namespace {
+
+/// A real lens and print leave 0.2-1.3 px PnP RMS (vision::MeasureSettings says 1 px for a calibrated
+/// lens); drawings filled by inpainting add to it: 2 px still rejects a wrong detection (several px).
+constexpr double kMaxViewRmsPx = 2.0;
+/// The frames are not determined when their jackknife 1-sigma exceeds these (a hand-eye this uncertain
+/// misplaces what the camera sees by more than its own residuals).
+constexpr double kMaxSigmaM = 5e-3, kMaxSigmaRad = 0.5 * sim::kDegToRad;
+
+void checkOptions(const MeasuredCalibrateOptions& o) {
+  if (o.level.kind != calib::LevelKind::kAuto && o.level.kind != calib::LevelKind::kFrames) {
+    throw sim::InputError("--level: " + calib::levelName(o.level) + ": a description of images calibrates the frames only "
+                          "(the hand-eye and the board's frame); use --level frames or auto");
+  }
+  if (!o.effects.empty()) throw sim::InputError("--effects: not for a description of images (the frames only are fitted)");
+  if (o.holdout) throw sim::InputError("--holdout: a description of images is judged by leave-one-configuration-out cross-validation");
+}
+
+/// Detects the board in every view, in parallel (2 at a time: images are large).
+std::vector<vision::ViewMeasurement> detectAll(const sim::ImageViews& data) {
+  vision::MeasureSettings settings;
+  settings.max_rms_px = kMaxViewRmsPx;
+  std::vector<vision::ViewMeasurement> out(data.views.size());
+  constexpr std::size_t kParallel = 2;
+  for (std::size_t first = 0; first < data.views.size(); first += kParallel) {
+    std::vector<std::future<void>> jobs;
+    for (std::size_t k = first; k < std::min(first + kParallel, data.views.size()); ++k) {
+      jobs.push_back(std::async(std::launch::async, [&, k] {
+        try {
+          out[k] = vision::measureView(data.views[k].image, data.camera, data.board, data.mask, data.views[k].mask, settings);
+        } catch (const std::invalid_argument& e) {
+          throw sim::InputError(data.views[k].where + ": " + e.what());
+        }
+      }));
+    }
+    for (auto& j : jobs) j.get();
+  }
+  return out;
+}
+
+double rms(const std::vector<double>& v) {
+  double s = 0.0;
+  for (double x : v) s += x * x;
+  return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
+}
+
+/// Outcomes of the detections; the used views as hand-eye views (used[i]: the row of views[i]).
+std::vector<calib::HandEyeView> handEyeViews(const sim::ImageViews& data, const std::vector<vision::ViewMeasurement>& det,
+                                             ImageCalibrateResult& r, std::vector<std::size_t>& used) {
+  std::vector<calib::HandEyeView> views;
+  for (std::size_t k = 0; k < det.size(); ++k) {
+    const vision::Measurement& m = det[k].measurement;
+    ImageViewOutcome v;
+    v.image = data.views[k].image;
+    v.where = data.views[k].where;
+    v.ignored_px = det[k].ignored_px;
+    v.lost_markers = det[k].lost_markers;
+    v.used = m.found();
+    v.reason = m.found() ? "" : m.reason + (m.detail.empty() ? "" : " (" + m.detail + ")");
+    v.corners = m.found() ? static_cast<int>(m.corners_px.size()) : 0;
+    v.pnp_rms_px = m.rms_px;
+    v.camera_T_board = m.camera_T_board;
+    v.base_T_flange = data.views[k].base_T_flange;
+    if (m.found()) {
+      calib::HandEyeView h;
+      h.base_T_flange = data.views[k].base_T_flange;
+      h.corners_px = m.corners_px;
+      for (std::size_t n = 0; n < m.corners_px.size(); ++n) h.ids.push_back(m.cornerId(n));
+      h.camera_T_board = m.camera_T_board;
+      const double N = static_cast<double>(m.corners_px.size());
+      v.pnp_sigma_px = N > 3 ? m.rms_px * std::sqrt(N / (2.0 * N - 6.0)) : 0.0;
+      h.pnp_sigma_px = v.pnp_sigma_px;
+      views.push_back(std::move(h));
+      used.push_back(k);
+    }
+    r.views.push_back(std::move(v));
+  }
+  return views;
+}
+
+/// The fit, its cross-validation and the frames as written; refusals where the data do not determine them.
+void fitAndJudge(const sim::ImageViews& data, const std::vector<calib::HandEyeView>& views, const std::vector<std::size_t>& used,
+                 ImageCalibrateResult& r) {
+  r.used = static_cast<int>(views.size());
+  const std::vector<int> config = calib::viewConfigurations(views);
+  r.configurations = config.empty() ? 0 : *std::max_element(config.begin(), config.end()) + 1;
+  if (r.configurations < kMinHandEyeConfigurations) {
+    r.refusals.push_back("the board was found in " + std::to_string(r.configurations) + " configuration(s); the frames need " +
+                         std::to_string(kMinHandEyeConfigurations) + " at least (views.csv says why the others were not used)");
+    return;
+  }
+  try {
+    r.start = calib::closedFormHandEye(views, data.setup);
+  } catch (const std::invalid_argument& e) {
+    r.refusals.push_back(std::string("the views do not determine the frames: ") + e.what());
+    return;
+  }
+  r.fit = calib::fitHandEyeCorners(views, data.camera, data.board, data.setup, r.start);
+  if (!r.fit.converged) r.refusals.push_back("the corner fit did not converge in " + std::to_string(r.fit.iterations) + " iterations");
+  r.cv = calib::crossValidateHandEye(views, data.camera, data.board, data.setup, r.fit);
+  std::vector<double> held_px, held_mm, fit_px, fit_mm, sigma;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    ImageViewOutcome& v = r.views[used[i]];
+    v.fitted = calib::viewResidual(views[i], r.fit.frames, data.camera, data.board, data.setup);
+    v.heldout = r.cv.heldout[i];
+    held_px.push_back(v.heldout.rms_px);
+    held_mm.push_back(v.heldout.rms_m * 1e3);
+    fit_px.push_back(v.fitted.rms_px);
+    fit_mm.push_back(v.fitted.rms_m * 1e3);
+    sigma.push_back(v.pnp_sigma_px);
+  }
+  r.heldout_rms_px = rms(held_px);
+  r.heldout_rms_mm = rms(held_mm);
+  r.fitted_rms_px = rms(fit_px);
+  r.fitted_rms_mm = rms(fit_mm);
+  std::nth_element(sigma.begin(), sigma.begin() + static_cast<std::ptrdiff_t>(sigma.size() / 2), sigma.end());
+  r.detection_sigma_px = sigma[sigma.size() / 2];
+  // The frames as written: the board's in the description's convention.
+  const Eigen::Isometry3d board_T_printed = sim::printedFromBoard(data.board, data.board_frame).inverse();
+  const bool in_hand = data.setup == sim::HandEyeSetup::kEyeInHand;
+  const auto written = [&](const calib::HandEyeFrames& f) {
+    return std::make_pair(in_hand ? f.flange_T_marker : Eigen::Isometry3d(f.flange_T_marker * board_T_printed),
+                          in_hand ? Eigen::Isometry3d(f.world_T_base.inverse() * board_T_printed) : Eigen::Isometry3d(f.world_T_base.inverse()));
+  };
+  std::tie(r.hand_T_eye, r.base_T_other) = written(r.fit.frames);
+  std::vector<Eigen::Isometry3d> hands, bases;
+  for (const calib::HandEyeFrames& f : r.cv.refits) {
+    const auto [h, b] = written(f);
+    hands.push_back(h);
+    bases.push_back(b);
+  }
+  r.hand_sigma = calib::jackknifeSigma(hands, r.hand_T_eye);
+  r.base_sigma = calib::jackknifeSigma(bases, r.base_T_other);
+  const auto [hand, base] = frameNames(data.setup);
+  for (const auto& [name, s] : {std::make_pair(hand, r.hand_sigma), std::make_pair(base, r.base_sigma)}) {
+    if (s.head<3>().maxCoeff() > kMaxSigmaM || s.tail<3>().maxCoeff() > kMaxSigmaRad) {
+      r.refusals.push_back("the views do not determine " + name + ": its cross-validation (jackknife) 1-sigma is " +
+                           sim::formatNumber("%.2f", s.head<3>().maxCoeff() * 1e3) + " mm, " +
+                           sim::formatNumber("%.3f", s.tail<3>().maxCoeff() * sim::kRadToDeg) +
+                           " deg (at most 5 mm and 0.5 deg are accepted): add views that turn the flange about other axes");
+    }
+  }
+}
+
+std::string folderOf(const std::string& path) {
+  const std::filesystem::path p = std::filesystem::path(path).parent_path();
+  return p.empty() ? "." : p.string();
+}
+
+}  // namespace
+
+ImageCalibrateResult runImageCalibrate(const MeasuredCalibrateOptions& o) {
+  checkOptions(o);
+  const auto t0 = std::chrono::steady_clock::now();
+  const sim::ImageViews data = sim::loadImageViews(o.description);
+  ImageCalibrateResult r;
+  r.setup = data.setup;
+  r.warnings = data.warnings;
+  const std::vector<vision::ViewMeasurement> det = detectAll(data);
+  std::vector<std::size_t> used;
+  const std::vector<calib::HandEyeView> views = handEyeViews(data, det, r, used);
+  fitAndJudge(data, views, used, r);
+  r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+
+  sim::OutputFolder folder(o.out.empty() ? folderOf(o.description) + "/calibration" : o.out, "orbcal calibrate");
+  const std::string& out = folder.path();
+  const bool write = r.refusals.empty() || (o.accept_worse && r.configurations >= kMinHandEyeConfigurations && r.fit.corners > 0);
+  const std::string header = std::string("Calibrated by orbcal ") + ORBCAL_VERSION + " (orbcal calibrate) from " + o.description;
+  if (write) {
+    sim::writeFileAtomic(out + "/frames.yaml", framesYaml(data, r, header));
+    r.frames_path = folder.published(out + "/frames.yaml");
+  }
+  sim::writeFileAtomic(out + "/views.csv", viewsCsv(r));
+  writeReport(out, imageReport(data, r, o, write));
+  folder.commit();
+  r.views_path = folder.finalPath() + "/views.csv";
+  r.report_path = folder.finalPath() + "/report.md";
+  return r;
+}
+
+}  // namespace orbcal::workflow
