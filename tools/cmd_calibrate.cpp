@@ -32,6 +32,7 @@ void printMeasured(const workflow::MeasuredCalibrateResult& r, const std::string
                 r.heldout_before.position_rms_m * 1e3, r.heldout_after.position_rms_m * 1e3, r.heldout_before.position_max_m * 1e3,
                 r.heldout_after.position_max_m * 1e3);
   }
+  if (!r.structure_left.empty()) std::printf("%s.\n", r.structure_left.c_str());
   if (!r.model_path.empty()) std::printf("model: %s\n", r.model_path.c_str());
   std::printf("report: %s\n", r.report_path.c_str());
 }
