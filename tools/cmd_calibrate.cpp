@@ -64,6 +64,7 @@ void printMeasured(const workflow::MeasuredCalibrateResult& r, const std::string
                 r.heldout_after.position_max_m * 1e3);
   }
   for (const std::string& w : r.extrapolation) std::printf("held out beyond the fitted range: %s\n", w.c_str());
+  if (!r.structure_left.empty()) std::printf("%s.\n", r.structure_left.c_str());
   if (!r.model_path.empty()) std::printf("model: %s\n", r.model_path.c_str());
   std::printf("report: %s\n", r.report_path.c_str());
 }

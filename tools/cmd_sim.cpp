@@ -54,6 +54,7 @@ void addConfigsCommand(CLI::App& app) {
     calib::PoseNoiseModel noise;
     double sigma_position_mm = 0.3, sigma_orientation_deg = 0.5, joint_noise_deg = 0.01;
     int random_subsets = 100;
+    int repeat = 1;
     std::vector<double> joint_box_deg;
   };
   auto opt = std::make_shared<Opts>();
@@ -71,6 +72,11 @@ void addConfigsCommand(CLI::App& app) {
   cmd->add_option("-o,--out", opt->out, "output CSV (index, q1_rad..qN_rad, SI: a prismatic joint's qJ_m); written atomically")->capture_default_str();
   cmd->add_option("--select", opt->select, "choose the N configurations from a pool by this index: O1, O2, O3, O4 or O5");
   cmd->add_option("--pool", opt->pool, "pool size for --select")->capture_default_str()->check(CLI::Range(1, 1000000));
+  cmd->add_option("--repeat", opt->repeat,
+                  "write each configuration N times in a row: measured so, their scatter is the noise (pure error) diagnose "
+                  "judges residuals against when the description states none")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100));
   cmd->add_option("--sigma-position-mm", opt->sigma_position_mm, "--select: pose measurement noise, position")
       ->capture_default_str()->check(CLI::PositiveNumber);
   cmd->add_option("--sigma-orientation-deg", opt->sigma_orientation_deg, "--select: pose measurement noise, orientation")
@@ -95,6 +101,7 @@ void addConfigsCommand(CLI::App& app) {
     c.noise.sigma_orientation_rad = opt->sigma_orientation_deg * sim::kDegToRad;
     c.noise.joint_noise_sigma_rad = opt->joint_noise_deg * sim::kDegToRad;
     c.random_subsets = opt->random_subsets;
+    c.repeat = opt->repeat;
     c.callbacks.progress = terminalProgress();
     if (opt->joint_box_deg.size() % 2 != 0) throw sim::InputError("--joint-box-deg: expected pairs of bounds, lo hi per joint");
     const Eigen::Index n = static_cast<Eigen::Index>(opt->joint_box_deg.size() / 2);

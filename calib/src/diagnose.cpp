@@ -15,6 +15,7 @@
 
 #include "diagnose_candidates.hpp"
 #include "diagnose_folds.hpp"
+#include "diagnose_noise.hpp"
 #include "diagnose_text.hpp"
 #include "orbcal/calib/plausibility.hpp"
 #include "orbcal/sim/config.hpp"
@@ -508,33 +509,30 @@ std::vector<double> sharesOfExcess(const Diagnoser& d, const Diagnosis& out) {
 
 }  // namespace
 
-Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o) {
+namespace {
+
+Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   Diagnoser d(data, obs, o);
   Diagnosis out;
-
-  // The noise: given, or from the base model's fit (variance components).
-  FitOptions first;
-  first.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
-  first.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
-  const std::optional<double> joint = o.joint_noise_sigma_rad ? o.joint_noise_sigma_rad : data.noise_joint_rad;
-  first.joint_noise_sigma_rad = joint.value_or(0.0);
-  first.estimate_joint_noise = !joint && !anyOwnCovariance(obs);
-  first.normal_equations = o.lean_fits;
+  const FitOptions stated_options = statedFitOptions(data, obs, o, out.noise);
   // Data no real arm and instrument can give (a wrong unit or convention) are refused, not diagnosed.
-  FitOptions registration = first;
+  FitOptions registration = stated_options;
   registration.analyze = false;
   registration.estimate_joint_noise = false;  // the frames alone: no joint noise to tell from the rest
   requirePlausibleResidual(data, fitRegistration(startingModel(data, obs, {}), obs, registration).residuals,
                            "the nominal arm's registration residual");
   // Not the geometry's bounds (calibrate's): the base model is the one that lacks the causes diagnose
-  // looks for, and its lengths absorb what they can of them (a thermal expansion, a bending link).
-  out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, first);
+  // looks for, and its lengths absorb what they can of them (a thermal expansion, a bending link). Its
+  // noise: as stated, else estimated with empirical corrections beside it (diagnose_noise.hpp).
+  out.base_fit = fitMarkerModel(startingModel(data, obs, {}), obs, whiteningFitOptions(data, obs, o, stated_options, out.noise));
   d.setNoise(out.base_fit.noise);
-  // The noise is stated when the tracker's sigma (or each sample's covariance) is given, not estimated
-  // from these residuals.
-  const bool stated = first.sigma_position_m.has_value() || anyOwnCovariance(obs);
   const int folds = std::max(2, o.folds);
+  const int replicated = pureError(obs, std::vector<Eigen::VectorXd>(obs.size(), Eigen::VectorXd::Zero(3))).replicated;
+  chooseJointFloor(out.noise, replicated);
+  // The floor is stated (not estimated from these residuals) when the tracker's noise (or each sample's
+  // covariance) is given and the joint readings' part is too, or not needed beside the repeats' scatter.
+  const auto tested_stated = [&] { return out.noise.tracker_stated && out.noise.joint_source != "pure error"; };
 
   CvResult cv_base = d.crossValidate({});
   out.cv_base = cv_base.sse;
@@ -546,7 +544,7 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   ModelSelection sel{{}, cv_base, out.base_fit, 0};
   forwardSelect(d, data, obs, o, d.catalog(), sel, out);
   if (o.empirical && sel.steps < o.max_effects &&
-      lackOfFit(data, obs, sel.fit, out.base_fit.noise, sel.cv.residual, stated, folds, o.alpha).left()) {
+      lackOfFit(data, obs, sel.fit, floorNoise(out.noise), sel.cv.residual, tested_stated(), folds, o.alpha).left()) {
     forwardSelect(d, data, obs, o, empiricalCandidates(data, obs, o.max_order), sel, out);
   }
   backwardEliminate(d, data, o, out.base_fit, sel);
@@ -570,14 +568,40 @@ Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObserv
   out.confounded = kept;
   out.alternatives = alternativesOf(out, [&d](const std::vector<Effect>& effects) { return d.fitAll(effects); });
 
-  // Lack of fit of the selected model (the base model when nothing is selected).
-  out.lack_of_fit = lackOfFit(data, obs, out.fit, out.base_fit.noise, out.residual_selected, stated, folds, o.alpha);
+  // The joint noise that survives the selected model with empirical corrections beside it.
+  if (out.noise.joint_estimated && !out.selected.empty()) {
+    int degree = 0;
+    const Fit f = flexibleFit(data, obs, out.selected, stated_options, o.max_order, degree);
+    out.noise.flexible_structured = leavesStructure(data, obs, f, o.alpha);
+    out.noise.survived = f.noise_components;
+    out.noise.joint_estimate_rad = f.noise.joint_noise_sigma_rad;
+    chooseJointFloor(out.noise, replicated);
+  }
+  // Lack of fit of the selected model (the base model when nothing is selected), against the floor.
+  out.lack_of_fit = lackOfFit(data, obs, out.fit, floorNoise(out.noise), out.residual_selected, tested_stated(), folds, o.alpha);
+  measureFloors(out.noise, out.fit, obs, out.residual_selected, folds);
+  if (out.lack_of_fit.source == NoiseSource::kResiduals) {
+    out.noise.verdict_depends_on_noise = !out.lack_of_fit.left();
+  } else if (out.noise.joint_source == "unstated" && out.lack_of_fit.left()) {
+    const LackOfFit with = lackOfFit(data, obs, out.fit, out.noise.whitening, out.residual_selected, true, folds, o.alpha);
+    out.noise.verdict_depends_on_noise = !with.left();
+  }
   out.heldout.noise_position_rms_m = out.lack_of_fit.noise_position_rms_m;
   out.unexplained = out.lack_of_fit.left();
   out.clean = out.selected.empty() && !out.unexplained;
   if (out.unexplained && !out.selected.empty()) out.share_of_excess = sharesOfExcess(d, out);
   out.verdict = verdictText(out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace
+
+Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o) {
+  std::vector<int> source;
+  const std::vector<MarkerObservation> rows = dropExactDuplicates(obs, source);
+  Diagnosis out = diagnoseRows(data, rows, o);
+  expandRows(out, source, obs.size());
   return out;
 }
 

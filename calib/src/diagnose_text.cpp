@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "diagnose_text.hpp"
+#include "diagnose_noise.hpp"
 #include "orbcal/sim/csv.hpp"
 
 namespace orbcal::calib {
@@ -68,6 +69,8 @@ std::string verdictText(const Diagnosis& out) {
     v << (out.confounded.empty() ? "." : " (some causes are confounded in this data: see below).");
     if (out.unexplained) v << " " << unexplainedSentence(out);
   }
+  const std::string noise = noiseDependenceText(out);
+  if (!noise.empty()) v << " " << noise;
   return v.str();
 }
 

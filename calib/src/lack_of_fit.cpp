@@ -382,8 +382,15 @@ std::string unexplainedSentence(const Diagnosis& d) {
   const LackOfFit& l = d.lack_of_fit;
   if (!d.unexplained) return "";
   const auto mm = [](double m) { return sim::formatNumber("%.3g", m * 1e3) + " mm"; };
-  const std::string noise = l.source == NoiseSource::kStated      ? "the stated noise"
-                            : l.source == NoiseSource::kPureError ? "the noise of " + std::to_string(l.pure.replicated) + " repeated configurations"
+  const NoiseFloors& n = d.noise;
+  const std::string stated = n.joint_source == "survives"
+                                 ? "the stated tracker noise and the joint readings' " +
+                                       sim::formatNumber("%.2g", n.joint_floor_rad * sim::kRadToDeg) +
+                                       " deg (estimated, and resolved beside empirical corrections of every joint)"
+                             : n.joint_source == "unstated" ? "the stated tracker noise (the joint readings' noise is not stated: none counted)"
+                                                            : "the stated noise";
+  const std::string noise = l.source == NoiseSource::kStated      ? stated
+                            : l.source == NoiseSource::kPureError ? "the noise of " + std::to_string(l.pure.replicated) + " repeated configurations (pure error)"
                                                                   : "noise estimated from these residuals";
   const std::string remain = mm(l.excess_rms_m) + " RMS remain above the " + mm(l.noise_position_rms_m) + " " + noise + " gives (" +
                              sim::formatNumber("%.0f", 100.0 * l.excess_share) + " % of the held-out mean square" +

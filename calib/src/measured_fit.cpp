@@ -162,23 +162,81 @@ Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o, const sim:
   return runMethod(findMethod(comparisonMethods(o.joint_noise_sigma_rad), o.method, "method"), m, controls);
 }
 
-/// Variance components of the residuals r_k of `m` at y (REML-type Fisher scoring; Koch, Parameter
+/// tr(P V_c P V_d) of REML's information (Koch 1999, ch. 3.6), P = W - W A N^-1 A^T W, with W = R^-1
+/// block diagonal per sample, A the free columns of the Jacobian and N = A^T W A + S (S the prior):
+/// sum_k tr(W V_c W V_d) - 2 tr(N^-1 C_cd) + tr(N^-1 B_c N^-1 B_d), B_c = sum_k A_k^T W V_c W A_k,
+/// C_cd = sum_k A_k^T W V_c W V_d W A_k: what the fitted parameters take of each component is not
+/// counted as its noise (joint noise above all: the joint corrections' columns lie along J_q).
+Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std::vector<std::array<Eigen::MatrixXd, 3>>& V,
+                                const Eigen::Vector3d& theta, const Eigen::VectorXd& prior) {
+  const Eigen::Index p = prior.size();
+  Eigen::MatrixXd N = prior.asDiagonal();
+  std::array<Eigen::MatrixXd, 3> B;
+  std::array<Eigen::MatrixXd, 9> C;
+  for (auto& b : B) b = Eigen::MatrixXd::Zero(p, p);
+  for (auto& c : C) c = Eigen::MatrixXd::Zero(p, p);
+  Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
+  for (std::size_t k = 0; k < A.size(); ++k) {
+    const std::array<Eigen::MatrixXd, 3>& Vk = V[k];
+    const Eigen::LDLT<Eigen::MatrixXd> W(theta[0] * Vk[0] + theta[1] * Vk[1] + theta[2] * Vk[2]);
+    const Eigen::MatrixXd WA = W.solve(A[k]);
+    N += A[k].transpose() * WA;
+    std::array<Eigen::MatrixXd, 3> WV;
+    for (int c = 0; c < 3; ++c) {
+      WV[static_cast<std::size_t>(c)] = W.solve(Vk[static_cast<std::size_t>(c)]);
+      B[static_cast<std::size_t>(c)] += WA.transpose() * Vk[static_cast<std::size_t>(c)] * WA;
+    }
+    for (int c = 0; c < 3; ++c) {
+      for (int d = c; d < 3; ++d) {
+        F(c, d) += (WV[static_cast<std::size_t>(c)] * WV[static_cast<std::size_t>(d)]).trace();
+        C[static_cast<std::size_t>(3 * c + d)] += WA.transpose() * Vk[static_cast<std::size_t>(c)] * WV[static_cast<std::size_t>(d)] * WA;
+      }
+    }
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> Ninv(N);
+  std::array<Eigen::MatrixXd, 3> NB;
+  for (int c = 0; c < 3; ++c) NB[static_cast<std::size_t>(c)] = Ninv.solve(B[static_cast<std::size_t>(c)]);
+  for (int c = 0; c < 3; ++c) {
+    for (int d = c; d < 3; ++d) {
+      F(c, d) += -2.0 * Ninv.solve(C[static_cast<std::size_t>(3 * c + d)]).trace() +
+                 (NB[static_cast<std::size_t>(c)] * NB[static_cast<std::size_t>(d)]).trace();
+      F(d, c) = F(c, d);
+    }
+  }
+  return F;
+}
+
+/// Variance components of the residuals r_k of `m` at y (REML Fisher scoring; Koch, Parameter
 /// Estimation and Hypothesis Testing in Linear Models, 1999, ch. 3.6): R_k = sum_c theta_c V_kc with
 /// V_k1 = the position rows, V_k2 = the rotation rows, V_k3 = Jq_k Jq_k^T (joint noise through the
 /// residual's joint Jacobian). The components `free` are estimated, the others kept at `noise`'s
-/// values; each step solves sum_k tr(W V_c W V_d) theta_d = sum_k r^T W V_c W r with W = R_k^-1, until
-/// the free variances change by less than 1e-6 of themselves. `correction` (rows / dof) then inflates
-/// the free ones for the parameters fitted. Variances are kept >= 0 (sigmas of position and rotation
-/// >= 1e-9).
+/// values; each step solves sum tr(P V_c P V_d) theta_d = sum_k r^T W V_c W r (remlInformation; the
+/// parameters not in `held` are the fitted ones, `prior` their prior's information), until the free
+/// variances change by less than 1e-6 of themselves. Variances are kept >= 0 (sigmas of position and
+/// rotation >= 1e-9).
 MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::VectorXd& y, const MarkerNoise& noise,
-                                    const std::array<bool, 3>& free, double correction) {
+                                    const std::array<bool, 3>& free, const std::vector<int>& held, const Eigen::VectorXd& prior_sigma,
+                                    NoiseComponents* components) {
   const int n = m.numSamples();
-  // Per sample: the residual and V_k1..3 (fixed over the iterations).
+  std::vector<int> cols;
+  for (int i = 0; i < m.numParams(); ++i) {
+    if (!std::binary_search(held.begin(), held.end(), i)) cols.push_back(i);
+  }
+  Eigen::VectorXd prior = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(cols.size()));
+  for (std::size_t c = 0; c < cols.size(); ++c) {
+    const double s = prior_sigma.size() > cols[c] ? prior_sigma[cols[c]] : 0.0;
+    prior[static_cast<Eigen::Index>(c)] = s > 0.0 ? 1.0 / (s * s) : 0.0;
+  }
+  // Per sample: the residual, the free Jacobian columns and V_k1..3 (fixed over the iterations).
   std::vector<Eigen::VectorXd> r(static_cast<std::size_t>(n));
+  std::vector<Eigen::MatrixXd> A(static_cast<std::size_t>(n));
   std::vector<std::array<Eigen::MatrixXd, 3>> V(static_cast<std::size_t>(n));
   for (int k = 0; k < n; ++k) {
     const auto i = static_cast<std::size_t>(k);
     const Eigen::MatrixXd Jq = m.jointJacobian(k, y, &r[i]);
+    const Eigen::MatrixXd H = m.linearize(k, y).H;
+    A[i].resize(H.rows(), static_cast<Eigen::Index>(cols.size()));
+    for (std::size_t c = 0; c < cols.size(); ++c) A[i].col(static_cast<Eigen::Index>(c)) = H.col(cols[c]);
     const Eigen::Index rows = r[i].size();
     V[i][0] = Eigen::MatrixXd::Zero(rows, rows);
     V[i][0].topLeftCorner(3, 3).setIdentity();
@@ -193,27 +251,25 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
     if (free[static_cast<std::size_t>(c)]) f.push_back(c);
   }
   const auto nf = static_cast<Eigen::Index>(f.size());
+  Eigen::MatrixXd F_last;
   for (int iteration = 0; iteration < 50 && nf > 0; ++iteration) {
-    Eigen::MatrixXd F = Eigen::MatrixXd::Zero(nf, nf);
+    const Eigen::Matrix3d I = remlInformation(A, V, theta, prior);
+    Eigen::MatrixXd F(nf, nf);
     Eigen::VectorXd u = Eigen::VectorXd::Zero(nf);
     for (int k = 0; k < n; ++k) {
-      const Eigen::VectorXd& rk = r[static_cast<std::size_t>(k)];
       const std::array<Eigen::MatrixXd, 3>& Vk = V[static_cast<std::size_t>(k)];
-      const Eigen::MatrixXd R = theta[0] * Vk[0] + theta[1] * Vk[1] + theta[2] * Vk[2];
-      const Eigen::LDLT<Eigen::MatrixXd> W(R);
-      const Eigen::VectorXd Wr = W.solve(rk);
-      // W V_c, the fixed components' share moved to the right-hand side.
-      std::array<Eigen::MatrixXd, 3> WV;
-      for (int c = 0; c < 3; ++c) WV[static_cast<std::size_t>(c)] = W.solve(Vk[static_cast<std::size_t>(c)]);
-      for (Eigen::Index a = 0; a < nf; ++a) {
-        const auto ca = static_cast<std::size_t>(f[static_cast<std::size_t>(a)]);
-        u[a] += Wr.dot(Vk[ca] * Wr);
-        for (int c = 0; c < 3; ++c) {
-          if (!free[static_cast<std::size_t>(c)]) u[a] -= theta[c] * (WV[ca] * WV[static_cast<std::size_t>(c)]).trace();
-        }
-        for (Eigen::Index b = 0; b < nf; ++b) F(a, b) += (WV[ca] * WV[static_cast<std::size_t>(f[static_cast<std::size_t>(b)])]).trace();
-      }
+      const Eigen::LDLT<Eigen::MatrixXd> W(theta[0] * Vk[0] + theta[1] * Vk[1] + theta[2] * Vk[2]);
+      const Eigen::VectorXd Wr = W.solve(r[static_cast<std::size_t>(k)]);
+      for (Eigen::Index a = 0; a < nf; ++a) u[a] += Wr.dot(Vk[static_cast<std::size_t>(f[static_cast<std::size_t>(a)])] * Wr);
     }
+    for (Eigen::Index a = 0; a < nf; ++a) {
+      const int ca = f[static_cast<std::size_t>(a)];
+      for (int c = 0; c < 3; ++c) {  // the fixed components' share moved to the right-hand side
+        if (!free[static_cast<std::size_t>(c)]) u[a] -= theta[c] * I(ca, c);
+      }
+      for (Eigen::Index b = 0; b < nf; ++b) F(a, b) = I(ca, f[static_cast<std::size_t>(b)]);
+    }
+    F_last = F;
     const Eigen::VectorXd next = F.completeOrthogonalDecomposition().solve(u);
     double change = 0.0;
     for (Eigen::Index a = 0; a < nf; ++a) {
@@ -225,14 +281,44 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
     }
     if (change < 1e-6) break;
   }
+  if (components && nf > 0) {
+    // The variances' covariance: 2 F^-1 (the information of a Gaussian's covariance parameters is
+    // tr(P V_c P V_d) / 2).
+    const Eigen::MatrixXd C = 2.0 * F_last.completeOrthogonalDecomposition().pseudoInverse();
+    *components = NoiseComponents{};
+    for (Eigen::Index a = 0; a < nf; ++a) {
+      const auto ca = static_cast<std::size_t>(f[static_cast<std::size_t>(a)]);
+      components->estimated[ca] = true;
+      for (Eigen::Index b = 0; b < nf; ++b) components->covariance(static_cast<Eigen::Index>(ca), f[static_cast<std::size_t>(b)]) = C(a, b);
+    }
+    components->variance = theta;
+  }
   MarkerNoise out = noise;
-  if (free[0]) out.sigma_position_m = std::max(1e-9, std::sqrt(theta[0] * correction));
-  if (free[1]) out.sigma_rotation_rad = std::max(1e-9, std::sqrt(theta[1] * correction));
-  if (free[2]) out.joint_noise_sigma_rad = std::sqrt(theta[2] * correction);
+  if (free[0]) out.sigma_position_m = std::max(1e-9, std::sqrt(theta[0]));
+  if (free[1]) out.sigma_rotation_rad = std::max(1e-9, std::sqrt(theta[1]));
+  if (free[2]) out.joint_noise_sigma_rad = std::sqrt(theta[2]);
   return out;
 }
 
 }  // namespace
+
+double NoiseComponents::sigmaSd(int c) const {
+  const double v = variance[c], sd = std::sqrt(std::max(0.0, covariance(c, c)));
+  return v > sd ? sd / (2.0 * std::sqrt(v)) : std::sqrt(sd);
+}
+
+double NoiseComponents::sigmaUpper(int c) const {
+  return std::sqrt(std::max(0.0, variance[c]) + 2.0 * std::sqrt(std::max(0.0, covariance(c, c))));
+}
+
+bool NoiseComponents::resolved(int c) const {
+  return estimated[static_cast<std::size_t>(c)] && variance[c] > 2.0 * std::sqrt(std::max(0.0, covariance(c, c)));
+}
+
+double NoiseComponents::correlation(int a, int b) const {
+  const double d = std::sqrt(std::max(0.0, covariance(a, a)) * std::max(0.0, covariance(b, b)));
+  return d > 0.0 ? covariance(a, b) / d : 0.0;
+}
 
 sim::KinematicModel startingModel(const sim::MeasuredData& data, const std::vector<MarkerObservation>& observations,
                                   std::vector<sim::Effect> effects) {
@@ -329,8 +415,9 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     const double correction = static_cast<double>(rows) / fit.dof;
     if (o.estimate_joint_noise) {
       const bool rotations = std::any_of(obs.begin(), obs.end(), [](const MarkerObservation& x) { return x.has_rotation; });
-      fit.noise = estimateNoiseComponents(m, fit.estimate.y, fit.noise,
-                                          {!o.sigma_position_m, !o.sigma_rotation_rad && rotations, true}, correction);
+      fit.noise = estimateNoiseComponents(m, fit.estimate.y, fit.noise, {!o.sigma_position_m, !o.sigma_rotation_rad && rotations, true},
+                                          fit.estimate.held, o.geometry_prior ? geometryPriorSigma(start.layout) : Eigen::VectorXd(),
+                                          &fit.noise_components);
       continue;
     }
     // Variance components: position and rotation sigmas from their residuals, corrected for the

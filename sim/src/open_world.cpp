@@ -18,7 +18,7 @@ namespace orbcal::sim {
 namespace {
 
 // Independent random streams of one seed (makeRng's stream argument).
-enum Stream : std::uint64_t { kConfigs = 1, kGeometry = 2, kFrames = 3, kCause = 4, kNoise = 5 };
+enum Stream : std::uint64_t { kConfigs = 1, kGeometry = 2, kFrames = 3, kCause = 4, kNoise = 5, kJointNoise = 6 };
 
 /// A rotation uniform over SO(3): a normalised 4-D Gaussian as a quaternion.
 Eigen::Matrix3d randomRotation(std::mt19937_64& rng) {
@@ -270,10 +270,11 @@ Eigen::Isometry3d cantileverDeflection(const Eigen::Vector3d& far_end_m, const E
 }
 
 Eigen::Isometry3d openWorldMarkerPose(const OpenWorldTruth& truth, const Eigen::VectorXd& q, const Eigen::VectorXd& tau,
-                                      bool with_cause) {
+                                      bool with_cause, const Eigen::VectorXd& joint_error) {
   checkJointVector(truth.arm, q, "openWorldMarkerPose");
-  if (!with_cause) return truth.world_T_base * forwardKinematics(truth.arm, q) * truth.flange_T_marker;
-  const Eigen::VectorXd q_true = q + causeJointOffsets(truth.cause, q, tau);
+  const Eigen::VectorXd error = joint_error.size() == q.size() ? joint_error : Eigen::VectorXd::Zero(q.size());
+  if (!with_cause) return truth.world_T_base * forwardKinematics(truth.arm, q + error) * truth.flange_T_marker;
+  const Eigen::VectorXd q_true = q + causeJointOffsets(truth.cause, q, tau) + error;
   const bool bends = truth.cause.kind == OpenCauseKind::kLinkBending;
   return truth.world_T_base * chainWithBending(truth.arm, truth.masses, q_true, bends ? &truth.cause : nullptr) *
          truth.flange_T_marker;
@@ -288,6 +289,8 @@ void checkSpec(const OpenWorldSpec& spec) {
   if (spec.samples < 1) fail("expected at least 1 sample, got " + std::to_string(spec.samples));
   if (!(spec.snr > 0.0)) fail("expected a positive SNR");
   if (!(spec.noise_position_m > 0.0) || !(spec.noise_rotation_rad >= 0.0)) fail("expected a positive tracker noise");
+  if (!(spec.noise_joint_rad >= 0.0)) fail("expected a joint noise of at least 0");
+  if (spec.repeats < 1) fail("expected at least 1 measurement per configuration");
   const bool two = spec.cause == OpenCauseKind::kCoupling || spec.cause == OpenCauseKind::kTwoCatalog;
   if (two && n < 2) fail(std::string(openCauseName(spec.cause)) + " needs two joints");
   for (int j : {spec.joint_a, spec.joint_b}) {
@@ -348,17 +351,25 @@ OpenWorldDataset generateOpenWorld(const OpenWorldSpec& spec) {
   d.base = d.marker = FrameSharing::kShared;
   d.noise_position_m = spec.noise_position_m;
   d.noise_rotation_rad = spec.noise_rotation_rad;
-  d.noise_joint_rad = 0.0;  // the readings are the encoders'; the causes sit between them and the true angles
+  // The readings are the encoders'; the causes (and the joint noise) sit between them and the true angles.
+  d.noise_joint_rad = spec.noise_joint_rad;
   d.has_torque = true;
-  for (const JointSample& s : samples) {
-    MeasuredPose m;
-    m.sample = s;
-    const Eigen::Isometry3d exact = openWorldMarkerPose(truth, s.q_rad, s.tau_Nm, true);
-    const Eigen::Vector3d dp(n(rng), n(rng), n(rng));
-    const Eigen::Vector3d dr(n(rng), n(rng), n(rng));
-    m.world_T_marker.linear() = expSO3(dr * spec.noise_rotation_rad) * exact.linear();
-    m.world_T_marker.translation() = exact.translation() + dp * spec.noise_position_m;
-    d.poses.push_back(m);
+  std::mt19937_64 joint_rng = makeRng(spec.seed, kJointNoise);
+  for (int r = 0; r < spec.repeats; ++r) {
+    for (const JointSample& s : samples) {
+      MeasuredPose m;
+      m.sample = s;
+      Eigen::VectorXd joint_error = Eigen::VectorXd::Zero(s.q_rad.size());
+      if (spec.noise_joint_rad > 0.0) {
+        for (Eigen::Index j = 0; j < joint_error.size(); ++j) joint_error[j] = n(joint_rng) * spec.noise_joint_rad;
+      }
+      const Eigen::Isometry3d exact = openWorldMarkerPose(truth, s.q_rad, s.tau_Nm, true, joint_error);
+      const Eigen::Vector3d dp(n(rng), n(rng), n(rng));
+      const Eigen::Vector3d dr(n(rng), n(rng), n(rng));
+      m.world_T_marker.linear() = expSO3(dr * spec.noise_rotation_rad) * exact.linear();
+      m.world_T_marker.translation() = exact.translation() + dp * spec.noise_position_m;
+      d.poses.push_back(m);
+    }
   }
   fillApproachDirections(d.poses);  // as loadMeasuredData does for files without direction columns
   return out;

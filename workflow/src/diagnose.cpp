@@ -1,5 +1,7 @@
 #include "orbcal/workflow/diagnose.hpp"
 
+#include "diagnose_noise_text.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <numeric>
@@ -101,6 +103,17 @@ std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& dist
   const calib::MarkerNoise& n = d.base_fit.noise;  // SI: m, rad
   j << "],\n \"noise\": {\"position_m\": " << num(n.sigma_position_m, "noise.position_m") << ", \"rotation_rad\": "
     << num(n.sigma_rotation_rad, "noise.rotation_rad") << ", \"joint_rad\": " << num(n.joint_noise_sigma_rad, "noise.joint_rad") << "}";
+  // The floor the verdict is judged against, and the estimated joint noise beside it (NoiseFloors).
+  const calib::NoiseFloors& nf = d.noise;
+  const auto fl = [&num](double v, const char* key) { return num(v, std::string("noise_floor.") + key); };
+  j << ",\n \"noise_floor\": {\"joint_source\": " << sim::jsonString(nf.joint_source) << ", \"joint_floor_rad\": "
+    << fl(nf.joint_floor_rad, "joint_floor_rad") << ", \"joint_estimate_rad\": " << fl(nf.joint_estimate_rad, "joint_estimate_rad")
+    << ", \"joint_estimate_sd_rad\": " << fl(nf.survived.estimated[2] ? nf.survived.sigmaSd(2) : 0.0, "joint_estimate_sd_rad")
+    << ", \"floor_independent_mm\": " << fl(nf.floor_independent_rms_m * 1e3, "floor_independent_mm")
+    << ", \"floor_with_estimate_mm\": " << fl(nf.floor_with_estimate_rms_m * 1e3, "floor_with_estimate_mm")
+    << ", \"joint_needed_rad\": " << fl(nf.joint_needed_rad, "joint_needed_rad")
+    << ", \"depends_on_noise\": " << (nf.verdict_depends_on_noise ? "true" : "false")
+    << ", \"duplicates_dropped\": " << nf.duplicates_dropped << "}";
   const calib::LackOfFit& l = d.lack_of_fit;
   j << ",\n \"unexplained\": [";
   for (std::size_t i = 0; i < l.unexplained.size(); ++i) {
@@ -286,45 +299,6 @@ std::string unexplainedSection(const calib::Diagnosis& d, double alpha) {
   }
   md << "\n(" << omitted << " variables with Holm-adjusted p above 0.5 not listed)\n";
   return md.str();
-}
-
-/// The tracker noise of a calibration of `effects` on all of `obs`, estimated as `orbcal calibrate`
-/// estimates it (the same fit: position and rotation variance components where the noise is not
-/// given; joint readings as stated, else not modelled).
-calib::MarkerNoise noiseWithEffects(const sim::MeasuredData& data, const std::vector<calib::MarkerObservation>& obs,
-                                    const std::vector<sim::Effect>& effects, const calib::DiagnoseOptions& o) {
-  calib::FitOptions fo;
-  fo.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
-  fo.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
-  fo.joint_noise_sigma_rad = o.joint_noise_sigma_rad ? *o.joint_noise_sigma_rad : data.noise_joint_rad.value_or(0.0);
-  return calib::fitMarkerModel(calib::startingModel(data, obs, effects), obs, fo).noise;
-}
-
-/// "Noise (1 sigma per axis) of the base fit: ..." with where each number came from; where it was
-/// estimated and effects were selected, also the noise with those effects fitted (what `orbcal
-/// calibrate` with them reports), since the base model's estimate counts what it misses as noise.
-std::string noiseSentence(const calib::Diagnosis& dg, const calib::DiagnoseOptions& o, const sim::MeasuredData& data,
-                          const std::vector<calib::MarkerObservation>& obs) {
-  const calib::MarkerNoise& n = dg.base_fit.noise;
-  const std::string estimated = " (estimated from the residuals of geometry + registration)";
-  const auto source = [&estimated](bool given) { return given ? std::string(" (given)") : estimated; };
-  const bool joint_given = o.joint_noise_sigma_rad || data.noise_joint_rad;
-  const std::string joints = "joint readings " + sim::formatNumber("%.3g", n.joint_noise_sigma_rad * sim::kRadToDeg) + " deg" + source(joint_given);
-  if (calib::anyOwnCovariance(obs)) {
-    return "Noise, as every fit here whitens with it: each sample's own pose covariance, and " + joints + ".";
-  }
-  const bool rotation = measuresRotation(data);
-  const bool pos_given = o.sigma_position_m || data.noise_position_m, rot_given = o.sigma_rotation_rad || data.noise_rotation_rad || !rotation;
-  std::string text = "Noise, 1 sigma per axis, as every fit here whitens with it: " + noiseText(n, rotation) +
-                     (pos_given == rot_given ? source(pos_given) : pos_given ? " (position given, rotation" + estimated + ")"
-                                                                             : " (rotation given, position" + estimated + ")") +
-                     ", " + joints + ".";
-  if ((pos_given && rot_given && joint_given) || dg.selected.empty()) return text;
-  std::string effects;
-  for (const sim::Effect& e : dg.selected) effects += (effects.empty() ? "" : " ") + sim::formatEffect(e);
-  return text + " Geometry + registration cannot follow the selected effects, so this estimate counts them as noise (joint noise "
-                "above all). With them fitted, as `orbcal calibrate --effects " + effects + "` fits them (joint readings as the "
-                "description states), the noise is " + noiseText(noiseWithEffects(data, obs, dg.selected, o), rotation) + ".";
 }
 
 /// The candidates' score tests and the variables' F tests, each table with what it tests: the verdict

@@ -281,6 +281,27 @@ std::vector<std::string> refusalsOf(const MeasuredCalibrateResult& r) {
   return out;
 }
 
+/// Diagnose's lack-of-fit tests (calib/lack_of_fit.hpp) on the calibrated model's held-out residuals:
+/// the global test against the noise where it is given, and the extended variable family. Where they
+/// flag something, the sentence that says structure is left and which command names it.
+std::string structureLeft(const MeasuredCalibrateResult& r, const sim::MeasuredData& data, const std::string& description,
+                          const std::vector<calib::MarkerObservation>& held, const std::vector<Eigen::VectorXd>& after,
+                          calib::LackOfFit& lof) {
+  if (held.size() < 10) return "";
+  // The parameters come from the identification samples alone: their covariance is the held-out
+  // prediction's estimation variance as it is (one "fold").
+  lof = calib::lackOfFit(data, held, r.fit, r.fit.noise, after, !r.fit.noise_estimated, 1, calib::DiagnoseOptions{}.alpha);
+  if (!lof.left()) return "";
+  std::string why = lof.unexplained.empty() ? "" : "structured against " + calib::describeUnexplained(lof.unexplained);
+  if (lof.significant) {
+    why += std::string(why.empty() ? "" : ", and ") + "above the noise (held-out position RMS " +
+           formatNumber("%.3g", lof.position_rms_m * 1e3) + " mm against the " + formatNumber("%.3g", lof.noise_position_rms_m * 1e3) +
+           " mm the " + (lof.source == calib::NoiseSource::kStated ? "stated noise" : "repeated configurations' scatter") + " gives; p " + formatNumber("%.2g", lof.p_value) + ")";
+  }
+  return "Structure is left: the calibrated model's held-out residuals are " + why +
+         ": the model misses an effect. `orbcal diagnose " + description + "` names it and the --effects to calibrate with";
+}
+
 /// The report's first lines: each reason the calibration is not accepted, or that it is, and whether
 /// model.yaml was written.
 std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model) {
@@ -303,6 +324,7 @@ std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model) {
                                : "nothing held out: the checks on the fit alone decided")
        << ").**\n\n";
   }
+  if (!r.structure_left.empty()) md << "**" << r.structure_left << ".**\n\n";
   return md.str();
 }
 
@@ -386,6 +408,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   r.worse = !reference_level && verdict.worse;
   r.refusal = reference_level || (held.empty() && !r.cross_validated) ? "" : verdict.refusal;
   r.fit_refusal = calib::fitRefusal(r.fit, ident, fo);
+  r.structure_left = structureLeft(r, data, o.description, held, after, r.lack_of_fit);
 
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit, ident);
   // Held-out samples beyond the ranges the identification data covered: their figures extrapolate.

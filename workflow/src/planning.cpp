@@ -71,6 +71,10 @@ ConfigsResult runConfigs(const ConfigsOptions& o) {
     configs = sim::generateConfigurations(arm, scene, gen, &r.stats, [&](int d, int) { bar.update(d); });
   }
   if (o.select) r.selection = selectFromPool(o, arm, configs);
+  if (o.repeat < 1) throw sim::InputError("--repeat: expected at least 1, got " + std::to_string(o.repeat));
+  std::vector<Eigen::VectorXd> repeated;
+  for (const Eigen::VectorXd& q : configs) repeated.insert(repeated.end(), static_cast<std::size_t>(o.repeat), q);
+  configs = std::move(repeated);
   sim::writeFileAtomic(o.out, sim::formatConfigurationsCsv(configs, &arm));
   r.written = static_cast<int>(configs.size());
   return r;

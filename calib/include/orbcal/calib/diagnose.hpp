@@ -89,6 +89,42 @@ struct HeldoutStats {
   double noise_position_rms_m = 0;  ///< 3-D position RMS the noise alone gives (LackOfFit)
 };
 
+/// The noise of a diagnosis: what every fit whitens with, and the floor the verdict is judged against.
+/// The floor may hold joint-reading noise only from a source independent of the residuals it judges:
+/// stated (the description's noise.joint_deg, --joint-noise-deg), pure error of repeated
+/// configurations, or an estimate that survives a model flexible enough to take smooth structure
+/// (the selected model plus, per joint, harmonics, smooth functions of its own angle and torque and
+/// couplings to every other joint: diagnose_noise.hpp's flexibleFit), is resolved there (its variance
+/// above twice its standard deviation) and leaves no structure there (lack_of_fit's variable family). Otherwise an estimated
+/// joint noise whitens the fits but stays out of the floor, and the report gives both floors.
+struct NoiseFloors {
+  MarkerNoise whitening;         ///< as every fit whitens with it
+  bool tracker_stated = false;   ///< the tracker's sigmas (or each sample's own covariance) are given
+  bool joint_stated = false;     ///< the joint readings' noise is given
+  bool joint_estimated = false;  ///< the joint readings' noise is a variance component of the fits
+  /// Degree of the flexible model's empirical corrections the noise was estimated with (0: none, the
+  /// geometry + registration fit's residuals: too few samples for them).
+  int flexible_degree = 0;
+  NoiseComponents components;          ///< of the flexible fit that whitens (where estimated)
+  /// The flexible fit's residuals are still structured (lack_of_fit's family): its joint-noise estimate
+  /// may be structure it could not take, and stays out of the floor.
+  bool flexible_structured = false;
+  NoiseComponents survived;            ///< of the selected model + empirical corrections (where estimated)
+  double joint_estimate_rad = 0.0;     ///< the joint noise of `survived`
+  double joint_floor_rad = 0.0;        ///< the joint noise in the verdict's floor
+  std::string joint_source;            ///< "stated", "pure error", "survives", "unstated" (then 0 in the floor)
+  /// Held-out position RMS the noise gives (no estimation variance): without any joint noise that is
+  /// not stated, and with the estimated one (the same where none is estimated).
+  double floor_independent_rms_m = 0.0, floor_with_estimate_rms_m = 0.0;
+  /// The joint-reading noise at which the selected model's held-out position residuals would be noise
+  /// (0 when the tracker's noise alone covers them).
+  double joint_needed_rad = 0.0;
+  /// The verdict would differ with the estimated joint noise in the floor, or nothing independent of
+  /// the residuals measures the noise (no stated noise, no repeats): the verdict says so, with the plan.
+  bool verdict_depends_on_noise = false;
+  int duplicates_dropped = 0;  ///< rows that repeat another row exactly (readings and measurement): counted once
+};
+
 struct Diagnosis {
   /// Nothing selected and nothing left: the base model's held-out residuals are noise.
   bool clean = true;
@@ -114,6 +150,7 @@ struct Diagnosis {
   /// Per selected effect (in order), its held-out position mean-square gain (over the model with the
   /// effects before it) as a share of the base model's excess over the noise; filled when unexplained.
   std::vector<double> share_of_excess;
+  NoiseFloors noise;                        ///< the whitening noise and the verdict's floor
   std::string verdict;                      ///< one sentence a user can act on
   double seconds = 0;
 };

@@ -4,6 +4,7 @@
 // from the residuals where the data does not state it, what this data cannot identify, the residual
 // statistics, and the prediction of other data with a calibrated model (per-session frames refitted,
 // everything else held).
+#include <array>
 #include <optional>
 #include <string>
 #include <vector>
@@ -78,6 +79,25 @@ struct FitOptions {
   bool map = false;
 };
 
+/// The estimated noise components (variance components: position and rotation per axis, joint readings)
+/// with their uncertainty: REML's inverse Fisher information of the variances, 2 F^-1 (Koch 1999,
+/// ch. 3.6), at the final estimate, corrected like the variances for the parameters fitted. A component
+/// the data cannot tell from another (rotation against joint noise: both turn the marker) shows a
+/// large standard deviation and a correlation near -1.
+struct NoiseComponents {
+  std::array<bool, 3> estimated{false, false, false};  ///< position, rotation, joint
+  Eigen::Vector3d variance = Eigen::Vector3d::Zero();    ///< m^2, rad^2, rad^2
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  ///< of the three variances (0 where not estimated)
+  /// 1-sigma of the component's sigma (delta method, sd(variance) / (2 sigma)); where the variance is
+  /// within one sd of zero, sqrt(sd(variance)): the scale the data cannot resolve.
+  double sigmaSd(int c) const;
+  /// The upper end of a 2-sigma interval of the component's sigma: sqrt(max(0, variance) + 2 sd(variance)).
+  double sigmaUpper(int c) const;
+  /// The variance exceeds twice its standard deviation: the data show the component is above zero.
+  bool resolved(int c) const;
+  double correlation(int a, int b) const;
+};
+
 struct Fit {
   sim::KinematicModel model;  ///< the starting model
   Eigen::VectorXd p0;         ///< its starting parameters
@@ -85,6 +105,7 @@ struct Fit {
   Estimate estimate;          ///< y, its covariance, the held parameters
   MarkerNoise noise;          ///< as used in the final fit
   bool noise_estimated = false;
+  NoiseComponents noise_components;  ///< where estimate_joint_noise: the three components' uncertainty
   sim::IdentifiabilityReport identifiability;  ///< of the whitened Jacobian at the start
   /// O1-O5 of the fitted samples (whitened rows, typical-magnitude columns, the held parameters left
   /// out; calib/observability.hpp), at the start, with the final noise.

@@ -73,6 +73,11 @@ struct OpenWorldSpec {
   int samples = 200;
   double noise_position_m = 0.1e-3;              ///< tracker, 1 sigma per axis
   double noise_rotation_rad = 0.01 * 3.14159265358979323846 / 180.0;
+  /// Joint readings vs the true angles, 1 sigma per joint: each measurement's true angles are the
+  /// readings + the cause's dq + N(0, noise_joint_rad) (its own draw; 0: none). Stated in the data.
+  double noise_joint_rad = 0.0;
+  /// Measurements of each configuration: the same readings, fresh tracker and joint noise (pure error).
+  int repeats = 1;
   double dh_angle_sigma_rad = 0.3 * 3.14159265358979323846 / 180.0;  ///< DH errors of the true arm
   double dh_length_sigma_m = 1e-3;
   double base_distance_m = 3.0;                  ///< |world_T_base translation|
@@ -116,9 +121,9 @@ Eigen::Isometry3d cantileverDeflection(const Eigen::Vector3d& far_end_m, const E
                                        double compliance);
 
 /// The noiseless measured pose world_T_marker of readings q (torques tau, as written), with or without
-/// the hidden cause.
+/// the hidden cause; `joint_error` (empty: none) is added to the true angles (the joint readings' noise).
 Eigen::Isometry3d openWorldMarkerPose(const OpenWorldTruth& truth, const Eigen::VectorXd& q, const Eigen::VectorXd& tau,
-                                      bool with_cause);
+                                      bool with_cause, const Eigen::VectorXd& joint_error = {});
 
 /// Writes the dataset as a measurement description + CSV (sim::writeMeasuredData; noise in the `noise:`
 /// key) and truth.yaml beside it (the cause, its joints from 1, values, SNR). `robot_file` is what the

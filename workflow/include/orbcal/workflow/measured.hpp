@@ -9,6 +9,7 @@
 
 #include "orbcal/calib/heldout.hpp"
 #include "orbcal/calib/levels.hpp"
+#include "orbcal/calib/lack_of_fit.hpp"
 #include "orbcal/calib/measured_fit.hpp"
 #include "orbcal/calib/parameter_classes.hpp"
 #include "orbcal/sim/model_io.hpp"
@@ -51,6 +52,11 @@ struct MeasuredCalibrateResult {
   std::string refusal;                   ///< why the held-out gain is not accepted (calib::heldoutVerdict); empty: accepted or none held out
   /// Why the fit itself is refused, whatever the split (calib::fitRefusal); empty: not.
   std::string fit_refusal;
+  /// What the calibrated model leaves: its held-out residuals against the noise and the variables
+  /// diagnose's lack-of-fit tests use (calib/lack_of_fit.hpp); `structure_left` is the sentence that
+  /// says so and which command names it (empty: nothing flagged, or too few held-out samples to test).
+  calib::LackOfFit lack_of_fit;
+  std::string structure_left;
   /// With the noise given (not estimated): the fit's chi-square against chi-square(dof) at the alpha of
   /// calib::Consistency; inconsistent when P(chi-square(dof) > chi2) < alpha.
   bool inconsistent = false;

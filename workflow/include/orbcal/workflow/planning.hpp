@@ -25,6 +25,9 @@ struct ConfigsOptions {
   int pool = 1000;                                  ///< with select: the pool generated
   calib::PoseNoiseModel noise;                      ///< with select: R of the whitened pose Jacobian
   int random_subsets = 100;                         ///< with select: random subsets the choice is compared with
+  /// Each configuration written this many times in a row: measured so, their scatter is the noise
+  /// (pure error) that diagnose and calibrate judge residuals against when no noise is stated.
+  int repeat = 1;
   Callbacks callbacks;                              ///< progress (callbacks.hpp)
 };
 struct ConfigsResult {

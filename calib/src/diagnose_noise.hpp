@@ -1,0 +1,60 @@
+#pragma once
+// The noise of a diagnosis (calib/src/diagnose_noise.cpp): the variance components estimated with a
+// model flexible enough to take smooth structure, the floor a verdict is judged against and where its
+// joint-reading noise comes from (diagnose.hpp's NoiseFloors), and rows that repeat another exactly.
+#include <string>
+#include <vector>
+
+#include "orbcal/calib/diagnose.hpp"
+
+namespace orbcal::calib {
+
+/// The fit of `effects` plus a flexible model of smooth structure, with the noise estimated as `options`
+/// say: per moving joint its harmonics (cyclic, up to `max_degree`) and smooth functions of its own angle
+/// and torque (empirical, degree up to 3), and every joint's reading off by a multiple of every other's
+/// (coupling); the most flexible of a few levels whose free parameters stay within a quarter of the
+/// rows. `degree` gets its harmonics (0: none fits, the fit of `effects` alone).
+Fit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const std::vector<sim::Effect>& effects,
+                const FitOptions& options, int max_degree, int& degree);
+
+/// The fit's own residuals still structured against a variable of the extended family (lack_of_fit.hpp),
+/// whitened with its noise: what it estimated as noise may hold structure it could not take.
+bool leavesStructure(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const Fit& fit, double alpha);
+
+/// The noise the verdict's floor uses: the whitening tracker noise, and the joint noise of
+/// NoiseFloors::joint_floor_rad.
+MarkerNoise floorNoise(const NoiseFloors& n);
+
+/// Sets joint_floor_rad and joint_source from what is stated, the repeats (`replicated` groups) and
+/// the survived estimate.
+void chooseJointFloor(NoiseFloors& n, int replicated);
+
+/// The floors with and without the estimated joint noise, and the joint noise at which the held-out
+/// position residuals `residual` of `fit` would be noise.
+void measureFloors(NoiseFloors& n, const Fit& fit, const std::vector<MarkerObservation>& obs,
+                   const std::vector<Eigen::VectorXd>& residual, int folds);
+
+/// `obs` without the rows that repeat an earlier row exactly (same session, point, readings and
+/// measured pose: a copy carries no new measurement); source[i] is the kept row input row i maps to.
+std::vector<MarkerObservation> dropExactDuplicates(const std::vector<MarkerObservation>& obs, std::vector<int>& source);
+
+/// Back to one entry per input row after dropExactDuplicates (a copy shares its original's residuals);
+/// the verdict counts the copies.
+void expandRows(Diagnosis& out, const std::vector<int>& source, std::size_t rows);
+
+/// The fit options of what is stated (description, else command line) and whether the joint noise is
+/// estimated; sets n's tracker_stated, joint_stated, joint_estimated.
+FitOptions statedFitOptions(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o,
+                            NoiseFloors& n);
+/// The fit options every fit of the diagnosis whitens with: the stated noise, and what is not stated
+/// estimated (variance components) by flexibleFit of geometry + registration + empirical corrections,
+/// so that structure they can take is not counted as noise; sets n's whitening, components,
+/// flexible_degree and (as a first survived estimate) joint_estimate_rad.
+FitOptions whiteningFitOptions(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o,
+                               const FitOptions& stated, NoiseFloors& n);
+
+/// The noise paragraph of the verdict where it depends on the noise: both floors, the joint noise the
+/// residuals would need, and the plan that decides it. Empty where the verdict does not depend on it.
+std::string noiseDependenceText(const Diagnosis& d);
+
+}  // namespace orbcal::calib
