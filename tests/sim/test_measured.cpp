@@ -202,12 +202,12 @@ TEST_CASE("measured data: every bad cell is named by file, line and column", "[s
   SECTION("degrees declared rad: outside the limits in rad, within them in deg, joints.unit is named") {
     const std::string desc = with(kMatrixDescription, "unit: deg}", "unit: rad}");
     const Files f = writeFiles("deg-as-rad", desc, kHeader + "\n" + kRowA + "\n" + kRowB + "\n");
-    CHECK(loadError(f.description) == f.csv + ": line 2: j1: 10 rad is outside the joint limits [-1.57079633, 1.57079633] rad of " +
-                                          f.dir + "/robot.yaml; read in deg it is within them: if the columns hold degrees, "
-                                          "write joints.unit: deg in " + f.description);
+    CHECK(loadError(f.description) == f.csv + ": line 2: j1: 10 rad (572.958 deg) is outside the joint limits [-90, 90] deg of " +
+                                          f.dir + "/robot.yaml by more than 2% of the joint's range (3.6 deg); read in deg it is "
+                                          "within them: if the columns hold degrees, write joints.unit: deg in " + f.description);
     // A value beyond the limits in either unit gets no such hint.
     const Files g = writeFiles("far-out", desc, kHeader + "\n" + with(kRowA, "10,-20,", "100,-20,") + "\n");
-    CHECK_THAT(loadError(g.description), Contains("100 rad is outside the joint limits") && !Contains("joints.unit"));
+    CHECK_THAT(loadError(g.description), Contains("100 rad (5729.58 deg) is outside the joint limits") && !Contains("joints.unit"));
   }
   SECTION("a duplicate column name") {
     CHECK(csvError("duplicate", kRowB, with(kHeader, ",t2", ",t1")) ==

@@ -408,7 +408,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   r.worse = !reference_level && verdict.worse;
   r.refusal = reference_level || (held.empty() && !r.cross_validated) ? "" : verdict.refusal;
   r.fit_refusal = calib::fitRefusal(r.fit, ident, fo);
-  r.structure_left = structureLeft(r, data, o.description, held, after, r.lack_of_fit);
+  r.structure_left = structureLeft(r, data, o.description, judged.obs, judged.after, r.lack_of_fit);
 
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit, ident);
   // Held-out samples beyond the ranges the identification data covered: their figures extrapolate.
