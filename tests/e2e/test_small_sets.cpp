@@ -48,7 +48,7 @@ TEST_CASE("calibrate DESC.yaml: 12 configurations are judged by cross-validation
   const std::string robot = test::sourcePath("scenes/iiwa7.yaml");
   REQUIRE(test::runOrbcal(dir, "simulate --robot " + robot + " -n 12 --seed 4 --error-angle-deg 0.2 --error-length-mm 1 -o real")
               .status == 0);
-  const test::OrbcalRun real = test::runOrbcal(dir, "calibrate real/measurements.yaml --level offsets -o cal");
+  const test::OrbcalRun real = test::runOrbcal(dir, "calibrate real/measurements.yaml -o cal");
   INFO(real.out << real.err);
   CHECK(real.status == 0);
   CHECK_THAT(real.out, Contains("cross-validated position RMS (each of the 12 configurations predicted by fits to the others)"));
@@ -57,7 +57,7 @@ TEST_CASE("calibrate DESC.yaml: 12 configurations are judged by cross-validation
                                                         Contains("each predicted once by a fit that never saw it"));
 
   REQUIRE(test::runOrbcal(dir, "simulate --robot " + robot + " -n 12 --seed 4 --geometry zero -o noise").status == 0);
-  const test::OrbcalRun noise = test::runOrbcal(dir, "calibrate noise/measurements.yaml --level offsets -o cal-noise");
+  const test::OrbcalRun noise = test::runOrbcal(dir, "calibrate noise/measurements.yaml -o cal-noise");
   INFO(noise.out << noise.err);
   CHECK(noise.status == 1);
   CHECK_THAT(noise.err, Contains("noise/measurements.yaml: ") && Contains("each predicted by a fit without it") ||
@@ -70,8 +70,8 @@ TEST_CASE("calibrate DESC.yaml: a joint reading past its limit by under 2% of th
   const std::string dir = test::tempDir("small-limits");
   const std::string robot = test::sourcePath("scenes/iiwa7.yaml");  // joint 1: -170 to 170 deg, 2% of its range: 6.8 deg
   REQUIRE(test::runOrbcal(dir, "simulate --robot " + robot + " -n 30 --seed 6 -o data").status == 0);
-  const std::string csv = test::slurp(dir + "/data/session_0.csv");
-  test::write(dir + "/data/session_0.csv", withFirstCell(csv, "q1_rad", exact((170.0 + 1.5) * M_PI / 180.0)));
+  const std::string csv = test::slurp(dir + "/data/session_1.csv");
+  test::write(dir + "/data/session_1.csv", withFirstCell(csv, "q1_rad", exact((170.0 + 1.5) * M_PI / 180.0)));
   const test::OrbcalRun near = test::runOrbcal(dir, "calibrate data/measurements.yaml --level offsets -o cal");
   INFO(near.out << near.err);
   CHECK_THAT(near.err, Contains("warning: data/measurements.yaml: joint 1: 1 reading past its upper limit 170 deg") &&
@@ -79,11 +79,11 @@ TEST_CASE("calibrate DESC.yaml: a joint reading past its limit by under 2% of th
   CHECK(std::filesystem::exists(dir + "/cal/report.md"));
   CHECK_THAT(test::slurp(dir + "/cal/report.md"), Contains("**Warning:** joint 1: 1 reading past its upper limit 170 deg"));
 
-  test::write(dir + "/data/session_0.csv", withFirstCell(csv, "q1_rad", exact((170.0 + 7.5) * M_PI / 180.0)));
+  test::write(dir + "/data/session_1.csv", withFirstCell(csv, "q1_rad", exact((170.0 + 7.5) * M_PI / 180.0)));
   const test::OrbcalRun far = test::runOrbcal(dir, "calibrate data/measurements.yaml --level offsets -o cal2");
   INFO(far.out << far.err);
   CHECK(far.status != 0);
-  CHECK_THAT(far.err, Contains("session_0.csv: line 2: q1_rad: ") &&
+  CHECK_THAT(far.err, Contains("session_1.csv: line 2: q1_rad: ") &&
                           Contains("is outside the joint limits [-170, 170] deg of ") &&
                           Contains("by more than 2% of the joint's range (6.8 deg)"));
   CHECK_FALSE(std::filesystem::exists(dir + "/cal2"));
