@@ -568,24 +568,7 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
   out.confounded = kept;
   out.alternatives = alternativesOf(out, [&d](const std::vector<Effect>& effects) { return d.fitAll(effects); });
 
-  // The joint noise that survives the selected model with empirical corrections beside it.
-  if (out.noise.joint_estimated && !out.selected.empty()) {
-    int degree = 0;
-    const Fit f = flexibleFit(data, obs, out.selected, stated_options, o.max_order, degree);
-    out.noise.flexible_structured = leavesStructure(data, obs, f, o.alpha);
-    out.noise.survived = f.noise_components;
-    out.noise.joint_estimate_rad = f.noise.joint_noise_sigma_rad;
-    chooseJointFloor(out.noise, replicated);
-  }
-  // Lack of fit of the selected model (the base model when nothing is selected), against the floor.
-  out.lack_of_fit = lackOfFit(data, obs, out.fit, floorNoise(out.noise), out.residual_selected, tested_stated(), folds, o.alpha);
-  measureFloors(out.noise, out.fit, obs, out.residual_selected, folds);
-  if (out.lack_of_fit.source == NoiseSource::kResiduals) {
-    out.noise.verdict_depends_on_noise = !out.lack_of_fit.left();
-  } else if (out.noise.joint_source == "unstated" && out.lack_of_fit.left()) {
-    const LackOfFit with = lackOfFit(data, obs, out.fit, out.noise.whitening, out.residual_selected, true, folds, o.alpha);
-    out.noise.verdict_depends_on_noise = !with.left();
-  }
+  judgeAgainstFloor(data, obs, o, stated_options, replicated, folds, out);
   out.heldout.noise_position_rms_m = out.lack_of_fit.noise_position_rms_m;
   out.unexplained = out.lack_of_fit.left();
   out.clean = out.selected.empty() && !out.unexplained;

@@ -57,4 +57,10 @@ FitOptions whiteningFitOptions(const sim::MeasuredData& data, const std::vector<
 /// residuals would need, and the plan that decides it. Empty where the verdict does not depend on it.
 std::string noiseDependenceText(const Diagnosis& d);
 
+/// The joint noise that survives the selected model with empirical corrections beside it (flexibleFit), the
+/// floor the verdict is judged against (chooseJointFloor), the selected model's lack of fit against that
+/// floor, both floors (measureFloors), and whether the verdict depends on a noise the data cannot tell.
+void judgeAgainstFloor(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o,
+                       const FitOptions& stated_options, int replicated, int folds, Diagnosis& out);
+
 }  // namespace orbcal::calib

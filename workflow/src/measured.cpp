@@ -25,10 +25,14 @@
 #include "orbcal/sim/urdf_export.hpp"
 #include "extrapolation.hpp"
 #include "measured_figures.hpp"
+#include "measured_verdict.hpp"
 
 namespace orbcal::workflow {
 
 using sim::formatNumber;
+using measured_detail::modelHeader;
+using measured_detail::structureLeft;
+using measured_detail::verdictLines;
 
 std::string parseFitMethod(const std::string& name, const std::string& what) {
   calib::findMethod(calib::comparisonMethods(0.0), name, what);
@@ -281,53 +285,6 @@ std::vector<std::string> refusalsOf(const MeasuredCalibrateResult& r) {
   return out;
 }
 
-/// Diagnose's lack-of-fit tests (calib/lack_of_fit.hpp) on the calibrated model's held-out residuals:
-/// the global test against the noise where it is given, and the extended variable family. Where they
-/// flag something, the sentence that says structure is left and which command names it.
-std::string structureLeft(const MeasuredCalibrateResult& r, const sim::MeasuredData& data, const std::string& description,
-                          const std::vector<calib::MarkerObservation>& held, const std::vector<Eigen::VectorXd>& after,
-                          calib::LackOfFit& lof) {
-  if (held.size() < 10) return "";
-  // The parameters come from the identification samples alone: their covariance is the held-out
-  // prediction's estimation variance as it is (one "fold").
-  lof = calib::lackOfFit(data, held, r.fit, r.fit.noise, after, !r.fit.noise_estimated, 1, calib::DiagnoseOptions{}.alpha);
-  if (!lof.left()) return "";
-  std::string why = lof.unexplained.empty() ? "" : "structured against " + calib::describeUnexplained(lof.unexplained);
-  if (lof.significant) {
-    why += std::string(why.empty() ? "" : ", and ") + "above the noise (held-out position RMS " +
-           formatNumber("%.3g", lof.position_rms_m * 1e3) + " mm against the " + formatNumber("%.3g", lof.noise_position_rms_m * 1e3) +
-           " mm the " + (lof.source == calib::NoiseSource::kStated ? "stated noise" : "repeated configurations' scatter") + " gives; p " + formatNumber("%.2g", lof.p_value) + ")";
-  }
-  return "Structure is left: the calibrated model's held-out residuals are " + why +
-         ": the model misses an effect. `orbcal diagnose " + description + "` names it and the --effects to calibrate with";
-}
-
-/// The report's first lines: each reason the calibration is not accepted, or that it is, and whether
-/// model.yaml was written.
-std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model) {
-  const std::string written = write_model ? "model.yaml was written because --accept-worse was given." : "model.yaml was not written.";
-  const std::string rms = formatNumber("%.4f", r.heldout_before.position_rms_m * 1e3) + " -> " +
-                          formatNumber("%.4f", r.heldout_after.position_rms_m * 1e3) + " mm";
-  std::ostringstream md;
-  const std::string samples = r.cross_validated ? "samples, each by a fit without its configuration," : "held-out samples";
-  for (const std::string& w : r.warnings) md << "**Warning:** " << w << ".\n\n";
-  if (r.worse) md << "**The calibrated model predicts the " << samples << " WORSE than the nominal arm (position RMS " << rms << ").** " << written << "\n\n";
-  if ((!r.worse || !r.gain.enough) && !r.refusal.empty()) md << "**The calibration is not accepted: " << r.refusal << ".** " << written << "\n\n";
-  if (!r.fit_refusal.empty()) md << "**The calibration is not accepted: " << r.fit_refusal << ".** " << written << "\n\n";
-  if (r.inconsistent) {
-    md << "**The fit is inconsistent with the given measurement noise: " << inconsistencyText(r) << ".** " << written << "\n\n";
-  }
-  if (!r.worse && r.refusals.empty()) {
-    md << "**Accepted: model.yaml was written ("
-       << (r.held_out > 0 ? "held-out position RMS, nominal arm -> calibrated: " + rms
-           : r.cross_validated ? "cross-validated position RMS, nominal arm -> calibrated: " + rms
-                               : "nothing held out: the checks on the fit alone decided")
-       << ").**\n\n";
-  }
-  if (!r.structure_left.empty()) md << "**" << r.structure_left << ".**\n\n";
-  return md.str();
-}
-
 /// The geometric parameters in people's words: "28 DH errors (4 per joint)", or for a URDF chain "49 errors
 /// of the joints iiwa_joint_1 ... iiwa_joint_7 (7 each: zero offset, origin x, y, z, roll, pitch, yaw)".
 std::string geometryWords(const sim::Arm& arm) {
@@ -413,17 +370,13 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   const calib::CalibratedModel cm = calib::calibratedModel(r.fit, ident);
   // Held-out samples beyond the ranges the identification data covered: their figures extrapolate.
   r.extrapolation = calib::outsideTrustedRange(cm.model, held);
-  std::ostringstream header;
-  header << "Calibrated by orbcal " << ORBCAL_VERSION << " (orbcal calibrate) from " << o.description << "\n"
-         << "nominal: " << data.robot_file << "; effects: " << (o.effects.empty() ? "none" : "");
-  for (const std::string& e : o.effects) header << e << " ";
   if (!r.fit.noise_estimated && r.fit.dof > 0) {
     r.consistency_p = calib::chiSquareSurvival(r.fit.chi2, r.fit.dof);
     r.inconsistent = r.consistency_p < calib::Consistency{}.alpha;
   }
   r.refusals = refusalsOf(r);
   const bool write_model = (!r.worse && r.refusals.empty()) || o.accept_worse;
-  if (write_model) r.model_path = folder.published(writeModelAndExports(cm, parameterRows(r.fit), out, header.str()));
+  if (write_model) r.model_path = folder.published(writeModelAndExports(cm, parameterRows(r.fit), out, modelHeader(data, o)));
 
   const bool rotation = measuresRotation(data);
   std::ostringstream md;
