@@ -9,7 +9,10 @@
 #include <fstream>
 #include <sstream>
 
+#include <optional>
+
 #include "bindings.hpp"
+#include "orbcal/sim/model_io.hpp"
 #include "orbcal/calib/levels.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/workflow/measured.hpp"
@@ -97,12 +100,15 @@ PyCalibration calibrate(const sim::MeasuredData& data, const CalibrateArgs& a) {
   const std::string temporary = a.out ? std::string() : temporaryFolder();
   o.out = a.out ? *a.out : temporary + "/calibration";
   PyCalibration c;
+  std::optional<sim::LoadedModel> written;
   try {
     {
       py::gil_scoped_release release;
       c.r = workflow::runMeasuredCalibrate(data, o);
     }
     c.report = readText(c.r.report_path);
+    // The model as written (model.yaml: the fit folded in, each effect with the range it was fitted on).
+    if (!c.r.model_path.empty()) written = sim::loadModelFile(c.r.model_path);
   } catch (...) {
     if (!temporary.empty()) std::filesystem::remove_all(temporary);
     throw;
@@ -115,7 +121,7 @@ PyCalibration calibrate(const sim::MeasuredData& data, const CalibrateArgs& a) {
     c.out = o.out;
   }
   if (accepted(c.r) || a.accept_worse) {
-    const calib::CalibratedModel cm = calib::calibratedModel(c.r.fit);
+    const calib::CalibratedModel cm = written ? calib::CalibratedModel{written->model, written->p} : calib::calibratedModel(c.r.fit);
     py::dict stats = fitStatistics(c.r.fit);
     stats["level"] = calib::levelName(c.r.level.chosen);
     stats["level_reason"] = calib::levelSentence(c.r.level);

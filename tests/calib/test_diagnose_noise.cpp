@@ -79,12 +79,12 @@ TEST_CASE("diagnose: an unstated joint noise cannot hide structure in the floor"
   checkFloorHonest(sim::OpenCauseKind::kHarmonic4, 13);
 }
 
-// A KNOWN FAILURE of issue 28's criterion (b), kept visible: this bending-link dataset gets an `effects`
+// A KNOWN FAILURE of the criterion above, kept visible: this bending-link dataset gets an `effects`
 // verdict (link_bending:3 compliance:2 link_bending:5) at 1.62x the true floor, because a joint-noise
 // estimate of 0.0095 deg survives the flexible model (which has no term for a link's bending load) and
 // lifts the floor to 1.48x. [!shouldfail]: this case fails the suite the day the criterion holds here;
 // then drop the tag and move it into the case above.
-TEST_CASE("diagnose: an unstated joint noise hides a bending link's structure (known failure, issue 28 (b))",
+TEST_CASE("diagnose: an unstated joint noise hides a bending link's structure (a known failure)",
           "[calib][diagnose][noise][!shouldfail]") {
   checkFloorHonest(sim::OpenCauseKind::kLinkBending, 11);
 }
