@@ -9,6 +9,7 @@
 #include <future>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <thread>
@@ -299,11 +300,7 @@ class Diagnoser {
                           const Fit& current_fit, const std::vector<std::string>& extremes) const {
     const sim::EffectKind& kind = chosen.kind();
     if (kind.maxOrder() == 0) return {chosen, cv};
-    const auto params = [&](const Effect& e) {
-      int n = 0;
-      for (const sim::ParamBlock& b : sim::effectBlocks(e, data_.arm, data_.numSessions())) n += b.size();
-      return n;
-    };
+    const auto params = [&](const Effect& e) { return paramCount(e); };
     std::vector<OrderChoice> orders;
     for (int k = 1; k <= std::min(kind.maxOrder(), std::max(o_.max_order, chosen.order())); ++k) {
       if (k == chosen.order()) {
@@ -327,6 +324,44 @@ class Diagnoser {
       if (orders[best].cv.sse - orders[k].cv.sse > extra && edges) best = k;
     }
     return orders[best];
+  }
+
+  /// The chosen cause's kind on its joint and on the joints of the members of its confounded set of
+  /// the same kind (a compliance of joints 4 and 2, whose torques both follow one angle): the kind
+  /// acting on all of them, as every loaded joint of an arm gives, shares what one alone would take
+  /// and extrapolates by each joint's own load. It replaces the choice only where it earns its extra
+  /// parameters' penalty both on the random folds and with the extremes of the driving variables held
+  /// out, as a higher order must (refineOrder); nothing otherwise.
+  std::optional<OrderChoice> pooledJoints(const std::vector<Effect>& selected, const OrderChoice& chosen,
+                                          const std::vector<Effect>& confounded, const Fit& current_fit,
+                                          const std::vector<std::string>& extremes) const {
+    const Effect& c = chosen.effect;
+    if (c.joints().size() != 1) return std::nullopt;
+    std::vector<int> joints = c.joints();
+    for (const Effect& e : confounded) {
+      if (&e.kind() == &c.kind() && e.joints().size() == 1 && e.joints() != c.joints()) joints.push_back(e.joints().front());
+    }
+    if (joints.size() < 2) return std::nullopt;
+    std::sort(joints.begin(), joints.end());
+    const Effect pooled = Effect(c.kind(), joints, c.order(), c.reference()).withRange(c.lo(), c.hi());
+    try {
+      c.kind().check(pooled, data_.arm.numJoints(), "joints");
+    } catch (const sim::InputError&) {
+      return std::nullopt;
+    }
+    std::vector<Effect> trial = selected;
+    trial.push_back(pooled);
+    OrderChoice p{pooled, crossValidate(trial, &current_fit, extremes)};
+    const double extra = o_.penalty_per_param * (paramCount(pooled) - paramCount(c));
+    const bool edges = extremes.empty() || chosen.cv.extremesSse() - p.cv.extremesSse() > extra;
+    if (chosen.cv.sse - p.cv.sse > extra && edges) return p;
+    return std::nullopt;
+  }
+
+  int paramCount(const Effect& e) const {
+    int n = 0;
+    for (const sim::ParamBlock& b : sim::effectBlocks(e, data_.arm, data_.numSessions())) n += b.size();
+    return n;
   }
 
   void setNoise(const MarkerNoise& n) {
@@ -434,6 +469,7 @@ void forwardSelect(const Diagnoser& d, const sim::MeasuredData& data, const std:
     // it, predict the held-out data about as well (their cross-validated gain within
     // confounding_gain_margin of the chosen one's); and the geometry, when it absorbs most of the
     // chosen cause's columns.
+    std::vector<Effect> members;  // the chosen one's confounded set
     if (best) {
       ConfoundedSet set;
       set.effects.push_back(tests[*best].effect);
@@ -442,6 +478,7 @@ void forwardSelect(const Diagnoser& d, const sim::MeasuredData& data, const std:
         if (i == *best || !tests[i].significant || !tests[i].cv_gain || sharesCause(tests[i].effect, tests[*best].effect)) continue;
         if (*tests[i].cv_gain >= (1.0 - o.confounding_gain_margin) * best_gain) set.effects.push_back(tests[i].effect);
       }
+      members = set.effects;
       if (set.effects.size() > 1 || set.with_geometry) {
         set.separate_by = separationAdvice(set.effects);
         const std::string beyond = beyondRangeAdvice(set.effects, data.arm, obs);
@@ -451,8 +488,11 @@ void forwardSelect(const Diagnoser& d, const sim::MeasuredData& data, const std:
     }
     out.candidates.insert(out.candidates.end(), tests.begin(), tests.end());
     if (!best) break;
-    // The order of the chosen cause (cyclic harmonics, a compliance's degree) by its cross-validated gain.
-    const OrderChoice chosen = d.refineOrder(sel.effects, tests[*best].effect, cvs[*best], sel.fit, extremes);
+    // The joints of the chosen cause (pooled with its confounded set's of its kind), then its order
+    // (cyclic harmonics, a compliance's degree), each by its cross-validated gain.
+    OrderChoice chosen{tests[*best].effect, cvs[*best]};
+    if (std::optional<OrderChoice> p = d.pooledJoints(sel.effects, chosen, members, sel.fit, extremes)) chosen = *p;
+    chosen = d.refineOrder(sel.effects, chosen.effect, chosen.cv, sel.fit, extremes);
     tests[*best].effect = chosen.effect;
     cvs[*best] = chosen.cv;
     sel.effects.push_back(tests[*best].effect);

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <future>
 #include <limits>
 
 #include "orbcal/calib/heldout.hpp"
@@ -104,9 +105,12 @@ std::vector<Alternative> alternativesOf(const Diagnosis& out, const std::functio
         clash |= !replaced && sharesCause(s, c.effects[m]);
         effects.push_back(replaced ? c.effects[m] : s);
       }
-      if (!clash) alts.push_back({effects, fit(effects)});
+      if (!clash) alts.push_back({effects, Fit{}});
     }
   }
+  std::vector<std::future<Fit>> jobs;  // side by side, on every core
+  for (const Alternative& a : alts) jobs.push_back(std::async(std::launch::async, [&fit, &a] { return fit(a.effects); }));
+  for (std::size_t k = 0; k < alts.size(); ++k) alts[k].fit = jobs[k].get();
   return alts;
 }
 

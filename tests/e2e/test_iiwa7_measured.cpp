@@ -79,11 +79,13 @@ TEST_CASE("iiwa7: diagnose on 0 kg writes its confounded alternatives, evaluate 
   const workflow::EvaluateResult e = workflow::runEvaluate(d.model_path, test::sourcePath("scenes/iiwa7_1.25kg.yaml"), dir + "/e");
   REQUIRE(e.alternatives.size() == d.diagnosis.alternatives.size());
   // Each alternative predicts the other run on its own (marker refitted): a real prediction, not the
-  // model's copy, and its predictions part from the model's somewhere.
+  // model's copy, and its predictions part from the model's somewhere. Selection holds beyond its data:
+  // the selected model predicts the heavier run no worse than any member of its confounded set.
+  CHECK(e.fit.residuals.position_rms_m < e.baseline.position_rms_m);
   for (const workflow::AlternativePrediction& a : e.alternatives) {
     CAPTURE(a.effects, a.residuals.position_rms_m, e.fit.residuals.position_rms_m);
     CHECK(a.residuals.samples == 198);
-    CHECK(a.residuals.position_rms_m < e.baseline.position_rms_m);
+    CHECK(e.fit.residuals.position_rms_m <= a.residuals.position_rms_m);
     REQUIRE(a.divergence_m.size() == 198);
     CHECK(*std::max_element(a.divergence_m.begin(), a.divergence_m.end()) > 0.0);
   }
