@@ -9,6 +9,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
+#include <memory>
 #include <set>
 
 #include "orbcal/sim/identifiability.hpp"
@@ -339,6 +341,46 @@ class SampleCost : public ceres::CostFunction {
   Eigen::Index first_row_;
 };
 
+/// The samples [k0, k1) as one residual block (squared loss only: a robust loss needs its sample's
+/// own block): each sample's rows as SampleCost gives them, the two halves of the block evaluated side
+/// by side (each sample's rows written in place: the same values whichever thread computes them).
+class SamplesCost : public ceres::CostFunction {
+ public:
+  SamplesCost(const MeasurementModel& m, int k0, int k1, const std::vector<int>& free, const StackedLinearization& start,
+              Eigen::Index first_row) {
+    int rows = 0;
+    for (int k = k0; k < k1; first_row += m.rows(k), ++k) {
+      samples_.push_back(std::make_unique<SampleCost>(m, k, whitener(start.R[static_cast<std::size_t>(k)]), free, start, first_row));
+      offsets_.push_back(rows);
+      rows += m.rows(k);
+    }
+    set_num_residuals(rows);
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(free.size()));
+  }
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    const auto part = [&](std::size_t a, std::size_t b) {
+      const std::size_t cols = static_cast<std::size_t>(parameter_block_sizes()[0]);
+      for (std::size_t i = a; i < b; ++i) {
+        const auto row = static_cast<std::size_t>(offsets_[i]);
+        double* J = jacobians && jacobians[0] ? jacobians[0] + row * cols : nullptr;
+        if (!samples_[i]->Evaluate(params, residuals + row, J ? &J : nullptr)) return false;
+      }
+      return true;
+    };
+    const std::size_t n = samples_.size();
+    if (n < kParallelSamples) return part(0, n);
+    auto upper = std::async(std::launch::async, part, n / 2, n);
+    const bool lower = part(0, n / 2);
+    return upper.get() && lower;
+  }
+  static constexpr std::size_t kParallelSamples = 32;  ///< fewer: one thread (starting one costs more)
+  static constexpr int kSamplesPerBlock = 256;
+
+ private:
+  std::vector<std::unique_ptr<SampleCost>> samples_;
+  std::vector<int> offsets_;
+};
+
 /// LmOptions' Gaussian prior on the free parameters that have one, as one residual block
 /// diag(1/sigma) (x - mean) (Ceres's NormalPrior) on the free-parameter vector x.
 void addPrior(const LmOptions& o, const std::vector<int>& free, ceres::Problem& problem, double* x) {
@@ -384,12 +426,19 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   // Ceres works on the free parameters alone (x; y = x on them, 0 elsewhere).
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(free.size()));
   Eigen::Index first_row = 0;
-  for (int k = 0; k < m.numSamples() && !free.empty(); first_row += m.rows(k), ++k) {
+  for (int k = 0; k < m.numSamples() && !free.empty();) {
+    if (o.loss == LmOptions::Loss::kNone) {  // blocks of samples, each evaluated on two threads
+      const int k1 = std::min(m.numSamples(), k + SamplesCost::kSamplesPerBlock);
+      problem.AddResidualBlock(new SamplesCost(m, k, k1, free, start, first_row), nullptr, x.data());
+      for (; k < k1; ++k) first_row += m.rows(k);
+      continue;
+    }
     ceres::LossFunction* loss = nullptr;
     if (o.loss == LmOptions::Loss::kHuber) loss = new ceres::HuberLoss(o.loss_scale);
     if (o.loss == LmOptions::Loss::kCauchy) loss = new ceres::CauchyLoss(o.loss_scale);
     problem.AddResidualBlock(new SampleCost(m, k, whitener(start.R[static_cast<std::size_t>(k)]), free, start, first_row), loss,
                              x.data());
+    first_row += m.rows(k++);
   }
   addPrior(o, free, problem, x.data());
   ceres::Solver::Options so;
