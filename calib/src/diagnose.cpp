@@ -18,6 +18,7 @@
 #include "diagnose_folds.hpp"
 #include "diagnose_noise.hpp"
 #include "diagnose_text.hpp"
+#include "stacked_system.hpp"
 #include "orbcal/calib/plausibility.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
@@ -135,9 +136,6 @@ class Diagnoser {
     const sim::KinematicModel& model = full.model;
     const MarkerPoseModel m(model, obs_, noise_, full.p);
     const int n = m.numParams();
-    Eigen::MatrixXd A;
-    Eigen::VectorXd b;
-    whitenedSystem(m, Eigen::VectorXd::Zero(n), A, b);
     const Eigen::VectorXd sigma = geometryPriorSigma(model.layout);
     Eigen::VectorXd prior = Eigen::VectorXd::Zero(n);  // S's diagonal
     for (int i = 0; i < n; ++i) prior[i] = sigma[i] > 0.0 ? 1.0 / (sigma[i] * sigma[i]) : 0.0;
@@ -146,15 +144,16 @@ class Diagnoser {
       if (!std::binary_search(full.estimate.held.begin(), full.estimate.held.end(), i)) free.push_back(i);
     }
     const auto nf = static_cast<Eigen::Index>(free.size());
-    Eigen::MatrixXd Af(A.rows(), nf);
     Eigen::VectorXd scale(nf), prior_f(nf), p_f(nf);
     for (Eigen::Index c = 0; c < nf; ++c) {
       const int i = free[static_cast<std::size_t>(c)];
       scale[c] = model.layout.typical()[i];  // columns in typical magnitudes: a well-scaled normal matrix
-      Af.col(c) = A.col(i) * scale[c];
       prior_f[c] = prior[i] * scale[c] * scale[c];
       p_f[c] = full.p[i] / scale[c];
     }
+    Eigen::MatrixXd Af;  // the free columns alone, scaled
+    Eigen::VectorXd b;
+    whitenedSystem(m, Eigen::VectorXd::Zero(n), free, scale, Af, b);
     std::vector<Eigen::Index> first_row(obs_.size() + 1, 0);
     for (std::size_t k = 0; k < obs_.size(); ++k) first_row[k + 1] = first_row[k] + m.rows(static_cast<int>(k));
     const Eigen::MatrixXd N_all = Af.transpose() * Af;

@@ -9,9 +9,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <future>
+#include <memory>
 #include <set>
 
 #include "orbcal/sim/identifiability.hpp"
+#include "stacked_system.hpp"
 
 namespace orbcal::calib {
 
@@ -63,24 +66,35 @@ TruncatedSolve truncatedSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b
   return out;
 }
 
-/// Stacked system, whitened when `weighted`.
-void stackedSystem(const MeasurementModel& m, const StackedLinearization& s, bool weighted, Eigen::MatrixXd& A,
-                   Eigen::VectorXd& b) {
-  A = s.H;
-  b = s.innovation;
-  if (!weighted) return;
-  for (int k = 0, row = 0; k < m.numSamples(); ++k) {
+/// The stacked system at y, whitened when `weighted`, on the parameters `cols` alone (empty: all), each
+/// column times scale[c] (empty: 1); filled sample by sample, without a copy of the whole linearization.
+void stackedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, bool weighted, const std::vector<int>& cols,
+                   const Eigen::VectorXd& scale, Eigen::MatrixXd& A, Eigen::VectorXd& b) {
+  int total = 0;
+  for (int k = 0; k < m.numSamples(); ++k) total += m.rows(k);
+  A.resize(total, cols.empty() ? m.numParams() : static_cast<Eigen::Index>(cols.size()));
+  b.resize(total);
+  for (int k = 0, row = 0; k < m.numSamples(); row += m.rows(k), ++k) {
+    const Linearization lin = m.linearize(k, y);
+    requireFinite(lin, k);
     const int r = m.rows(k);
-    const Eigen::MatrixXd W = whitener(s.R[static_cast<std::size_t>(k)]);
-    A.middleRows(row, r) = W * A.middleRows(row, r);
-    b.segment(row, r) = W * b.segment(row, r);
-    row += r;
+    const Eigen::MatrixXd W = weighted ? whitener(lin.R) : Eigen::MatrixXd();
+    const Eigen::MatrixXd H = weighted ? Eigen::MatrixXd(W * lin.H) : lin.H;
+    b.segment(row, r) = weighted ? Eigen::VectorXd(W * lin.innovation) : lin.innovation;
+    if (cols.empty() && scale.size() == 0) {
+      A.middleRows(row, r) = H;
+      continue;
+    }
+    for (Eigen::Index c = 0; c < A.cols(); ++c) {
+      const int i = cols.empty() ? static_cast<int>(c) : cols[static_cast<std::size_t>(c)];
+      A.block(row, c, r, 1) = H.col(i) * (scale.size() ? scale[c] : 1.0);
+    }
   }
 }
 
 void stackedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, bool weighted, Eigen::MatrixXd& A,
                    Eigen::VectorXd& b) {
-  stackedSystem(m, linearizeAll(m, y), weighted, A, b);
+  stackedSystem(m, y, weighted, {}, Eigen::VectorXd(), A, b);
 }
 
 /// A Gaussian prior as pseudo-observations: for every parameter with prior_sigma_i > 0 one row
@@ -153,6 +167,11 @@ EkfOptions EkfOptions::paperLiteral() {
 
 void whitenedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, Eigen::MatrixXd& A, Eigen::VectorXd& b) {
   stackedSystem(m, y, true, A, b);
+}
+
+void whitenedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, const std::vector<int>& cols, const Eigen::VectorXd& scale,
+                    Eigen::MatrixXd& A, Eigen::VectorXd& b) {
+  stackedSystem(m, y, true, cols, scale, A, b);
 }
 
 Eigen::MatrixXd whitenedJacobian(const MeasurementModel& m, const Eigen::VectorXd& y) {
@@ -279,11 +298,46 @@ std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::Vec
   return unidentifiableToFix(m, linearizeAll(m, y), held);
 }
 
+namespace {
+
+/// The R factor of a tall matrix given a few rows at a time (A = Q R, accumulated over blocks of rows:
+/// [R; next rows] = Q' R'): A's column norms, singular values and right singular vectors in n x n,
+/// without A (a long log's whitened Jacobian is gigabytes).
+class RFactor {
+ public:
+  explicit RFactor(Eigen::Index n) : n_(n), block_(std::max<Eigen::Index>(256, 4 * n)), stacked_(block_ + n + 6, n) {}
+  void add(const Eigen::MatrixXd& rows) {
+    if (used_ + rows.rows() > stacked_.rows()) stacked_.conservativeResize(used_ + rows.rows() + block_, Eigen::NoChange);
+    stacked_.middleRows(used_, rows.rows()) = rows;
+    used_ += rows.rows();
+    if (used_ >= block_) reduce();
+  }
+  Eigen::MatrixXd matrix() {
+    reduce();
+    return stacked_.topRows(used_);
+  }
+
+ private:
+  void reduce() {
+    if (used_ == kept_) return;  // nothing added since the last reduction
+    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(stacked_.topRows(used_));
+    kept_ = std::min(used_, n_);
+    stacked_.topRows(kept_) = qr.matrixQR().topRows(kept_).triangularView<Eigen::Upper>();
+    used_ = kept_;
+  }
+  Eigen::Index n_, block_;
+  Eigen::MatrixXd stacked_;
+  Eigen::Index used_ = 0, kept_ = 0;
+};
+
+}  // namespace
+
 std::vector<int> unidentifiableToFix(const MeasurementModel& m, const StackedLinearization& at, const std::vector<int>& held) {
-  Eigen::MatrixXd A;
-  Eigen::VectorXd b;
-  stackedSystem(m, at, true, A, b);
-  return sim::numericalRank(A, m.layout().typical(), held).held;
+  RFactor r(m.numParams());
+  for (int k = 0, row = 0; k < m.numSamples(); row += m.rows(k), ++k) {
+    r.add(whitener(at.R[static_cast<std::size_t>(k)]) * at.H.middleRows(row, m.rows(k)));
+  }
+  return sim::numericalRank(r.matrix(), m.layout().typical(), held).held;
 }
 
 namespace {
@@ -293,11 +347,9 @@ namespace {
 /// as with a SubsetManifold on all of y, without multiplying every Jacobian by the manifold's.
 class SampleCost : public ceres::CostFunction {
  public:
-  /// `start` (the linearization at y = 0, its rows from `first_row`) is reused where Ceres asks for
-  /// the Jacobian at the starting point, as it always does first.
-  SampleCost(const MeasurementModel& m, int k, Eigen::MatrixXd W, const std::vector<int>& free,
-             const StackedLinearization& start, Eigen::Index first_row)
-      : m_(m), k_(k), W_(std::move(W)), free_(free), start_(start), first_row_(first_row) {
+  /// `W` whitens the sample's rows (from its covariance at the start).
+  SampleCost(const MeasurementModel& m, int k, Eigen::MatrixXd W, const std::vector<int>& free)
+      : m_(m), k_(k), W_(std::move(W)), free_(free) {
     set_num_residuals(m.rows(k));
     mutable_parameter_block_sizes()->push_back(static_cast<int>(free.size()));
   }
@@ -313,7 +365,7 @@ class SampleCost : public ceres::CostFunction {
       Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = r;
       return true;
     }
-    const Linearization lin = y.isZero(0.0) ? startLinearization() : m_.linearize(k_, y);
+    const Linearization lin = m_.linearize(k_, y);
     if (!lin.innovation.allFinite() || !lin.H.allFinite()) return false;
     Eigen::Map<Eigen::VectorXd>(residuals, m_.rows(k_)) = W_ * lin.innovation;
     const Eigen::MatrixXd WH = W_.lazyProduct(lin.H);  // 3 or 6 rows: no blocked GEMM
@@ -324,19 +376,49 @@ class SampleCost : public ceres::CostFunction {
   }
 
  private:
-  Linearization startLinearization() const {
-    Linearization lin;
-    lin.innovation = start_.innovation.segment(first_row_, m_.rows(k_));
-    lin.H = start_.H.middleRows(first_row_, m_.rows(k_));
-    return lin;
-  }
-
   const MeasurementModel& m_;
   int k_;
   Eigen::MatrixXd W_;
   const std::vector<int>& free_;
-  const StackedLinearization& start_;
-  Eigen::Index first_row_;
+};
+
+/// The samples [k0, k1) as one residual block (squared loss only: a robust loss needs its sample's
+/// own block): each sample's rows as SampleCost gives them, the two halves of the block evaluated side
+/// by side (each sample's rows written in place: the same values whichever thread computes them).
+class SamplesCost : public ceres::CostFunction {
+ public:
+  SamplesCost(const MeasurementModel& m, int k0, int k1, const std::vector<Eigen::MatrixXd>& W, const std::vector<int>& free) {
+    int rows = 0;
+    for (int k = k0; k < k1; ++k) {
+      samples_.push_back(std::make_unique<SampleCost>(m, k, W[static_cast<std::size_t>(k)], free));
+      offsets_.push_back(rows);
+      rows += m.rows(k);
+    }
+    set_num_residuals(rows);
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(free.size()));
+  }
+  bool Evaluate(double const* const* params, double* residuals, double** jacobians) const override {
+    const auto part = [&](std::size_t a, std::size_t b) {
+      const std::size_t cols = static_cast<std::size_t>(parameter_block_sizes()[0]);
+      for (std::size_t i = a; i < b; ++i) {
+        const auto row = static_cast<std::size_t>(offsets_[i]);
+        double* J = jacobians && jacobians[0] ? jacobians[0] + row * cols : nullptr;
+        if (!samples_[i]->Evaluate(params, residuals + row, J ? &J : nullptr)) return false;
+      }
+      return true;
+    };
+    const std::size_t n = samples_.size();
+    if (n < kParallelSamples) return part(0, n);
+    auto upper = std::async(std::launch::async, part, n / 2, n);
+    const bool lower = part(0, n / 2);
+    return upper.get() && lower;
+  }
+  static constexpr std::size_t kParallelSamples = 32;  ///< fewer: one thread (starting one costs more)
+  static constexpr int kSamplesPerBlock = 256;
+
+ private:
+  std::vector<std::unique_ptr<SampleCost>> samples_;
+  std::vector<int> offsets_;
 };
 
 /// LmOptions' Gaussian prior on the free parameters that have one, as one residual block
@@ -372,10 +454,17 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   po.manifold_ownership = ceres::TAKE_OWNERSHIP;
   ceres::Problem problem(po);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
-  // One linearization at the start gives both the whiteners and the system the unidentifiable
-  // parameters are found from (each linearization costs a Jacobian per sample).
-  const StackedLinearization start = linearizeAll(m, zero);
-  e.held = o.fix_unidentifiable ? unidentifiableToFix(m, start, o.hold) : sortedUnique(o.hold);
+  // One pass of linearizations at the start gives both the whiteners and the system the unidentifiable
+  // parameters are found from (its R factor: no copy of the stacked Jacobian is kept).
+  std::vector<Eigen::MatrixXd> W(static_cast<std::size_t>(m.numSamples()));
+  RFactor r(n);
+  for (int k = 0; k < m.numSamples(); ++k) {
+    const Linearization lin = m.linearize(k, zero);
+    requireFinite(lin, k);
+    W[static_cast<std::size_t>(k)] = whitener(lin.R);
+    if (o.fix_unidentifiable) r.add(W[static_cast<std::size_t>(k)] * lin.H);
+  }
+  e.held = o.fix_unidentifiable ? sim::numericalRank(r.matrix(), m.layout().typical(), o.hold).held : sortedUnique(o.hold);
   const std::vector<int>& fixed = e.held;
   std::vector<int> free;
   for (int p = 0; p < n; ++p) {
@@ -383,13 +472,18 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   }
   // Ceres works on the free parameters alone (x; y = x on them, 0 elsewhere).
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(free.size()));
-  Eigen::Index first_row = 0;
-  for (int k = 0; k < m.numSamples() && !free.empty(); first_row += m.rows(k), ++k) {
+  for (int k = 0; k < m.numSamples() && !free.empty();) {
+    if (o.loss == LmOptions::Loss::kNone) {  // blocks of samples, each evaluated on two threads
+      const int k1 = std::min(m.numSamples(), k + SamplesCost::kSamplesPerBlock);
+      problem.AddResidualBlock(new SamplesCost(m, k, k1, W, free), nullptr, x.data());
+      k = k1;
+      continue;
+    }
     ceres::LossFunction* loss = nullptr;
     if (o.loss == LmOptions::Loss::kHuber) loss = new ceres::HuberLoss(o.loss_scale);
     if (o.loss == LmOptions::Loss::kCauchy) loss = new ceres::CauchyLoss(o.loss_scale);
-    problem.AddResidualBlock(new SampleCost(m, k, whitener(start.R[static_cast<std::size_t>(k)]), free, start, first_row), loss,
-                             x.data());
+    problem.AddResidualBlock(new SampleCost(m, k, W[static_cast<std::size_t>(k)], free), loss, x.data());
+    ++k;
   }
   addPrior(o, free, problem, x.data());
   ceres::Solver::Options so;

@@ -6,6 +6,8 @@
 #include <array>
 #include <cmath>
 #include <algorithm>
+#include <future>
+#include <limits>
 #include <map>
 
 #include "orbcal/calib/registration.hpp"
@@ -167,39 +169,102 @@ Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o, const sim:
 /// sum_k tr(W V_c W V_d) - 2 tr(N^-1 C_cd) + tr(N^-1 B_c N^-1 B_d), B_c = sum_k A_k^T W V_c W A_k,
 /// C_cd = sum_k A_k^T W V_c W V_d W A_k: what the fitted parameters take of each component is not
 /// counted as its noise (joint noise above all: the joint corrections' columns lie along J_q).
+/// tr(N^-1 C_cd) = sum_k tr(V_c W V_d H_k) with H_k = W A_k N^-1 A_k^T W (3 or 6 square): no p x p
+/// matrix per pair. The samples go in chunks, stacked (one product per chunk, not one per sample), the
+/// two halves of the samples side by side, summed in a fixed order (the same sums on any machine).
 Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std::vector<std::array<Eigen::MatrixXd, 3>>& V,
                                 const Eigen::Vector3d& theta, const Eigen::VectorXd& prior) {
   const Eigen::Index p = prior.size();
-  Eigen::MatrixXd N = prior.asDiagonal();
-  std::array<Eigen::MatrixXd, 3> B;
-  std::array<Eigen::MatrixXd, 9> C;
-  for (auto& b : B) b = Eigen::MatrixXd::Zero(p, p);
-  for (auto& c : C) c = Eigen::MatrixXd::Zero(p, p);
-  Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
-  for (std::size_t k = 0; k < A.size(); ++k) {
-    const std::array<Eigen::MatrixXd, 3>& Vk = V[k];
-    const Eigen::LDLT<Eigen::MatrixXd> W(theta[0] * Vk[0] + theta[1] * Vk[1] + theta[2] * Vk[2]);
-    const Eigen::MatrixXd WA = W.solve(A[k]);
-    N += A[k].transpose() * WA;
-    std::array<Eigen::MatrixXd, 3> WV;
-    for (int c = 0; c < 3; ++c) {
-      WV[static_cast<std::size_t>(c)] = W.solve(Vk[static_cast<std::size_t>(c)]);
-      B[static_cast<std::size_t>(c)] += WA.transpose() * Vk[static_cast<std::size_t>(c)] * WA;
+  constexpr std::size_t kChunk = 128;
+  const auto W = [&](std::size_t k) {
+    return Eigen::LDLT<Eigen::MatrixXd>(theta[0] * V[k][0] + theta[1] * V[k][1] + theta[2] * V[k][2]);
+  };
+  // The samples [k0, k1) stacked: A_k and W A_k.
+  const auto stack = [&](std::size_t k0, std::size_t k1, Eigen::MatrixXd& As, Eigen::MatrixXd& WA) {
+    Eigen::Index rows = 0;
+    for (std::size_t k = k0; k < k1; ++k) rows += A[k].rows();
+    As.resize(rows, p);
+    WA.resize(rows, p);
+    for (std::size_t k = k0, row = 0; k < k1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
+      As.middleRows(static_cast<Eigen::Index>(row), A[k].rows()) = A[k];
+      WA.middleRows(static_cast<Eigen::Index>(row), A[k].rows()) = W(k).solve(A[k]);
     }
-    for (int c = 0; c < 3; ++c) {
-      for (int d = c; d < 3; ++d) {
-        F(c, d) += (WV[static_cast<std::size_t>(c)] * WV[static_cast<std::size_t>(d)]).trace();
-        C[static_cast<std::size_t>(3 * c + d)] += WA.transpose() * Vk[static_cast<std::size_t>(c)] * WV[static_cast<std::size_t>(d)] * WA;
+  };
+  struct Sums {
+    Eigen::MatrixXd N;  ///< lower triangles
+    std::array<Eigen::MatrixXd, 3> B;
+    Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
+  };
+  // First pass over [k0, k1): A^T W A, B_c and sum_k tr(W V_c W V_d).
+  const auto first = [&](std::size_t k0, std::size_t k1) {
+    Sums s;
+    s.N = Eigen::MatrixXd::Zero(p, p);
+    for (auto& b : s.B) b = Eigen::MatrixXd::Zero(p, p);
+    Eigen::MatrixXd As, WA, VWA;
+    for (std::size_t c0 = k0; c0 < k1; c0 += kChunk) {
+      const std::size_t c1 = std::min(k1, c0 + kChunk);
+      stack(c0, c1, As, WA);
+      s.N.triangularView<Eigen::Lower>() += As.transpose() * WA;
+      VWA.resize(WA.rows(), p);
+      for (std::size_t c = 0; c < 3; ++c) {
+        for (std::size_t k = c0, row = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
+          const auto rows = Eigen::seqN(static_cast<Eigen::Index>(row), A[k].rows());
+          VWA(rows, Eigen::all).noalias() = V[k][c] * WA(rows, Eigen::all);
+        }
+        s.B[c].triangularView<Eigen::Lower>() += WA.transpose() * VWA;
+      }
+      for (std::size_t k = c0; k < c1; ++k) {
+        const Eigen::LDLT<Eigen::MatrixXd> Wk = W(k);
+        std::array<Eigen::MatrixXd, 3> WV;
+        for (std::size_t c = 0; c < 3; ++c) WV[c] = Wk.solve(V[k][c]);
+        for (int c = 0; c < 3; ++c) {
+          for (int d = c; d < 3; ++d) s.F(c, d) += (WV[static_cast<std::size_t>(c)] * WV[static_cast<std::size_t>(d)]).trace();
+        }
       }
     }
-  }
-  const Eigen::LDLT<Eigen::MatrixXd> Ninv(N);
+    return s;
+  };
+  const std::size_t half = A.size() / 2;
+  auto upper = std::async(std::launch::async, first, half, A.size());
+  Sums s = first(0, half);
+  const Sums s2 = upper.get();
+  s.N += s2.N;
+  s.N.diagonal() += prior;
+  s.N = s.N.selfadjointView<Eigen::Lower>();
+  for (std::size_t c = 0; c < 3; ++c) s.B[c] = (s.B[c] + s2.B[c]).selfadjointView<Eigen::Lower>();
+  Eigen::Matrix3d F = s.F + s2.F;
+  // Second pass: H_k = Y_k^T D^-1 Y_k with N = P^T L D L^T P and Y = L^-1 P A^T W.
+  const Eigen::LDLT<Eigen::MatrixXd> Ninv(s.N);
+  Eigen::VectorXd Dinv = Ninv.vectorD();
+  for (Eigen::Index i = 0; i < p; ++i) Dinv[i] = std::abs(Dinv[i]) > std::numeric_limits<double>::min() ? 1.0 / Dinv[i] : 0.0;
+  const auto second = [&](std::size_t k0, std::size_t k1) {
+    Eigen::Matrix3d G = Eigen::Matrix3d::Zero();
+    Eigen::MatrixXd As, WA, Y;
+    for (std::size_t c0 = k0; c0 < k1; c0 += kChunk) {
+      const std::size_t c1 = std::min(k1, c0 + kChunk);
+      stack(c0, c1, As, WA);
+      Y = Ninv.transpositionsP() * WA.transpose();
+      Ninv.matrixL().solveInPlace(Y);
+      for (std::size_t k = c0, row = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
+        const auto Yk = Y.middleCols(static_cast<Eigen::Index>(row), A[k].rows());
+        const Eigen::MatrixXd H = Yk.transpose() * (Dinv.asDiagonal() * Yk);
+        const Eigen::LDLT<Eigen::MatrixXd> Wk = W(k);
+        for (int c = 0; c < 3; ++c) {
+          const Eigen::MatrixXd VcW = Wk.solve(V[k][static_cast<std::size_t>(c)]).transpose();  // V_c W (both symmetric)
+          for (int d = c; d < 3; ++d) G(c, d) -= 2.0 * (VcW * V[k][static_cast<std::size_t>(d)] * H).trace();
+        }
+      }
+    }
+    return G;
+  };
+  auto upper2 = std::async(std::launch::async, second, half, A.size());
+  F += second(0, half);
+  F += upper2.get();
   std::array<Eigen::MatrixXd, 3> NB;
-  for (int c = 0; c < 3; ++c) NB[static_cast<std::size_t>(c)] = Ninv.solve(B[static_cast<std::size_t>(c)]);
+  for (int c = 0; c < 3; ++c) NB[static_cast<std::size_t>(c)] = Ninv.solve(s.B[static_cast<std::size_t>(c)]);
   for (int c = 0; c < 3; ++c) {
     for (int d = c; d < 3; ++d) {
-      F(c, d) += -2.0 * Ninv.solve(C[static_cast<std::size_t>(3 * c + d)]).trace() +
-                 (NB[static_cast<std::size_t>(c)] * NB[static_cast<std::size_t>(d)]).trace();
+      F(c, d) += (NB[static_cast<std::size_t>(c)] * NB[static_cast<std::size_t>(d)]).trace();
       F(d, c) = F(c, d);
     }
   }
