@@ -19,6 +19,10 @@ std::string structureLeft(const MeasuredCalibrateResult& r, const sim::MeasuredD
 /// The comment at the top of the model files a calibration writes: what wrote them, from what.
 std::string modelHeader(const sim::MeasuredData& data, const MeasuredCalibrateOptions& o);
 
+/// The joint readings of `data` accepted past a limit (sim::nearLimitWarnings), one line per joint:
+/// calibrate's and evaluate's warnings.
+std::vector<std::string> readingWarnings(const sim::MeasuredData& data);
+
 /// The report's first lines: each reason the calibration is not accepted, or that it is, and whether
 /// model.yaml was written.
 std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model);
