@@ -382,10 +382,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   }
   r.refusals = refusalsOf(r);
   const bool write_model = (!r.worse && r.refusals.empty()) || o.accept_worse;
-  if (write_model) {
-    r.model_path = folder.published(writeModelAndExports(cm, parameterRows(r.fit), out, modelHeader(data, o)));
-    r.model = cm;
-  }
+  if (write_model) r.model = cm;  // what model.yaml holds
+  if (write_model) r.model_path = folder.published(writeModelAndExports(cm, parameterRows(r.fit), out, modelHeader(data, o)));
 
   const bool rotation = measuresRotation(data);
   std::ostringstream md;
