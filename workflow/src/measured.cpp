@@ -31,6 +31,7 @@ namespace orbcal::workflow {
 using sim::formatNumber;
 using measured_detail::modelHeader;
 using measured_detail::readingWarnings;
+using measured_detail::combinationPartners;
 using measured_detail::structureLeft;
 using measured_detail::verdictLines;
 
@@ -38,6 +39,19 @@ std::vector<std::string> measured_detail::readingWarnings(const sim::MeasuredDat
   std::vector<Eigen::VectorXd> q;
   for (const sim::MeasuredPose& p : data.poses) q.push_back(p.sample.q_rad);
   return sim::nearLimitWarnings(data.arm, q);
+}
+
+std::vector<std::string> measured_detail::combinationPartners(const std::vector<sim::Redundancy>& groups, int n) {
+  std::vector<std::string> partners(static_cast<std::size_t>(n));
+  for (const sim::Redundancy& g : groups) {
+    for (std::size_t a = 0; a < g.params.size(); ++a) {
+      std::string& text = partners[static_cast<std::size_t>(g.params[a])];
+      for (std::size_t b = 0; b < g.names.size(); ++b) {
+        if (b != a) text += (text.empty() ? "" : ", ") + g.names[b];
+      }
+    }
+  }
+  return partners;
 }
 
 std::string parseFitMethod(const std::string& name, const std::string& what) {
@@ -90,21 +104,6 @@ std::string statsTableRow(const std::string& model, const calib::ResidualStats& 
 }
 
 namespace {
-
-/// Per parameter of a layout of `n`, the other members of its unidentifiable combination (`groups`),
-/// empty where it is determined on its own.
-std::vector<std::string> combinationPartners(const std::vector<sim::Redundancy>& groups, int n) {
-  std::vector<std::string> partners(static_cast<std::size_t>(n));
-  for (const sim::Redundancy& g : groups) {
-    for (std::size_t a = 0; a < g.params.size(); ++a) {
-      std::string& text = partners[static_cast<std::size_t>(g.params[a])];
-      for (std::size_t b = 0; b < g.names.size(); ++b) {
-        if (b != a) text += (text.empty() ? "" : ", ") + g.names[b];
-      }
-    }
-  }
-  return partners;
-}
 
 /// `classes` where they cover `layout` (one class per parameter), else nullptr.
 const calib::ParameterClasses* coveringClasses(const sim::ParamLayout& layout, const calib::ParameterClasses* classes) {

@@ -9,6 +9,7 @@
 #include "orbcal/sim/measured.hpp"
 #include "orbcal/sim/urdf.hpp"
 #include "orbcal/workflow/measured.hpp"
+#include "measured_verdict.hpp"
 
 namespace orbcal::workflow {
 
@@ -20,23 +21,36 @@ std::string triple(const Eigen::Vector3d& v, double scale, const char* format) {
   return formatNumber(format, v.x() * scale) + ", " + formatNumber(format, v.y() * scale) + ", " + formatNumber(format, v.z() * scale);
 }
 
-/// The 1-sigma columns of a fitted frame (its block `b` of the fit's layout, parameterized as X0 (Exp(w), t)):
-/// the position's per axis of the parent frame (R0 Sigma_t R0^T: the translation is t0 + R0 t) in mm, the
-/// rotation's about the frame's own axes in deg, and the frame's held parameters ("-" where none).
-std::string sigmaCells(const calib::Fit& fit, const sim::ParamBlock& b, const Eigen::Matrix3d& R0) {
-  const Eigen::MatrixXd& C = fit.estimate.covariance;
-  std::string held;
+/// Whether the data determine a fitted frame's parameters (block `b`): "yes", or its held parameters and
+/// those determined only in a combination with others ("held: marker1_rx; only in a combination: base_z with d1").
+std::string determinedCell(const calib::Fit& fit, const sim::ParamBlock& b) {
+  const std::vector<std::string> partners =
+      measured_detail::combinationPartners(fit.identifiability.redundancies, fit.model.layout.size());
+  std::string held, combined;
   for (int i = 0; i < b.size(); ++i) {
+    const std::string& name = b.params[static_cast<std::size_t>(i)].name;
+    const std::string& with = partners[static_cast<std::size_t>(b.offset + i)];
     if (std::binary_search(fit.estimate.held.begin(), fit.estimate.held.end(), b.offset + i)) {
-      held += (held.empty() ? "" : ", ") + b.params[static_cast<std::size_t>(i)].name;
+      held += (held.empty() ? "" : ", ") + name;
+    } else if (!with.empty()) {
+      combined += (combined.empty() ? "" : "; ") + name + " with " + with;
     }
   }
-  if (held.empty()) held = "-";
-  if (C.rows() < b.offset + b.size()) return "- | - | " + held;
+  if (held.empty() && combined.empty()) return "yes";
+  return (held.empty() ? "" : "held: " + held) + (held.empty() || combined.empty() ? "" : "; ") +
+         (combined.empty() ? "" : "only in a combination: " + combined);
+}
+
+/// The 1-sigma columns of a fitted frame (its block `b` of the fit's layout, parameterized as X0 (Exp(w), t)):
+/// the position's per axis of the parent frame (R0 Sigma_t R0^T: the translation is t0 + R0 t) in mm, the
+/// rotation's about the frame's own axes in deg, then whether the data determine it (determinedCell).
+std::string sigmaCells(const calib::Fit& fit, const sim::ParamBlock& b, const Eigen::Matrix3d& R0) {
+  const Eigen::MatrixXd& C = fit.estimate.covariance;
+  if (C.rows() < b.offset + b.size()) return "- | - | " + determinedCell(fit, b);
   const Eigen::Matrix3d position = R0 * C.block<3, 3>(b.offset, b.offset) * R0.transpose();
   const Eigen::Vector3d sp = position.diagonal().cwiseMax(0.0).cwiseSqrt();
   const Eigen::Vector3d sr = C.block<3, 3>(b.offset + 3, b.offset + 3).diagonal().cwiseMax(0.0).cwiseSqrt();
-  return triple(sp, 1e3, "%.3g") + " | " + triple(sr, sim::kRadToDeg, "%.3g") + " | " + held;
+  return triple(sp, 1e3, "%.3g") + " | " + triple(sr, sim::kRadToDeg, "%.3g") + " | " + determinedCell(fit, b);
 }
 
 /// The rows of one frame kind ("base": world_T_base, "marker": flange_T_marker): one per fitted block
@@ -53,7 +67,7 @@ std::string frameRows(const calib::Fit& fit, const sim::KinematicModel& folded, 
           triple(sim::rpyFromRotation(T.linear()), sim::kRadToDeg, "%.4f") + " | " + rest + " |\n";
   };
   if (sharing == sim::FrameSharing::kKnown) {
-    row(0, "all (" + known + ")", "- | - | -");
+    row(0, "all (" + known + ")", "- | - | not fitted");
     return md;
   }
   for (const sim::ParamBlock& b : fit.model.layout.blocks()) {
@@ -72,8 +86,9 @@ std::string registrationFramesTable(const calib::Fit& fit, const std::string& kn
   return "The registration frames, each a_T_b mapping coordinates in frame b to frame a: `world_T_base` the robot's base in "
          "the measuring system's frame, `flange_T_marker` the marker on the flange (sessions numbered from 1, as `frames.yaml` "
          "numbers them). Rotation as roll, pitch, yaw (R = Rz(yaw) Ry(pitch) Rx(roll)); 1-sigma of the position per axis of "
-         "frame a, of the rotation about the frame's own axes.\n\n"
-         "| frame | session | position x, y, z (mm) | roll, pitch, yaw (deg) | 1-sigma x, y, z (mm) | 1-sigma about x, y, z (deg) | held |\n"
+         "frame a, of the rotation about the frame's own axes; determined: whether the data determine the frame's parameters "
+         "(held: not at all, kept at their starting value; only in a combination: with the parameters named).\n\n"
+         "| frame | session | position x, y, z (mm) | roll, pitch, yaw (deg) | 1-sigma x, y, z (mm) | 1-sigma about x, y, z (deg) | determined |\n"
          "|---|---|---|---|---|---|---|\n" +
          frameRows(fit, folded, "base", known) + frameRows(fit, folded, "marker", known);
 }
