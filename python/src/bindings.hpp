@@ -27,6 +27,8 @@ struct PyModel {
   Eigen::VectorXd p;
   std::vector<sim::ParameterRow> rows;
   py::dict statistics;  ///< of the fit that made it (empty for a loaded or true model)
+  std::string source;   ///< the model file it was read from or written to; empty: only in memory
+  std::vector<std::string> alternatives;  ///< a loaded model file's `alternatives:` (model files), as evaluate compares them
 };
 
 /// Effects from their specs ("compliance:2", joints from 1, as the command line writes them); InputError
@@ -43,6 +45,24 @@ py::dict fitStatistics(const calib::Fit& fit);
 
 /// Parameter rows as records: one dict per parameter (name, effect, unit, value, sigma, held; SI).
 py::list parameterRecords(const std::vector<sim::ParameterRow>& rows);
+
+/// Where a workflow run from Python writes: the folder the caller gave (kept), else a fresh temporary one
+/// (orbcal-NAME-XXXXXX under the system's temporary folder) removed again with this object.
+class RunFolder {
+ public:
+  RunFolder(const std::optional<std::string>& given, const std::string& name);
+  ~RunFolder();
+  RunFolder(const RunFolder&) = delete;
+  RunFolder& operator=(const RunFolder&) = delete;
+  const std::string& path() const { return path_; }
+  bool temporary() const { return !temporary_.empty(); }
+
+ private:
+  std::string temporary_, path_;
+};
+
+/// A written file's text (a report).
+std::string readText(const std::string& path);
 
 /// orbcal.Refused, the exception of a refused calibration (an orbcal.Error), made at the module's start.
 py::handle refusedType();

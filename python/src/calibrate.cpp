@@ -13,16 +13,6 @@ namespace orbcal::python {
 
 namespace {
 
-/// The fit's noise settings as `orbcal calibrate DESC.yaml` makes them: the stated noise, else estimated.
-calib::FitOptions fitOptions(const sim::MeasuredData& data, const std::string& method) {
-  calib::FitOptions fo;
-  fo.method = workflow::parseFitMethod(method, "method");
-  fo.sigma_position_m = data.noise_position_m;
-  fo.sigma_rotation_rad = data.noise_rotation_rad;
-  fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
-  return fo;
-}
-
 /// The model file's path split as sim::writeModelFile takes it: model.yaml goes with robot.yaml (as the
 /// command line writes them), NAME.yaml with NAME.robot.yaml.
 std::string saveModel(const PyModel& m, const std::string& path) {
@@ -53,6 +43,29 @@ py::dict parameterDict(const PyModel& m) {
   for (const sim::ParameterRow& r : m.rows) {
     out[py::str(r.name)] = py::dict(py::arg("value") = r.value, py::arg("sigma") = r.sigma, py::arg("unit") = r.unit,
                                     py::arg("effect") = r.effect, py::arg("held") = r.held);
+  }
+  return out;
+}
+
+/// Per driving variable of each effect with a fitted range: how far the samples leave it.
+py::list rangeRecords(const std::vector<sim::RangeExcess>& excess) {
+  py::list out;
+  for (const sim::RangeExcess& x : excess) {
+    out.append(py::dict(py::arg("effect") = x.effect, py::arg("variable") = x.variable.column, py::arg("unit") = x.variable.unit,
+                        py::arg("lo") = x.range.lo, py::arg("hi") = x.range.hi, py::arg("samples_outside") = x.outside,
+                        py::arg("max_excess") = x.max_excess, py::arg("excess") = x.excess));
+  }
+  return out;
+}
+
+/// The model's alternatives predicting the data (evaluation.json's `alternatives`, SI).
+py::list alternativeRecords(const std::vector<workflow::AlternativePrediction>& alternatives) {
+  py::list out;
+  for (const workflow::AlternativePrediction& a : alternatives) {
+    out.append(py::dict(py::arg("model") = a.path, py::arg("effects") = a.effects, py::arg("position_rms_m") = a.residuals.position_rms_m,
+                        py::arg("samples_beyond") = a.beyond, py::arg("apart_beyond_rms_m") = a.beyond_rms_m,
+                        py::arg("apart_beyond_max_m") = a.beyond_max_m, py::arg("apart_within_rms_m") = a.within_rms_m,
+                        py::arg("divergence_m") = a.divergence_m));
   }
   return out;
 }
@@ -89,6 +102,30 @@ py::dict residualDict(const calib::ResidualStats& s) {
                   py::arg("rotation_rms_rad") = s.rotation_rms_rad, py::arg("rotation_max_rad") = s.rotation_max_rad);
 }
 
+namespace {
+
+/// orbcal.evaluate: workflow::runEvaluate on the model and data in memory (a loaded model's alternatives
+/// compared), its result as plain Python values.
+py::dict evaluate(const PyModel& model, const sim::MeasuredData& data, const std::optional<std::string>& out) {
+  const RunFolder folder(out, "evaluation");
+  workflow::EvaluateResult r;
+  {
+    py::gil_scoped_release release;
+    r = workflow::runEvaluate({model.model, model.p, model.alternatives}, model.source.empty() ? "(model in memory)" : model.source,
+                              data, folder.path());
+  }
+  py::dict d = residualDict(r.fit.residuals);
+  d["refitted"] = r.refitted;
+  d["baseline"] = residualDict(r.baseline);
+  d["warnings"] = r.warnings;
+  d["beyond_range"] = rangeRecords(r.excess);
+  d["alternatives"] = alternativeRecords(r.alternatives);
+  d["report"] = readText(r.report_path);
+  return d;
+}
+
+}  // namespace
+
 void bindCalibrate(py::module_& m) {
   py::class_<PyModel>(m, "Model",
                       "A kinematic model: the geometry (DH rows with the identified errors folded in), the registration "
@@ -117,6 +154,11 @@ void bindCalibrate(py::module_& m) {
             for (std::size_t i = 0; i < pm.rows.size(); ++i) v[static_cast<Eigen::Index>(i)] = pm.rows[i].sigma;
             return v;
           }, "their 1-sigma (SI; NaN where not known, 0 where held)")
+      .def_property_readonly("source", [](const PyModel& pm) { return pm.source.empty() ? py::object(py::none()) : py::object(py::str(pm.source)); },
+                             "the model file it was read from (load_model) or written to (calibrate's out); None: only in memory")
+      .def_readonly("alternatives", &PyModel::alternatives,
+                    "the model files of diagnose's confounded alternatives a loaded model file lists (alternatives:), which "
+                    "evaluate compares with it")
       .def_readonly("statistics", &PyModel::statistics,
                     "of the fit that made it: residuals (samples, position_mean_m, position_rms_m, position_max_m, "
                     "rotation_rms_rad, rotation_max_rad), chi2, dof, effective_parameters, noise, noise_estimated, weak; empty for a loaded or true model")
@@ -138,58 +180,30 @@ void bindCalibrate(py::module_& m) {
                std::to_string(pm.model.effects.size()) + " effect(s)>";
       });
 
-  m.def(
-      "evaluate",
-      [](const PyModel& model, const sim::MeasuredData& data_in) {
-        sim::MeasuredData data = data_in;
-        if (data.arm.numJoints() != model.model.arm.numJoints()) {
-          throw sim::InputError(data.description + ": robot: " + std::to_string(data.arm.numJoints()) + " joints, but the model has " +
-                                std::to_string(model.model.arm.numJoints()));
-        }
-        if (!model.model.arm.masses.empty()) data.arm.masses = model.model.arm.masses;
-        const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(data, calib::needsTorque(model.model.effects));
-        calib::FitOptions fo = fitOptions(data, "LM");
-        calib::Fit fit, baseline;
-        {
-          py::gil_scoped_release release;
-          fit = calib::predictWithModel({model.model, model.p}, data, obs, fo);
-          baseline = workflow::evaluationBaseline(data, obs, fo);
-        }
-        py::dict d = residualDict(fit.residuals);
-        d["baseline"] = residualDict(baseline.residuals);
-        d["warnings"] = calib::outsideTrustedRange(model.model, obs);
-        py::list ranges;  // per driving variable of each effect with a fitted range: how far the samples leave it
-        for (const sim::RangeExcess& x : calib::rangeExcesses(model.model, obs)) {
-          py::dict r;
-          r["effect"] = x.effect;
-          r["variable"] = x.variable.column;
-          r["unit"] = x.variable.unit;
-          r["lo"] = x.range.lo;
-          r["hi"] = x.range.hi;
-          r["samples_outside"] = x.outside;
-          r["max_excess"] = x.max_excess;
-          r["excess"] = x.excess;
-          ranges.append(r);
-        }
-        d["beyond_range"] = ranges;
-        return d;
-      },
-      py::arg("model"), py::arg("data"),
-      "Predicts `data` with `model` as `orbcal evaluate` does: every geometric and effect parameter is the model's, only "
-      "the frames the data calls per_session are refitted. Returns the prediction errors' statistics (samples, "
-      "position_mean_m, position_rms_m, position_max_m, rotation_rms_rad, rotation_max_rad), the baseline's (the "
-      "same statistics of the data's nominal arm with every registration frame fitted to it, as evaluation.json's "
-      "'baseline'), warnings, and beyond_range: per "
-      "driving variable of each effect with a fitted range (model.yaml's range:, recorded by calibrate and diagnose), the "
-      "range (lo, hi, in its display unit), samples_outside, max_excess and each sample's excess (0 inside).");
+  m.def("evaluate", &evaluate, py::arg("model"), py::arg("data"), py::kw_only(), py::arg("out") = py::none(),
+        "Predicts `data` with `model` as `orbcal evaluate` does (the same code): every geometric and effect parameter is "
+        "the model's, only the frames the data calls per_session are refitted. Returns a dict: the prediction errors' "
+        "statistics (samples, position_mean_m, position_rms_m, position_max_m, rotation_rms_rad, rotation_max_rad), "
+        "refitted (parameters fitted to the data), baseline (the same statistics of the data's nominal arm with every "
+        "registration frame fitted to it, as evaluation.json's 'baseline'), warnings (joint readings past a limit, effects "
+        "applied beyond their fitted ranges; one line each, as the command line prints them), beyond_range (per driving "
+        "variable of each effect with a fitted range, model.yaml's range:: effect, variable, unit, the range lo and hi in "
+        "its display unit, samples_outside, max_excess and each sample's excess, 0 inside), alternatives (for a model file "
+        "listing diagnose's confounded alternatives: each one's model file, effects, position_rms_m, samples_beyond, "
+        "apart_beyond_rms_m, apart_beyond_max_m, apart_within_rms_m and divergence_m per sample: how far its predicted "
+        "positions lie from the model's) and report (evaluation.md's text). out: a folder to write what the command line "
+        "writes (evaluation.md, report.html, evaluation.json, residuals.csv); None: nothing is kept. The report names a "
+        "loaded model by its file, any other as '(model in memory)'.");
 
   m.def(
       "load_model",
       [](const std::string& path) {
         const sim::LoadedModel lm = sim::loadModelFile(path);
-        return PyModel{lm.model, lm.p, exactRows(lm.model, lm.p), py::dict()};
+        return PyModel{lm.model, lm.p, exactRows(lm.model, lm.p), py::dict(), path, lm.alternatives};
       },
-      py::arg("path"), "Reads a model file (model.yaml of orbcal calibrate or diagnose, a simulation's truth/model.yaml).");
+      py::arg("path"),
+      "Reads a model file (model.yaml of orbcal calibrate or diagnose, a simulation's truth/model.yaml), with the "
+      "alternatives it lists (diagnose's alternativeN.yaml), which evaluate compares.");
 }
 
 }  // namespace orbcal::python

@@ -2,13 +2,6 @@
 // DESC.yaml` (workflow::runMeasuredCalibrate: hold-out split, fit, plausibility checks, held-out verdict,
 // refusals, model files and report), run on data in memory. A refused calibration raises orbcal.Refused
 // (an orbcal.Error carrying the Calibration) unless accept_worse=True, as the command line exits 1.
-#include <unistd.h>
-
-#include <cstdlib>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
-
 #include <optional>
 
 #include "bindings.hpp"
@@ -48,20 +41,6 @@ py::dict calibrationDict(const PyCalibration& c) {
                   py::arg("parameters") = parameterRecords(workflow::parameterRows(c.r.fit)));
 }
 
-/// A fresh temporary folder (removed again by the caller).
-std::string temporaryFolder() {
-  std::string pattern = (std::filesystem::temp_directory_path() / "orbcal-calibrate-XXXXXX").string();
-  if (!mkdtemp(pattern.data())) throw sim::InputError(pattern + ": cannot create a temporary folder");
-  return pattern;
-}
-
-std::string readText(const std::string& path) {
-  std::ifstream in(path);
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
 struct CalibrateArgs {
   std::vector<std::string> effects;
   std::string method, level;
@@ -97,35 +76,25 @@ PyCalibration calibrate(const sim::MeasuredData& data, const CalibrateArgs& a) {
   o.noise_position_m = a.noise_position_m;
   o.noise_rotation_rad = a.noise_rotation_rad;
   o.plots = false;  // no figure drawer here: the report says so
-  const std::string temporary = a.out ? std::string() : temporaryFolder();
-  o.out = a.out ? *a.out : temporary + "/calibration";
+  const RunFolder folder(a.out, "calibration");
+  o.out = folder.path();
   PyCalibration c;
-  std::optional<sim::LoadedModel> written;
-  try {
-    {
-      py::gil_scoped_release release;
-      c.r = workflow::runMeasuredCalibrate(data, o);
-    }
-    c.report = readText(c.r.report_path);
-    // The model as written (model.yaml: the fit folded in, each effect with the range it was fitted on).
-    if (!c.r.model_path.empty()) written = sim::loadModelFile(c.r.model_path);
-  } catch (...) {
-    if (!temporary.empty()) std::filesystem::remove_all(temporary);
-    throw;
+  {
+    py::gil_scoped_release release;
+    c.r = workflow::runMeasuredCalibrate(data, o);
   }
-  if (!temporary.empty()) {
-    std::filesystem::remove_all(temporary);
+  c.report = readText(c.r.report_path);
+  if (folder.temporary()) {  // removed on return: no paths to files that are gone
     c.r.report_path.clear();
     c.r.model_path.clear();
   } else {
     c.out = o.out;
   }
-  if (accepted(c.r) || a.accept_worse) {
-    const calib::CalibratedModel cm = written ? calib::CalibratedModel{written->model, written->p} : calib::calibratedModel(c.r.fit);
+  if (c.r.model) {  // the model written as model.yaml (accepted, or accept_worse): each effect with its fitted range
     py::dict stats = fitStatistics(c.r.fit);
     stats["level"] = calib::levelName(c.r.level.chosen);
     stats["level_reason"] = calib::levelSentence(c.r.level);
-    c.model = PyModel{cm.model, cm.p, workflow::parameterRows(c.r.fit), stats};
+    c.model = PyModel{c.r.model->model, c.r.model->p, workflow::parameterRows(c.r.fit), stats, c.r.model_path, {}};
   }
   if (!accepted(c.r) && !a.accept_worse) raiseRefused(std::move(c), o.description);
   return c;

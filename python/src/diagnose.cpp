@@ -22,6 +22,7 @@ RowMatrix positionRows(const std::vector<Eigen::VectorXd>& r) {
 /// A diagnosis and its diagnosis.json, parsed once for the keys Python reads from it.
 struct PyDiagnosis {
   calib::Diagnosis d;
+  calib::CalibratedModel model;  ///< the selected model as diagnose writes model.yaml (with its effects' fitted ranges)
   std::string json;
   py::object parsed;
 };
@@ -55,6 +56,11 @@ void bindDiagnose(py::module_& m) {
       .def_property_readonly("confounded", [](const PyDiagnosis& p) { return py::object(p.parsed["confounded"]); },
                              "sets of causes this data cannot tell apart (lists of {effect, joints}; 'geometry' where the "
                              "geometric and registration parameters absorb one)")
+      .def_property_readonly("alternatives", [](const PyDiagnosis& p) { return py::object(p.parsed["alternatives"]); },
+                             "the models the data cannot tell from the selection (each the selection with one effect replaced "
+                             "by another member of its confounded set, fitted on all the data), as diagnosis.json lists them: "
+                             "dicts with model (the file orbcal diagnose writes, alternativeN.yaml), effects ({effect, joints}) "
+                             "and fit_position_rms_mm")
       .def_property_readonly("heldout", [](const PyDiagnosis& p) {
             return py::dict(py::arg("base") = residualDict(p.d.heldout.base), py::arg("selected") = residualDict(p.d.heldout.selected),
                             py::arg("noise_position_rms_m") = p.d.heldout.noise_position_rms_m);
@@ -65,9 +71,9 @@ void bindDiagnose(py::module_& m) {
       .def_property_readonly("residual_selected", [](const PyDiagnosis& p) { return positionRows(p.d.residual_selected); },
                              "held-out position residual per sample (N x 3, m) of the selected model")
       .def_property_readonly("model", [](const PyDiagnosis& p) {
-            const calib::CalibratedModel cm = calib::calibratedModel(p.d.fit);
-            return PyModel{cm.model, cm.p, workflow::parameterRows(p.d.fit), py::dict()};
-          }, "the selected model fitted to all the data (what orbcal diagnose writes as model.yaml)")
+            return PyModel{p.model.model, p.model.p, workflow::parameterRows(p.d.fit), py::dict(), "", {}};
+          }, "the selected model fitted to all the data (what orbcal diagnose writes as model.yaml, each effect with the range "
+             "of the data it was fitted on)")
       .def_property_readonly("seconds", [](const PyDiagnosis& p) { return p.d.seconds; }, "wall time of the diagnosis (s)")
       .def("to_json", [](const PyDiagnosis& p) { return p.json; }, "diagnosis.json as orbcal diagnose writes it (text)")
       .def("as_dict", [](const PyDiagnosis& p) { return py::module_::import("json").attr("loads")(p.json); },
@@ -93,7 +99,9 @@ void bindDiagnose(py::module_& m) {
         PyDiagnosis p;
         {
           py::gil_scoped_release release;
-          p.d = calib::diagnose(data, calib::observationsFrom(data, data.has_torque || !data.arm.masses.empty()), o);
+          const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(data, data.has_torque || !data.arm.masses.empty());
+          p.d = calib::diagnose(data, obs, o);
+          p.model = calib::calibratedModel(p.d.fit, obs);
         }
         p.json = workflow::diagnosisJson(p.d);
         p.parsed = py::module_::import("json").attr("loads")(p.json);

@@ -255,7 +255,7 @@ py::tuple simulateData(const sim::Arm& robot, int samples, std::uint64_t seed, c
   s.joint_noise_rad = stated.noise_joint_rad.value_or(s.joint_noise_rad);
   sim::SimulatedData d = sim::simulateMeasured(robot, s);
   const sim::FoldedModel truth = sim::foldParameters(d.truth, d.p_true);
-  return py::make_tuple(d.data, PyModel{truth.model, truth.p, exactRows(d.truth, d.p_true), py::dict()});
+  return py::make_tuple(d.data, PyModel{truth.model, truth.p, exactRows(d.truth, d.p_true), py::dict(), "", {}});
 }
 
 }  // namespace

@@ -1,6 +1,13 @@
 // The `_orbcal` extension module: the exception types, then each topic's bindings.
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
 #include "bindings.hpp"
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/io.hpp"
 
 namespace orbcal::python {
 
@@ -9,6 +16,29 @@ py::handle refused;  // orbcal.Refused; the module holds the reference
 }  // namespace
 
 py::handle refusedType() { return refused; }
+
+RunFolder::RunFolder(const std::optional<std::string>& given, const std::string& name) {
+  if (given) {
+    path_ = *given;
+    return;
+  }
+  std::string pattern = (std::filesystem::temp_directory_path() / ("orbcal-" + name + "-XXXXXX")).string();
+  if (!mkdtemp(pattern.data())) throw sim::InputError(pattern + ": cannot create a temporary folder");
+  temporary_ = pattern;
+  path_ = temporary_ + "/" + name;
+}
+
+RunFolder::~RunFolder() {
+  std::error_code ec;  // nothing to do about a temporary folder that cannot be removed
+  if (!temporary_.empty()) std::filesystem::remove_all(temporary_, ec);
+}
+
+std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
 
 }  // namespace orbcal::python
 

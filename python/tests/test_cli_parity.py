@@ -179,3 +179,86 @@ def test_model_and_diagnosis_records(tracker, compliance_data):
     assert {r["effect"] for r in flat} == {e["effect"] for e in d.selected}
     assert set(flat[0]) == {"effect", "joints", "parameter", "value", "sigma", "unit"}
     assert d.as_dict()["verdict"] == d.verdict
+
+
+@pytest.fixture(scope="module")
+def diagnosed(tmp_path_factory):
+    """The iiwa7 with a hidden compliance on joint 2 in one tracker set-up, three sessions at 0, 1.25 and 4 kg:
+    `orbcal diagnose` of the first two (fit.yaml; compliance:2 selected, confounded with other causes of the same
+    residuals, which diagnose writes as alternativeN.yaml beside model.yaml), and the third (heavy.yaml) to
+    evaluate on, its joint 2 torques beyond the fitted range and its joint 1 limits 1% inside its largest reading
+    (robot_limits.yaml: readings past a limit within the 2% tolerance, which evaluate accepts with a warning)."""
+    folder = tmp_path_factory.mktemp("diagnosed")
+    run = orbcal_cli("simulate", "-o", "data", "-n", "450", "--sessions", "3", "--payload-kg", "0", "1.25", "4",
+                     "--inject", "compliance:2", "--seed", "5", "--quiet", cwd=folder)
+    assert run.returncode == 0, run.stderr
+    data = folder / "data"
+    description = (data / "measurements.yaml").read_text()
+    files = 'files: ["session_1.csv", "session_2.csv", "session_3.csv"]'
+    assert files in description
+    (data / "fit.yaml").write_text(description.replace(files, 'files: ["session_1.csv", "session_2.csv"]'))
+    (data / "heavy.yaml").write_text(description.replace(files, 'files: ["session_3.csv"]')
+                                     .replace('robot: "robot.yaml"', 'robot: "robot_limits.yaml"'))
+    q = np.abs(orbcal.load_measurements(str(data / "measurements.yaml")).q[:, 0]).max()
+    limit = np.degrees(q) * 0.99
+    robot = (data / "robot.yaml").read_text().splitlines()
+    first = next(k for k, line in enumerate(robot) if line.startswith("  - {a_m:"))
+    robot[first] = re.sub(r"min_deg: [^,]+, max_deg: [^}]+", "min_deg: %.17g, max_deg: %.17g" % (-limit, limit), robot[first])
+    (data / "robot_limits.yaml").write_text("\n".join(robot) + "\n")
+    run = orbcal_cli("diagnose", "data/fit.yaml", "-o", "diag", "--no-plots", "--quiet", cwd=folder)
+    assert run.returncode == 0, run.stderr
+    return folder
+
+
+@needs_program
+def test_evaluate_is_the_command_lines_with_the_alternatives_and_the_warnings(diagnosed, tmp_path):
+    model_file, description = "diag/model.yaml", "data/heavy.yaml"
+    cli = orbcal_cli("evaluate", "--model", model_file, "--data", description, "-o", str(tmp_path / "cli"), cwd=diagnosed)
+    assert cli.returncode == 0, cli.stderr
+    cwd = os.getcwd()
+    os.chdir(diagnosed)  # the same relative paths: the report names the model file and the description as given
+    try:
+        model = orbcal.load_model(model_file)
+        py = orbcal.evaluate(model, orbcal.load_measurements(description), out=str(tmp_path / "py"))
+        quiet = orbcal.evaluate(model, orbcal.load_measurements(description))
+    finally:
+        os.chdir(cwd)
+    # One pipeline: evaluation.md byte for byte (the CLI has no figures to leave out here), and every other file.
+    for name in ("evaluation.md", "evaluation.json", "residuals.csv"):
+        assert (tmp_path / "py" / name).read_bytes() == (tmp_path / "cli" / name).read_bytes(), name
+    assert py["report"] == quiet["report"] == (tmp_path / "cli" / "evaluation.md").read_text()
+    # The confounded alternatives diagnose wrote beside model.yaml, each predicting the new data, as the CLI's JSON has them.
+    assert model.source == model_file and [os.path.basename(a) for a in model.alternatives][:1] == ["alternative1.yaml"]
+    cli_json = json.loads((tmp_path / "cli" / "evaluation.json").read_text())
+    assert len(py["alternatives"]) == len(model.alternatives) == len(cli_json["alternatives"]) >= 1
+    for a, c in zip(py["alternatives"], cli_json["alternatives"]):
+        assert a["model"] == c["model"] and a["effects"] == c["effects"] and a["effects"] != "compliance:2"
+        assert a["position_rms_m"] * 1e3 == pytest.approx(c["position_rms_mm"], rel=1e-12)
+        assert len(a["divergence_m"]) == py["samples"] == 150
+        # 4 kg against the 0 and 1.25 kg of the fit: samples beyond the fitted torque range, where the predictions part.
+        assert a["samples_beyond"] > 0 and a["apart_beyond_max_m"] == pytest.approx(
+            max(d for d, x in zip(a["divergence_m"], py["beyond_range"][0]["excess"]) if x > 0))
+    assert "## Where the model extrapolates" in py["report"] and "`" + py["alternatives"][0]["effects"] + "`" in py["report"]
+    # The warnings: the readings past joint 1's narrowed limit, then the torques beyond the fitted range, as the CLI prints them.
+    printed = [line[len("warning: "):] for line in cli.stderr.splitlines() if line.startswith("warning: ")]
+    assert py["warnings"] == printed and len(printed) >= 2
+    assert py["warnings"][0].startswith("joint 1") and "past its" in py["warnings"][0]
+    assert any("compliance:2" in w for w in py["warnings"][1:])
+
+
+@needs_program
+def test_a_model_in_memory_is_named_so_and_the_calibrated_model_is_carried(compliance_data, tmp_path):
+    data = orbcal.load_measurements(str(compliance_data / "measurements.yaml"))
+    c = orbcal.calibrate(data, effects=["compliance:2,4"], out=str(tmp_path / "cal"))
+    # The model carried from the calibration is the one written: the same model file, its fitted ranges included.
+    assert c.model.source == c.model_path
+    c.model.save(str(tmp_path / "again" / "model.yaml"))
+    body = lambda p: [line for line in p.read_text().splitlines() if not line.startswith("#")]
+    assert body(tmp_path / "again" / "model.yaml") == body(tmp_path / "cal" / "model.yaml")
+    assert "range: {tau2_Nm: [" in (tmp_path / "cal" / "model.yaml").read_text()
+    kept = orbcal.calibrate(data, effects=["compliance:2,4"])
+    assert kept.model.source is None and kept.model.alternatives == []
+    r = orbcal.evaluate(kept.model, data)
+    assert r["report"].startswith("# Evaluation of `(model in memory)` on `%s`" % data.description)
+    assert [x["samples_outside"] for x in r["beyond_range"]] == [0, 0]  # its own data lies within its fitted ranges
+    assert r["alternatives"] == []

@@ -114,8 +114,13 @@ std::string exactNumber(double v) {
 
 std::string formatNumber(const char* format, double value) {
   char buf[64];
-  std::snprintf(buf, sizeof buf, format, value);
-  return buf;
+  const int n = std::snprintf(buf, sizeof buf, format, value);
+  if (n < 0) throw std::invalid_argument(std::string("formatNumber: cannot format with '") + format + "'");
+  if (static_cast<std::size_t>(n) < sizeof buf) return std::string(buf, static_cast<std::size_t>(n));
+  std::string out(static_cast<std::size_t>(n) + 1, '\0');  // longer than the buffer ("%.100f", "%f" of 1e300)
+  std::snprintf(out.data(), out.size(), format, value);
+  out.resize(static_cast<std::size_t>(n));
+  return out;
 }
 
 std::string jsonNumber(double v, const std::string& key) {

@@ -5,6 +5,7 @@
 
 #include <catch2/catch.hpp>
 #include <csignal>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -183,4 +184,21 @@ TEST_CASE("formatArm writes a robot file that loads back to the same kinematics"
     }
     CHECK(slurp(path).rfind("# calibrated\n# by a test\n", 0) == 0);
   }
+}
+
+TEST_CASE("formatNumber keeps every character of a long number", "[sim][io]") {
+  // printf's own output is the reference: a fixed-point 1e100 has 101 digits before the point.
+  const double big = 1e100;
+  char reference[256];
+  std::snprintf(reference, sizeof reference, "%.3f", big);
+  const std::string text = formatNumber("%.3f", big);
+  CHECK(text.size() == std::string(reference).size());
+  CHECK(text.size() > 100);
+  CHECK(text == reference);
+  CHECK(std::stod(text) == big);
+  // Short ones as before; exactly at the former 63-character limit and one past it.
+  CHECK(formatNumber("%.4f", 0.12345) == "0.1235");
+  CHECK(formatNumber("%.61f", 0.5).size() == 63);
+  CHECK(formatNumber("%.62f", 0.5).size() == 64);
+  CHECK(formatNumber("%.62f", 0.5).back() == '0');
 }

@@ -40,6 +40,9 @@ std::string effectJson(const sim::Effect& e) {
   return j + "]";
 }
 
+/// The model file of the k-th confounded alternative (from 0), written beside model.yaml.
+std::string alternativeName(std::size_t k) { return "alternative" + std::to_string(k + 1); }
+
 /// The selected effects' parameters with their 1-sigma, from the final fit.
 struct EffectParams {
   sim::Effect effect;
@@ -99,6 +102,14 @@ std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& dist
     for (std::size_t i = 0; i < d.confounded[c].effects.size(); ++i) j << (i ? ", " : "") << effectJson(d.confounded[c].effects[i]) << "}";
     if (d.confounded[c].with_geometry) j << (d.confounded[c].effects.empty() ? "" : ", ") << "{\"effect\": \"geometry\", \"joints\": []}";
     j << "]";
+  }
+  // The alternatives the data cannot tell from the selection, as written beside model.yaml.
+  j << "],\n \"alternatives\": [";
+  for (std::size_t k = 0; k < d.alternatives.size(); ++k) {
+    const calib::Alternative& a = d.alternatives[k];
+    j << (k ? ", " : "") << "{\"model\": " << sim::jsonString(alternativeName(k) + ".yaml") << ", \"effects\": [";
+    for (std::size_t i = 0; i < a.effects.size(); ++i) j << (i ? ", " : "") << effectJson(a.effects[i]) << "}";
+    j << "], \"fit_position_rms_mm\": " << num(a.fit.residuals.position_rms_m * 1e3, "alternatives.fit_position_rms_mm") << "}";
   }
   const calib::MarkerNoise& n = d.base_fit.noise;  // SI: m, rad
   j << "],\n \"noise\": {\"position_m\": " << num(n.sigma_position_m, "noise.position_m") << ", \"rotation_rad\": "
@@ -464,7 +475,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   // model.yaml): `orbcal evaluate` says how far their predictions part on new data.
   std::vector<std::string> alternatives;
   for (std::size_t k = 0; k < dg.alternatives.size(); ++k) {
-    const std::string name = "alternative" + std::to_string(k + 1);
+    const std::string name = alternativeName(k);
     const calib::CalibratedModel am = calib::calibratedModel(dg.alternatives[k].fit, obs);
     sim::writeModelFile(am.model, am.p, parameterRows(dg.alternatives[k].fit), out,
                         "An alternative to model.yaml the data of " + o.input + " could not tell from it (orbcal diagnose " ORBCAL_VERSION ")",
@@ -514,6 +525,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
     md << "\n" << sim::signConventions(dg.selected);
   }
   md << "\n" << unexplainedSection(dg, o.diagnose.alpha);
+  if (measured) md << "\n## Registration frames (the selected model, fitted to all the data)\n\n" << registrationFramesTable(dg.fit, "the description's");
   if (r.distortion.tested) md << distortionSection(r.distortion, o.diagnose);
   md << testsSection(dg, o.diagnose);
   md << "\n## Figures\n\n" << figures << "\nFiles: `diagnosis.json`, `model.yaml` (the selected model, for `orbcal evaluate`, with "

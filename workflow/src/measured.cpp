@@ -23,7 +23,6 @@
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/urdf_export.hpp"
-#include "extrapolation.hpp"
 #include "measured_figures.hpp"
 #include "measured_verdict.hpp"
 
@@ -31,8 +30,29 @@ namespace orbcal::workflow {
 
 using sim::formatNumber;
 using measured_detail::modelHeader;
+using measured_detail::readingWarnings;
+using measured_detail::combinationPartners;
 using measured_detail::structureLeft;
 using measured_detail::verdictLines;
+
+std::vector<std::string> measured_detail::readingWarnings(const sim::MeasuredData& data) {
+  std::vector<Eigen::VectorXd> q;
+  for (const sim::MeasuredPose& p : data.poses) q.push_back(p.sample.q_rad);
+  return sim::nearLimitWarnings(data.arm, q);
+}
+
+std::vector<std::string> measured_detail::combinationPartners(const std::vector<sim::Redundancy>& groups, int n) {
+  std::vector<std::string> partners(static_cast<std::size_t>(n));
+  for (const sim::Redundancy& g : groups) {
+    for (std::size_t a = 0; a < g.params.size(); ++a) {
+      std::string& text = partners[static_cast<std::size_t>(g.params[a])];
+      for (std::size_t b = 0; b < g.names.size(); ++b) {
+        if (b != a) text += (text.empty() ? "" : ", ") + g.names[b];
+      }
+    }
+  }
+  return partners;
+}
 
 std::string parseFitMethod(const std::string& name, const std::string& what) {
   calib::findMethod(calib::comparisonMethods(0.0), name, what);
@@ -85,21 +105,6 @@ std::string statsTableRow(const std::string& model, const calib::ResidualStats& 
 
 namespace {
 
-/// Per parameter of a layout of `n`, the other members of its unidentifiable combination (`groups`),
-/// empty where it is determined on its own.
-std::vector<std::string> combinationPartners(const std::vector<sim::Redundancy>& groups, int n) {
-  std::vector<std::string> partners(static_cast<std::size_t>(n));
-  for (const sim::Redundancy& g : groups) {
-    for (std::size_t a = 0; a < g.params.size(); ++a) {
-      std::string& text = partners[static_cast<std::size_t>(g.params[a])];
-      for (std::size_t b = 0; b < g.names.size(); ++b) {
-        if (b != a) text += (text.empty() ? "" : ", ") + g.names[b];
-      }
-    }
-  }
-  return partners;
-}
-
 /// `classes` where they cover `layout` (one class per parameter), else nullptr.
 const calib::ParameterClasses* coveringClasses(const sim::ParamLayout& layout, const calib::ParameterClasses* classes) {
   return classes && static_cast<int>(classes->classes.size()) == layout.size() ? classes : nullptr;
@@ -138,7 +143,13 @@ std::string parameterTable(const calib::Fit& fit, const calib::ParameterClasses*
   const std::vector<sim::ParameterRow> rows = parameterRows(fit);
   const std::vector<std::string> partners =
       combinationPartners(classified ? classified->groups : fit.identifiability.redundancies, L.size());
+  bool frames = false;
   for (int i = 0; i < L.size(); ++i) {
+    const std::string& block = L.block(L.blockOf(i)).effect;
+    if (block == "base" || block == "marker") {  // shown as frames (registrationFramesTable), not as increments
+      frames = true;
+      continue;
+    }
     const sim::ParamInfo& info = L.param(i);
     const sim::ParameterRow& r = rows[static_cast<std::size_t>(i)];
     const std::string& with = partners[static_cast<std::size_t>(i)];
@@ -155,6 +166,7 @@ std::string parameterTable(const calib::Fit& fit, const calib::ParameterClasses*
     }
     md += "\n";
   }
+  if (frames) md += "\nThe registration frames are shown as frames, not as the parameters of their fit (`estimates.csv` lists those).\n";
   return md + stiffnessLines(fit);
 }
 
@@ -212,13 +224,6 @@ calib::FitOptions fitOptionsOf(const MeasuredCalibrateOptions& o, const sim::Mea
   fo.sigma_rotation_rad = o.noise_rotation_rad ? o.noise_rotation_rad : data.noise_rotation_rad;
   fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
   return fo;
-}
-
-/// The joint readings of `data` accepted past a limit (sim::nearLimitWarnings), one line per joint.
-std::vector<std::string> readingWarnings(const sim::MeasuredData& data) {
-  std::vector<Eigen::VectorXd> q;
-  for (const sim::MeasuredPose& p : data.poses) q.push_back(p.sample.q_rad);
-  return sim::nearLimitWarnings(data.arm, q);
 }
 
 /// What the calibration is judged on: the held-out observations and their residuals under the nominal
@@ -376,6 +381,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   }
   r.refusals = refusalsOf(r);
   const bool write_model = (!r.worse && r.refusals.empty()) || o.accept_worse;
+  if (write_model) r.model = cm;  // what model.yaml holds
   if (write_model) r.model_path = folder.published(writeModelAndExports(cm, parameterRows(r.fit), out, modelHeader(data, o)));
 
   const bool rotation = measuresRotation(data);
@@ -416,7 +422,8 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
      << calib::formatIndices(r.fit.observability) << ".\n\n"
      << "Determined no better than their typical magnitude (1-sigma above it; the data barely informs them): "
      << weakList(r.fit) << ".\n\n"
-     << "## Parameters\n\n" << parameterTable(r.fit) << "\n" << sim::signConventions(effects) << "\n## Figures\n\n"
+     << "## Parameters\n\n" << parameterTable(r.fit) << "\n" << sim::signConventions(effects) << "\n## Registration frames\n\n"
+     << registrationFramesTable(r.fit, "the description's") << "\n## Figures\n\n"
      << measured_detail::measuredFigures(o.callbacks, o.plots, out, r.fit, judged.obs, judged.before, judged.after, write_model)
      << "\n## Files\n\n" << (write_model ? "`model.yaml` with `robot.yaml` (orbcal's model: `orbcal evaluate`, `--robot robot.yaml`), "
                                               "`estimates.csv` (every parameter); for other programs `robot_calibrated.urdf` (the "
@@ -426,116 +433,6 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   writeReport(out, md.str());
   folder.commit();
   r.report_path = folder.finalPath() + "/report.md";
-  return r;
-}
-
-namespace {
-
-/// Per-configuration ids of `obs`, numbered 0, 1, ... in the order of their first sample
-/// (calib::configurationGroups).
-std::vector<int> configurationIds(const std::vector<calib::MarkerObservation>& obs) {
-  std::vector<std::vector<int>> groups;
-  for (const auto& [key, members] : calib::configurationGroups(obs)) groups.push_back(members);
-  std::sort(groups.begin(), groups.end(), [](const std::vector<int>& a, const std::vector<int>& b) { return a.front() < b.front(); });
-  std::vector<int> id(obs.size(), 0);
-  for (std::size_t g = 0; g < groups.size(); ++g) {
-    for (int i : groups[g]) id[static_cast<std::size_t>(i)] = static_cast<int>(g);
-  }
-  return id;
-}
-
-/// residuals.csv of an evaluation: one row per sample, the model's prediction error (the signed
-/// position components in mm, in the residual's frame: the marker's for full poses, the measuring
-/// system's for positions; its length; the rotation angle in deg where measured) and the baseline's.
-std::string evaluationResidualsCsv(const std::vector<calib::MarkerObservation>& obs, const EvaluateResult& e,
-                                   const calib::Fit& baseline, bool rotation) {
-  const calib::Fit& model = e.fit;
-  const std::vector<int> config = configurationIds(obs);
-  const auto num = [](double v) { return "," + formatNumber("%.6g", v); };
-  std::ostringstream csv;
-  csv << "index,session,configuration,x_mm,y_mm,z_mm,position_mm" << (rotation ? ",rotation_deg" : "") << ",baseline_position_mm"
-      << extrapolation::csvHeader(e) << "\n";
-  for (std::size_t i = 0; i < obs.size(); ++i) {
-    const Eigen::VectorXd r = calib::markerResidual(model.model, model.p, obs[i]);
-    const Eigen::VectorXd b = calib::markerResidual(baseline.model, baseline.p, obs[i]);
-    csv << i << "," << obs[i].sample.session << "," << config[i] << num(r[0] * 1e3) << num(r[1] * 1e3) << num(r[2] * 1e3)
-        << num(r.head<3>().norm() * 1e3);
-    if (rotation) csv << (obs[i].has_rotation ? num(r.tail<3>().norm() * sim::kRadToDeg) : std::string(","));
-    csv << num(b.head<3>().norm() * 1e3) << extrapolation::csvCells(e, i) << "\n";
-  }
-  return csv.str();
-}
-
-/// evaluate's verdict, the report's first paragraph (boxed on the page): the prediction against the
-/// nominal arm with its frames fitted to the same data, and the floor the stated tracker noise alone
-/// gives (sqrt(3) sigma per axis: the RMS of a 3-D error), where the description states it.
-std::string evaluationVerdict(const calib::ResidualStats& prediction, const calib::ResidualStats& baseline,
-                              const std::optional<double>& noise_position_m) {
-  const bool better = prediction.position_rms_m < baseline.position_rms_m;
-  const auto mm = [](double m) { return sim::formatNumber("%.4f", m * 1e3) + " mm"; };
-  std::string v = std::string("**The model predicts these data ") + (better ? "better" : "no better") +
-                  " than the nominal arm: position RMS " + mm(prediction.position_rms_m) + " against " +
-                  mm(baseline.position_rms_m) + " (the nominal arm with its frames fitted to these data).**";
-  if (noise_position_m) {
-    v += " The tracker noise the description states alone gives about " + mm(std::sqrt(3.0) * *noise_position_m) + " RMS.";
-  }
-  return v + "\n\n";
-}
-
-}  // namespace
-
-calib::Fit evaluationBaseline(const sim::MeasuredData& data, const std::vector<calib::MarkerObservation>& obs, calib::FitOptions fo) {
-  fo.analyze = false;
-  return calib::fitRegistration(calib::startingModel(data, obs, {}), obs, fo);
-}
-
-EvaluateResult runEvaluate(const std::string& model_file, const std::string& description, const std::string& out) {
-  const sim::LoadedModel lm = sim::loadModelFile(model_file);
-  sim::MeasuredData data = sim::loadMeasuredData(description);
-  if (data.arm.numJoints() != lm.model.arm.numJoints()) {
-    throw sim::InputError(description + ": robot: " + std::to_string(data.arm.numJoints()) + " joints, but the model " +
-                          model_file + " has " + std::to_string(lm.model.arm.numJoints()));
-  }
-  data.arm.masses = lm.model.arm.masses.empty() ? data.arm.masses : lm.model.arm.masses;
-  const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(data, calib::needsTorque(lm.model.effects));
-  calib::FitOptions fo;
-  fo.sigma_position_m = data.noise_position_m;
-  fo.sigma_rotation_rad = data.noise_rotation_rad;
-  fo.joint_noise_sigma_rad = data.noise_joint_rad.value_or(0.0);
-  EvaluateResult r;
-  r.fit = calib::predictWithModel({lm.model, lm.p}, data, obs, fo);
-  r.refitted = r.fit.model.layout.size() - static_cast<int>(r.fit.estimate.held.size());
-  calib::requirePlausibleResidual(data, r.fit.residuals, "the prediction residual of " + model_file);
-  const calib::Fit baseline = evaluationBaseline(data, obs, fo);
-  r.baseline = baseline.residuals;
-  sim::OutputFolder folder(out, "orbcal evaluate");  // the inputs are read and plausible
-  r.warnings = readingWarnings(data);
-  for (const std::string& w : calib::outsideTrustedRange(lm.model, obs)) r.warnings.push_back(w);
-  r.excess = calib::rangeExcesses(lm.model, obs);
-  r.alternatives = extrapolation::compareAlternatives(lm.alternatives, data, obs, fo, r.fit, r.excess);
-  const bool rotation = measuresRotation(data);
-  std::string json = residualJson(r.fit.residuals, out + "/evaluation.json");
-  json.insert(json.size() - 1, ", \"refitted_parameters\": " + std::to_string(r.refitted) + ", \"baseline\": " +
-                                   residualJson(r.baseline, out + "/evaluation.json: baseline") + ", \"model\": " +
-                                   sim::jsonString(model_file) + ", \"data\": " + sim::jsonString(description) +
-                                   extrapolation::jsonFields(r, out + "/evaluation.json"));
-  sim::writeFileAtomic(folder.path() + "/evaluation.json", json + "\n");
-  sim::writeFileAtomic(folder.path() + "/residuals.csv", evaluationResidualsCsv(obs, r, baseline, rotation));
-  std::ostringstream md;
-  md << "# Evaluation of `" << model_file << "` on `" << description << "`\n\n"
-     << evaluationVerdict(r.fit.residuals, r.baseline, data.noise_position_m) << "Every geometric and effect parameter is the model's; "
-     << (r.refitted > 0 ? "the per-session frames of the data were refitted (" + std::to_string(r.refitted) + " parameters)."
-                        : std::string("nothing was refitted (the data's frames are the model's)."))
-     << " The baseline is the nominal arm of the description with every registration frame fitted to this data.\n\n"
-     << statsTableHeader(rotation) << statsTableRow("prediction", r.fit.residuals, rotation)
-     << statsTableRow("baseline: nominal arm, frames fitted", r.baseline, rotation)
-     << "\nPer sample (with its configuration): `residuals.csv`.\n";
-  md << extrapolation::reportSection(r);
-  writeReport(folder.path(), md.str(), "evaluation.md");
-  folder.commit();
-  r.json_path = out + "/evaluation.json";
-  r.report_path = out + "/evaluation.md";
-  r.residuals_path = out + "/residuals.csv";
   return r;
 }
 

@@ -19,6 +19,14 @@ std::string structureLeft(const MeasuredCalibrateResult& r, const sim::MeasuredD
 /// The comment at the top of the model files a calibration writes: what wrote them, from what.
 std::string modelHeader(const sim::MeasuredData& data, const MeasuredCalibrateOptions& o);
 
+/// The joint readings of `data` accepted past a limit (sim::nearLimitWarnings), one line per joint:
+/// calibrate's and evaluate's warnings.
+std::vector<std::string> readingWarnings(const sim::MeasuredData& data);
+
+/// Per parameter of a layout of `n`, the other members of its unidentifiable combination (`groups`),
+/// empty where it is determined on its own: the parameter table's and the registration frames' words.
+std::vector<std::string> combinationPartners(const std::vector<sim::Redundancy>& groups, int n);
+
 /// The report's first lines: each reason the calibration is not accepted, or that it is, and whether
 /// model.yaml was written.
 std::string verdictLines(const MeasuredCalibrateResult& r, bool write_model);

@@ -4,6 +4,7 @@
 // calibrated model) and `orbcal simulate` (tracker-style data with hidden effects and its truth).
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -68,6 +69,9 @@ struct MeasuredCalibrateResult {
   /// of an effect (calib::outsideTrustedRange): there the held-out figures measure extrapolation.
   std::vector<std::string> extrapolation;
   std::string model_path, report_path;
+  /// The model written as model.yaml (the fit folded in, each effect with the range of the data it was
+  /// fitted on: calib::calibratedModel(fit, fitted samples)); unset where none was written.
+  std::optional<calib::CalibratedModel> model;
   /// A description of images (sim::describesImages): the hand-eye calibration's result
   /// (runImageCalibrate); then `refusals` and `report_path` are its, and the fields above are unset.
   std::shared_ptr<const ImageCalibrateResult> images;
@@ -99,6 +103,12 @@ std::string estimatesCsv(const calib::Fit& fit, const calib::ParameterClasses* c
 /// injected geometry errors).
 std::string parameterTable(const calib::Fit& fit, const calib::ParameterClasses* classes = nullptr,
                            const Eigen::VectorXd* geometry_truth = nullptr);
+
+/// The registration frames of a measured-data fit as every report shows them (Markdown: a sentence, then a
+/// table): one row per frame and session, world_T_base and flange_T_marker as fitted (sim::foldParameters),
+/// position in mm and rotation as roll, pitch, yaw in deg, with the 1-sigma and the held parameters of
+/// each fitted one; a frame the fit did not fit (known) is one row saying whose it is (`known`).
+std::string registrationFramesTable(const calib::Fit& fit, const std::string& known);
 
 std::string writeModelAndExports(const calib::CalibratedModel& cm, const std::vector<sim::ParameterRow>& rows, const std::string& out,
                                  const std::string& header, const std::string& robot_name = "robot.yaml");
@@ -136,7 +146,15 @@ struct EvaluateResult {
 /// The baseline of an evaluation: the description's nominal arm with every registration frame fitted to
 /// `obs` (no geometry, no effects), with the noise of `fo` (no identifiability analysis).
 calib::Fit evaluationBaseline(const sim::MeasuredData& data, const std::vector<calib::MarkerObservation>& obs, calib::FitOptions fo);
+/// `orbcal evaluate`: reads the model file and the description, then the overload below.
 EvaluateResult runEvaluate(const std::string& model_file, const std::string& description, const std::string& out);
+/// The one evaluation, on a model and data already read (the command line's and Python's alike): the
+/// prediction with the per-session frames refitted, the baseline, the warnings (joint readings past a
+/// limit, effects applied beyond their fitted ranges), the model's alternatives (model.alternatives, model
+/// files) compared, and evaluation.json, residuals.csv, evaluation.md and report.html in `out`.
+/// `model_name` names the model in the report, evaluation.json and messages; data.description the data.
+EvaluateResult runEvaluate(const sim::LoadedModel& model, const std::string& model_name, const sim::MeasuredData& data,
+                           const std::string& out);
 
 /// Writes measurements.yaml + session CSVs + robot.yaml into `out`, and the truth (a model file) into
 /// `out`/truth/. Returns the simulated data.
