@@ -168,7 +168,7 @@ TEST_CASE("12 configurations: judged by leave-one-configuration-out cross-valida
   CHECK_THAT(v.refusal, Catch::StartsWith("only 8 configurations, and at least 10 are needed"));
 }
 
-TEST_CASE("small sets: the cross-validated judge takes any items grouped by configuration (camera views)", "[small-sets]") {
+TEST_CASE("small sets: the cross-validated judge takes any items grouped by configuration (camera views)", "[heldout][small]") {
   // 24 items in 12 configurations (each twice, as a repeated row): the predictor sees every configuration held out
   // once, whole, and a reference named by the caller is the one the sentences name.
   std::vector<int> configuration;
