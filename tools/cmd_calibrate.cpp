@@ -24,13 +24,15 @@ void printImageViews(const workflow::ImageCalibrateResult& r, const std::string&
   for (const std::string& w : r.warnings) std::fprintf(stderr, "orbcal: calibrate: warning: %s\n", w.c_str());
   std::printf("%zu images, board found in %d (%d configurations); %s\n", r.views.size(), r.used, r.configurations,
               sim::handEyeSetupName(r.setup));
-  if (r.fit.corners > 0) {
+  if (r.fit.corners > 0 && r.cross_validated) {
     const Eigen::Vector3d t = r.hand_T_eye.translation() * 1e3;
     std::printf("%s: [%.2f, %.2f, %.2f] mm (1-sigma per axis at most %.2f mm, %.3f deg)\n",
                 r.setup == sim::HandEyeSetup::kEyeInHand ? "flange_T_camera" : "flange_T_board", t.x(), t.y(), t.z(),
                 r.hand_sigma.head<3>().maxCoeff() * 1e3, r.hand_sigma.tail<3>().maxCoeff() * sim::kRadToDeg);
-    std::printf("cross-validated per-view residual RMS: %.3f px, %.3f mm (fitted %.3f px, %.3f mm; detection noise %.3f px)\n",
-                r.heldout_rms_px, r.heldout_rms_mm, r.fitted_rms_px, r.fitted_rms_mm, r.detection_sigma_px);
+    std::printf("cross-validated per-view residual RMS: %.3f px, %.3f mm (closed form %.3f px, %.3f mm; fitted %.3f px, %.3f mm; "
+                "detection noise %.3f px)\n",
+                r.heldout_rms_px, r.heldout_rms_mm, r.heldout_start_rms_px, r.heldout_start_rms_mm, r.fitted_rms_px, r.fitted_rms_mm,
+                r.detection_sigma_px);
   }
   if (!r.frames_path.empty()) std::printf("frames: %s\n", r.frames_path.c_str());
   std::printf("report: %s\n", r.report_path.c_str());

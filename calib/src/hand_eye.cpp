@@ -5,7 +5,6 @@
 #include <cmath>
 #include <stdexcept>
 
-#include "orbcal/calib/heldout_groups.hpp"
 #include "orbcal/calib/registration.hpp"
 
 namespace orbcal::calib {
@@ -144,22 +143,36 @@ HandEyeCrossValidation crossValidateHandEye(const std::vector<HandEyeView>& view
                                             sim::HandEyeSetup setup, const HandEyeFit& full) {
   HandEyeCrossValidation cv;
   cv.heldout.resize(views.size());
+  cv.heldout_start.resize(views.size());
   const std::vector<int> group = viewConfigurations(views);
-  const int groups = group.empty() ? 0 : *std::max_element(group.begin(), group.end()) + 1;
-  std::vector<HandEyeFrames> refits(static_cast<std::size_t>(groups));
-  cv.configurations = leaveOneGroupOut(group, [&](const std::vector<int>& train, const std::vector<int>& held) {
+  cv.configurations = group.empty() ? 0 : *std::max_element(group.begin(), group.end()) + 1;
+  std::vector<HandEyeFrames> refits(static_cast<std::size_t>(cv.configurations));
+  const auto distance = [](const ViewResidual& r) { return Eigen::VectorXd::Constant(1, r.rms_m); };
+  // Each fold writes only its own views' and configuration's entries: the folds run in parallel.
+  const FoldPredictor predict = [&](const std::vector<int>& train, const std::vector<int>& held) {
     std::vector<HandEyeView> fitted;
     for (int k : train) fitted.push_back(views[static_cast<std::size_t>(k)]);
-    HandEyeFrames start = full.frames;  // where the closed form fails on the fold's views (degenerate without the one held out)
+    // Where the closed form fails on the fold's views (degenerate without the one held out), the full fit stands in
+    // for it: a reference that saw the view held out only makes the corner fit's gain harder to show.
+    HandEyeFrames start = full.frames;
     try {
       start = closedFormHandEye(fitted, setup);
     } catch (const std::invalid_argument&) {
     }
     const HandEyeFit fold = fitHandEyeCorners(views, camera, board, setup, start, train);
-    for (int k : held) cv.heldout[static_cast<std::size_t>(k)] = viewResidual(views[static_cast<std::size_t>(k)], fold.frames, camera, board, setup);
+    FoldPrediction out;
+    for (int k : held) {
+      const auto i = static_cast<std::size_t>(k);
+      cv.heldout_start[i] = viewResidual(views[i], start, camera, board, setup);
+      cv.heldout[i] = viewResidual(views[i], fold.frames, camera, board, setup);
+      out.before.push_back(distance(cv.heldout_start[i]));
+      out.after.push_back(distance(cv.heldout[i]));
+    }
     refits[static_cast<std::size_t>(group[static_cast<std::size_t>(held.front())])] = fold.frames;
-  });
-  if (groups >= 2) cv.refits = refits;
+    return out;
+  };
+  cv.verdict = crossValidatedVerdict(group, predict, "the closed form (each view's own board pose)");
+  if (cv.configurations >= kMinHeldoutConfigurations) cv.refits = refits;  // the folds ran
   return cv;
 }
 

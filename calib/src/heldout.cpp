@@ -25,13 +25,15 @@ bool sameConfiguration(const sim::JointSample& a, const sim::JointSample& b) {
          (a.q_rad.size() == 0 || (a.q_rad - b.q_rad).cwiseAbs().maxCoeff() <= kSameConfigurationRad);
 }
 
-/// Position loss |r_pos|^2 (m^2) of each configuration (configurationGroups' order), averaged over its rows.
-std::vector<double> configurationLoss(const std::map<std::vector<long long>, std::vector<int>>& groups,
-                                      const std::vector<Eigen::VectorXd>& residual) {
+/// An item's position loss (m^2): its residual's position part, or a camera view's RMS corner distance.
+double positionLoss(const Eigen::VectorXd& r) { return r.head(std::min<Eigen::Index>(3, r.size())).squaredNorm(); }
+
+/// Position loss of each configuration (`groups`' order), averaged over its rows.
+std::vector<double> configurationLoss(const std::vector<std::vector<int>>& groups, const std::vector<Eigen::VectorXd>& residual) {
   std::vector<double> loss;
-  for (const auto& [key, members] : groups) {
+  for (const std::vector<int>& members : groups) {
     double sum = 0.0;
-    for (int i : members) sum += residual[static_cast<std::size_t>(i)].head<3>().squaredNorm();
+    for (int i : members) sum += positionLoss(residual[static_cast<std::size_t>(i)]);
     loss.push_back(sum / static_cast<double>(members.size()));
   }
   return loss;
@@ -39,8 +41,15 @@ std::vector<double> configurationLoss(const std::map<std::vector<long long>, std
 
 double positionRms(const std::vector<Eigen::VectorXd>& residual) {
   double sum = 0.0;
-  for (const Eigen::VectorXd& r : residual) sum += r.head<3>().squaredNorm();
+  for (const Eigen::VectorXd& r : residual) sum += positionLoss(r);
   return residual.empty() ? 0.0 : std::sqrt(sum / static_cast<double>(residual.size()));
+}
+
+/// The members of each configuration of `obs`, configurationGroups' order.
+std::vector<std::vector<int>> groupMembers(const std::vector<MarkerObservation>& obs) {
+  std::vector<std::vector<int>> out;
+  for (auto& [key, members] : configurationGroups(obs)) out.push_back(members);
+  return out;
 }
 
 }  // namespace
@@ -149,7 +158,7 @@ CrossValidation crossValidateFits(const std::vector<MarkerObservation>& obs, con
 
 std::vector<double> configurationLosses(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& residual) {
   if (residual.size() != obs.size()) throw std::invalid_argument("configurationLosses: one residual per observation expected");
-  return configurationLoss(configurationGroups(obs), residual);
+  return configurationLoss(groupMembers(obs), residual);
 }
 
 HeldoutGain heldoutGain(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& before,
@@ -157,8 +166,12 @@ HeldoutGain heldoutGain(const std::vector<MarkerObservation>& obs, const std::ve
   if (before.size() != obs.size() || after.size() != obs.size()) {
     throw std::invalid_argument("heldoutGain: one residual per observation expected");
   }
+  return heldoutGain(groupMembers(obs), before, after);
+}
+
+HeldoutGain heldoutGain(const std::vector<std::vector<int>>& groups, const std::vector<Eigen::VectorXd>& before,
+                        const std::vector<Eigen::VectorXd>& after) {
   HeldoutGain g;
-  const auto groups = configurationGroups(obs);
   const std::vector<double> lb = configurationLoss(groups, before), la = configurationLoss(groups, after);
   g.configurations = static_cast<int>(groups.size());
   g.before_rms_m = positionRms(before);
@@ -235,7 +248,7 @@ std::string formatHeldoutGain(const HeldoutGain& g) {
          (g.cross_validated ? " configurations, each predicted once by a fit that never saw it (leave-one-configuration-out "
                               "cross-validation; the set is too small to hold " + std::to_string(kMinHeldoutConfigurations) + " out)"
                             : std::string(" held-out configurations")) +
-         "; the gain over the nominal arm, one-sided paired test of their squared position errors: t = " +
+         "; the gain over " + g.reference + ", one-sided paired test of their squared position errors: t = " +
          formatNumber("%.2f", g.t) + ", p = " + formatNumber("%.2g", g.p_value) + " (accepted at p < " +
          formatNumber("%g", kHeldoutGainAlpha) + " with at least " + std::to_string(kMinHeldoutConfigurations) + " configurations)";
 }
@@ -250,7 +263,7 @@ HeldoutVerdict verdictOf(const HeldoutGain& gain, bool worse, std::optional<doub
   if (v.worse && v.gain.enough) {
     v.refusal = "the calibrated model predicts the " + std::to_string(v.gain.configurations) +
                 (v.gain.cross_validated ? " configurations, each by a fit without it," : " held-out configurations") +
-                " worse than the nominal arm (position RMS " + formatNumber("%.4f", v.gain.before_rms_m * 1e3) + " -> " +
+                " worse than " + v.gain.reference + " (position RMS " + formatNumber("%.4f", v.gain.before_rms_m * 1e3) + " -> " +
                 formatNumber("%.4f", v.gain.after_rms_m * 1e3) + " mm)";
   } else {
     v.refusal = heldoutRefusal(v.gain, holdout, total);
@@ -272,20 +285,38 @@ bool judgeByCrossValidation(int configurations, std::optional<double> holdout) {
 
 HeldoutVerdict crossValidatedVerdict(const std::vector<MarkerObservation>& obs, const FoldPredictor& predict,
                                      std::vector<Eigen::VectorXd>* before_out, std::vector<Eigen::VectorXd>* after_out) {
-  const auto groups = configurationGroups(obs);
+  std::vector<int> configuration(obs.size(), 0);
+  int g = 0;
+  for (const std::vector<int>& members : groupMembers(obs)) {
+    for (int i : members) configuration[static_cast<std::size_t>(i)] = g;
+    ++g;
+  }
+  return crossValidatedVerdict(configuration, predict, HeldoutGain{}.reference, before_out, after_out);
+}
+
+HeldoutVerdict crossValidatedVerdict(const std::vector<int>& configuration, const FoldPredictor& predict, const std::string& reference,
+                                     std::vector<Eigen::VectorXd>* before_out, std::vector<Eigen::VectorXd>* after_out) {
+  std::vector<std::vector<int>> groups;
+  for (std::size_t i = 0; i < configuration.size(); ++i) {
+    if (configuration[i] < 0) throw std::invalid_argument("crossValidatedVerdict: a negative configuration");
+    const auto c = static_cast<std::size_t>(configuration[i]);
+    if (groups.size() <= c) groups.resize(c + 1);
+    groups[c].push_back(static_cast<int>(i));
+  }
   const int total = static_cast<int>(groups.size());
-  std::vector<Eigen::VectorXd> before(obs.size()), after(obs.size());
+  std::vector<Eigen::VectorXd> before(configuration.size()), after(configuration.size());
   if (total < kMinHeldoutConfigurations) {
     HeldoutGain g;
+    g.reference = reference;
     g.configurations = total;
     g.cross_validated = true;
     return verdictOf(g, false, std::nullopt, total);
   }
   std::vector<std::pair<std::vector<int>, std::future<FoldPrediction>>> jobs;
-  for (const auto& [key, members] : groups) {
-    std::vector<int> test = members, train;
-    std::sort(test.begin(), test.end());
-    for (int i = 0; i < static_cast<int>(obs.size()); ++i) {
+  for (const std::vector<int>& test : groups) {
+    if (test.empty()) throw std::invalid_argument("crossValidatedVerdict: configurations must be numbered 0..G-1");
+    std::vector<int> train;
+    for (int i = 0; i < static_cast<int>(configuration.size()); ++i) {
       if (!std::binary_search(test.begin(), test.end(), i)) train.push_back(i);
     }
     jobs.emplace_back(test, std::async(std::launch::async, [&predict, train, test] { return predict(train, test); }));
@@ -300,7 +331,8 @@ HeldoutVerdict crossValidatedVerdict(const std::vector<MarkerObservation>& obs, 
       after[static_cast<std::size_t>(test[t])] = std::move(f.after[t]);
     }
   }
-  HeldoutGain gain = heldoutGain(obs, before, after);
+  HeldoutGain gain = heldoutGain(groups, before, after);
+  gain.reference = reference;
   gain.cross_validated = true;
   const bool worse = gain.after_rms_m > gain.before_rms_m;
   if (before_out) *before_out = std::move(before);

@@ -7,7 +7,11 @@
 // seeded truth, which the new postures are measured from.
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <algorithm>
 #include <map>
+#include <mutex>
+#include <numeric>
+#include <random>
 
 #include "orbcal/calib/heldout.hpp"
 #include "orbcal/calib/levels.hpp"
@@ -162,4 +166,50 @@ TEST_CASE("12 configurations: judged by leave-one-configuration-out cross-valida
                                                                  return {};
                                                                });
   CHECK_THAT(v.refusal, Catch::StartsWith("only 8 configurations, and at least 10 are needed"));
+}
+
+TEST_CASE("small sets: the cross-validated judge takes any items grouped by configuration (camera views)", "[heldout][small]") {
+  // 24 items in 12 configurations (each twice, as a repeated row): the predictor sees every configuration held out
+  // once, whole, and a reference named by the caller is the one the sentences name.
+  std::vector<int> configuration;
+  for (int g = 0; g < 12; ++g) configuration.insert(configuration.end(), {g, g});
+  std::mt19937_64 rng(29);
+  std::normal_distribution<double> noise(0.0, 0.1e-3);
+  std::vector<double> start_m(24), fit_m(24);  // a view's RMS corner distance under each model (m)
+  for (int i = 0; i < 24; ++i) {
+    start_m[static_cast<std::size_t>(i)] = 2e-3 + std::abs(noise(rng));
+    fit_m[static_cast<std::size_t>(i)] = 1e-3 + std::abs(noise(rng));
+  }
+  std::mutex m;
+  std::vector<int> held_count(24, 0);
+  const auto predictor = [&](const std::vector<double>& before, const std::vector<double>& after) {
+    return [&, before, after](const std::vector<int>& train, const std::vector<int>& test) {
+      CHECK(train.size() + test.size() == 24);
+      calib::FoldPrediction out;
+      for (int i : test) {
+        std::lock_guard<std::mutex> lock(m);
+        CHECK(configuration[static_cast<std::size_t>(i)] == configuration[static_cast<std::size_t>(test.front())]);
+        ++held_count[static_cast<std::size_t>(i)];
+        out.before.push_back(Eigen::VectorXd::Constant(1, before[static_cast<std::size_t>(i)]));
+        out.after.push_back(Eigen::VectorXd::Constant(1, after[static_cast<std::size_t>(i)]));
+      }
+      return out;
+    };
+  };
+  std::vector<Eigen::VectorXd> after;
+  const calib::HeldoutVerdict better = calib::crossValidatedVerdict(configuration, predictor(start_m, fit_m), "the closed form", nullptr, &after);
+  CHECK(std::all_of(held_count.begin(), held_count.end(), [](int c) { return c == 1; }));
+  CHECK(better.gain.configurations == 12);
+  CHECK(better.gain.significant);
+  CHECK(better.refusal.empty());
+  CHECK(after.size() == 24);
+  CHECK(better.gain.after_rms_m == Approx(std::sqrt(std::inner_product(fit_m.begin(), fit_m.end(), fit_m.begin(), 0.0) / 24.0)));
+  // The fit predicting worse than its reference is refused as such, naming the reference.
+  const calib::HeldoutVerdict worse = calib::crossValidatedVerdict(configuration, predictor(fit_m, start_m), "the closed form");
+  CHECK(worse.worse);
+  CHECK_THAT(worse.refusal, Catch::Contains("worse than the closed form"));
+  // 9 configurations: refused unfitted.
+  const calib::HeldoutVerdict few = calib::crossValidatedVerdict(std::vector<int>(configuration.begin(), configuration.begin() + 18),
+                                                                 predictor(start_m, fit_m), "the closed form");
+  CHECK_THAT(few.refusal, Catch::StartsWith("only 9 configurations, and at least 10 are needed"));
 }

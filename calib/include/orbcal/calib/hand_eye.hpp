@@ -23,6 +23,7 @@
 #include <string>
 #include <vector>
 
+#include "orbcal/calib/heldout.hpp"
 #include "orbcal/sim/image_views.hpp"
 #include "orbcal/sim/scene.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -77,12 +78,19 @@ ViewResidual viewResidual(const HandEyeView& view, const HandEyeFrames& frames, 
 /// repeated in the file), numbered from 0 in the order of their first view.
 std::vector<int> viewConfigurations(const std::vector<HandEyeView>& views);
 
-/// Leave-one-configuration-out cross-validation of the corner fit (calib/heldout_groups.hpp): per view
-/// its residual under the fit without its configuration, and each refit's frames (for the jackknife).
+/// Leave-one-configuration-out cross-validation of the corner fit, judged by the one judge of small
+/// sets (calib::crossValidatedVerdict, calib/heldout.hpp, as measured data): every configuration is
+/// predicted by the closed form and by the corner fit, both fitted to the other configurations; the
+/// corner fit is accepted when it predicts them better than the closed form, significantly, over at
+/// least kMinHeldoutConfigurations configurations (a view's loss: its squared RMS corner distance).
+/// Per view its residuals under both fold fits, and each refit's frames (for the jackknife); with fewer
+/// configurations nothing is fitted (the verdict says so).
 struct HandEyeCrossValidation {
-  std::vector<ViewResidual> heldout;   ///< per view
+  std::vector<ViewResidual> heldout;        ///< per view: the corner fit without its configuration
+  std::vector<ViewResidual> heldout_start;  ///< per view: that fold's closed form
   int configurations = 0;
-  std::vector<HandEyeFrames> refits;   ///< one per configuration held out
+  std::vector<HandEyeFrames> refits;        ///< one per configuration held out
+  HeldoutVerdict verdict;
 };
 HandEyeCrossValidation crossValidateHandEye(const std::vector<HandEyeView>& views, const sim::Camera& camera, const sim::Board& board,
                                             sim::HandEyeSetup setup, const HandEyeFit& full);

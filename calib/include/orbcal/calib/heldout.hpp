@@ -89,7 +89,10 @@ CrossValidation crossValidateFits(const std::vector<MarkerObservation>& obs, con
 std::vector<double> configurationLosses(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& residual);
 
 /// The held-out gain of a calibrated model over the nominal arm (registration fitted) and its test.
+/// Camera views (calib/hand_eye.hpp) are judged by the same test: the corner fit against the closed form
+/// it starts from, each view's residual its RMS corner distance (a 1-vector, m).
 struct HeldoutGain {
+  std::string reference = "the nominal arm";  ///< what the calibrated model is compared with, for the sentences
   int configurations = 0;          ///< held out (cross-validated: all, each predicted once)
   bool cross_validated = false;    ///< by crossValidatedVerdict: every configuration predicted by a fit without it
   double before_rms_m = 0.0;       ///< position RMS over the held-out rows: nominal arm
@@ -103,6 +106,10 @@ struct HeldoutGain {
 /// The test above on held-out observations `obs` and their residuals ([position; rotation] or
 /// [position]) under the nominal arm (`before`) and the calibrated model (`after`).
 HeldoutGain heldoutGain(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& before,
+                        const std::vector<Eigen::VectorXd>& after);
+/// The same on items grouped by configuration (`groups`: the items of each, indices into before / after);
+/// an item's loss is the squared norm of its residual's first (up to) 3 components (m^2).
+HeldoutGain heldoutGain(const std::vector<std::vector<int>>& groups, const std::vector<Eigen::VectorXd>& before,
                         const std::vector<Eigen::VectorXd>& after);
 
 /// Why a gain is not accepted, one sentence a user can act on ("only 3 configurations held out, ...");
@@ -150,6 +157,11 @@ using FoldPredictor = std::function<FoldPrediction(const std::vector<int>& train
 /// cross-validation cannot justify them either. `before` and `after` (when given) get every
 /// observation's cross-validated residuals.
 HeldoutVerdict crossValidatedVerdict(const std::vector<MarkerObservation>& obs, const FoldPredictor& predict,
+                                     std::vector<Eigen::VectorXd>* before = nullptr, std::vector<Eigen::VectorXd>* after = nullptr);
+/// The same judge on any items (measured observations above; camera views, calib/hand_eye.hpp), grouped
+/// by `configuration` (each item's, 0..G-1): every configuration held out once, the folds in parallel.
+/// `reference`: what `before` predicts with, named in the sentences ("the nominal arm").
+HeldoutVerdict crossValidatedVerdict(const std::vector<int>& configuration, const FoldPredictor& predict, const std::string& reference,
                                      std::vector<Eigen::VectorXd>* before = nullptr, std::vector<Eigen::VectorXd>* after = nullptr);
 
 }  // namespace orbcal::calib

@@ -2,7 +2,8 @@
 // `orbcal calibrate DESCRIPTION.yaml` on a description of real images (sim/image_views.hpp): the board
 // detected in every image (what a capture tool drew masked as the description says), the hand-eye and
 // board frames from a closed-form start and the corner-level fit (calib/hand_eye.hpp), judged by
-// leave-one-configuration-out cross-validation (10 to 30 views are too few to hold out a fifth), and
+// leave-one-configuration-out cross-validation (10 to 30 views are too few to hold out a fifth; the judge
+// and refusal rule of small measured sets, calib::crossValidatedVerdict), and
 // written as frames.yaml (the two frames with their jackknife 1-sigma), views.csv (per view: the
 // detection, the fitted and the cross-validated residuals in px and mm) and report.md.
 //
@@ -12,6 +13,7 @@
 
 #include "orbcal/calib/hand_eye.hpp"
 #include "orbcal/sim/image_views.hpp"
+#include "orbcal/vision/real_views.hpp"
 #include "orbcal/workflow/measured.hpp"
 
 namespace orbcal::workflow {
@@ -47,14 +49,27 @@ struct ImageCalibrateResult {
   /// base_T_camera. Their jackknife 1-sigma (calib::jackknifeSigma).
   Eigen::Isometry3d hand_T_eye = Eigen::Isometry3d::Identity(), base_T_other = Eigen::Isometry3d::Identity();
   sim::Vector6d hand_sigma = sim::Vector6d::Zero(), base_sigma = sim::Vector6d::Zero();
-  /// RMS over the used views of the cross-validated (held-out) and fitted residuals, and the median
-  /// PnP noise (the detection's, known independently of the chain).
-  double heldout_rms_px = 0.0, heldout_rms_mm = 0.0, fitted_rms_px = 0.0, fitted_rms_mm = 0.0, detection_sigma_px = 0.0;
+  /// RMS over the used views of the cross-validated (held-out) residuals of the corner fit and of the
+  /// closed form (each fitted without the view's configuration), of the fitted residuals, and the median
+  /// PnP noise (the detection's, known independently of the chain). Held-out figures only where
+  /// cross_validated (at least calib::kMinHeldoutConfigurations configurations).
+  bool cross_validated = false;
+  double heldout_rms_px = 0.0, heldout_rms_mm = 0.0, heldout_start_rms_px = 0.0, heldout_start_rms_mm = 0.0;
+  double fitted_rms_px = 0.0, fitted_rms_mm = 0.0, detection_sigma_px = 0.0;
   std::vector<std::string> warnings;     ///< re-orthonormalised poses, ...
   std::vector<std::string> refusals;     ///< empty: accepted
   double seconds = 0.0;                  ///< wall time of detection + fit + cross-validation
   std::string frames_path, views_path, report_path;
+  std::vector<vision::ViewMeasurement> detections;  ///< per row, by runImageCalibrate (calibrateImageViews takes them again)
 };
+
+/// The board detected in every row of `data` (2 images at a time: images are large); a mask that
+/// cannot be read: InputError naming the row.
+std::vector<vision::ViewMeasurement> detectImageViews(const sim::ImageViews& data);
+
+/// The fit and its judgement on the detections of the rows of `data` (one per row): runImageCalibrate
+/// without reading images or writing files (`seconds`, the paths and `detections` left empty).
+ImageCalibrateResult calibrateImageViews(const sim::ImageViews& data, const std::vector<vision::ViewMeasurement>& detections);
 
 /// The whole run: read, detect, fit, cross-validate, write (into o.out, default <description's
 /// folder>/calibration). o.level must be auto or frames (no robot parameters are fitted from images
