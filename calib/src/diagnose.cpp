@@ -226,9 +226,6 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
   const int folds = std::max(2, o.folds);
   const int replicated = pureError(obs, std::vector<Eigen::VectorXd>(obs.size(), Eigen::VectorXd::Zero(3))).replicated;
   chooseJointFloor(out.noise, replicated);
-  // The floor is stated (not estimated from these residuals) when the tracker's noise (or each sample's
-  // covariance) is given and the joint readings' part is too, or not needed beside the repeats' scatter.
-  const auto tested_stated = [&] { return out.noise.tracker_stated && out.noise.joint_source != "pure error"; };
 
   CvResult cv_base = d.crossValidate({});
   out.cv_base = cv_base.sse;
@@ -240,7 +237,7 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
   ModelSelection sel{{}, cv_base, out.base_fit, 0};
   forwardSelect(d, data, obs, o, d.catalog(), sel, out);
   if (o.empirical && sel.steps < o.max_effects &&
-      lackOfFit(data, obs, sel.fit, floorNoise(out.noise), sel.cv.residual, tested_stated(), folds, o.alpha).left()) {
+      lackOfFit(data, obs, sel.fit, floorNoise(out.noise), sel.cv.residual, out.noise.floorStated(), folds, o.alpha).left()) {
     forwardSelect(d, data, obs, o, empiricalCandidates(data, obs, o.max_order), sel, out);
   }
   backwardEliminate(d, data, o, out.base_fit, sel);

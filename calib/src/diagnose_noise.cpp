@@ -246,9 +246,8 @@ void judgeAgainstFloor(const sim::MeasuredData& data, const std::vector<MarkerOb
     out.noise.joint_estimate_rad = f.noise.joint_noise_sigma_rad;
     chooseJointFloor(out.noise, replicated);
   }
-  const bool tested_stated = out.noise.tracker_stated && out.noise.joint_source != "pure error";
   // Lack of fit of the selected model (the base model when nothing is selected), against the floor.
-  out.lack_of_fit = lackOfFit(data, obs, out.fit, floorNoise(out.noise), out.residual_selected, tested_stated, folds, o.alpha);
+  out.lack_of_fit = lackOfFit(data, obs, out.fit, floorNoise(out.noise), out.residual_selected, out.noise.floorStated(), folds, o.alpha);
   measureFloors(out.noise, out.fit, obs, out.residual_selected, folds);
   if (out.lack_of_fit.source == NoiseSource::kResiduals) {
     out.noise.verdict_depends_on_noise = !out.lack_of_fit.left();

@@ -123,6 +123,10 @@ struct NoiseFloors {
   /// the residuals measures the noise (no stated noise, no repeats): the verdict says so, with the plan.
   bool verdict_depends_on_noise = false;
   int duplicates_dropped = 0;  ///< rows that repeat another row exactly (readings and measurement): counted once
+  /// The verdict's floor is stated, not estimated from the residuals it judges: the tracker's noise (or
+  /// each sample's covariance) is given, and the joint readings' part is too or, beside repeated
+  /// configurations, not needed (then their scatter, pure error, judges instead).
+  bool floorStated() const { return tracker_stated && joint_source != "pure error"; }
 };
 
 struct Diagnosis {
