@@ -159,7 +159,7 @@ void forwardSelect(const Diagnoser& d, const sim::MeasuredData& data, const std:
 }
 
 /// Backward elimination: every selected effect must keep earning its place.
-void backwardEliminate(const Diagnoser& d, const sim::MeasuredData& data, const DiagnoseOptions& o, const Fit& base_fit,
+void backwardEliminate(const Diagnoser& d, const DiagnoseOptions& o, const Fit& base_fit,
                        ModelSelection& sel) {
   std::vector<Effect>& selected = sel.effects;
   CvResult& cv_current = sel.cv;
@@ -170,9 +170,7 @@ void backwardEliminate(const Diagnoser& d, const sim::MeasuredData& data, const 
       std::vector<Effect> without = selected;
       without.erase(without.begin() + static_cast<std::ptrdiff_t>(i));
       CvResult cv = d.crossValidate(without);
-      int params = 0;
-      for (const sim::ParamBlock& b : sim::effectBlocks(selected[i], data.arm, data.numSessions())) params += b.size();
-      if (cv.sse - cv_current.sse < o.penalty_per_param * params) {
+      if (cv.sse - cv_current.sse < o.penalty_per_param * d.paramCount(selected[i])) {
         selected = without;
         cv_current = std::move(cv);
         current_fit = selected.empty() ? base_fit : d.fitAll(selected);
@@ -240,7 +238,7 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
       lackOfFit(data, obs, sel.fit, floorNoise(out.noise), sel.cv.residual, out.noise.floorStated(), folds, o.alpha).left()) {
     forwardSelect(d, data, obs, o, empiricalCandidates(data, obs, o.max_order), sel, out);
   }
-  backwardEliminate(d, data, o, out.base_fit, sel);
+  backwardEliminate(d, o, out.base_fit, sel);
 
   out.selected = sel.effects;
   // The fit of `selected` on all the data (kept current by both passes). Its geometry is not held to

@@ -288,7 +288,6 @@ class Diagnoser {
                           const Fit& current_fit, const std::vector<std::string>& extremes) const {
     const sim::EffectKind& kind = chosen.kind();
     if (kind.maxOrder() == 0) return {chosen, cv};
-    const auto params = [&](const sim::Effect& e) { return paramCount(e); };
     std::vector<OrderChoice> orders;
     for (int k = 1; k <= std::min(kind.maxOrder(), std::max(o_.max_order, chosen.order())); ++k) {
       if (k == chosen.order()) {
@@ -307,9 +306,7 @@ class Diagnoser {
     }
     std::size_t best = 0;
     for (std::size_t k = 1; k < orders.size(); ++k) {
-      const double extra = o_.penalty_per_param * (params(orders[k].effect) - params(orders[best].effect));
-      const bool edges = extremes.empty() || orders[best].cv.extremesSse() - orders[k].cv.extremesSse() > extra;
-      if (orders[best].cv.sse - orders[k].cv.sse > extra && edges) best = k;
+      if (earns(orders[best], orders[k], !extremes.empty())) best = k;
     }
     return orders[best];
   }
@@ -340,10 +337,17 @@ class Diagnoser {
     std::vector<sim::Effect> trial = selected;
     trial.push_back(pooled);
     OrderChoice p{pooled, crossValidate(trial, &current_fit, extremes)};
-    const double extra = o_.penalty_per_param * (paramCount(pooled) - paramCount(c));
-    const bool edges = extremes.empty() || chosen.cv.extremesSse() - p.cv.extremesSse() > extra;
-    if (chosen.cv.sse - p.cv.sse > extra && edges) return p;
+    if (earns(chosen, p, !extremes.empty())) return p;
     return std::nullopt;
+  }
+
+  /// `to` replaces `from` (a higher order, pooled joints): it lowers the held-out whitened SSE by more
+  /// than the penalty for its extra parameters on the random folds and, with `extremes`, also with the
+  /// extremes of the driving variables held out.
+  bool earns(const OrderChoice& from, const OrderChoice& to, bool extremes) const {
+    const double extra = o_.penalty_per_param * (paramCount(to.effect) - paramCount(from.effect));
+    const bool edges = !extremes || from.cv.extremesSse() - to.cv.extremesSse() > extra;
+    return from.cv.sse - to.cv.sse > extra && edges;
   }
 
   int paramCount(const sim::Effect& e) const {
