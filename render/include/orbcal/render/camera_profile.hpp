@@ -1,0 +1,100 @@
+#pragma once
+// A camera profile: what a real camera and a real printed board add to a clean render, as fitted from
+// real images against their rendered twins (workflow `orbcal twin`) and applied by `orbcal render
+// --profile`. Every part is optional; a default-constructed profile is the identity (the render as it
+// is). Models (docs/rendered-datasets-and-images.md, "Camera profile"):
+//   - tone: the camera response, out = black + (white - black) * (in / 255)^(1 / gamma), in DN (8-bit);
+//     gamma 1 with black 0 and white 255 is the identity (Grossberg and Nayar 2004 for the response curve);
+//   - vignetting: radiance times 1 + a2 r^2 + a4 r^4 + a6 r^6 before the tone curve, r the distance to
+//     the principal point over the half diagonal of the image (Goldman 2010; Kang and Weiss 2000);
+//   - blur: an extra Gaussian point spread function of sigma blur_sigma_px;
+//   - sharpening: an unsharp mask out = img + amount (img - G_sigma(img)) after the blur;
+//   - noise: Poisson-Gaussian, variance [DN^2] = a * value [DN] + b, drawn after the tone curve
+//     (Foi et al. 2008), then rounding to 8 bits;
+//   - background: where the board and meshes do not cover the image, a mean level [DN] with a spatial
+//     texture of standard deviation texture_dn and correlation length texture_scale_px (a wood table and
+//     clutter are not modelled one by one: their level and spread are);
+//   - board: the printed sheet as it is, not as designed: a print scale per axis (1 = exact), a bow
+//     (sagitta over the board's half diagonal, along the printed face's normal), and a repeatable
+//     displacement per inner-corner id in the board plane (Strobl and Hirzinger 2011).
+// Units: DN for grey levels (8-bit), pixels for image lengths, metres inside the code for the board
+// (millimetres in camera_profile.yaml, labelled `_mm`).
+#include <Eigen/Core>
+#include <map>
+#include <optional>
+#include <random>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "orbcal/sim/scene.hpp"
+
+namespace orbcal::render {
+
+struct ToneCurve {
+  double black_dn = 0.0;
+  double white_dn = 255.0;
+  double gamma = 1.0;
+  bool identity() const { return black_dn == 0.0 && white_dn == 255.0 && gamma == 1.0; }
+};
+
+struct Vignetting {
+  double a2 = 0.0, a4 = 0.0, a6 = 0.0;  ///< 1 + a2 r^2 + a4 r^4 + a6 r^6, r in half diagonals
+  bool identity() const { return a2 == 0.0 && a4 == 0.0 && a6 == 0.0; }
+};
+
+struct SignalNoise {
+  double a_dn = 0.0;    ///< variance per DN of signal [DN]
+  double b_dn2 = 0.0;   ///< variance at zero signal [DN^2]
+  bool identity() const { return a_dn == 0.0 && b_dn2 == 0.0; }
+};
+
+struct Sharpening {
+  double amount = 0.0;     ///< unsharp-mask gain k (0 = off)
+  double sigma_px = 1.0;   ///< the mask's Gaussian
+  bool identity() const { return amount == 0.0; }
+};
+
+struct Background {
+  std::optional<double> mean_dn;   ///< absent: the render's own background
+  double texture_dn = 0.0;         ///< spatial standard deviation [DN]
+  double texture_scale_px = 8.0;   ///< correlation length of the texture [px]
+};
+
+struct BoardPrint {
+  double scale_x = 1.0, scale_y = 1.0;   ///< printed / designed length along the board's x and y
+  double bow_m = 0.0;                    ///< sagitta at the half diagonal, along the face normal [m]
+  std::map<int, Eigen::Vector2d> corner_displacement_m;  ///< inner-corner id -> (dx, dy) in the board plane [m]
+  bool identity() const {
+    return scale_x == 1.0 && scale_y == 1.0 && bow_m == 0.0 && corner_displacement_m.empty();
+  }
+};
+
+struct CameraProfile {
+  std::string source;   ///< the file it was read from (messages), or "fitted by orbcal twin"
+  ToneCurve tone;
+  Vignetting vignetting;
+  double blur_sigma_px = 0.0;
+  Sharpening sharpening;
+  SignalNoise noise;
+  Background background;
+  BoardPrint board;
+  bool identity() const;
+};
+
+/// Reads camera_profile.yaml (format: orbcal-camera-profile-1). Misspelt keys, NaN, gamma <= 0,
+/// white <= black, negative noise or blur, scales outside [0.9, 1.1] or bows beyond 5% of the board's
+/// half diagonal: sim::InputError naming the file and the key.
+CameraProfile loadCameraProfile(const std::string& path);
+/// Writes it atomically (a temporary file renamed), millimetres and DN labelled in the keys.
+void saveCameraProfile(const CameraProfile& profile, const std::string& path);
+
+/// The image part of the profile applied to a clean render (CV_8UC1, values = linear radiance in DN):
+/// vignetting (about camera's principal point), tone curve, blur, sharpening, background (where
+/// `covered` is zero; `covered` is CV_8UC1 of the image's size, or empty for "everything covered"),
+/// noise, rounding. Randomness only from `rng`. The board part (print, bow, displacements) is geometry:
+/// the renderer draws it (BoardRenderer with a profile).
+cv::Mat applyCameraProfile(const cv::Mat& clean, const cv::Mat& covered, const CameraProfile& profile,
+                           const sim::Camera& camera, std::mt19937_64& rng);
+
+}  // namespace orbcal::render
