@@ -49,7 +49,7 @@ void printOpenWorldHelp(std::ostream& os) {
         "  --joint-noise stated|unstated  whether the description states it (default stated)\n"
         "  --repeats N     measurements of each configuration (default 1)\n"
         "Tracker noise 0.1 mm and 0.01 deg per axis, stated in each dataset. Progress on stderr, the table\n"
-        "on stdout.\n";
+        "on stdout; each unexplained verdict's sentence with its progress line.\n";
 }
 
 std::vector<std::string> splitList(const std::string& s) {
@@ -187,8 +187,9 @@ int benchOpenWorld(int argc, char** argv) {
                       selected.c_str(), heldout_mm, base_mm, noise3d_mm, heldout_mm / noise3d_mm, dg.heldout.noise_position_rms_m * 1e3,
                       dg.noise.joint_source.c_str(), dg.noise.joint_estimate_rad * sim::kRadToDeg, seconds);
           std::fflush(stdout);
-          std::fprintf(stderr, "open-world [%d/%d] %s %s SNR %g seed %llu: %s (%.1f s)\n", ++done, total, cause.c_str(),
-                       robot.c_str(), snr, static_cast<unsigned long long>(spec.seed), verdict.c_str(), seconds);
+          std::fprintf(stderr, "open-world [%d/%d] %s %s SNR %g seed %llu: %s (%.1f s)%s%s\n", ++done, total, cause.c_str(),
+                       robot.c_str(), snr, static_cast<unsigned long long>(spec.seed), verdict.c_str(), seconds,
+                       dg.unexplained ? ": " : "", dg.unexplained ? calib::unexplainedSentence(dg).c_str() : "");
         }
       }
     }

@@ -15,9 +15,10 @@
 //     Draper and Smith 1998, ch. 2.1): the held-out residual's group means against the within-group
 //     scatter (pure error). The held-out prediction of a group is one number (the group stays in one
 //     fold), so the within-group scatter of the held-out residuals is the pure error exactly.
-//  4. Evidence: the held-out residuals regressed on each variable of an extended family (harmonics 1-2
-//     and 3-6 of every joint angle, products of joint-angle pairs, torques with powers up to 3, workspace
-//     position with quadratic terms, time, temperature, ...): F tests, Holm-adjusted.
+//  4. Evidence: the model's own residuals regressed on each variable of an extended family (harmonics
+//     1-2 and 3-6 of every joint angle, products of joint-angle pairs, torques with powers up to 3,
+//     workspace position with quadratic terms, time, temperature, ...) beside the model's own columns:
+//     added-variable (score) F tests (e.g. Cook and Weisberg 1982), Holm-adjusted.
 #include <map>
 #include <string>
 #include <vector>
@@ -60,14 +61,25 @@ std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, c
 /// Whitened held-out residuals W_k r_k (n x m), W_k = L_k^-1 with R_k = L_k L_k^T as every fit whitens
 /// (tracker or own covariance, plus the joint noise through the joint Jacobian, at `fit`): joint noise
 /// lies along the joint Jacobian's columns, so only fully whitened residuals are i.i.d. against
-/// regressors built from them. `whitened_jq` gets W_k d(residual)/d(q).
+/// regressors built from them. `whitened_jq` gets W_k d(residual)/d(q); `model_columns` ((n m) x free
+/// parameters, row k m + c) W_k times the fit's Jacobian of its free parameters (all but Estimate::held).
 Eigen::MatrixXd whitenedResiduals(const Fit& fit, const std::vector<MarkerObservation>& obs, const MarkerNoise& noise,
-                                  const std::vector<Eigen::VectorXd>& residual, std::vector<Eigen::MatrixXd>* whitened_jq);
+                                  const std::vector<Eigen::VectorXd>& residual, std::vector<Eigen::MatrixXd>* whitened_jq,
+                                  Eigen::MatrixXd* model_columns = nullptr);
 
 /// F test of each variable's regression of Y (n x m: residual components, each scaled to its noise),
 /// pooled over the components (or one regression of the stacked components); Holm-adjusted over the
 /// family. Empty with fewer than 10 rows.
-std::vector<VariableTest> variableTests(const Eigen::MatrixXd& Y, const std::vector<EvidenceVariable>& vars);
+/// With `model_columns` ((n m) x p, rows as whitenedResiduals gives them) each test is the added-variable
+/// (score) test of the variable beside the tested model's own columns and one intercept per component:
+/// only the part of a variable the model cannot take is tested, against the part of Y the model cannot
+/// take; for Y the fit's own (in-sample) residuals it is exact under a linear model that holds. Held-out
+/// residuals are not tested this way: they carry each fold fit's own estimation error J (p_fold - p), a
+/// smooth function of the configuration that differs by fold, which a regression mistakes for
+/// structure (it flagged joint-angle products on iiwa7 worlds whose only unmodelled part was noise).
+/// Without model columns: plain regressions on centred Y (the candidate search's base family).
+std::vector<VariableTest> variableTests(const Eigen::MatrixXd& Y, const std::vector<EvidenceVariable>& vars,
+                                        const Eigen::MatrixXd* model_columns = nullptr);
 
 /// Residual components (position, then rotation) scaled by the noise sigmas: the Y of variableTests.
 Eigen::MatrixXd scaledResiduals(const std::vector<Eigen::VectorXd>& residual, const MarkerNoise& noise);
