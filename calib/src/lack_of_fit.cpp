@@ -1,9 +1,9 @@
 #include "orbcal/calib/lack_of_fit.hpp"
 
-#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/sim/csv.hpp"
@@ -134,123 +134,12 @@ std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, c
   return vars;
 }
 
-namespace {
-
-/// Pseudo-inverse of a symmetric positive semi-definite A, scaled to unit diagonal first (columns of
-/// very different units), eigenvalues below rel_tol of 1 dropped; `rank` gets the kept count.
-Eigen::MatrixXd scaledPseudoInverse(const Eigen::MatrixXd& A, double rel_tol, int* rank) {
-  const Eigen::VectorXd d = A.diagonal().cwiseMax(0.0).cwiseSqrt();
-  const Eigen::VectorXd s = (d.array() > 0).select(d.cwiseInverse(), 0.0);
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(s.asDiagonal() * A * s.asDiagonal());
-  const Eigen::VectorXd& l = es.eigenvalues();
-  const double top = l.size() ? std::max(1.0, l.maxCoeff()) : 1.0;
-  Eigen::VectorXd inv = Eigen::VectorXd::Zero(l.size());
-  *rank = 0;
-  for (Eigen::Index k = 0; k < l.size(); ++k) {
-    if (l[k] > rel_tol * top) {
-      inv[k] = 1.0 / l[k];
-      ++*rank;
-    }
-  }
-  return s.asDiagonal() * es.eigenvectors() * inv.asDiagonal() * es.eigenvectors().transpose() * s.asDiagonal();
-}
-
-/// The tested model's whitened columns with one intercept per residual component appended, and what
-/// the added-variable tests need of them: (J^T J)^+, J^T y, its rank, and y^T (I - P_J) y.
-struct ModelSpan {
-  Eigen::MatrixXd J;
-  Eigen::MatrixXd A_pinv;
-  Eigen::VectorXd Jy;
-  int rank = 0;
-  double residual_ss = 0.0;
-};
-
-ModelSpan modelSpan(const Eigen::MatrixXd& columns, const Eigen::VectorXd& y, int m) {
-  ModelSpan s;
-  const Eigen::Index rows = y.size();
-  s.J.resize(rows, columns.cols() + m);
-  s.J.leftCols(columns.cols()) = columns;
-  s.J.rightCols(m).setZero();
-  for (Eigen::Index r = 0; r < rows; ++r) s.J(r, columns.cols() + r % m) = 1.0;
-  s.A_pinv = scaledPseudoInverse(s.J.transpose() * s.J, 1e-12, &s.rank);
-  s.Jy = s.J.transpose() * y;
-  s.residual_ss = std::max(0.0, y.squaredNorm() - s.Jy.dot(s.A_pinv * s.Jy));
-  return s;
-}
-
-/// The added-variable F test of regressors S (S^T S, S^T J, S^T y given) on y beside the model's columns:
-/// the part of S the model cannot take, S~ = (I - P_J) S, against (I - P_J) y: the classical score test
-/// of the variable, exact for the fit's own residuals under a linear model that holds.
-bool addedVariableTest(const Eigen::MatrixXd& SS, const Eigen::MatrixXd& SJ, const Eigen::VectorXd& Sy,
-                       const ModelSpan& span, VariableTest* t) {
-  const Eigen::MatrixXd CA = SJ * span.A_pinv;
-  const Eigen::MatrixXd G = SS - CA * SJ.transpose();
-  const Eigen::VectorXd b = Sy - CA * span.Jy;
-  // Directions of S of which the model's columns take all but 1e-3 of the length are not testable.
-  const Eigen::VectorXd dS = SS.diagonal().cwiseMax(0.0).cwiseSqrt();
-  const Eigen::VectorXd sc = (dS.array() > 0).select(dS.cwiseInverse(), 0.0);
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(sc.asDiagonal() * G * sc.asDiagonal());
-  const Eigen::VectorXd proj = es.eigenvectors().transpose() * (sc.asDiagonal() * b);
-  double explained = 0.0;
-  int d = 0;
-  for (Eigen::Index k = 0; k < proj.size(); ++k) {
-    if (es.eigenvalues()[k] <= 1e-6) continue;
-    explained += proj[k] * proj[k] / es.eigenvalues()[k];
-    ++d;
-  }
-  const double dof2 = static_cast<double>(span.J.rows()) - span.rank - d;
-  if (d == 0 || dof2 <= 0) return false;
-  t->dof = d;
-  t->statistic = (explained / d) / (std::max(1e-300, span.residual_ss - explained) / dof2);
-  t->p_value = fSurvival(t->statistic, d, dof2);
-  return true;
-}
-
-/// One variable's added-variable test, its regressors stacked (n m x d) or pooled over the m components
-/// (X n x d, as X kron I_m: column a m + c is X's column a in component c's rows).
-bool addedVariableTest(const EvidenceVariable& v, const Eigen::MatrixXd& Y, const Eigen::VectorXd& y,
-                       const ModelSpan& span, VariableTest* t) {
-  const Eigen::Index n = Y.rows(), m = Y.cols();
-  if (v.stacked.size() > 0) {
-    if (v.stacked.rows() != n * m) return false;
-    return addedVariableTest(v.stacked.transpose() * v.stacked, v.stacked.transpose() * span.J, v.stacked.transpose() * y,
-                             span, t);
-  }
-  const Eigen::Index d = v.X.cols(), p = span.J.cols();
-  const Eigen::MatrixXd XX = v.X.transpose() * v.X, XY = v.X.transpose() * Y;
-  Eigen::MatrixXd SS = Eigen::MatrixXd::Zero(d * m, d * m), SJ(d * m, p);
-  Eigen::VectorXd Sy(d * m);
-  using Strided = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>>;
-  for (Eigen::Index c = 0; c < m; ++c) {
-    const Strided Jc(span.J.data() + c, n, p, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>(span.J.outerStride(), m));
-    const Eigen::MatrixXd XJ = v.X.transpose() * Jc;
-    for (Eigen::Index a = 0; a < d; ++a) {
-      SJ.row(a * m + c) = XJ.row(a);
-      Sy[a * m + c] = XY(a, c);
-      for (Eigen::Index b = 0; b < d; ++b) SS(a * m + c, b * m + c) = XX(a, b);
-    }
-  }
-  return addedVariableTest(SS, SJ, Sy, span, t);
-}
-
-}  // namespace
-
 std::vector<VariableTest> variableTests(const Eigen::MatrixXd& Y, const std::vector<EvidenceVariable>& vars,
-                                        const Eigen::MatrixXd* model_columns) {
+                                        const ModelColumns* model) {
   const int n = static_cast<int>(Y.rows()), m = static_cast<int>(Y.cols());
   if (n < 10) return {};
+  if (model) return holmAdjusted(addedVariableTests(Y, vars, *model));
   std::vector<VariableTest> out;
-  if (model_columns && model_columns->rows() == static_cast<Eigen::Index>(n) * m) {
-    Eigen::VectorXd y(n * m);
-    for (int i = 0; i < n; ++i) y.segment(i * m, m) = Y.row(i).transpose();
-    const ModelSpan span = modelSpan(*model_columns, y, m);
-    for (const EvidenceVariable& v : vars) {
-      VariableTest t;
-      t.variable = v.name;
-      if (addedVariableTest(v, Y, y, span, &t)) out.push_back(t);
-    }
-    return holmAdjusted(std::move(out));
-  }
   const Eigen::MatrixXd Yc = Y.rowwise() - Y.colwise().mean();
   const double total = Yc.squaredNorm();
   // Stacked: y = the components one after another per sample, centred per component (as Yc).
@@ -319,27 +208,52 @@ Eigen::MatrixXd groupMeans(const Eigen::MatrixXd& A, const std::vector<MarkerObs
 }
 
 Eigen::MatrixXd whitenedResiduals(const Fit& fit, const std::vector<MarkerObservation>& obs, const MarkerNoise& noise,
-                                  const std::vector<Eigen::VectorXd>& residual, std::vector<Eigen::MatrixXd>* whitened_jq,
-                                  Eigen::MatrixXd* model_columns) {
+                                  const std::vector<Eigen::VectorXd>& residual, std::vector<Eigen::MatrixXd>* whitened_jq) {
   const MarkerPoseModel model(fit.model, obs, noise, fit.p);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
   const Eigen::Index n = static_cast<Eigen::Index>(obs.size()), m = n ? residual.front().size() : 0;
-  std::vector<int> free;
-  for (int j = 0; j < model.numParams(); ++j) {
-    if (!std::binary_search(fit.estimate.held.begin(), fit.estimate.held.end(), j)) free.push_back(j);
-  }
   Eigen::MatrixXd Y(n, m);
   if (whitened_jq) whitened_jq->clear();
-  if (model_columns) model_columns->resize(n * m, static_cast<Eigen::Index>(free.size()));
   for (Eigen::Index k = 0; k < n; ++k) {
-    const Linearization lin = model.linearize(static_cast<int>(k), zero);
-    const Eigen::LLT<Eigen::MatrixXd> llt(lin.R);
+    const Eigen::LLT<Eigen::MatrixXd> llt(model.linearize(static_cast<int>(k), zero).R);
     const Eigen::MatrixXd& r = residual[static_cast<std::size_t>(k)];
     Y.row(k) = llt.matrixL().solve(r).transpose();
     if (whitened_jq) whitened_jq->push_back(llt.matrixL().solve(model.jointJacobian(static_cast<int>(k), zero)));
-    if (model_columns) model_columns->middleRows(k * m, m) = llt.matrixL().solve(lin.H(Eigen::all, free));
   }
   return Y;
+}
+
+ModelColumns whitenedModelColumns(const Fit& fit, const std::vector<MarkerObservation>& obs, const MarkerNoise& noise,
+                                  bool group_means) {
+  auto model = std::make_shared<const MarkerPoseModel>(fit.model, obs, noise, fit.p);
+  auto free = std::make_shared<std::vector<int>>();
+  for (int j = 0; j < model->numParams(); ++j) {
+    if (!std::binary_search(fit.estimate.held.begin(), fit.estimate.held.end(), j)) free->push_back(j);
+  }
+  // The rows: each sample in its order, or each replicate group (configurationGroups' order, as groupMeans).
+  auto rows = std::make_shared<std::vector<std::vector<int>>>();
+  if (group_means) {
+    for (const auto& [key, members] : configurationGroups(obs)) rows->push_back(members);
+  } else {
+    for (int k = 0; k < static_cast<int>(obs.size()); ++k) rows->push_back({k});
+  }
+  ModelColumns c;
+  c.rows = static_cast<int>(rows->size());
+  c.components = obs.empty() ? 0 : model->rows(0);
+  c.params = static_cast<int>(free->size());
+  c.fill = [model, free, rows, m = c.components](int first, int count, Eigen::MatrixXd& J) {
+    const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model->numParams());
+    J.setZero(static_cast<Eigen::Index>(count) * m, static_cast<Eigen::Index>(free->size()));
+    for (int r = 0; r < count; ++r) {
+      const std::vector<int>& members = (*rows)[static_cast<std::size_t>(first + r)];
+      for (int k : members) {
+        const Linearization lin = model->linearize(k, zero);
+        J.middleRows(static_cast<Eigen::Index>(r) * m, m) += Eigen::LLT<Eigen::MatrixXd>(lin.R).matrixL().solve(lin.H(Eigen::all, *free));
+      }
+      J.middleRows(static_cast<Eigen::Index>(r) * m, m) /= static_cast<double>(members.size());
+    }
+  };
+  return c;
 }
 
 PureError pureError(const std::vector<MarkerObservation>& obs, const std::vector<Eigen::VectorXd>& residual) {
@@ -462,8 +376,7 @@ LackOfFit lackOfFit(const sim::MeasuredData& data, const std::vector<MarkerObser
   own.reserve(obs.size());
   for (const MarkerObservation& o : obs) own.push_back(markerResidual(fit.model, fit.p, o));
   std::vector<Eigen::MatrixXd> whitened_jq;
-  Eigen::MatrixXd columns;
-  const Eigen::MatrixXd Y = whitenedResiduals(fit, obs, noise, own, &whitened_jq, &columns);
+  const Eigen::MatrixXd Y = whitenedResiduals(fit, obs, noise, own, &whitened_jq);
   const std::vector<EvidenceVariable> vars = evidenceVariables(data, obs, fit.model, fit.p, true, &whitened_jq);
   if (lof.pure.replicated > 0) {
     // One row per configuration: its copies share the held-out prediction (and its estimation error).
@@ -473,9 +386,10 @@ LackOfFit lackOfFit(const sim::MeasuredData& data, const std::vector<MarkerObser
       v.X = groupMeans(v.X, obs);
       if (v.stacked.size() > 0) v.stacked = groupMeans(v.stacked, obs, m);
     }
-    const Eigen::MatrixXd group_columns = groupMeans(columns, obs, m);
-    lof.evidence = variableTests(groupMeans(Y, obs), means, &group_columns);
+    const ModelColumns columns = whitenedModelColumns(fit, obs, noise, true);
+    lof.evidence = variableTests(groupMeans(Y, obs), means, &columns);
   } else {
+    const ModelColumns columns = whitenedModelColumns(fit, obs, noise, false);
     lof.evidence = variableTests(Y, vars, &columns);
   }
   for (const VariableTest& t : lof.evidence) {

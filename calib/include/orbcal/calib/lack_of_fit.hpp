@@ -19,6 +19,7 @@
 //     1-2 and 3-6 of every joint angle, products of joint-angle pairs, torques with powers up to 3,
 //     workspace position with quadratic terms, time, temperature, ...) beside the model's own columns:
 //     added-variable (score) F tests (e.g. Cook and Weisberg 1982), Holm-adjusted.
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -61,16 +62,28 @@ std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, c
 /// Whitened held-out residuals W_k r_k (n x m), W_k = L_k^-1 with R_k = L_k L_k^T as every fit whitens
 /// (tracker or own covariance, plus the joint noise through the joint Jacobian, at `fit`): joint noise
 /// lies along the joint Jacobian's columns, so only fully whitened residuals are i.i.d. against
-/// regressors built from them. `whitened_jq` gets W_k d(residual)/d(q); `model_columns` ((n m) x free
-/// parameters, row k m + c) W_k times the fit's Jacobian of its free parameters (all but Estimate::held).
+/// regressors built from them. `whitened_jq` gets W_k d(residual)/d(q).
 Eigen::MatrixXd whitenedResiduals(const Fit& fit, const std::vector<MarkerObservation>& obs, const MarkerNoise& noise,
-                                  const std::vector<Eigen::VectorXd>& residual, std::vector<Eigen::MatrixXd>* whitened_jq,
-                                  Eigen::MatrixXd* model_columns = nullptr);
+                                  const std::vector<Eigen::VectorXd>& residual, std::vector<Eigen::MatrixXd>* whitened_jq);
+
+/// A model's whitened columns given a block of rows at a time, so that no (n m) x p matrix is kept:
+/// fill(first, count, J) sets J ((count m) x params) to rows first .. first + count - 1, row r m + c
+/// for row r's component c, as Y's rows.
+struct ModelColumns {
+  int rows = 0, components = 0, params = 0;
+  std::function<void(int first, int count, Eigen::MatrixXd& J)> fill;
+  /// Of a matrix held whole ((rows m) x params).
+  static ModelColumns of(const Eigen::MatrixXd& J, int components);
+};
+/// W_k times `fit`'s Jacobian of its free parameters (all but Estimate::held) at the fit, per sample in
+/// its order, or (group_means) averaged over each replicate group in configurationGroups' order.
+ModelColumns whitenedModelColumns(const Fit& fit, const std::vector<MarkerObservation>& obs, const MarkerNoise& noise,
+                                  bool group_means);
 
 /// F test of each variable's regression of Y (n x m: residual components, each scaled to its noise),
 /// pooled over the components (or one regression of the stacked components); Holm-adjusted over the
 /// family. Empty with fewer than 10 rows.
-/// With `model_columns` ((n m) x p, rows as whitenedResiduals gives them) each test is the added-variable
+/// With `model` (rows as Y's) each test is the added-variable
 /// (score) test of the variable beside the tested model's own columns and one intercept per component:
 /// only the part of a variable the model cannot take is tested, against the part of Y the model cannot
 /// take; for Y the fit's own (in-sample) residuals it is exact under a linear model that holds. Held-out
@@ -79,7 +92,10 @@ Eigen::MatrixXd whitenedResiduals(const Fit& fit, const std::vector<MarkerObserv
 /// structure (it flagged joint-angle products on iiwa7 worlds whose only unmodelled part was noise).
 /// Without model columns: plain regressions on centred Y (the candidate search's base family).
 std::vector<VariableTest> variableTests(const Eigen::MatrixXd& Y, const std::vector<EvidenceVariable>& vars,
-                                        const Eigen::MatrixXd* model_columns = nullptr);
+                                        const ModelColumns* model = nullptr);
+/// The added-variable tests alone (not Holm-adjusted), the model's columns streamed a block at a time.
+std::vector<VariableTest> addedVariableTests(const Eigen::MatrixXd& Y, const std::vector<EvidenceVariable>& vars,
+                                             const ModelColumns& model);
 
 /// Residual components (position, then rotation) scaled by the noise sigmas: the Y of variableTests.
 Eigen::MatrixXd scaledResiduals(const std::vector<Eigen::VectorXd>& residual, const MarkerNoise& noise);
