@@ -95,24 +95,34 @@ void checkBoardPrint(const CameraProfile& profile, const sim::Board& board) {
 
 namespace {
 
-/// Standard normal values (CV_32FC1) from OpenCV's generator seeded by one draw of `rng`: per pixel,
-/// std::normal_distribution over std::mt19937_64 costs ~10x more than the image model's other steps.
-cv::Mat normalField(cv::Size size, std::mt19937_64& rng) {
-  cv::Mat field(size, CV_32FC1);
+/// Scratch images of this thread, reused from image to image: a fresh 5 MB buffer is fresh pages from the
+/// kernel each time, which cost as much as the arithmetic on a loaded machine (~40 ms per buffer here).
+struct Scratch {
+  cv::Mat img, smooth, normal, texture;
+};
+Scratch& scratch() {
+  thread_local Scratch s;
+  return s;
+}
+
+/// `field` (CV_32FC1 of `size`) filled with standard normal values from OpenCV's generator seeded by one
+/// draw of `rng`: per pixel, std::normal_distribution over std::mt19937_64 costs ~10x more.
+void fillNormal(cv::Mat& field, cv::Size size, std::mt19937_64& rng) {
+  field.create(size, CV_32FC1);
   cv::RNG cv_rng(rng());
   cv_rng.fill(field, cv::RNG::NORMAL, 0.0, 1.0);
-  return field;
 }
 
 /// Smoothed white noise of standard deviation 1 (the kernel's exact gain divided out) and sigma scale_px.
 cv::Mat textureField(cv::Size size, double scale_px, std::mt19937_64& rng) {
   const int pad = static_cast<int>(std::ceil(4.0 * scale_px));
-  cv::Mat field = normalField(cv::Size(size.width + 2 * pad, size.height + 2 * pad), rng);
+  cv::Mat& field = scratch().texture;
+  fillNormal(field, cv::Size(size.width + 2 * pad, size.height + 2 * pad), rng);
   const cv::Mat k = cv::getGaussianKernel(2 * pad + 1, scale_px, CV_64F);  // what gaussianBlur uses
   const double gain = k.dot(k);  // the variance of separable smoothing of unit white noise: (sum k^2)^2
   gaussianBlur(field, scale_px);
   field *= static_cast<float>(1.0 / gain);
-  return field(cv::Rect(pad, pad, size.width, size.height)).clone();
+  return field(cv::Rect(pad, pad, size.width, size.height));
 }
 
 /// The tone curve as a table: kToneSteps entries a DN, linear between them (off the curve by < 1e-3 DN
@@ -180,7 +190,8 @@ void applyBackground(cv::Mat& img, const cv::Mat& covered, const Background& bg,
 
 void applyNoise(cv::Mat& img, const SignalNoise& n, std::mt19937_64& rng) {
   if (n.identity()) return;
-  const cv::Mat n01 = normalField(img.size(), rng);
+  cv::Mat& n01 = scratch().normal;
+  fillNormal(n01, img.size(), rng);
   const float a = static_cast<float>(n.a_dn), b = static_cast<float>(n.b_dn2);
   for (int r = 0; r < img.rows; ++r) {
     float* p = img.ptr<float>(r);
@@ -195,14 +206,16 @@ cv::Mat applyCameraProfile(const cv::Mat& clean, const cv::Mat& covered, const C
                            const sim::Camera& camera, std::mt19937_64& rng) {
   if (clean.type() != CV_8UC1) throw std::invalid_argument("applyCameraProfile: expected a CV_8UC1 image");
   if (profile.imageIdentity()) return clean;
-  cv::Mat img;
+  cv::Mat& img = scratch().img;
   clean.convertTo(img, CV_32FC1);
   applyVignettingAndTone(img, profile, camera);
   gaussianBlur(img, profile.blur_sigma_px);
   if (!profile.sharpening.identity()) {
-    cv::Mat smooth = img.clone();
+    cv::Mat& smooth = scratch().smooth;
+    img.copyTo(smooth);
     gaussianBlur(smooth, profile.sharpening.sigma_px);
-    img += static_cast<float>(profile.sharpening.amount) * (img - smooth);
+    const double k = profile.sharpening.amount;
+    cv::addWeighted(img, 1.0 + k, smooth, -k, 0.0, img);  // img + k (img - smooth)
   }
   applyBackground(img, covered, profile.background, rng);
   applyNoise(img, profile.noise, rng);
