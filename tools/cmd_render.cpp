@@ -38,9 +38,18 @@ void addRenderCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--error-length-sigma-mm", opt->error_length_sigma_mm, "spread of random a/d errors [mm]")
       ->capture_default_str();
-  cmd->add_option("-n,--count", opt->job.count, "number of samples (configurations and images)")
-      ->capture_default_str()
-      ->check(CLI::Range(1, 1000000));
+  CLI::Option* count = cmd->add_option("-n,--count", opt->job.count, "number of samples (configurations and images)")
+                           ->capture_default_str()
+                           ->check(CLI::Range(1, 1000000));
+  cmd->add_option("--configs", opt->job.configs,
+                  "render these configurations, in order, instead of planned ones: a CSV with columns index (optional) and "
+                  "q1_rad..qN_rad (or qJ_deg in degrees, qJ_m for a prismatic joint), as `orbcal configs` writes; "
+                  "the dataset has one sample per row (not with --count)")
+      ->excludes(count);
+  cmd->add_option("--profile", opt->job.profile,
+                  "camera profile (camera_profile.yaml: tone curve, vignetting, blur, sharpening, Poisson-Gaussian noise, "
+                  "background, the printed board's scale, bow and corner displacements; docs/rendered-datasets-and-images.md) "
+                  "applied to every image");
   cmd->add_option("--seed", opt->seed, "seed of the configurations, the joint noise and the image noise")->capture_default_str();
   cmd->add_option("--joint-noise-deg", opt->joint_noise_deg, "control noise of the plant joints, 1 sigma [deg]")
       ->capture_default_str()
@@ -77,7 +86,7 @@ void addRenderCommand(CLI::App& app) {
     for (const std::string& w : r.warnings) std::fprintf(stderr, "orbcal: warning: %s\n", w.c_str());
     if (job.shard) {
       std::printf("%s: shard %d/%d, samples %d..%d of %d; planned in %.1f s\n", job.out.c_str(), job.shard->first,
-                  job.shard->second, r.first_sample, r.end_sample - 1, job.count, r.plan_seconds);
+                  job.shard->second, r.first_sample, r.end_sample - 1, r.total_samples, r.plan_seconds);
     }
     std::printf("%s: %d images rendered, %d kept from an earlier run%s; MSAA %dx; %.1f s (%.0f ms per rendered image)\n",
                 job.out.c_str(), r.rendered, r.skipped, r.resumed ? " (resumed)" : "", r.msaa_samples, r.render_seconds,

@@ -12,6 +12,10 @@
 namespace orbcal::render::dataset_copies {
 
 /// A mesh file the scene uses, as copied into the dataset folder.
+/// Where `orbcal render --profile` and `--configs` keep their files in the dataset folder.
+inline constexpr const char* kProfileFile = "camera_profile.yaml";
+inline constexpr const char* kConfigsFile = "configurations.csv";
+
 struct MeshCopy {
   std::string relative;    ///< path inside the dataset folder, '/'-separated
   std::string bytes;       ///< the file's content

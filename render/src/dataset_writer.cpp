@@ -17,11 +17,13 @@
 #include <set>
 #include <thread>
 
+#include "orbcal/render/camera_profile.hpp"
 #include "orbcal/render/distortion.hpp"
 #include "orbcal/render/renderer.hpp"
 #include "orbcal/render/settings.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/configurations.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/truth.hpp"
@@ -191,6 +193,10 @@ struct RunInputs {
   sim::TrueArm truth;
   sim::Camera plant_camera;  ///< what the images are taken through: the scene's camera with the error set's distortion
   std::string scene_text;    ///< the scene file as read
+  CameraProfile profile;     ///< job.profile's (identity without one)
+  std::vector<Eigen::VectorXd> given;  ///< job.configs' configurations (empty: planned)
+  int count = 0;             ///< samples of the whole dataset
+  std::string profile_text, configs_text;  ///< job.profile's and job.configs' files as read (empty: none)
 };
 
 /// The files the dataset folder holds besides its images, manifest.yaml and samples.csv, as written.
@@ -222,6 +228,18 @@ RunInputs readRunInputs(const DatasetJob& job, InputCopies& copies) {
   in.settings = loadRenderSettings(job.scene);
   in.truth = sim::makeTrueArm(nominal, job.errors, "--errors");
   in.plant_camera = in.truth.camera(in.scene.camera);
+  if (!job.profile.empty()) {
+    in.profile = loadCameraProfile(job.profile);
+    checkBoardPrint(in.profile, in.scene.board);
+    in.profile_text = sim::readTextSource(job.profile);
+  }
+  in.count = job.count;
+  if (!job.configs.empty()) {
+    in.configs_text = sim::readTextSource(job.configs);
+    in.given = sim::parseConfigurationsCsv(in.configs_text, job.configs, nominal.numJoints());
+    if (in.given.empty()) throw sim::InputError(job.configs + ": no configurations (a header and no rows)");
+    in.count = static_cast<int>(in.given.size());
+  }
   return in;
 }
 
@@ -241,6 +259,13 @@ sim::DatasetManifest runManifest(const DatasetJob& job, const RunInputs& in, con
   m.noise_seed = job.noise_seed;
   m.render_seed = job.render_seed;
   return m;
+}
+
+bool hasCopy(const InputCopies& copies, const std::string& relative) {
+  for (const MeshCopy& c : copies.files) {
+    if (c.relative == relative) return true;
+  }
+  return false;
 }
 
 /// The outermost folder that making `out` creates; empty when `out` exists.
@@ -282,6 +307,10 @@ std::vector<std::string> differingInputs(const sim::Dataset& dataset, const std:
   for (const MeshCopy& c : copies.files) {
     if (!fileEquals(dataset.path(c.relative), c.bytes)) differ.push_back(c.relative);
   }
+  for (const char* name : {kProfileFile, kConfigsFile}) {  // an earlier run's that this one does not use
+    std::error_code ec;
+    if (!hasCopy(copies, name) && std::filesystem::exists(dataset.path(name), ec)) differ.push_back(name);
+  }
   return differ;
 }
 
@@ -309,6 +338,9 @@ bool resumeOrReplace(const DatasetJob& job, const sim::Dataset& dataset, const I
   removeForForce(dataset.path(m.samples_file), false);
   removeForForce(manifest_path, false);
   if (!truth.fromFile()) removeForForce(dataset.path(sim::kDatasetErrorSetFile), false);  // an earlier run's
+  for (const char* name : {kProfileFile, kConfigsFile}) {
+    if (!hasCopy(copies, name)) removeForForce(dataset.path(name), false);
+  }
   removeForForce(dataset.path("images"), true);
   return false;
 }
@@ -319,12 +351,15 @@ bool resumeOrReplace(const DatasetJob& job, const sim::Dataset& dataset, const I
 /// of job.count (the generator stops there, with job.count's attempt budget) and the joint noise is
 /// drawn for every sample before `end`, in order.
 void planSamples(const DatasetJob& job, const RunInputs& in, int first, int end, sim::Dataset& dataset) {
-  sim::GeneratorSettings gen;
-  gen.count = job.count;
-  gen.stop_after = end;
-  gen.seed = job.configuration_seed;
-  gen.threads = job.generator_threads;
-  const std::vector<Eigen::VectorXd> commanded = sim::generateConfigurations(in.nominal, in.scene, gen);
+  std::vector<Eigen::VectorXd> commanded = in.given;
+  if (commanded.empty()) {
+    sim::GeneratorSettings gen;
+    gen.count = job.count;
+    gen.stop_after = end;
+    gen.seed = job.configuration_seed;
+    gen.threads = job.generator_threads;
+    commanded = sim::generateConfigurations(in.nominal, in.scene, gen);
+  }
   std::mt19937_64 noise_rng = sim::makeRng(job.noise_seed, kJointNoiseStream);
   Eigen::VectorXd q_true_previous;
   for (int i = 0; i < end; ++i) {
@@ -367,7 +402,7 @@ void renderImages(const DatasetJob& job, const RunInputs& in, const sim::Dataset
   // effect, which the copied scene.yaml does not have (lens distortion the calibration does not model).
   sim::Scene taken = in.scene;
   taken.camera = in.plant_camera;
-  BoardRenderer renderer(taken, in.settings, &distortion_map);
+  BoardRenderer renderer(taken, in.settings, in.profile, &distortion_map);
   report.msaa_samples = renderer.msaaSamples();
   report.warnings = renderer.warnings();
   const auto t0 = std::chrono::steady_clock::now();
@@ -401,12 +436,12 @@ void renderImages(const DatasetJob& job, const RunInputs& in, const sim::Dataset
 
 DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& progress) {
   if (job.out.empty()) throw sim::InputError("--out: the dataset folder must be given");
-  if (job.count < 1) throw sim::InputError("--count: must be at least 1");
-  std::optional<sim::DatasetShard> shard;
-  if (job.shard) shard = sim::datasetShard(job.shard->first, job.shard->second, job.count, "--shard");
-  const int first = shard ? shard->first_sample : 0, end = shard ? shard->end_sample : job.count;
+  if (job.count < 1 && job.configs.empty()) throw sim::InputError("--count: must be at least 1");
   InputCopies copies;
   const RunInputs in = readRunInputs(job, copies);
+  std::optional<sim::DatasetShard> shard;
+  if (job.shard) shard = sim::datasetShard(job.shard->first, job.shard->second, in.count, "--shard");
+  const int first = shard ? shard->first_sample : 0, end = shard ? shard->end_sample : in.count;
   // The images are taken through the plant's camera (renderImages). Its distortion map (~50 ms of CPU)
   // is built on a thread of its own while the folder is checked and the configurations are generated.
   std::future<DistortionMap> distortion_map;
@@ -420,6 +455,8 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   // The meshes go into the folder too, so that the dataset stands alone (see planMeshCopies).
   copies.files = planMeshCopies(in.settings, dataset.manifest);
   copies.scene_copy = placeCameraFile(in.scene, rewriteMeshPaths(in.scene_text, in.settings, copies.files), copies.files);
+  if (!job.profile.empty()) copies.files.push_back(MeshCopy{kProfileFile, in.profile_text});
+  if (!job.configs.empty()) copies.files.push_back(MeshCopy{kConfigsFile, in.configs_text});
 
   // The folder is locked while this run writes it (a second writer is refused); a folder this run
   // creates is removed again when the run fails before its first image is written.
@@ -433,6 +470,7 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   const auto t_plan = std::chrono::steady_clock::now();
   report.first_sample = first;
   report.end_sample = end;
+  report.total_samples = in.count;
   planSamples(job, in, first, end, dataset);
   report.plan_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_plan).count();
 

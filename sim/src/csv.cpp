@@ -8,6 +8,7 @@
 
 #include "orbcal/sim/arm.hpp"
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/se3.hpp"
 
 namespace orbcal::sim {
 
@@ -162,13 +163,14 @@ std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs,
 std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, const std::string& source, int n) {
   const CsvTable t = CsvTable::parse(text, source);
   std::vector<int> cols;
-  std::vector<bool> metres;  // a prismatic joint's column: qJ_m
+  std::vector<bool> metres, degrees;  // a prismatic joint's column: qJ_m; an angle in degrees: qJ_deg
   for (int j = 1; j <= n; ++j) {
     const std::string q = "q" + std::to_string(j);
     metres.push_back(t.column(q + "_m") >= 0);
-    cols.push_back(metres.back() ? t.column(q + "_m") : t.requireColumn(q + "_rad"));
+    degrees.push_back(!metres.back() && t.column(q + "_deg") >= 0);
+    cols.push_back(metres.back() ? t.column(q + "_m") : degrees.back() ? t.column(q + "_deg") : t.requireColumn(q + "_rad"));
   }
-  for (const char* unit : {"_rad", "_m"}) {
+  for (const char* unit : {"_rad", "_deg", "_m"}) {
     if (t.column("q" + std::to_string(n + 1) + unit) < 0) continue;
     throw InputError(source + ": header: column 'q" + std::to_string(n + 1) + unit + "' but the robot has " + std::to_string(n) + " joints");
   }
@@ -183,17 +185,20 @@ std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, con
                          std::to_string(it->second) + ")");
       }
     }
-    const auto q = t.numbers(r, cols);
+    auto q = t.numbers(r, cols);
     if (!q) throw InputError(t.where(r) + ": q1_rad: joint angles are empty");
     for (int j = 0; j < n; ++j) {
+      if (degrees[static_cast<std::size_t>(j)]) (*q)[j] *= kDegToRad;
       if (metres[static_cast<std::size_t>(j)]) {
         if (std::abs((*q)[j]) <= kMaxLengthM) continue;
         throw InputError(t.where(r) + ": q" + std::to_string(j + 1) + "_m: " + formatNumber("%.9g", (*q)[j]) +
                          " m is outside 10 km: no robot's joint reaches it");
       }
       if (std::abs((*q)[j]) <= kMaxJointAngleRad) continue;
-      throw InputError(t.where(r) + ": q" + std::to_string(j + 1) + "_rad: " + formatNumber("%.9g", (*q)[j]) +
-                       " rad is outside " + kMaxJointAngleText + ": no robot's joint reaches it");
+      const bool deg = degrees[static_cast<std::size_t>(j)];
+      throw InputError(t.where(r) + ": q" + std::to_string(j + 1) + (deg ? "_deg: " : "_rad: ") +
+                       formatNumber("%.9g", deg ? (*q)[j] / kDegToRad : (*q)[j]) + (deg ? " deg" : " rad") + " is outside " +
+                       kMaxJointAngleText + ": no robot's joint reaches it");
     }
     configs.push_back(*q);
   }

@@ -2,13 +2,16 @@
 // `orbcal render`: a rendered calibration dataset (layout: sim/dataset.hpp and docs/file-formats.md).
 //
 //  1. configurations: sim::generateConfigurations on the NOMINAL arm (the planner knows only the
-//     nominal model), seed = configuration seed;
+//     nominal model), seed = configuration seed; or the given ones (job.configs), in their order;
 //  2. true joints = commanded + N(0, joint noise) (sim::addJointNoise, stream kJointNoiseStream);
 //  3. ground truth camera_T_board = sim::cameraTBoard(the TRUE arm's flange pose at q_true): sim::TrueArm,
 //     nominal + injected DH errors, plus the effects of an error-set file (sample i at t_i, approach
 //     direction from sample i - 1; sim/truth.hpp);
-//  4. that pose rendered (BoardRenderer::render, degradations drawn from makeRng(render seed,
-//     kRenderStream + index)), written as images/NNNNNN.png.
+//  4. that pose rendered (BoardRenderer::render, degradations and the camera profile's image part
+//     drawn from makeRng(render seed, kRenderStream + index); with job.profile the board drawn as
+//     printed), written as images/NNNNNN.png.
+// A profile is copied into the folder as camera_profile.yaml, given configurations as configurations.csv
+// (both compared on resume like the other inputs: a folder holding one that this run does not use differs).
 // Shard i of N (job.shard, `--shard i/N`): everything above is computed for the whole dataset of
 // job.count samples, as without a shard, and only the samples [floor(i count / N), floor((i + 1) count / N))
 // are rendered and written, with their global indices, image names and render streams; the folder is a
@@ -75,6 +78,11 @@ struct DatasetJob {
   /// -1: OpenCV's fast PNG path (zlib level 1, SUB filter); 0..9: cv::IMWRITE_PNG_COMPRESSION, which also
   /// makes libpng search the filters per row (slower). Lossless either way.
   int png_compression = -1;
+  /// camera_profile.yaml (render/camera_profile.hpp) applied to every image; empty: none.
+  std::string profile;
+  /// A configurations CSV (sim::parseConfigurationsCsv: index, q1_rad..qN_rad, or qJ_deg / qJ_m columns)
+  /// rendered in its order instead of planned ones; `count` is then its number of rows. Empty: planned.
+  std::string configs;
 };
 
 struct DatasetRunReport {
@@ -82,6 +90,7 @@ struct DatasetRunReport {
   int skipped = 0;           ///< images already there (resumed)
   int first_sample = 0;      ///< the samples [first_sample, end_sample) were written (a shard's; else all)
   int end_sample = 0;
+  int total_samples = 0;     ///< of the whole dataset: job.count, or the given configurations' rows
   double plan_seconds = 0;   ///< wall time of planning: configurations, joint noise, true poses
   bool resumed = false;      ///< the folder held this dataset's manifest
   int msaa_samples = 0;

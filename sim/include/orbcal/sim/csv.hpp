@@ -56,7 +56,8 @@ struct Arm;
 /// Joint configurations: header "index,q1_rad,...,qN_rad", one row each, SI; with `arm`, a prismatic
 /// joint's column is "qJ_m" (its value a length, m).
 std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs, const Arm* arm = nullptr);
-/// Reads them back, joint J from column "qJ_rad" or "qJ_m": every angle finite and within
+/// Reads them back, joint J from column "qJ_rad" or "qJ_m" (or "qJ_deg", an angle in degrees, converted
+/// to radians: configurations written by hand or by another program): every angle finite and within
 /// kMaxJointAngleRad (ten turns: no robot file's joint limits reach beyond), every length within
 /// kMaxLengthM, the index column (optional) whole numbers from 0, none given twice. Throws InputError
 /// naming the file, the line and the column.
