@@ -295,15 +295,15 @@ Falloff radialFalloff(const std::vector<std::vector<FlatSample>>& samples) {
   return out;
 }
 
-cv::Mat boardHullMask(const sim::Camera& camera, const sim::Board& board, const Eigen::Isometry3d& camera_T_board) {
+cv::Mat boardHullMask(const sim::Camera& camera, const sim::Board& board, const Eigen::Isometry3d& camera_T_board, double grow_m) {
   cv::Mat mask = cv::Mat::zeros(camera.height_px, camera.width_px, CV_8UC1);
   const std::array<Eigen::Vector3d, 4> outline = sim::boardOutline(board);
   const Eigen::Vector3d centre = sim::boardCentre(board);
   std::vector<cv::Point> poly;
   for (const Eigen::Vector3d& p : outline) {
     Eigen::Vector3d grown = p;
-    grown.x() += (p.x() > centre.x() ? 1.0 : -1.0) * board.square_m;
-    grown.y() += (p.y() > centre.y() ? 1.0 : -1.0) * board.square_m;
+    grown.x() += (p.x() > centre.x() ? 1.0 : -1.0) * grow_m;
+    grown.y() += (p.y() > centre.y() ? 1.0 : -1.0) * grow_m;
     const Eigen::Vector3d p_cam = camera_T_board * grown;
     if (p_cam.z() <= 0.0) return cv::Mat(mask.size(), CV_8UC1, cv::Scalar(255));  // the hull reaches behind: all board
     const Eigen::Vector2d px = sim::project(camera, p_cam);
@@ -317,7 +317,7 @@ cv::Mat boardHullMask(const sim::Camera& camera, const sim::Board& board, const 
 
 BackgroundStats backgroundStats(const sim::Camera& camera, const sim::Board& board, const BoardView& view) {
   checkView(view, "backgroundStats");
-  const cv::Mat hull = boardHullMask(camera, board, view.camera_T_board);
+  const cv::Mat hull = boardHullMask(camera, board, view.camera_T_board, board.square_m);
   double sum = 0.0, ss = 0.0;
   int n = 0;
   for (int v = 0; v < view.gray.rows; v += 2) {

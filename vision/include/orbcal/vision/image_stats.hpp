@@ -134,7 +134,8 @@ struct BackgroundStats {
   int pixels = 0;
 };
 BackgroundStats backgroundStats(const sim::Camera& camera, const sim::Board& board, const BoardView& view);
-/// CV_8UC1 of the image's size: 255 inside the board's hull grown by one square (the board's pixels).
-cv::Mat boardHullMask(const sim::Camera& camera, const sim::Board& board, const Eigen::Isometry3d& camera_T_board);
+/// CV_8UC1 of the image's size: 255 inside the board's outline (margin included) grown by `grow_m` on
+/// every side (backgroundStats grows it by a square: the sheet's edge and its shadow are not background).
+cv::Mat boardHullMask(const sim::Camera& camera, const sim::Board& board, const Eigen::Isometry3d& camera_T_board, double grow_m);
 
 }  // namespace orbcal::vision
