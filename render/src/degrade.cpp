@@ -6,17 +6,19 @@
 
 namespace orbcal::render {
 
+void gaussianBlur(cv::Mat& img, double sigma_px) {
+  if (!(sigma_px > 0)) return;
+  const int half = static_cast<int>(std::ceil(4.0 * sigma_px));
+  cv::GaussianBlur(img, img, cv::Size(2 * half + 1, 2 * half + 1), sigma_px, sigma_px, cv::BORDER_REPLICATE);
+}
+
 cv::Mat applyDegradations(const cv::Mat& clean, const Degradations& d, std::mt19937_64& rng) {
   if (clean.type() != CV_8UC1) throw std::invalid_argument("applyDegradations: expected a CV_8UC1 image");
   const bool blur = d.defocus_sigma_px > 0, shot = d.full_well_e > 0, read = d.read_noise_dn > 0;
   if (!blur && !shot && !read) return clean;
   cv::Mat img;
   clean.convertTo(img, CV_32FC1);
-  if (blur) {
-    const int half = static_cast<int>(std::ceil(4.0 * d.defocus_sigma_px));
-    cv::GaussianBlur(img, img, cv::Size(2 * half + 1, 2 * half + 1), d.defocus_sigma_px, d.defocus_sigma_px,
-                     cv::BORDER_REPLICATE);
-  }
+  gaussianBlur(img, d.defocus_sigma_px);
   if (shot || read) {
     std::normal_distribution<float> n01(0.f, 1.f);
     const float e_per_dn = static_cast<float>(d.full_well_e / 255.0);

@@ -80,6 +80,8 @@ struct CameraProfile {
   Background background;
   BoardPrint board;
   bool identity() const;
+  /// Nothing for applyCameraProfile to do (the board part may still be set).
+  bool imageIdentity() const;
 };
 
 /// Reads camera_profile.yaml (format: orbcal-camera-profile-1). Misspelt keys, NaN, gamma <= 0,
@@ -89,10 +91,35 @@ CameraProfile loadCameraProfile(const std::string& path);
 /// Writes it atomically (a temporary file renamed), millimetres and DN labelled in the keys.
 void saveCameraProfile(const CameraProfile& profile, const std::string& path);
 
+/// The tone curve at one grey level: black + (white - black) * (clamp(in_dn, 0, 255) / 255)^(1 / gamma).
+double toneCurve(const ToneCurve& tone, double in_dn);
+/// 1 + a2 r^2 + a4 r^4 + a6 r^6 (r in half diagonals of the image).
+double vignettingFactor(const Vignetting& vignetting, double r);
+
+/// Where the printed board puts the point of the designed board at (x, y) (board frame, metres):
+///   - print scale about the board frame's origin (inner corner 0): (scale_x x, scale_y y);
+///   - displacement: the per-corner displacements interpolated bilinearly over the grid of inner
+///     corners (corners not listed move by 0; outside the grid the nearest edge of the grid is used),
+///     so inner corner k lands exactly on its designed place scaled plus its displacement;
+///   - bow: z = -bow_m (r / R)^2, r the distance of the designed point from the centre of the board's
+///     outline and R its half diagonal: a positive bow lifts the sheet's rim toward the printed face's
+///     side (the side the camera sees it from, -z_board), so the centre is the farthest point.
+/// The identity print returns (x, y, 0).
+Eigen::Vector3d printedBoardPoint(const sim::Board& board, const BoardPrint& print, const Eigen::Vector2d& designed_m);
+/// The printed face's normal (unit, pointing along -z_board like the flat board's) at the designed point.
+Eigen::Vector3d printedBoardNormal(const sim::Board& board, const BoardPrint& print, const Eigen::Vector2d& designed_m);
+/// The checks of the board part that need the board: corner ids within [0, numCorners) and |bow| at
+/// most 5% of the board's half diagonal. sim::InputError naming profile.source and the key.
+void checkBoardPrint(const CameraProfile& profile, const sim::Board& board);
+
 /// The image part of the profile applied to a clean render (CV_8UC1, values = linear radiance in DN):
 /// vignetting (about camera's principal point), tone curve, blur, sharpening, background (where
 /// `covered` is zero; `covered` is CV_8UC1 of the image's size, or empty for "everything covered"),
-/// noise, rounding. Randomness only from `rng`. The board part (print, bow, displacements) is geometry:
+/// noise, rounding. `covered` is a fraction in 1/255 (a board edge's antialiased pixels are partly
+/// covered): out = c/255 img + (1 - c/255) background. The background's texture is white noise
+/// smoothed by a Gaussian of sigma texture_scale_px, scaled by the kernel's exact gain to a standard
+/// deviation of texture_dn (its autocorrelation is exp(-d^2 / (4 texture_scale_px^2))). Returns
+/// `clean` itself when imageIdentity(). Randomness only from `rng`. The board part (print, bow, displacements) is geometry:
 /// the renderer draws it (BoardRenderer with a profile).
 cv::Mat applyCameraProfile(const cv::Mat& clean, const cv::Mat& covered, const CameraProfile& profile,
                            const sim::Camera& camera, std::mt19937_64& rng);

@@ -10,6 +10,10 @@
 
 namespace orbcal::render {
 
+/// A Gaussian blur of a CV_32FC1 image in place: sigma_px, kernel +-ceil(4 sigma), the border
+/// replicated (defocus here and the camera profile's blur and unsharp mask). Nothing for sigma <= 0.
+void gaussianBlur(cv::Mat& img, double sigma_px);
+
 /// - defocus: Gaussian blur with sigma defocus_sigma_px (kernel +-4 sigma);
 /// - shot noise (full_well_e > 0): signal in electrons e = DN / 255 * full_well_e gets N(0, sqrt(e))
 ///   added (the normal approximation of Poisson noise), then back to DN;
