@@ -24,7 +24,8 @@ void addTwinCommand(CLI::App& app) {
   cmd->callback([o] {
     const workflow::TwinResult r = workflow::runTwin(*o);
     const workflow::TwinComparison& c = r.comparison;
-    std::printf("%zu of %d views compared with their twins (%.1f s)\n", c.views.size(), r.rows, r.seconds);
+    std::printf("%zu of %d views compared with their twins (%.1f s, of which rendering and comparing %.1f s)\n", c.views.size(), r.rows,
+                r.seconds, c.seconds);
     std::printf("%-52s %12s %12s %12s\n", "statistic", "real", "rendered", c.profiled ? "profiled" : "");
     for (const workflow::TwinStatistic& s : c.statistics) {
       std::printf("%-52s %12.4g %12.4g", s.label.c_str(), s.real.value, s.rendered.value);

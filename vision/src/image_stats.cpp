@@ -240,52 +240,44 @@ PoissonGaussian fitPoissonGaussian(const std::vector<NoiseLevels>& views) {
 }
 
 Falloff radialFalloff(const std::vector<std::vector<FlatSample>>& samples) {
-  // Per view, the gain drops out by centring log value and the radial terms on the view's means; each view
-  // contributes a 2 x 2 normal matrix, so the jackknife subtracts one view's.
-  std::vector<Eigen::Matrix2d> A;
-  std::vector<Eigen::Vector2d> b;
+  // Per view the gain drops out by centring log value and r^2 on the view's means; each view adds its sums
+  // to the normal equation, so the jackknife subtracts one view's.
+  std::vector<double> sxx, sxy;
   for (const auto& view : samples) {
-    std::vector<Eigen::Vector3d> rows;  // r^2, r^4, log value
+    double n = 0, mx = 0, my = 0;
     for (const FlatSample& f : view) {
-      if (f.white && f.value >= 1.0) rows.emplace_back(f.r * f.r, std::pow(f.r, 4), std::log(f.value));
+      if (!f.white || f.value < 1.0) continue;
+      n += 1;
+      mx += f.r * f.r;
+      my += std::log(f.value);
     }
-    if (rows.size() < 20) continue;
-    Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-    for (const auto& r : rows) mean += r;
-    mean /= static_cast<double>(rows.size());
-    Eigen::Matrix2d Av = Eigen::Matrix2d::Zero();
-    Eigen::Vector2d bv = Eigen::Vector2d::Zero();
-    for (const auto& r : rows) {
-      const Eigen::Vector3d c = r - mean;
-      Av += c.head<2>() * c.head<2>().transpose();
-      bv += c.head<2>() * c.z();
+    if (n < 20) continue;
+    mx /= n;
+    my /= n;
+    double xx = 0, xy = 0;
+    for (const FlatSample& f : view) {
+      if (!f.white || f.value < 1.0) continue;
+      xx += (f.r * f.r - mx) * (f.r * f.r - mx);
+      xy += (f.r * f.r - mx) * (std::log(f.value) - my);
     }
-    A.push_back(Av);
-    b.push_back(bv);
+    sxx.push_back(xx);
+    sxy.push_back(xy);
   }
-  const auto solve = [](const Eigen::Matrix2d& M, const Eigen::Vector2d& v) -> Eigen::Vector2d {
-    constexpr double kConditioned = 1e-6;  // smallest / largest eigenvalue: r^4 is then told apart from r^2
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(M);
-    if (es.eigenvalues()(1) <= 0.0) return Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
-    if (es.eigenvalues()(0) > kConditioned * es.eigenvalues()(1)) return M.ldlt().solve(v);
-    return Eigen::Vector2d(M(0, 0) > 0.0 ? v(0) / M(0, 0) : 0.0, 0.0);
-  };
-  const auto atHalf = [](const Eigen::Vector2d& c) { return std::exp(c(0) / 4.0 + c(1) / 16.0) - 1.0; };
   Falloff out;
-  if (A.empty()) return out;
-  Eigen::Matrix2d At = Eigen::Matrix2d::Zero();
-  Eigen::Vector2d bt = Eigen::Vector2d::Zero();
-  for (std::size_t k = 0; k < A.size(); ++k) {
-    At += A[k];
-    bt += b[k];
+  double tx = 0, ty = 0;
+  for (std::size_t k = 0; k < sxx.size(); ++k) {
+    tx += sxx[k];
+    ty += sxy[k];
   }
-  const Eigen::Vector2d c = solve(At, bt);
-  out.c2 = c(0);
-  out.c4 = c(1);
-  out.at_half.value = atHalf(c);
-  out.at_half.n = static_cast<int>(A.size());
+  if (!(tx > 0.0)) return out;
+  const auto atHalf = [](double c2) { return std::exp(c2 / 4.0) - 1.0; };
+  out.c2 = ty / tx;
+  out.at_half.value = atHalf(out.c2);
+  out.at_half.n = static_cast<int>(sxx.size());
   std::vector<double> jack;
-  for (std::size_t k = 0; k < A.size() && A.size() > 2; ++k) jack.push_back(atHalf(solve(At - A[k], bt - b[k])));
+  for (std::size_t k = 0; k < sxx.size() && sxx.size() > 2; ++k) {
+    if (tx - sxx[k] > 0.0) jack.push_back(atHalf((ty - sxy[k]) / (tx - sxx[k])));
+  }
   double mean = 0.0, ss = 0.0;
   for (double x : jack) mean += x;
   if (!jack.empty()) mean /= static_cast<double>(jack.size());

@@ -1,5 +1,6 @@
 // Edge spread profiles and the tone curve (image_stats.hpp).
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
@@ -161,22 +162,31 @@ EdgeStats edgeStats(const sim::Camera& camera, const sim::Board& board, const Bo
 ToneFit fitToneCurve(const std::vector<Eigen::Vector2d>& in_out) {
   ToneFit best;
   if (in_out.size() < 3) return best;
+  // the inputs are 8-bit levels: per level its count and the sums of out and out^2 give every sum below
+  std::array<double, 256> n{}, sy{}, syy{};
+  for (const auto& p : in_out) {
+    const int level = static_cast<int>(std::lround(std::clamp(p.x(), 0.0, 255.0)));
+    n[level] += 1.0;
+    sy[level] += p.y();
+    syy[level] += p.y() * p.y();
+  }
   const auto linear = [&](double gamma, ToneFit* fit) {
-    double sx = 0, sy = 0, sxx = 0, sxy = 0, syy = 0;
-    const double n = static_cast<double>(in_out.size());
-    for (const auto& p : in_out) {
-      const double x = std::pow(std::clamp(p.x(), 0.0, 255.0) / 255.0, 1.0 / gamma);
-      sx += x;
-      sy += p.y();
-      sxx += x * x;
-      sxy += x * p.y();
-      syy += p.y() * p.y();
+    double N = 0, Sx = 0, Sy = 0, Sxx = 0, Sxy = 0, Syy = 0;
+    for (int level = 0; level < 256; ++level) {
+      if (n[level] == 0.0) continue;
+      const double x = std::pow(level / 255.0, 1.0 / gamma);
+      N += n[level];
+      Sx += n[level] * x;
+      Sxx += n[level] * x * x;
+      Sy += sy[level];
+      Sxy += x * sy[level];
+      Syy += syy[level];
     }
-    const double det = n * sxx - sx * sx;
-    if (det <= 0.0) return std::numeric_limits<double>::infinity();
-    const double slope = (n * sxy - sx * sy) / det, icpt = (sy - slope * sx) / n;
-    const double sse = syy - icpt * sy - slope * sxy;
-    if (fit) *fit = {icpt, icpt + slope, gamma, std::sqrt(std::max(0.0, sse) / n)};
+    const double det = N * Sxx - Sx * Sx;
+    if (det <= 1e-12 * N * N) return std::numeric_limits<double>::infinity();
+    const double slope = (N * Sxy - Sx * Sy) / det, icpt = (Sy - slope * Sx) / N;
+    const double sse = Syy - icpt * Sy - slope * Sxy;
+    if (fit) *fit = {icpt, icpt + slope, gamma, std::sqrt(std::max(0.0, sse) / N)};
     return sse;
   };
   // a log grid over [0.25, 5], then golden-section search around its best point

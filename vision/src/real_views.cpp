@@ -197,6 +197,13 @@ cv::Mat ignoredPixels(const cv::Mat& bgr, const sim::ImageMask& mask, const std:
   return ignored;
 }
 
+cv::Mat fillIgnored(const cv::Mat& image, const cv::Mat& ignored) {
+  if (ignored.empty() || cv::countNonZero(ignored) == 0) return image;
+  cv::Mat filled;
+  cv::inpaint(image, ignored, filled, kInpaintRadiusPx, cv::INPAINT_TELEA);
+  return filled;
+}
+
 ViewMeasurement measureGray(const cv::Mat& gray, const sim::Camera& camera, const sim::Board& board, const MeasureSettings& settings) {
   ViewMeasurement v;
   Measurement& m = v.measurement;
@@ -231,11 +238,7 @@ ViewMeasurement measureView(const std::string& path, const sim::Camera& camera, 
     const cv::Mat colour = cv::imread(path, cv::IMREAD_COLOR);
     const cv::Mat ignored = ignoredPixels(colour, mask, view_mask);
     v.ignored_px = cv::countNonZero(ignored);
-    if (v.ignored_px > 0) {
-      cv::Mat filled;
-      cv::inpaint(colour, ignored, filled, kInpaintRadiusPx, cv::INPAINT_TELEA);
-      cv::cvtColor(filled, gray, cv::COLOR_BGR2GRAY);
-    }
+    if (v.ignored_px > 0) cv::cvtColor(fillIgnored(colour, ignored), gray, cv::COLOR_BGR2GRAY);
   }
   const int ignored_px = v.ignored_px;
   v = measureGray(gray, camera, board, settings);

@@ -4,8 +4,9 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
+#include "orbcal/render/degrade.hpp"
 #include "orbcal/render/renderer.hpp"
-#include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/config.hpp"
 #include "orbcal/workflow/twin.hpp"
 #include "twin_detail.hpp"
 
@@ -26,8 +27,20 @@ vision::MeasureSettings measureSettings() {
   return s;
 }
 
+/// The clean twin blurred to the edge width of the image it is paired with (Gaussian edges: the extra sigma
+/// is sqrt(w^2 - w_clean^2) / 2.563), so that the tone curve's pixel pairs along the edges compare like
+/// with like: a blur alone bends the pairs of a sharp and a blurred edge into a false curve.
+cv::Mat toneReference(const cv::Mat& clean, double clean_width_px, double width_px) {
+  constexpr double kGaussian1090 = 2.5631;
+  if (!(clean_width_px > 0.0) || !(width_px > clean_width_px)) return clean;
+  cv::Mat blurred = clean.clone();
+  render::gaussianBlur(blurred, std::sqrt(width_px * width_px - clean_width_px * clean_width_px) / kGaussian1090);
+  return blurred;
+}
+
 ViewStats measureStats(const sim::Camera& camera, const sim::Board& board, const cv::Mat& gray, const cv::Mat& ignored,
-                       const vision::ViewMeasurement& det, const Eigen::Isometry3d& pose, const cv::Mat& clean) {
+                       const vision::ViewMeasurement& det, const Eigen::Isometry3d& pose, const cv::Mat& clean,
+                       double clean_width_px = std::numeric_limits<double>::quiet_NaN()) {
   ViewStats s;
   s.found = det.measurement.found();
   s.markers = det.markers;
@@ -48,7 +61,8 @@ ViewStats measureStats(const sim::Camera& camera, const sim::Board& board, const
   s.noise = vision::noiseLevels(s.flat);
   s.edges = vision::edgeStats(camera, board, v);
   s.background = vision::backgroundStats(camera, board, v);
-  if (!clean.empty()) s.gamma = vision::fitToneCurve(vision::tonePairs(camera, board, v, clean, kToneStep)).gamma;
+  const cv::Mat reference = toneReference(clean, clean_width_px, s.edges.width_px);
+  s.gamma = vision::fitToneCurve(vision::tonePairs(camera, board, v, reference, kToneStep)).gamma;
   return s;
 }
 
@@ -134,6 +148,15 @@ bool TwinStatistic::profiled_within(double fraction) const {
   return profiled.valid() && real.valid() && std::abs(profiled.value - real.value) <= fraction * std::abs(real.value);
 }
 
+sim::Scene twinScene(const sim::Camera& camera, const sim::Board& board) {
+  sim::Scene scene;
+  scene.camera = camera;
+  scene.board = board;
+  // the printed face (-z_board) turned up (+z_base), toward the default sun: lit as a board on a table is
+  scene.base_T_board.linear() = Eigen::AngleAxisd(sim::kPi, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  return scene;
+}
+
 const std::vector<std::pair<std::string, std::string>>& twinStatisticNames() {
   static const std::vector<std::pair<std::string, std::string>> names{
       {"corner_scatter_px", "corner scatter about the view's fitted pose [px RMS]"},
@@ -142,7 +165,7 @@ const std::vector<std::pair<std::string, std::string>>& twinStatisticNames() {
       {"markers", "markers decoded per view"},
       {"black_dn", "black level [DN]"},
       {"white_dn", "white level [DN]"},
-      {"tone_gamma", "tone curve gamma against the clean twin"},
+      {"tone_gamma", "tone curve gamma against the twin (blurred to its edge width)"},
       {"vignetting_half", "white level at half radius, relative"},
       {"noise_black_dn", "noise on black [DN]"},
       {"noise_white_dn", "noise on white [DN]"},
@@ -161,9 +184,7 @@ TwinComparison compareWithTwins(const sim::Camera& camera, const sim::Board& boa
   TwinComparison c;
   c.profiled = profile != nullptr;
   c.per_view.assign(3, {});
-  sim::Scene scene;
-  scene.camera = camera;
-  scene.board = board;
+  const sim::Scene scene = twinScene(camera, board);
   render::BoardRenderer renderer(scene, render::RenderSettings{});
   std::mt19937_64 rng(seed);
   std::vector<RealView> used;
@@ -172,14 +193,15 @@ TwinComparison compareWithTwins(const sim::Camera& camera, const sim::Board& boa
     if (!v.detection.measurement.found()) continue;
     const Eigen::Isometry3d& pose = v.detection.measurement.camera_T_board;
     const cv::Mat clean = renderer.renderClean(pose);
-    c.per_view[kReal].push_back(measureStats(camera, board, v.gray, v.ignored, v.detection, pose, clean));
-    c.per_view[kRendered].push_back(
-        measureStats(camera, board, clean, v.ignored, vision::measureGray(clean, camera, board, measureSettings()), pose, clean));
+    // the twins are detected with the real view's ignored pixels filled as the real image's were
+    const auto detect = [&](const cv::Mat& img) { return vision::measureGray(vision::fillIgnored(img, v.ignored), camera, board, measureSettings()); };
+    c.per_view[kRendered].push_back(measureStats(camera, board, clean, v.ignored, detect(clean), pose, clean));
+    const double clean_width = c.per_view[kRendered].back().edges.width_px;
+    c.per_view[kReal].push_back(measureStats(camera, board, v.gray, v.ignored, v.detection, pose, clean, clean_width));
     cv::Mat profiled;
     if (profile) {
       profiled = twin_detail::profiledTwin(renderer, scene, pose, clean, *profile, rng);
-      c.per_view[kProfiled].push_back(
-          measureStats(camera, board, profiled, v.ignored, vision::measureGray(profiled, camera, board, measureSettings()), pose, clean));
+      c.per_view[kProfiled].push_back(measureStats(camera, board, profiled, v.ignored, detect(profiled), pose, clean, clean_width));
     }
     c.crops.push_back(sideBySide(camera, board, pose, {v.gray, clean, profiled}));
     c.views.push_back(v.name);
@@ -201,6 +223,7 @@ TwinComparison compareWithTwins(const sim::Camera& camera, const sim::Board& boa
     c.statistics.push_back(s);
   }
   c.fitted = fitCameraProfile(camera, board, c, used, cleans);
+  c.effects = namedEffects(c);
   c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return c;
 }

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <opencv2/imgproc.hpp>
 
+#include "orbcal/render/degrade.hpp"
 #include "orbcal/workflow/twin.hpp"
 #include "twin_detail.hpp"
 
@@ -70,7 +71,14 @@ std::pair<double, double> blurAndSharpening(double rendered_width_px, double wid
 
 namespace {
 
-constexpr int kToneStep = 4;  // every 4th pixel: tens of thousands of pairs per view
+constexpr int kToneStep = 4;
+
+TwinStatistic statistic(const TwinComparison& c, const std::string& key) {
+  for (const TwinStatistic& s : c.statistics) {
+    if (s.key == key) return s;
+  }
+  return TwinStatistic{};
+}  // every 4th pixel: tens of thousands of pairs per view
 
 vision::BoardView boardView(const RealView& v) {
   vision::BoardView b;
@@ -103,26 +111,21 @@ render::ToneCurve fitTone(const sim::Camera& camera, const sim::Board& board, co
   return {t.black, t.white, t.gamma};
 }
 
-/// Radial gain of the real images' linearised white (through the tone curve's inverse) over the
-/// rendered white at the same pixels: the lens's fall-off less the render's lighting.
-render::Vignetting fitVignetting(const sim::Camera& camera, const TwinComparison& c, const std::vector<cv::Mat>& rendered,
-                                 const render::ToneCurve& tone) {
-  std::vector<std::vector<vision::FlatSample>> ratio;
-  for (std::size_t k = 0; k < rendered.size(); ++k) {
-    std::vector<vision::FlatSample> r;
-    for (vision::FlatSample f : c.per_view[0][k].flat) {
-      const double in = rendered[k].at<uchar>(f.v, f.u), x = (f.value - tone.black_dn) / (tone.white_dn - tone.black_dn);
-      if (!f.white || in < 1.0 || x <= 0.0) continue;
-      f.value = 255.0 * std::pow(x, tone.gamma) / in * 100.0;  // any constant: the fit has a gain per view
-      r.push_back(f);
-    }
-    ratio.push_back(std::move(r));
+/// The lens's fall-off: the real white's radial fall-off less the twins' (their lighting), carried from DN
+/// to radiance through the tone curve's slope at the white level, d log radiance = gamma v / (v - black) d log v.
+render::Vignetting fitVignetting(const TwinComparison& c, const render::ToneCurve& tone, double white_dn) {
+  std::vector<std::vector<vision::FlatSample>> flat[2];
+  for (int kind = 0; kind < 2; ++kind) {
+    for (const ViewStats& s : c.per_view[kind]) flat[kind].push_back(s.flat);
   }
-  const vision::Falloff f = vision::radialFalloff(ratio);
+  const vision::Falloff real = vision::radialFalloff(flat[0]), twin = vision::radialFalloff(flat[1]);
   render::Vignetting vg;
-  if (!std::isfinite(f.c2)) return vg;
-  vg.a2 = f.c2;  // exp(c2 r^2 + c4 r^4) = 1 + c2 r^2 + (c4 + c2^2 / 2) r^4 + ...
-  vg.a4 = f.c4 + 0.5 * f.c2 * f.c2;
+  if (!std::isfinite(real.c2) || !std::isfinite(twin.c2) || !(white_dn > tone.black_dn)) return vg;
+  const double slope = tone.gamma * white_dn / (white_dn - tone.black_dn);
+  vg.a2 = slope * (real.c2 - twin.c2);
+  vg.a4 = 0.5 * vg.a2 * vg.a2;  // exp(c2 r^2) = 1 + c2 r^2 + c2^2 r^4 / 2 + ...
+  constexpr double kMinGain = 0.2;  // a fall-off beyond this within the image is not a lens's
+  if (render::vignettingFactor(vg, 1.0) < kMinGain) vg = {};
   return vg;
 }
 
@@ -173,6 +176,80 @@ render::BoardPrint fitBoardPrint(const sim::Camera& camera, const sim::Board& bo
   return print;
 }
 
+/// The profile corrected by what it gives when applied: up to kLoopViews twins profiled, their
+/// statistics against the real ones of the same views, each part's target moved by the difference and
+/// fitted again (twice). The parts' models (a Gaussian edge, noise and fall-off carried through the tone
+/// curve's slope) are approximations; the loop closes what they leave.
+void closeTheLoop(const sim::Camera& camera, const sim::Board& board, const TwinComparison& c, const std::vector<RealView>& views,
+                  const std::vector<cv::Mat>& rendered, render::CameraProfile& p) {
+  constexpr std::size_t kLoopViews = 8;
+  constexpr int kRounds = 2;
+  const TwinStatistic width = statistic(c, "edge_width_px"), over = statistic(c, "edge_overshoot");
+  if (!width.rendered.valid() || !over.rendered.valid()) return;
+  std::vector<std::size_t> loop;
+  for (std::size_t k = 0; k < views.size(); k += std::max<std::size_t>(1, views.size() / kLoopViews)) loop.push_back(k);
+  // the real statistics of the loop's views
+  std::vector<double> rw, ro, rb, rwh, rlb, rlw;
+  std::vector<std::vector<vision::FlatSample>> rflat;
+  for (std::size_t k : loop) {
+    const ViewStats& s = c.per_view[0][k];
+    rw.push_back(s.edges.width_px);
+    ro.push_back(s.edges.overshoot);
+    rb.push_back(s.noise.black_sd);
+    rwh.push_back(s.noise.white_sd);
+    rlb.push_back(s.levels.black);
+    rlw.push_back(s.levels.white);
+    rflat.push_back(s.flat);
+  }
+  const auto mean = [](const std::vector<double>& x) { return vision::meanOverViews(x); };
+  const vision::Estimate real_w = mean(rw), real_o = mean(ro), real_nb = mean(rb), real_nw = mean(rwh), real_b = mean(rlb), real_wl = mean(rlw);
+  const double real_c2 = vision::radialFalloff(rflat).c2;
+  if (!real_w.valid() || !real_o.valid()) return;
+  double target_w = real_w.value, target_o = real_o.value - over.rendered.value;
+  std::mt19937_64 rng(1);
+  for (int round = 0; round < kRounds; ++round) {
+    std::vector<double> w, o, sd_b, sd_w, lb, lw;
+    std::vector<std::vector<vision::FlatSample>> flat;
+    for (std::size_t k : loop) {
+      vision::BoardView v = boardView(views[k]);
+      v.gray = render::applyCameraProfile(rendered[k], vision::boardHullMask(camera, board, v.camera_T_board, 0.0), p, camera, rng);
+      const vision::EdgeStats e = vision::edgeStats(camera, board, v);
+      flat.push_back(vision::flatSamples(camera, board, v));
+      const vision::NoiseLevels n = vision::noiseLevels(flat.back());
+      const vision::Levels l = vision::blackWhiteLevels(flat.back());
+      w.push_back(e.width_px);
+      o.push_back(e.overshoot);
+      sd_b.push_back(n.black_sd);
+      sd_w.push_back(n.white_sd);
+      lb.push_back(l.black);
+      lw.push_back(l.white);
+    }
+    const vision::Estimate pw = mean(w), po = mean(o), pb = mean(sd_b), pwh = mean(sd_w), plb = mean(lb), plw = mean(lw);
+    if (pw.valid() && po.valid()) {
+      target_w += real_w.value - pw.value;
+      target_o += real_o.value - po.value;
+      std::tie(p.blur_sigma_px, p.sharpening.amount) =
+          twin_detail::blurAndSharpening(width.rendered.value, std::max(0.5, target_w), target_o, p.sharpening.sigma_px);
+    }
+    if (real_nb.valid() && real_nw.valid() && pb.valid() && pwh.valid() && pb.value > 0 && pwh.value > 0) {
+      // the variance's ratio, real over profiled, averaged over black and white
+      const double ratio = 0.5 * (std::pow(real_nb.value / pb.value, 2) + std::pow(real_nw.value / pwh.value, 2));
+      p.noise.a_dn *= ratio;
+      p.noise.b_dn2 *= ratio;
+    }
+    if (real_b.valid() && real_wl.valid() && plb.valid() && plw.valid()) {
+      p.tone.black_dn += real_b.value - plb.value;
+      p.tone.white_dn += real_wl.value - plw.value;
+      if (std::isfinite(real_c2) && p.tone.white_dn > p.tone.black_dn) {
+        const double slope = p.tone.gamma * real_wl.value / std::max(1.0, real_wl.value - p.tone.black_dn);
+        p.vignetting.a2 += slope * (real_c2 - vision::radialFalloff(flat).c2);
+        p.vignetting.a4 = 0.5 * p.vignetting.a2 * p.vignetting.a2;
+        if (render::vignettingFactor(p.vignetting, 1.0) < 0.2) p.vignetting = {};
+      }
+    }
+  }
+}
+
 }  // namespace
 
 render::CameraProfile fitCameraProfile(const sim::Camera& camera, const sim::Board& board, const TwinComparison& c,
@@ -180,11 +257,24 @@ render::CameraProfile fitCameraProfile(const sim::Camera& camera, const sim::Boa
   render::CameraProfile p;
   p.source = "fitted by orbcal twin";
   if (views.empty()) return p;
-  // tone without vignetting, the fall-off through its inverse, then the tone again on vignetted renders
-  p.tone = fitTone(camera, board, views, rendered);
-  p.vignetting = fitVignetting(camera, c, rendered, p.tone);
+  // blur and sharpening from the edges; the tone on renders blurred alike, the fall-off through its slope,
+  // then the tone again on vignetted renders
+  const TwinStatistic width = statistic(c, "edge_width_px"), over = statistic(c, "edge_overshoot");
+  if (width.real.valid() && width.rendered.valid()) {
+    const double overshoot = over.real.valid() && over.rendered.valid() ? over.real.value - over.rendered.value : 0.0;
+    std::tie(p.blur_sigma_px, p.sharpening.amount) =
+        twin_detail::blurAndSharpening(width.rendered.value, width.real.value, overshoot, p.sharpening.sigma_px);
+  }
+  std::vector<cv::Mat> blurred;
+  for (const cv::Mat& r : rendered) {
+    blurred.push_back(r.clone());
+    render::gaussianBlur(blurred.back(), p.blur_sigma_px);
+  }
+  p.tone = fitTone(camera, board, views, blurred);
+  const TwinStatistic white = statistic(c, "white_dn");
+  p.vignetting = fitVignetting(c, p.tone, white.real.valid() ? white.real.value : p.tone.white_dn);
   std::vector<cv::Mat> lit;
-  for (const cv::Mat& r : rendered) lit.push_back(vignetted(r, camera, p.vignetting));
+  for (const cv::Mat& r : blurred) lit.push_back(vignetted(r, camera, p.vignetting));
   p.tone = fitTone(camera, board, views, lit);
   // noise: the real Poisson-Gaussian variance less the render's own
   std::vector<vision::NoiseLevels> nr, nt;
@@ -193,24 +283,51 @@ render::CameraProfile fitCameraProfile(const sim::Camera& camera, const sim::Boa
   const vision::PoissonGaussian real = vision::fitPoissonGaussian(nr), twin = vision::fitPoissonGaussian(nt);
   p.noise.a_dn = std::max(0.0, real.a - twin.a);
   p.noise.b_dn2 = std::max(0.0, real.b - twin.b);
-  // blur and sharpening from the edges
-  const auto stat = [&](const std::string& key) {
-    for (const TwinStatistic& s : c.statistics) {
-      if (s.key == key) return s;
-    }
-    return TwinStatistic{};
-  };
-  const TwinStatistic width = stat("edge_width_px"), over = stat("edge_overshoot");
-  if (width.real.valid() && width.rendered.valid()) {
-    const double overshoot = over.real.valid() && over.rendered.valid() ? over.real.value - over.rendered.value : 0.0;
-    std::tie(p.blur_sigma_px, p.sharpening.amount) =
-        twin_detail::blurAndSharpening(width.rendered.value, width.real.value, overshoot, p.sharpening.sigma_px);
-  }
-  const TwinStatistic bg = stat("background_dn"), bg_sd = stat("background_sd_dn");
+  closeTheLoop(camera, board, c, views, rendered, p);
+  const TwinStatistic bg = statistic(c, "background_dn"), bg_sd = statistic(c, "background_sd_dn");
   if (bg.real.valid()) p.background.mean_dn = bg.real.value;
   if (bg_sd.real.valid()) p.background.texture_dn = bg_sd.real.value;
   p.board = fitBoardPrint(camera, board, c, views);
   return p;
+}
+
+}  // namespace orbcal::workflow
+
+namespace orbcal::workflow {
+
+std::vector<NamedEffect> namedEffects(const TwinComparison& c) {
+  // Practical thresholds: below these an effect changes no statistic by more than its spread over views
+  // on the shared sets, and a clean render's fit stays below them.
+  constexpr double kMinA2 = 0.05, kMinGamma = 0.05, kMinLevelDn = 3.0, kMinBlurPx = 0.2, kMinSharpening = 0.1;
+  constexpr double kMinNoiseDn = 0.5, kMinScale = 0.002, kMinDisplacementMm = 0.05, kMinBackgroundDn = 5.0;
+  const auto sig = [&](const std::string& key) { return statistic(c, key).significant; };
+  const render::CameraProfile& p = c.fitted;
+  std::vector<NamedEffect> out;
+  const auto name = [&](bool shown, const char* n, double size, const char* unit, const char* stat) {
+    if (shown) out.push_back({n, size, unit, stat});
+  };
+  name(sig("vignetting_half") && std::abs(p.vignetting.a2) > kMinA2, "vignetting", p.vignetting.a2, "a2", "vignetting_half");
+  name(sig("tone_gamma") && std::abs(p.tone.gamma - 1.0) > kMinGamma, "tone curve", p.tone.gamma, "gamma", "tone_gamma");
+  const TwinStatistic black = statistic(c, "black_dn"), white = statistic(c, "white_dn");
+  name(black.significant && std::abs(black.real.value - black.rendered.value) > kMinLevelDn, "black level", black.real.value - black.rendered.value,
+       "DN", "black_dn");
+  name(white.significant && std::abs(white.real.value - white.rendered.value) > kMinLevelDn, "white level", white.real.value - white.rendered.value,
+       "DN", "white_dn");
+  name(sig("edge_width_px") && p.blur_sigma_px > kMinBlurPx, "blur", p.blur_sigma_px, "px sigma", "edge_width_px");
+  name(sig("edge_overshoot") && p.sharpening.amount > kMinSharpening, "sharpening", p.sharpening.amount, "unsharp gain", "edge_overshoot");
+  const double mid_sd = std::sqrt(p.noise.a_dn * 128.0 + p.noise.b_dn2);
+  name((sig("noise_black_dn") || sig("noise_white_dn")) && mid_sd > kMinNoiseDn, "noise", mid_sd, "DN at 128", "noise_white_dn");
+  const double ratio = p.board.scale_x / p.board.scale_y - 1.0;
+  name(sig("corner_scatter_px") && std::abs(ratio) > kMinScale, "print scale", ratio, "x/y scale ratio - 1", "corner_scatter_px");
+  double ss = 0.0;
+  for (const auto& [id, d] : p.board.corner_displacement_m) ss += d.squaredNorm();
+  const double rms_mm = p.board.corner_displacement_m.empty() ? 0.0 : 1e3 * std::sqrt(ss / p.board.corner_displacement_m.size());
+  name(sig("corner_repeatable_share") && sig("corner_scatter_px") && rms_mm > kMinDisplacementMm, "corner displacement", rms_mm, "mm RMS",
+       "corner_repeatable_share");
+  const TwinStatistic bg = statistic(c, "background_dn");
+  name(bg.significant && std::abs(bg.real.value - bg.rendered.value) > kMinBackgroundDn, "background", bg.real.value - bg.rendered.value, "DN",
+       "background_dn");
+  return out;
 }
 
 }  // namespace orbcal::workflow

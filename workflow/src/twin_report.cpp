@@ -7,7 +7,7 @@
 #include <sstream>
 
 #include "orbcal/sim/csv.hpp"
-#include "orbcal/sim/errors.hpp"
+#include "orbcal/sim/config.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/workflow/measured_images.hpp"
 #include "orbcal/workflow/report_html.hpp"

@@ -8,7 +8,7 @@
 //
 // Models: Poisson-Gaussian noise, variance = a * level + b (Foi, Trimeche, Katkovnik and Egiazarian
 // 2008); a gamma response with black and white ends (Grossberg and Nayar 2004); radial fall-off
-// 1 + c2 r^2 + c4 r^4 about the principal point, r in half image diagonals (Goldman 2010); edge spread
+// 1 + c2 r^2 about the principal point, r in half image diagonals (Goldman 2010); edge spread
 // profiles of slanted edges binned at a quarter pixel (ISO 12233's slanted-edge method).
 #include <Eigen/Geometry>
 #include <limits>
@@ -96,17 +96,19 @@ struct PoissonGaussian {
   double a = 0.0, b = 0.0;
 };
 PoissonGaussian fitPoissonGaussian(const std::vector<NoiseLevels>& views);
-/// Radial fall-off of the white level over views sharing one lens: log value = log k_view + c2 r^2 +
-/// c4 r^4 (least squares, a gain per view), and the relative level at half radius exp(c2 / 4 + c4 / 16)
-/// - 1 with its jackknife sigma over the views. `samples` per view (white ones used).
+/// Radial fall-off of the white level over views sharing one lens: log value = log k_view + c2 r^2
+/// (least squares, a gain per view), and the relative level at half radius exp(c2 / 4) - 1 with its
+/// jackknife sigma over the views. `samples` per view (white ones used). r^2 alone: telling r^4 apart
+/// needs views across the whole image, and the light on the board takes it where they are not.
 struct Falloff {
-  double c2 = 0.0, c4 = 0.0;
+  double c2 = 0.0;
   Estimate at_half;  ///< relative change of the white level at r = 0.5 (-0.06: 6 % darker)
 };
 Falloff radialFalloff(const std::vector<std::vector<FlatSample>>& samples);
 
 // ---- tone ----------------------------------------------------------------------------------------
-/// out = black + (white - black) (in / 255)^(1 / gamma), fitted to (in, out) pairs (DN) by least squares
+/// out = black + (white - black) (in / 255)^(1 / gamma), fitted to (in, out) pairs (DN, `in` rounded to
+/// 8-bit levels) by least squares
 /// (gamma on a log grid then refined; black and white linear for each gamma).
 struct ToneFit {
   double black = 0.0, white = 255.0, gamma = 1.0, rms = 0.0;

@@ -37,6 +37,10 @@ struct ViewMeasurement {
   int markers = 0;                 ///< ChArUco: markers of the board decoded
 };
 
+/// `image` with its `ignored` pixels (non-zero) filled from their surroundings (Telea 2004), as
+/// measureView fills them before detection; `image` itself where nothing is ignored.
+cv::Mat fillIgnored(const cv::Mat& image, const cv::Mat& ignored);
+
 /// The board's pose in a grey image (CV_8UC1) with nothing to ignore: measureView after reading and filling.
 ViewMeasurement measureGray(const cv::Mat& gray, const sim::Camera& camera, const sim::Board& board, const MeasureSettings& settings);
 

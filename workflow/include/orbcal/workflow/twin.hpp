@@ -41,6 +41,15 @@ struct TwinStatistic {
   bool profiled_within(double fraction) const;
 };
 
+/// An effect the comparison names: a part of the fitted profile away from the identity by more than a
+/// practical threshold, whose statistic differs significantly between real and rendered.
+struct NamedEffect {
+  std::string name;       ///< "vignetting", "tone curve", "black level", "white level", "blur", "sharpening",
+                          ///< "noise", "print scale", "corner displacement", "background"
+  double size = 0.0;      ///< in `unit`
+  std::string unit;       ///< e.g. "a2", "gamma", "DN", "px sigma", "x/y scale ratio - 1", "mm RMS"
+  std::string statistic;  ///< the statistic that shows it
+};
 /// Every view's statistics, per image kind (real, rendered, profiled).
 struct ViewStats {
   std::map<int, Eigen::Vector2d> residuals;  ///< corner residuals about the view's own pose (px)
@@ -59,10 +68,17 @@ struct TwinComparison {
   std::vector<std::string> views;           ///< names of the views compared (the board found in the real image)
   std::vector<std::vector<ViewStats>> per_view;  ///< [kind][view], kind 0 real, 1 rendered, 2 profiled
   render::CameraProfile fitted;             ///< the profile fitted from real against rendered
+  std::vector<NamedEffect> effects;         ///< namedEffects of this comparison
   std::vector<cv::Mat> crops;               ///< per view: real | rendered | profiled side by side (CV_8UC1)
   bool profiled = false;
   double seconds = 0.0;
 };
+
+/// The scene twins are rendered in: `camera` and `board`, the default rendering settings, the board's
+/// printed face turned toward the default sun (lit as a board lying on a table is).
+sim::Scene twinScene(const sim::Camera& camera, const sim::Board& board);
+
+std::vector<NamedEffect> namedEffects(const TwinComparison& c);
 
 /// The statistics' keys and labels, in the order of twin.json and the report.
 const std::vector<std::pair<std::string, std::string>>& twinStatisticNames();
