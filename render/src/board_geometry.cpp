@@ -1,5 +1,6 @@
 // The board as the renderer draws it: its triangles (a chessboard's colours per cell) and a ChArUco
 // board's marker texture.
+#include <algorithm>
 #include <cmath>
 #include <opencv2/aruco.hpp>
 #include <opencv2/imgproc.hpp>
@@ -9,11 +10,27 @@
 
 namespace orbcal::render::renderer_detail {
 
-void pushVertex(std::vector<float>& v, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double albedo) {
-  v.insert(v.end(), {float(p.x()), float(p.y()), float(p.z()), float(n.x()), float(n.y()), float(n.z()), float(albedo)});
+void pushVertex(std::vector<float>& v, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double albedo,
+                const Eigen::Vector2d& pattern) {
+  v.insert(v.end(), {float(p.x()), float(p.y()), float(p.z()), float(n.x()), float(n.y()), float(n.z()), float(albedo),
+                     float(pattern.x()), float(pattern.y())});
 }
 
-std::vector<float> boardVertices(const sim::Board& b, const RenderOptions& o) {
+namespace {
+/// `lines` with every interval split into ceil(length / step) equal parts (step <= 0: unchanged).
+std::vector<double> subdivide(const std::vector<double>& lines, double step) {
+  if (!(step > 0)) return lines;
+  std::vector<double> out;
+  for (std::size_t i = 0; i + 1 < lines.size(); ++i) {
+    const int n = std::max(1, static_cast<int>(std::ceil((lines[i + 1] - lines[i]) / step - 1e-9)));
+    for (int k = 0; k < n; ++k) out.push_back(lines[i] + (lines[i + 1] - lines[i]) * k / n);
+  }
+  out.push_back(lines.back());
+  return out;
+}
+}  // namespace
+
+std::vector<float> boardVertices(const sim::Board& b, const RenderOptions& o, const BoardPrint& print) {
   const double s = b.square_m, m = b.margin_m;
   const std::array<Eigen::Vector3d, 4> outline = sim::boardOutline(b);  // [0] lowest x and y, [2] highest
   std::vector<double> xs, ys;
@@ -23,17 +40,20 @@ std::vector<float> boardVertices(const sim::Board& b, const RenderOptions& o) {
   if (m > 0) ys.push_back(outline[0].y());
   for (int j = -1; j <= b.corners_y; ++j) ys.push_back(j * s);
   if (m > 0) ys.push_back(outline[2].y());
-  const int off = m > 0 ? 1 : 0;  // index of the line x = -s
-  const Eigen::Vector3d n(0, 0, -1);  // the printed face looks along -z_board
+  const double step = print.identity() ? 0.0 : s / kPrintSubdivisions;
+  const std::vector<double> fx = subdivide(xs, step), fy = subdivide(ys, step);
   std::vector<float> v;
-  for (std::size_t a = 0; a + 1 < xs.size(); ++a) {
-    for (std::size_t c = 0; c + 1 < ys.size(); ++c) {
-      const int i = static_cast<int>(a) - off, j = static_cast<int>(c) - off;  // square (i, j); margin outside 0..corners
+  for (std::size_t a = 0; a + 1 < fx.size(); ++a) {
+    for (std::size_t c = 0; c + 1 < fy.size(); ++c) {
+      // square (i, j) of the cell's centre; margin outside 0..corners
+      const int i = static_cast<int>(std::floor(0.5 * (fx[a] + fx[a + 1]) / s)) + 1;
+      const int j = static_cast<int>(std::floor(0.5 * (fy[c] + fy[c + 1]) / s)) + 1;
       const bool square = i >= 0 && i <= b.corners_x && j >= 0 && j <= b.corners_y;
       const double albedo = (square && sim::isBlackSquare(i, j)) ? o.board_black : o.board_white;
-      const Eigen::Vector3d p00(xs[a], ys[c], 0), p10(xs[a + 1], ys[c], 0), p11(xs[a + 1], ys[c + 1], 0),
-          p01(xs[a], ys[c + 1], 0);
-      for (const auto* p : {&p00, &p10, &p11, &p00, &p11, &p01}) pushVertex(v, *p, n, albedo);
+      const Eigen::Vector2d q00(fx[a], fy[c]), q10(fx[a + 1], fy[c]), q11(fx[a + 1], fy[c + 1]), q01(fx[a], fy[c + 1]);
+      for (const auto* q : {&q00, &q10, &q11, &q00, &q11, &q01}) {
+        pushVertex(v, printedBoardPoint(b, print, *q), printedBoardNormal(b, print, *q), albedo, *q);
+      }
     }
   }
   return v;

@@ -15,13 +15,13 @@ void checkGl(const char* where) {
   }
 }
 
-Fbo makeFbo(int samples, int w, int h) {
+Fbo makeFbo(int samples, int w, int h, bool coverage) {
   Fbo f;
   glGenFramebuffers(1, &f.fbo);
   glBindFramebuffer(GL_FRAMEBUFFER, f.fbo);
   glGenRenderbuffers(1, &f.colour);
   glBindRenderbuffer(GL_RENDERBUFFER, f.colour);
-  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_R8, w, h);  // grey: a quarter of RGBA8's memory traffic
+  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, coverage ? GL_RG8 : GL_R8, w, h);  // grey: a quarter of RGBA8's memory traffic
   glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, f.colour);
   glGenRenderbuffers(1, &f.depth);
   glBindRenderbuffer(GL_RENDERBUFFER, f.depth);
@@ -68,6 +68,8 @@ Drawable upload(const std::vector<float>& v) {
   glEnableVertexAttribArray(1);
   glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(6 * sizeof(float)));
   glEnableVertexAttribArray(2);
+  glVertexAttribPointer(3, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<void*>(7 * sizeof(float)));
+  glEnableVertexAttribArray(3);
   glBindVertexArray(0);
   return d;
 }

@@ -55,6 +55,8 @@ Eigen::Matrix4d glProjection(const sim::Camera& c, double near_m, double far_m) 
 struct BoardRenderer::Impl {
   sim::Scene scene;
   RenderSettings settings;
+  CameraProfile profile;
+  bool coverage = false;  // the profile has a background: the framebuffer's green holds the coverage
   OsMesaContext context;
   std::vector<std::string> warnings;
   bool distorted = false;
@@ -72,8 +74,9 @@ struct BoardRenderer::Impl {
   Eigen::Vector3d to_sun_board = Eigen::Vector3d::UnitZ();
   std::vector<Drawable> drawables;  // [0] is the board
 
-  Impl(const sim::Scene& sc, const RenderSettings& st, std::future<DistortionMap>* prebuilt)
-      : scene(sc), settings(st), context(3, 3) {
+  Impl(const sim::Scene& sc, const RenderSettings& st, const CameraProfile& pr, std::future<DistortionMap>* prebuilt)
+      : scene(sc), settings(st), profile(pr), coverage(pr.background.mean_dn.has_value()), context(3, 3) {
+    checkBoardPrint(profile, scene.board);
     // Meshes first: a missing file is an input error, reported before any GL work.
     const Eigen::Isometry3d board_T_base = scene.base_T_board.inverse();
     std::vector<std::vector<float>> mesh_vertices;
@@ -119,10 +122,10 @@ struct BoardRenderer::Impl {
                          std::to_string(max_samples > 1 ? max_samples : 0));
       want = max_samples > 1 ? max_samples : 0;
     }
-    single = makeFbo(0, gl_camera.width_px, gl_camera.height_px);
+    single = makeFbo(0, gl_camera.width_px, gl_camera.height_px, coverage);
     if (!single.fbo) throw std::runtime_error("render: the single-sampled framebuffer is incomplete");
     if (want > 0) {
-      msaa = makeFbo(want, gl_camera.width_px, gl_camera.height_px);
+      msaa = makeFbo(want, gl_camera.width_px, gl_camera.height_px, coverage);
       if (msaa.fbo) {
         samples = want;
       } else {
@@ -141,7 +144,7 @@ struct BoardRenderer::Impl {
     checkGl("framebuffer setup");
 
     shadow_program = link(kShadowVertexShader, kShadowFragmentShader);
-    Drawable board = upload(boardVertices(scene.board, settings.options));
+    Drawable board = upload(boardVertices(scene.board, settings.options, profile.board));
     board.back_albedo = static_cast<float>(settings.options.board_back);
     drawables.push_back(board);
     for (std::size_t i = 0; i < mesh_vertices.size(); ++i) {
@@ -294,10 +297,12 @@ struct BoardRenderer::Impl {
   }
 
   /// The pinhole image (pinhole camera's size): `rect` (gl_camera pixels, image rows going down) drawn,
-  /// read back and averaged down; everything else background_dn.
-  cv::Mat renderPinhole(const Eigen::Isometry3d& camera_T_board, const cv::Rect& rect) {
+  /// read back and averaged down; everything else background_dn. With `coverage` (the member), `*covered`
+  /// receives the framebuffer's green likewise (0 outside `rect`).
+  cv::Mat renderPinhole(const Eigen::Isometry3d& camera_T_board, const cv::Rect& rect, cv::Mat* covered) {
     const int s = settings.options.supersample;
     cv::Mat img(pinhole.height_px, pinhole.width_px, CV_8UC1, cv::Scalar(background_dn));
+    if (coverage) *covered = cv::Mat(pinhole.height_px, pinhole.width_px, CV_8UC1, cv::Scalar(0));
     if (rect.empty()) return img;
     context.makeCurrent();
     const int W = gl_camera.width_px, H = gl_camera.height_px;
@@ -361,17 +366,22 @@ struct BoardRenderer::Impl {
     }
     glBindFramebuffer(GL_READ_FRAMEBUFFER, single.fbo);
     glPixelStorei(GL_PACK_ALIGNMENT, 1);
-    cv::Mat flipped(rect.height, rect.width, CV_8UC1);
-    glReadPixels(rect.x, gl_y, rect.width, rect.height, GL_RED, GL_UNSIGNED_BYTE, flipped.data);
+    cv::Mat flipped(rect.height, rect.width, coverage ? CV_8UC2 : CV_8UC1);
+    glReadPixels(rect.x, gl_y, rect.width, rect.height, coverage ? GL_RG : GL_RED, GL_UNSIGNED_BYTE, flipped.data);
     checkGl("render");
-    if (s == 1) {
-      cv::Mat dst = img(rect);
-      cv::flip(flipped, dst, 0);  // GL rows go up, image rows go down
-    } else {
-      // rect is aligned to s x s blocks, so averaging it alone gives the same pixels as the whole frame.
-      cv::Mat up, dst = img(cv::Rect(rect.x / s, rect.y / s, rect.width / s, rect.height / s));
-      cv::flip(flipped, up, 0);
-      cv::resize(up, dst, dst.size(), 0, 0, cv::INTER_AREA);
+    cv::Mat channels[2];
+    if (coverage) cv::split(flipped, channels); else channels[0] = flipped;
+    for (int c = 0; c < (coverage ? 2 : 1); ++c) {
+      cv::Mat& out = c == 0 ? img : *covered;
+      if (s == 1) {
+        cv::Mat dst = out(rect);
+        cv::flip(channels[c], dst, 0);  // GL rows go up, image rows go down
+      } else {
+        // rect is aligned to s x s blocks, so averaging it alone gives the same pixels as the whole frame.
+        cv::Mat up, dst = out(cv::Rect(rect.x / s, rect.y / s, rect.width / s, rect.height / s));
+        cv::flip(channels[c], up, 0);
+        cv::resize(up, dst, dst.size(), 0, 0, cv::INTER_AREA);
+      }
     }
     return img;
   }
@@ -382,7 +392,11 @@ struct BoardRenderer::Impl {
 
 BoardRenderer::BoardRenderer(const sim::Scene& scene, const RenderSettings& settings,
                              std::future<DistortionMap>* distortion_map)
-    : impl_(std::make_unique<Impl>(scene, settings, distortion_map)) {}
+    : impl_(std::make_unique<Impl>(scene, settings, CameraProfile{}, distortion_map)) {}
+
+BoardRenderer::BoardRenderer(const sim::Scene& scene, const RenderSettings& settings, const CameraProfile& profile,
+                             std::future<DistortionMap>* distortion_map)
+    : impl_(std::make_unique<Impl>(scene, settings, profile, distortion_map)) {}
 
 BoardRenderer::~BoardRenderer() = default;
 
@@ -392,29 +406,38 @@ BoardRenderer::Drawn BoardRenderer::draw(const Eigen::Isometry3d& camera_T_board
   if (m.settings.options.crop_to_scene) rect = m.coveredRect(camera_T_board);
   const cv::Rect drawn = rect ? *rect : m.fullFrame();
   const int s = m.settings.options.supersample;  // drawn is aligned to s x s blocks
-  return Drawn{m.renderPinhole(camera_T_board, drawn), cv::Rect(drawn.x / s, drawn.y / s, drawn.width / s, drawn.height / s),
-               rect.has_value()};
+  Drawn out;
+  out.pinhole = m.renderPinhole(camera_T_board, drawn, &out.coverage);
+  out.rect = cv::Rect(drawn.x / s, drawn.y / s, drawn.width / s, drawn.height / s);
+  out.cropped = rect.has_value();
+  return out;
 }
 
 namespace {
 /// The clean image (camera size) from a drawn one: the lens distortion applied, if any.
-cv::Mat undistortedToCamera(const DistortionMap* map, const BoardRenderer::Drawn& d, unsigned char background_dn) {
-  if (!map) return d.pinhole;
-  if (!d.cropped) return applyDistortion(*map, d.pinhole, static_cast<double>(background_dn));
-  return applyDistortion(*map, d.pinhole, background_dn, d.rect);
+cv::Mat undistortedToCamera(const DistortionMap* map, const cv::Mat& pinhole, const BoardRenderer::Drawn& d,
+                            unsigned char background_dn) {
+  if (!map) return pinhole;
+  if (!d.cropped) return applyDistortion(*map, pinhole, static_cast<double>(background_dn));
+  return applyDistortion(*map, pinhole, background_dn, d.rect);
 }
 }  // namespace
 
 cv::Mat BoardRenderer::finish(const Drawn& drawn, std::uint64_t seed, std::uint64_t stream) const {
   const Impl& m = *impl_;
-  const cv::Mat clean = undistortedToCamera(m.distorted ? &m.distortion : nullptr, drawn, m.background_dn);
-  if (!m.settings.degradations.any()) return clean;
+  const DistortionMap* map = m.distorted ? &m.distortion : nullptr;
+  const cv::Mat clean = undistortedToCamera(map, drawn.pinhole, drawn, m.background_dn);
+  if (!m.settings.degradations.any() && m.profile.imageIdentity()) return clean;
   std::mt19937_64 rng = sim::makeRng(seed, stream);
-  return applyDegradations(clean, m.settings.degradations, rng);
+  const cv::Mat degraded = applyDegradations(clean, m.settings.degradations, rng);
+  if (m.profile.imageIdentity()) return degraded;
+  const cv::Mat covered = m.coverage ? undistortedToCamera(map, drawn.coverage, drawn, 0) : cv::Mat();
+  return applyCameraProfile(degraded, covered, m.profile, m.scene.camera, rng);
 }
 
 cv::Mat BoardRenderer::renderClean(const Eigen::Isometry3d& camera_T_board) {
-  return undistortedToCamera(impl_->distorted ? &impl_->distortion : nullptr, draw(camera_T_board), impl_->background_dn);
+  const Drawn d = draw(camera_T_board);
+  return undistortedToCamera(impl_->distorted ? &impl_->distortion : nullptr, d.pinhole, d, impl_->background_dn);
 }
 
 cv::Mat BoardRenderer::render(const Eigen::Isometry3d& camera_T_board, std::uint64_t seed, std::uint64_t stream) {

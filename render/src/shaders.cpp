@@ -12,14 +12,17 @@ const char* const kVertexShader = R"glsl(
 layout(location = 0) in vec3 a_pos;
 layout(location = 1) in vec3 a_normal;
 layout(location = 2) in float a_albedo;
+layout(location = 3) in vec2 a_pattern;   // where on the designed board (the printed board may be warped)
 uniform mat4 u_clip_T_board;
 uniform mat4 u_light_T_board;
 out vec3 v_pos;
 out vec3 v_normal;
 out float v_albedo;
 out vec3 v_light;
+out vec2 v_pattern;
 void main() {
   v_pos = a_pos;
+  v_pattern = a_pattern;
   v_normal = a_normal;
   v_albedo = a_albedo;
   v_light = (u_light_T_board * vec4(a_pos, 1.0)).xyz * 0.5 + 0.5;
@@ -33,6 +36,7 @@ in vec3 v_pos;
 in vec3 v_normal;
 in float v_albedo;
 in vec3 v_light;
+in vec2 v_pattern;
 uniform vec3 u_to_sun;       // board frame, unit
 uniform vec3 u_camera_pos;   // board frame
 uniform float u_ambient;
@@ -53,12 +57,12 @@ uniform sampler2D u_markers;    // ArUco marker blackness over the squared area 
 out vec4 o_colour;
 // Antiderivative of the square wave that is +1 on [2k, 2k+1) and -1 on [2k+1, 2k+2).
 float triangleWave(float t) { return 1.0 - abs(mod(t, 2.0) - 1.0); }
-// The board's albedo averaged over the pixel's footprint: the bounding box, in board coordinates, of
+// The board's albedo averaged over the pixel's footprint: the bounding box, in designed board coordinates, of
 // the pixel (a point-symmetric kernel, so corners stay exactly in place). Black where
 // (floor(x / s) + floor(y / s)) is even inside the squared area, i.e. 0.5 + 0.5 sx sy, which is separable.
 // This is sim::isBlackSquare (square i = floor(x / s) + 1, j likewise), the contract; tests/render checks it.
 float filteredChecker() {
-  vec2 p = v_pos.xy / u_square;
+  vec2 p = v_pattern / u_square;
   vec2 h = 0.5 * (abs(dFdx(p)) + abs(dFdy(p))) + 1e-6;
   vec2 a = max(p - h, u_squares.xy), b = min(p + h, u_squares.zw);
   vec2 inside = max(b - a, vec2(0.0)) / (2.0 * h);
@@ -100,7 +104,9 @@ void main() {
     vec3 h = normalize(u_to_sun + v);
     radiance += vis * u_sun * (albedo * ndl + u_specular * pow(max(dot(n, h), 0.0), u_shininess));
   }
-  o_colour = vec4(vec3(clamp(radiance * u_exposure, 0.0, 1.0)), 1.0);
+  // red: the grey level; green: coverage (1 where anything is drawn; the clear colour's green is 0), read
+  // back only when the camera profile's background needs it
+  o_colour = vec4(clamp(radiance * u_exposure, 0.0, 1.0), 1.0, 0.0, 1.0);
 }
 )glsl";
 

@@ -33,6 +33,7 @@
 #include <string>
 #include <vector>
 
+#include "orbcal/render/camera_profile.hpp"
 #include "orbcal/render/distortion.hpp"
 #include "orbcal/render/settings.hpp"
 #include "orbcal/sim/scene.hpp"
@@ -57,13 +58,21 @@ class BoardRenderer {
   /// std::async, so that it is built while the caller prepares other things): taken instead of building it.
   BoardRenderer(const sim::Scene& scene, const RenderSettings& settings,
                 std::future<DistortionMap>* distortion_map = nullptr);
+  /// The same with a camera profile (camera_profile.hpp): the board drawn as printed (its print scale,
+  /// bow and corner displacements: printedBoardPoint; sim::InputError naming profile.source when the
+  /// board part does not fit the scene's board: checkBoardPrint), and finish() applying its image part.
+  BoardRenderer(const sim::Scene& scene, const RenderSettings& settings, const CameraProfile& profile,
+                std::future<DistortionMap>* distortion_map = nullptr);
   ~BoardRenderer();
   BoardRenderer(const BoardRenderer&) = delete;
   BoardRenderer& operator=(const BoardRenderer&) = delete;
 
-  /// The noise-free image (CV_8UC1, camera size) of the scene seen from camera_T_board, exposure applied.
+  /// The noise-free image (CV_8UC1, camera size) of the scene seen from camera_T_board, exposure applied
+  /// (with a profile: its board drawn as printed, without its image part).
   cv::Mat renderClean(const Eigen::Isometry3d& camera_T_board);
-  /// renderClean, then the scene's degradations (degrade.hpp) drawn from sim::makeRng(seed, stream).
+  /// renderClean, then the scene's degradations (degrade.hpp), then the camera profile's image part
+  /// (applyCameraProfile, about the real camera's principal point, the background where nothing is
+  /// drawn), both drawn from one stream sim::makeRng(seed, stream) in that order.
   cv::Mat render(const Eigen::Isometry3d& camera_T_board, std::uint64_t seed, std::uint64_t stream);
 
   /// render() in two halves, so that a pipeline can draw the next frame while another thread finishes
@@ -74,6 +83,8 @@ class BoardRenderer {
     cv::Mat pinhole;  ///< the image OpenGL drew (the undistorted pinhole camera's size; averaged down)
     cv::Rect rect;    ///< its pixels that were drawn; the rest is background
     bool cropped = false;
+    cv::Mat coverage; ///< like pinhole, 255 where the board or a mesh covers the pixel (fractions at edges), 0
+                      ///< where not; only when the profile has a background (else empty)
   };
   Drawn draw(const Eigen::Isometry3d& camera_T_board);
   cv::Mat finish(const Drawn& drawn, std::uint64_t seed, std::uint64_t stream) const;
