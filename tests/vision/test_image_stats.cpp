@@ -241,3 +241,14 @@ TEST_CASE("estimates over views and their significance", "[vision][image-stats]"
   CHECK(vision::differsSignificantly(a, b));   // 0.5 > 2 * 0.141
   CHECK_FALSE(vision::differsSignificantly(a, c));  // 0.2 < 0.283
 }
+
+TEST_CASE("a tone curve whose white lies beyond 255 is fitted with white held at the bound", "[vision][image-stats]") {
+  std::vector<Eigen::Vector2d> pairs;
+  for (int in = 0; in <= 230; ++in) pairs.emplace_back(in, 20.0 + (255.0 - 20.0) * std::pow(in / 230.0, 1.0 / 1.5));  // 255 at in = 230
+  const vision::ToneFit free = vision::fitToneCurve(pairs);
+  CHECK(free.white > 255.0);
+  const vision::ToneFit held = vision::fitToneCurve(pairs, 255.0);
+  CHECK(held.white == Approx(255.0).margin(1e-9));
+  CHECK(held.rms < 3.0);  // the held curve still follows the pairs (within a few DN)
+  CHECK(held.rms >= free.rms - 1e-9);
+}

@@ -159,7 +159,7 @@ EdgeStats edgeStats(const sim::Camera& camera, const sim::Board& board, const Bo
   return out;
 }
 
-ToneFit fitToneCurve(const std::vector<Eigen::Vector2d>& in_out) {
+ToneFit fitToneCurve(const std::vector<Eigen::Vector2d>& in_out, double max_white) {
   ToneFit best;
   if (in_out.size() < 3) return best;
   // the inputs are 8-bit levels: per level its count and the sums of out and out^2 give every sum below
@@ -184,8 +184,13 @@ ToneFit fitToneCurve(const std::vector<Eigen::Vector2d>& in_out) {
     }
     const double det = N * Sxx - Sx * Sx;
     if (det <= 1e-12 * N * N) return std::numeric_limits<double>::infinity();
-    const double slope = (N * Sxy - Sx * Sy) / det, icpt = (Sy - slope * Sx) / N;
-    const double sse = Syy - icpt * Sy - slope * Sxy;
+    double slope = (N * Sxy - Sx * Sy) / det, icpt = (Sy - slope * Sx) / N;
+    if (icpt + slope > max_white) {  // white held at its bound: y = b (1 - x) + max_white x, b by least squares
+      const double S1 = N - 2 * Sx + Sxx, Sy1 = Sy - Sxy, Sx1 = Sx - Sxx;  // sums of (1-x)^2, y (1-x), x (1-x)
+      icpt = S1 > 0 ? (Sy1 - max_white * Sx1) / S1 : 0.0;
+      slope = max_white - icpt;
+    }
+    const double sse = Syy - 2 * icpt * Sy - 2 * slope * Sxy + N * icpt * icpt + 2 * icpt * slope * Sx + slope * slope * Sxx;
     if (fit) *fit = {icpt, icpt + slope, gamma, std::sqrt(std::max(0.0, sse) / N)};
     return sse;
   };

@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <opencv2/imgproc.hpp>
 
 #include "orbcal/render/degrade.hpp"
@@ -186,6 +187,8 @@ TwinComparison compareWithTwins(const sim::Camera& camera, const sim::Board& boa
   c.per_view.assign(3, {});
   const sim::Scene scene = twinScene(camera, board);
   render::BoardRenderer renderer(scene, render::RenderSettings{});
+  std::unique_ptr<render::BoardRenderer> printed;
+  if (profile && !profile->board.identity()) printed = std::make_unique<render::BoardRenderer>(scene, render::RenderSettings{}, *profile);
   std::mt19937_64 rng(seed);
   std::vector<RealView> used;
   std::vector<cv::Mat> cleans;
@@ -200,7 +203,7 @@ TwinComparison compareWithTwins(const sim::Camera& camera, const sim::Board& boa
     c.per_view[kReal].push_back(measureStats(camera, board, v.gray, v.ignored, v.detection, pose, clean, clean_width));
     cv::Mat profiled;
     if (profile) {
-      profiled = twin_detail::profiledTwin(renderer, scene, pose, clean, *profile, rng);
+      profiled = twin_detail::profiledTwin(printed.get(), scene, pose, clean, *profile, rng);
       c.per_view[kProfiled].push_back(measureStats(camera, board, profiled, v.ignored, detect(profiled), pose, clean, clean_width));
     }
     c.crops.push_back(sideBySide(camera, board, pose, {v.gray, clean, profiled}));

@@ -7,10 +7,10 @@
 
 namespace orbcal::workflow::twin_detail {
 
-/// The twin at `pose` with `profile` applied: the printed board as the profile has it (drawn again when
-/// its board part is not the identity, else `clean`), then the image part (render::applyCameraProfile;
-/// the background where the board's outline does not cover the image).
-cv::Mat profiledTwin(render::BoardRenderer& renderer, const sim::Scene& scene, const Eigen::Isometry3d& pose, const cv::Mat& clean,
+/// The twin at `pose` with `profile` applied: the board as printed (drawn by `printed`, a renderer with
+/// the profile, where its board part is not the identity; else `clean`), then the image part
+/// (render::applyCameraProfile; the background where the board's outline does not cover the image).
+cv::Mat profiledTwin(render::BoardRenderer* printed, const sim::Scene& scene, const Eigen::Isometry3d& pose, const cv::Mat& clean,
                      const render::CameraProfile& profile, std::mt19937_64& rng);
 
 /// Extra Gaussian blur (sigma, px) and unsharp-mask gain (mask sigma `mask_sigma_px`) that turn an edge of

@@ -11,11 +11,10 @@ namespace orbcal::workflow {
 
 namespace twin_detail {
 
-cv::Mat profiledTwin(render::BoardRenderer& renderer, const sim::Scene& scene, const Eigen::Isometry3d& pose, const cv::Mat& clean,
+cv::Mat profiledTwin(render::BoardRenderer* printed, const sim::Scene& scene, const Eigen::Isometry3d& pose, const cv::Mat& clean,
                      const render::CameraProfile& profile, std::mt19937_64& rng) {
-  (void)renderer;
   const cv::Mat covered = vision::boardHullMask(scene.camera, scene.board, pose, 0.0);
-  return render::applyCameraProfile(clean, covered, profile, scene.camera, rng);
+  return render::applyCameraProfile(printed ? printed->renderClean(pose) : clean, covered, profile, scene.camera, rng);
 }
 
 namespace {
@@ -107,8 +106,9 @@ render::ToneCurve fitTone(const sim::Camera& camera, const sim::Board& board, co
     const auto p = vision::tonePairs(camera, board, boardView(views[k]), rendered[k], kToneStep);
     pairs.insert(pairs.end(), p.begin(), p.end());
   }
-  const vision::ToneFit t = vision::fitToneCurve(pairs);
-  return {t.black, t.white, t.gamma};
+  constexpr double kMaxWhiteDn = 1000.0;  // camera_profile.yaml's bound on the response at full input
+  const vision::ToneFit t = vision::fitToneCurve(pairs, kMaxWhiteDn);
+  return {std::max(0.0, t.black), t.white, t.gamma};
 }
 
 /// The lens's fall-off: the real white's radial fall-off less the twins' (their lighting), carried from DN
@@ -176,10 +176,10 @@ render::BoardPrint fitBoardPrint(const sim::Camera& camera, const sim::Board& bo
   return print;
 }
 
-/// The profile corrected by what it gives when applied: up to kLoopViews twins profiled, their
-/// statistics against the real ones of the same views, each part's target moved by the difference and
-/// fitted again (twice). The parts' models (a Gaussian edge, noise and fall-off carried through the tone
-/// curve's slope) are approximations; the loop closes what they leave.
+/// The edge and noise parts corrected by what the profile gives when applied: up to kLoopViews twins
+/// profiled, their edge width, overshoot and noise against the real ones of the same views, the targets
+/// moved by the difference and the parts fitted again (twice): the Gaussian edge model and the noise
+/// after a tone curve are approximations; the loop closes what they leave.
 void closeTheLoop(const sim::Camera& camera, const sim::Board& board, const TwinComparison& c, const std::vector<RealView>& views,
                   const std::vector<cv::Mat>& rendered, render::CameraProfile& p) {
   constexpr std::size_t kLoopViews = 8;
@@ -189,42 +189,32 @@ void closeTheLoop(const sim::Camera& camera, const sim::Board& board, const Twin
   std::vector<std::size_t> loop;
   for (std::size_t k = 0; k < views.size(); k += std::max<std::size_t>(1, views.size() / kLoopViews)) loop.push_back(k);
   // the real statistics of the loop's views
-  std::vector<double> rw, ro, rb, rwh, rlb, rlw;
-  std::vector<std::vector<vision::FlatSample>> rflat;
+  std::vector<double> rw, ro, rb, rwh;
   for (std::size_t k : loop) {
     const ViewStats& s = c.per_view[0][k];
     rw.push_back(s.edges.width_px);
     ro.push_back(s.edges.overshoot);
     rb.push_back(s.noise.black_sd);
     rwh.push_back(s.noise.white_sd);
-    rlb.push_back(s.levels.black);
-    rlw.push_back(s.levels.white);
-    rflat.push_back(s.flat);
   }
   const auto mean = [](const std::vector<double>& x) { return vision::meanOverViews(x); };
-  const vision::Estimate real_w = mean(rw), real_o = mean(ro), real_nb = mean(rb), real_nw = mean(rwh), real_b = mean(rlb), real_wl = mean(rlw);
-  const double real_c2 = vision::radialFalloff(rflat).c2;
+  const vision::Estimate real_w = mean(rw), real_o = mean(ro), real_nb = mean(rb), real_nw = mean(rwh);
   if (!real_w.valid() || !real_o.valid()) return;
   double target_w = real_w.value, target_o = real_o.value - over.rendered.value;
   std::mt19937_64 rng(1);
   for (int round = 0; round < kRounds; ++round) {
-    std::vector<double> w, o, sd_b, sd_w, lb, lw;
-    std::vector<std::vector<vision::FlatSample>> flat;
+    std::vector<double> w, o, sd_b, sd_w;
     for (std::size_t k : loop) {
       vision::BoardView v = boardView(views[k]);
       v.gray = render::applyCameraProfile(rendered[k], vision::boardHullMask(camera, board, v.camera_T_board, 0.0), p, camera, rng);
       const vision::EdgeStats e = vision::edgeStats(camera, board, v);
-      flat.push_back(vision::flatSamples(camera, board, v));
-      const vision::NoiseLevels n = vision::noiseLevels(flat.back());
-      const vision::Levels l = vision::blackWhiteLevels(flat.back());
+      const vision::NoiseLevels n = vision::noiseLevels(vision::flatSamples(camera, board, v));
       w.push_back(e.width_px);
       o.push_back(e.overshoot);
       sd_b.push_back(n.black_sd);
       sd_w.push_back(n.white_sd);
-      lb.push_back(l.black);
-      lw.push_back(l.white);
     }
-    const vision::Estimate pw = mean(w), po = mean(o), pb = mean(sd_b), pwh = mean(sd_w), plb = mean(lb), plw = mean(lw);
+    const vision::Estimate pw = mean(w), po = mean(o), pb = mean(sd_b), pwh = mean(sd_w);
     if (pw.valid() && po.valid()) {
       target_w += real_w.value - pw.value;
       target_o += real_o.value - po.value;
@@ -236,16 +226,6 @@ void closeTheLoop(const sim::Camera& camera, const sim::Board& board, const Twin
       const double ratio = 0.5 * (std::pow(real_nb.value / pb.value, 2) + std::pow(real_nw.value / pwh.value, 2));
       p.noise.a_dn *= ratio;
       p.noise.b_dn2 *= ratio;
-    }
-    if (real_b.valid() && real_wl.valid() && plb.valid() && plw.valid()) {
-      p.tone.black_dn += real_b.value - plb.value;
-      p.tone.white_dn += real_wl.value - plw.value;
-      if (std::isfinite(real_c2) && p.tone.white_dn > p.tone.black_dn) {
-        const double slope = p.tone.gamma * real_wl.value / std::max(1.0, real_wl.value - p.tone.black_dn);
-        p.vignetting.a2 += slope * (real_c2 - vision::radialFalloff(flat).c2);
-        p.vignetting.a4 = 0.5 * p.vignetting.a2 * p.vignetting.a2;
-        if (render::vignettingFactor(p.vignetting, 1.0) < 0.2) p.vignetting = {};
-      }
     }
   }
 }

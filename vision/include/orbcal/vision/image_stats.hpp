@@ -113,7 +113,9 @@ Falloff radialFalloff(const std::vector<std::vector<FlatSample>>& samples);
 struct ToneFit {
   double black = 0.0, white = 255.0, gamma = 1.0, rms = 0.0;
 };
-ToneFit fitToneCurve(const std::vector<Eigen::Vector2d>& in_out);
+/// `max_white`: the white end is held at it where the free fit goes beyond (an 8-bit camera profile's
+/// white is at most 255 DN).
+ToneFit fitToneCurve(const std::vector<Eigen::Vector2d>& in_out, double max_white = std::numeric_limits<double>::infinity());
 /// (rendered, real) pixel pairs over the board's squares (every `step`-th pixel), ignored pixels left out.
 std::vector<Eigen::Vector2d> tonePairs(const sim::Camera& camera, const sim::Board& board, const BoardView& real,
                                        const cv::Mat& rendered, int step = 2);
