@@ -40,7 +40,13 @@ std::string twinJson(const TwinResult& r) {
       << ", \"profiled_significant\": " << (s.profiled_significant ? "true" : "false")
       << ", \"profiled_within_30_percent\": " << (s.profiled_within(kWithin) ? "true" : "false") << "}";
   }
-  o << "\n  }\n}\n";
+  o << "\n  },\n  \"effects\": [";
+  for (std::size_t k = 0; k < c.effects.size(); ++k) {
+    const NamedEffect& e = c.effects[k];
+    o << (k ? "," : "") << "\n    {\"name\": " << sim::jsonString(e.name) << ", \"size\": " << sim::jsonNumber(e.size, "twin.json: effects." + e.name)
+      << ", \"unit\": " << sim::jsonString(e.unit) << ", \"statistic\": " << sim::jsonString(e.statistic) << "}";
+  }
+  o << "\n  ]\n}\n";
   return o.str();
 }
 
@@ -73,6 +79,11 @@ std::string twinMarkdown(const TwinResult& r, const std::string& description) {
   for (const TwinStatistic& s : c.statistics) {
     m << "| " << s.label << " | " << cell(s.real) << " | " << cell(s.rendered) << " | " << cell(s.profiled) << " | "
       << (s.significant ? "differs" : "agrees") << " |\n";
+  }
+  m << "\n## Effects named\n\n";
+  if (c.effects.empty()) m << "None: no part of the fitted profile is both beyond its practical threshold and significant.\n";
+  for (const NamedEffect& e : c.effects) {
+    m << "- " << e.name << ": " << sim::formatNumber("%.4g", e.size) << " " << e.unit << " (shown by " << e.statistic << ")\n";
   }
   const render::CameraProfile& p = c.fitted;
   m << "\n## Fitted camera profile (camera_profile.yaml)\n\n";
