@@ -109,6 +109,9 @@ std::string folderOf(const std::string& path) {
 
 TwinResult runTwin(const TwinOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
+  if (!sim::describesImages(o.description)) {
+    throw sim::InputError(o.description + ": images: missing: orbcal twin compares a description of images (docs/real-images.md)");
+  }
   const sim::ImageViews data = sim::loadImageViews(o.description);
   std::optional<render::CameraProfile> profile;
   if (!o.profile.empty()) profile = render::loadCameraProfile(o.profile);
