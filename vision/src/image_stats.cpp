@@ -10,7 +10,7 @@ namespace orbcal::vision {
 
 namespace {
 
-void checkView(const BoardView& view, const char* who) {
+void checkView(const BoardImage& view, const char* who) {
   if (view.gray.empty() || view.gray.type() != CV_8UC1) throw std::invalid_argument(std::string(who) + ": expected a CV_8UC1 image");
   if (!view.ignored.empty() && (view.ignored.type() != CV_8UC1 || view.ignored.size() != view.gray.size())) {
     throw std::invalid_argument(std::string(who) + ": expected an ignored mask of the image's size (CV_8UC1)");
@@ -25,7 +25,7 @@ double median(std::vector<double> v) {
 }
 
 /// The ignored mask grown by 2 px (a sample's neighbours stay clear of it); zeros where none.
-cv::Mat grownIgnored(const BoardView& view) {
+cv::Mat grownIgnored(const BoardImage& view) {
   if (view.ignored.empty()) return cv::Mat::zeros(view.gray.size(), CV_8UC1);
   cv::Mat grown;
   cv::dilate(view.ignored, grown, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(5, 5)));
@@ -89,7 +89,7 @@ Eigen::Vector2d projectBoardPoint(const sim::Camera& camera, const Eigen::Isomet
   return sim::project(camera, camera_T_board * p_board);
 }
 
-std::map<int, Eigen::Vector2d> cornerResiduals(const sim::Camera& camera, const sim::Board& board, const BoardView& view) {
+std::map<int, Eigen::Vector2d> cornerResiduals(const sim::Camera& camera, const sim::Board& board, const BoardImage& view) {
   if (view.ids.size() != view.corners_px.size()) throw std::invalid_argument("cornerResiduals: one id per corner expected");
   std::map<int, Eigen::Vector2d> out;
   for (std::size_t n = 0; n < view.ids.size(); ++n) {
@@ -144,7 +144,7 @@ Eigen::Vector2d boardPlaneShift(const sim::Camera& camera, const sim::Board& boa
   return J.fullPivLu().solve(residual_px);
 }
 
-std::vector<FlatSample> flatSamples(const sim::Camera& camera, const sim::Board& board, const BoardView& view) {
+std::vector<FlatSample> flatSamples(const sim::Camera& camera, const sim::Board& board, const BoardImage& view) {
   checkView(view, "flatSamples");
   const cv::Mat ignored = grownIgnored(view);
   cv::Mat taken = cv::Mat::zeros(view.gray.size(), CV_8UC1);
@@ -307,7 +307,7 @@ cv::Mat boardHullMask(const sim::Camera& camera, const sim::Board& board, const 
   return mask;
 }
 
-BackgroundStats backgroundStats(const sim::Camera& camera, const sim::Board& board, const BoardView& view) {
+BackgroundStats backgroundStats(const sim::Camera& camera, const sim::Board& board, const BoardImage& view) {
   checkView(view, "backgroundStats");
   const cv::Mat hull = boardHullMask(camera, board, view.camera_T_board, board.square_m);
   double sum = 0.0, ss = 0.0;

@@ -63,7 +63,7 @@ Profile readProfile(const std::vector<double>& e) {
 
 /// The profile across the edge from board point a to b (a segment between two inner corners), white on
 /// the side of `to_white` (a unit board vector).
-Profile edgeProfile(const sim::Camera& camera, const sim::Board& board, const BoardView& view, const Eigen::Vector3d& a,
+Profile edgeProfile(const sim::Camera& camera, const sim::Board& board, const BoardImage& view, const Eigen::Vector3d& a,
                     const Eigen::Vector3d& b, const Eigen::Vector3d& to_white) {
   const Eigen::Isometry3d& T = view.camera_T_board;
   if ((T * a).z() <= 0.0 || (T * b).z() <= 0.0) return {};
@@ -122,7 +122,7 @@ Profile edgeProfile(const sim::Camera& camera, const sim::Board& board, const Bo
 
 }  // namespace
 
-EdgeStats edgeStats(const sim::Camera& camera, const sim::Board& board, const BoardView& view) {
+EdgeStats edgeStats(const sim::Camera& camera, const sim::Board& board, const BoardImage& view) {
   if (view.gray.empty() || view.gray.type() != CV_8UC1) throw std::invalid_argument("edgeStats: expected a CV_8UC1 image");
   std::vector<double> widths, overs, unders;
   const double s = board.square_m;
@@ -219,7 +219,7 @@ ToneFit fitToneCurve(const std::vector<Eigen::Vector2d>& in_out, double max_whit
   return best;
 }
 
-std::vector<Eigen::Vector2d> tonePairs(const sim::Camera& camera, const sim::Board& board, const BoardView& real, const cv::Mat& rendered,
+std::vector<Eigen::Vector2d> tonePairs(const sim::Camera& camera, const sim::Board& board, const BoardImage& real, const cv::Mat& rendered,
                                        int step) {
   if (rendered.size() != real.gray.size() || rendered.type() != CV_8UC1 || real.gray.type() != CV_8UC1) {
     throw std::invalid_argument("tonePairs: expected a real and a rendered CV_8UC1 image of one size");

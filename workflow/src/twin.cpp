@@ -46,14 +46,14 @@ ViewStats measureStats(const sim::Camera& camera, const sim::Board& board, const
   s.found = det.measurement.found();
   s.markers = det.markers;
   if (s.found) {
-    vision::BoardView own;
+    vision::BoardImage own;
     own.camera_T_board = det.measurement.camera_T_board;
     own.corners_px = det.measurement.corners_px;
     for (std::size_t n = 0; n < own.corners_px.size(); ++n) own.ids.push_back(det.measurement.cornerId(n));
     s.residuals = vision::cornerResiduals(camera, board, own);
     s.corners = static_cast<int>(own.ids.size());
   }
-  vision::BoardView v;
+  vision::BoardImage v;
   v.gray = gray;
   v.ignored = ignored;
   v.camera_T_board = pose;

@@ -79,8 +79,8 @@ TwinStatistic statistic(const TwinComparison& c, const std::string& key) {
   return TwinStatistic{};
 }  // every 4th pixel: tens of thousands of pairs per view
 
-vision::BoardView boardView(const RealView& v) {
-  vision::BoardView b;
+vision::BoardImage boardImage(const RealView& v) {
+  vision::BoardImage b;
   b.gray = v.gray;
   b.ignored = v.ignored;
   b.camera_T_board = v.detection.measurement.camera_T_board;
@@ -103,7 +103,7 @@ render::ToneCurve fitTone(const sim::Camera& camera, const sim::Board& board, co
                           const std::vector<cv::Mat>& rendered) {
   std::vector<Eigen::Vector2d> pairs;
   for (std::size_t k = 0; k < views.size(); ++k) {
-    const auto p = vision::tonePairs(camera, board, boardView(views[k]), rendered[k], kToneStep);
+    const auto p = vision::tonePairs(camera, board, boardImage(views[k]), rendered[k], kToneStep);
     pairs.insert(pairs.end(), p.begin(), p.end());
   }
   constexpr double kMaxWhiteDn = 1000.0;  // camera_profile.yaml's bound on the response at full input
@@ -205,7 +205,7 @@ void closeTheLoop(const sim::Camera& camera, const sim::Board& board, const Twin
   for (int round = 0; round < kRounds; ++round) {
     std::vector<double> w, o, sd_b, sd_w;
     for (std::size_t k : loop) {
-      vision::BoardView v = boardView(views[k]);
+      vision::BoardImage v = boardImage(views[k]);
       v.gray = render::applyCameraProfile(rendered[k], vision::boardHullMask(camera, board, v.camera_T_board, 0.0), p, camera, rng);
       const vision::EdgeStats e = vision::edgeStats(camera, board, v);
       const vision::NoiseLevels n = vision::noiseLevels(vision::flatSamples(camera, board, v));

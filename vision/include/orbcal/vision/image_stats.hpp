@@ -21,7 +21,7 @@
 namespace orbcal::vision {
 
 /// One image of the board and where the board is in it.
-struct BoardView {
+struct BoardImage {
   cv::Mat gray;      ///< CV_8UC1, the camera's size
   cv::Mat ignored;   ///< CV_8UC1, non-zero: not used; empty: nothing ignored
   Eigen::Isometry3d camera_T_board = Eigen::Isometry3d::Identity();  ///< orbcal's board frame
@@ -52,7 +52,7 @@ Eigen::Vector2d projectBoardPoint(const sim::Camera& camera, const Eigen::Isomet
 
 // ---- corners -------------------------------------------------------------------------------------
 /// Detected minus projected corner (px), by corner id, under the view's pose.
-std::map<int, Eigen::Vector2d> cornerResiduals(const sim::Camera& camera, const sim::Board& board, const BoardView& view);
+std::map<int, Eigen::Vector2d> cornerResiduals(const sim::Camera& camera, const sim::Board& board, const BoardImage& view);
 /// RMS length of the residuals (px): the corners' scatter about the fitted pose.
 double cornerScatterPx(const std::map<int, Eigen::Vector2d>& residuals);
 /// The part of the corner residuals that repeats per corner id across views.
@@ -78,7 +78,7 @@ struct FlatSample {
   bool white = false;
 };
 inline constexpr double kFlatInsetPx = 2.5;
-std::vector<FlatSample> flatSamples(const sim::Camera& camera, const sim::Board& board, const BoardView& view);
+std::vector<FlatSample> flatSamples(const sim::Camera& camera, const sim::Board& board, const BoardImage& view);
 /// Robust levels: medians of the black and of the white samples (DN); NaN without samples.
 struct Levels {
   double black = std::numeric_limits<double>::quiet_NaN(), white = std::numeric_limits<double>::quiet_NaN();
@@ -117,7 +117,7 @@ struct ToneFit {
 /// white is at most 255 DN).
 ToneFit fitToneCurve(const std::vector<Eigen::Vector2d>& in_out, double max_white = std::numeric_limits<double>::infinity());
 /// (rendered, real) pixel pairs over the board's squares (every `step`-th pixel), ignored pixels left out.
-std::vector<Eigen::Vector2d> tonePairs(const sim::Camera& camera, const sim::Board& board, const BoardView& real,
+std::vector<Eigen::Vector2d> tonePairs(const sim::Camera& camera, const sim::Board& board, const BoardImage& real,
                                        const cv::Mat& rendered, int step = 2);
 
 // ---- edges ---------------------------------------------------------------------------------------
@@ -129,7 +129,7 @@ struct EdgeStats {
   double overshoot = std::numeric_limits<double>::quiet_NaN(), undershoot = std::numeric_limits<double>::quiet_NaN();
   int edges = 0;
 };
-EdgeStats edgeStats(const sim::Camera& camera, const sim::Board& board, const BoardView& view);
+EdgeStats edgeStats(const sim::Camera& camera, const sim::Board& board, const BoardImage& view);
 
 // ---- background ----------------------------------------------------------------------------------
 /// Mean and standard deviation (DN) of the pixels outside the board's hull grown by a square.
@@ -137,7 +137,7 @@ struct BackgroundStats {
   double mean = std::numeric_limits<double>::quiet_NaN(), sd = std::numeric_limits<double>::quiet_NaN();
   int pixels = 0;
 };
-BackgroundStats backgroundStats(const sim::Camera& camera, const sim::Board& board, const BoardView& view);
+BackgroundStats backgroundStats(const sim::Camera& camera, const sim::Board& board, const BoardImage& view);
 /// CV_8UC1 of the image's size: 255 inside the board's outline (margin included) grown by `grow_m` on
 /// every side (backgroundStats grows it by a square: the sheet's edge and its shadow are not background).
 cv::Mat boardHullMask(const sim::Camera& camera, const sim::Board& board, const Eigen::Isometry3d& camera_T_board, double grow_m);
