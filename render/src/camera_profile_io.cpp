@@ -25,7 +25,8 @@ ToneCurve parseTone(const sim::ConfigNode& n) {
   if (!n.defined()) return t;
   n.requireOnlyKeys({"black_dn", "white_dn", "gamma"});
   t.black_dn = within(n, "black_dn", t.black_dn, 0.0, 254.0, "0 to 254 DN");
-  t.white_dn = within(n, "white_dn", t.white_dn, 1.0, 255.0, "1 to 255 DN");
+  // the response at full input: above 255 DN (an exposure brighter than the render's) the 8-bit output saturates
+  t.white_dn = within(n, "white_dn", t.white_dn, 1.0, 1000.0, "1 to 1000 DN");
   t.gamma = within(n, "gamma", t.gamma, 0.1, 10.0, "0.1 to 10");
   if (!(t.white_dn > t.black_dn)) n["white_dn"].fail("must be greater than black_dn");
   return t;

@@ -197,6 +197,33 @@ cv::Mat ignoredPixels(const cv::Mat& bgr, const sim::ImageMask& mask, const std:
   return ignored;
 }
 
+cv::Mat fillIgnored(const cv::Mat& image, const cv::Mat& ignored) {
+  if (ignored.empty() || cv::countNonZero(ignored) == 0) return image;
+  cv::Mat filled;
+  cv::inpaint(image, ignored, filled, kInpaintRadiusPx, cv::INPAINT_TELEA);
+  return filled;
+}
+
+ViewMeasurement measureGray(const cv::Mat& gray, const sim::Camera& camera, const sim::Board& board, const MeasureSettings& settings) {
+  ViewMeasurement v;
+  Measurement& m = v.measurement;
+  sim::Scene scene;
+  scene.camera = camera;
+  scene.board = board;
+  m = measureImage(gray, scene, sim::Arm{}, Eigen::VectorXd(), settings);
+  if (board.type == sim::BoardType::kCharuco && gray.cols == camera.width_px && gray.rows == camera.height_px) {
+    const CharucoDetection det = detectCharuco(gray, board, &camera);
+    const std::optional<Eigen::Isometry3d> seed = m.found() ? std::optional<Eigen::Isometry3d>(m.camera_T_board) : markerPose(det, camera, board);
+    if (seed) {
+      const Measurement completed = completedMeasurement(gray, camera, board, *seed, settings);
+      if (completed.found() && completed.num_corners > m.num_corners) m = completed;
+    }
+    if (m.found()) v.lost_markers = lostMarkers(m, camera, board, det.marker_ids);
+    v.markers = det.markers;
+  }
+  return v;
+}
+
 ViewMeasurement measureView(const std::string& path, const sim::Camera& camera, const sim::Board& board,
                             const sim::ImageMask& mask, const std::string& view_mask, const MeasureSettings& settings) {
   ViewMeasurement v;
@@ -211,26 +238,12 @@ ViewMeasurement measureView(const std::string& path, const sim::Camera& camera, 
     const cv::Mat colour = cv::imread(path, cv::IMREAD_COLOR);
     const cv::Mat ignored = ignoredPixels(colour, mask, view_mask);
     v.ignored_px = cv::countNonZero(ignored);
-    if (v.ignored_px > 0) {
-      cv::Mat filled;
-      cv::inpaint(colour, ignored, filled, kInpaintRadiusPx, cv::INPAINT_TELEA);
-      cv::cvtColor(filled, gray, cv::COLOR_BGR2GRAY);
-    }
+    if (v.ignored_px > 0) cv::cvtColor(fillIgnored(colour, ignored), gray, cv::COLOR_BGR2GRAY);
   }
-  sim::Scene scene;
-  scene.camera = camera;
-  scene.board = board;
-  m = measureImage(gray, scene, sim::Arm{}, Eigen::VectorXd(), settings);
-  if (board.type == sim::BoardType::kCharuco && gray.cols == camera.width_px && gray.rows == camera.height_px) {
-    const CharucoDetection det = detectCharuco(gray, board, &camera);
-    const std::optional<Eigen::Isometry3d> seed = m.found() ? std::optional<Eigen::Isometry3d>(m.camera_T_board) : markerPose(det, camera, board);
-    if (seed) {
-      const Measurement completed = completedMeasurement(gray, camera, board, *seed, settings);
-      if (completed.found() && completed.num_corners > m.num_corners) m = completed;
-    }
-    if (m.found()) v.lost_markers = lostMarkers(m, camera, board, det.marker_ids);
-  }
-  m.image = path;
+  const int ignored_px = v.ignored_px;
+  v = measureGray(gray, camera, board, settings);
+  v.ignored_px = ignored_px;
+  v.measurement.image = path;
   return v;
 }
 

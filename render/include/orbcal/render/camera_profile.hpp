@@ -5,6 +5,8 @@
 // is). Models (docs/rendered-datasets-and-images.md, "Camera profile"):
 //   - tone: the camera response, out = black + (white - black) * (in / 255)^(1 / gamma), in DN (8-bit);
 //     gamma 1 with black 0 and white 255 is the identity (Grossberg and Nayar 2004 for the response curve);
+//     white is the response at full input and may exceed 255 DN (a real exposure brighter than the
+//     render's): the 8-bit output saturates;
 //   - vignetting: radiance times 1 + a2 r^2 + a4 r^4 + a6 r^6 before the tone curve, r the distance to
 //     the principal point over the half diagonal of the image (Goldman 2010; Kang and Weiss 2000);
 //   - blur: an extra Gaussian point spread function of sigma blur_sigma_px;

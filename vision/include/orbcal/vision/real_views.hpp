@@ -34,7 +34,15 @@ struct ViewMeasurement {
   Measurement measurement;         ///< the board pose (camera_T_board; covariance of the camera pose, pose.hpp's e_c)
   int ignored_px = 0;              ///< pixels filled before detection
   std::vector<int> lost_markers;   ///< ChArUco: markers whose centre the pose puts inside the image, not decoded
+  int markers = 0;                 ///< ChArUco: markers of the board decoded
 };
+
+/// `image` with its `ignored` pixels (non-zero) filled from their surroundings (Telea 2004), as
+/// measureView fills them before detection; `image` itself where nothing is ignored.
+cv::Mat fillIgnored(const cv::Mat& image, const cv::Mat& ignored);
+
+/// The board's pose in a grey image (CV_8UC1) with nothing to ignore: measureView after reading and filling.
+ViewMeasurement measureGray(const cv::Mat& gray, const sim::Camera& camera, const sim::Board& board, const MeasureSettings& settings);
 
 /// Reads `path` (colour or grey), fills the ignored pixels and measures the board's pose
 /// (vision::measureImage with camera and board; no arm). A file that cannot be read is kUnreadable.
