@@ -15,6 +15,7 @@
 
 #include "orbcal/sim/identifiability.hpp"
 #include "stacked_system.hpp"
+#include "streamed_lm.hpp"
 
 namespace orbcal::calib {
 
@@ -442,6 +443,47 @@ void addPrior(const LmOptions& o, const std::vector<int>& free, ceres::Problem& 
 
 }  // namespace
 
+namespace {
+
+/// LmOptions' prior on the free parameters, as streamedLm takes it.
+StreamedLmOptions streamedOptions(const LmOptions& o, const std::vector<int>& free) {
+  StreamedLmOptions s;
+  s.max_iterations = o.max_iterations;
+  s.function_tolerance = o.function_tolerance;
+  if (o.prior_sigma.size() == 0) return s;
+  const auto nf = static_cast<Eigen::Index>(free.size());
+  s.prior_information = Eigen::VectorXd::Zero(nf);
+  s.prior_mean = Eigen::VectorXd::Zero(nf);
+  for (Eigen::Index c = 0; c < nf; ++c) {
+    const int i = free[static_cast<std::size_t>(c)];
+    if (o.prior_sigma[i] > 0.0) s.prior_information[c] = 1.0 / (o.prior_sigma[i] * o.prior_sigma[i]);
+    if (o.prior_mean.size()) s.prior_mean[c] = o.prior_mean[i];
+  }
+  return s;
+}
+
+/// The covariance (LmOptions::covariance), the time and the cost of an estimate e.y.
+Estimate finishLm(const MeasurementModel& m, const LmOptions& o, Clock::time_point t0, const std::vector<int>& fixed, Estimate e) {
+  const int n = m.numParams();
+  if (o.covariance) {
+    // Covariance from the whitened Jacobian at the solution, on the free parameters.
+    Eigen::MatrixXd A;
+    Eigen::VectorXd b;
+    stackedSystem(m, e.y, true, A, b);
+    for (int p : fixed) A.col(p).setZero();
+    const TruncatedSolve ts = truncatedSolve(A, b);
+    e.rank = ts.rank;
+    e.covariance = ts.covariance;
+  } else {
+    e.rank = n - static_cast<int>(fixed.size());
+  }
+  e.seconds = since(t0);
+  e.cost = weightedCost(m, e.y);
+  return e;
+}
+
+}  // namespace
+
 Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   const auto t0 = Clock::now();
   Estimate e;
@@ -472,6 +514,14 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   }
   // Ceres works on the free parameters alone (x; y = x on them, 0 elsewhere).
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(free.size()));
+  if (o.normal_equations && o.loss == LmOptions::Loss::kNone) {
+    // The same iterations on the normal equations accumulated per block of samples: no stacked Jacobian.
+    const StreamedLmResult s = streamedLm(m, W, free, streamedOptions(o, free));
+    for (std::size_t c = 0; c < free.size(); ++c) e.y[free[c]] = s.x[static_cast<Eigen::Index>(c)];
+    e.iterations = s.iterations;
+    e.converged = s.converged;
+    return finishLm(m, o, t0, fixed, std::move(e));
+  }
   for (int k = 0; k < m.numSamples() && !free.empty();) {
     if (o.loss == LmOptions::Loss::kNone) {  // blocks of samples, each evaluated on two threads
       const int k1 = std::min(m.numSamples(), k + SamplesCost::kSamplesPerBlock);
@@ -503,21 +553,7 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   // Nothing free: converged where it started (as Ceres says of a problem with no free parameter).
   e.iterations = free.empty() ? 0 : static_cast<int>(summary.iterations.size()) - 1;
   e.converged = free.empty() || summary.termination_type == ceres::CONVERGENCE;
-  if (o.covariance) {
-    // Covariance from the whitened Jacobian at the solution, on the free parameters.
-    Eigen::MatrixXd A;
-    Eigen::VectorXd b;
-    stackedSystem(m, e.y, true, A, b);
-    for (int p : fixed) A.col(p).setZero();
-    const TruncatedSolve ts = truncatedSolve(A, b);
-    e.rank = ts.rank;
-    e.covariance = ts.covariance;
-  } else {
-    e.rank = n - static_cast<int>(fixed.size());
-  }
-  e.seconds = since(t0);
-  e.cost = weightedCost(m, e.y);
-  return e;
+  return finishLm(m, o, t0, fixed, std::move(e));
 }
 
 }  // namespace orbcal::calib
