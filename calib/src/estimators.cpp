@@ -175,6 +175,14 @@ void whitenedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, const s
   stackedSystem(m, y, true, cols, scale, A, b);
 }
 
+void whitenedRows(const MeasurementModel& m, int k, const Eigen::VectorXd& y, Eigen::MatrixXd& H, Eigen::VectorXd& b) {
+  const Linearization lin = m.linearize(k, y);
+  requireFinite(lin, k);
+  const Eigen::MatrixXd W = whitener(lin.R);
+  H.noalias() = W * lin.H;
+  b.noalias() = W * lin.innovation;
+}
+
 Eigen::MatrixXd whitenedJacobian(const MeasurementModel& m, const Eigen::VectorXd& y) {
   Eigen::MatrixXd A;
   Eigen::VectorXd b;
@@ -298,40 +306,6 @@ Estimate runLse(const MeasurementModel& m, const LseOptions& o) {
 std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::VectorXd& y, const std::vector<int>& held) {
   return unidentifiableToFix(m, linearizeAll(m, y), held);
 }
-
-namespace {
-
-/// The R factor of a tall matrix given a few rows at a time (A = Q R, accumulated over blocks of rows:
-/// [R; next rows] = Q' R'): A's column norms, singular values and right singular vectors in n x n,
-/// without A (a long log's whitened Jacobian is gigabytes).
-class RFactor {
- public:
-  explicit RFactor(Eigen::Index n) : n_(n), block_(std::max<Eigen::Index>(256, 4 * n)), stacked_(block_ + n + 6, n) {}
-  void add(const Eigen::MatrixXd& rows) {
-    if (used_ + rows.rows() > stacked_.rows()) stacked_.conservativeResize(used_ + rows.rows() + block_, Eigen::NoChange);
-    stacked_.middleRows(used_, rows.rows()) = rows;
-    used_ += rows.rows();
-    if (used_ >= block_) reduce();
-  }
-  Eigen::MatrixXd matrix() {
-    reduce();
-    return stacked_.topRows(used_);
-  }
-
- private:
-  void reduce() {
-    if (used_ == kept_) return;  // nothing added since the last reduction
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(stacked_.topRows(used_));
-    kept_ = std::min(used_, n_);
-    stacked_.topRows(kept_) = qr.matrixQR().topRows(kept_).triangularView<Eigen::Upper>();
-    used_ = kept_;
-  }
-  Eigen::Index n_, block_;
-  Eigen::MatrixXd stacked_;
-  Eigen::Index used_ = 0, kept_ = 0;
-};
-
-}  // namespace
 
 std::vector<int> unidentifiableToFix(const MeasurementModel& m, const StackedLinearization& at, const std::vector<int>& held) {
   RFactor r(m.numParams());
