@@ -141,26 +141,23 @@ class Diagnoser {
       prior_f[c] = prior[i] * scale[c] * scale[c];
       p_f[c] = full.p[i] / scale[c];
     }
-    Eigen::MatrixXd Af;  // the free columns alone, scaled
-    Eigen::VectorXd b;
-    whitenedSystem(m, Eigen::VectorXd::Zero(n), free, scale, Af, b);
-    std::vector<Eigen::Index> first_row(obs_.size() + 1, 0);
-    for (std::size_t k = 0; k < obs_.size(); ++k) first_row[k + 1] = first_row[k] + m.rows(static_cast<int>(k));
-    const Eigen::MatrixXd N_all = Af.transpose() * Af;
-    const Eigen::VectorXd g_all = Af.transpose() * b;
+    // The normal equations (free columns alone, scaled) of each group of held-out samples and of all.
+    std::vector<HeldOutGroup> groups;
+    for (int f = 0; f < folds_.k; ++f) groups.push_back({&folds_.fold, f});
+    for (const std::string& c : extremes) groups.push_back({&extreme_folds_.at(c), 1});
+    std::vector<Eigen::MatrixXd> Ng;
+    std::vector<Eigen::VectorXd> gg;
+    groupNormals(m, free, scale, groups, Ng, gg);
     CvResult r;
     r.residual.resize(obs_.size());
-    // The held-out whitened SSE of the observations with fold[k] == f, their residuals into r.residual.
-    const auto holdOut = [&](const std::vector<int>& fold, int f, bool keep) {
-      Eigen::MatrixXd N = N_all;
-      Eigen::VectorXd g = g_all;
+    // The held-out whitened SSE of group i's observations (fold[k] == f), their residuals into r.residual.
+    const auto holdOut = [&](std::size_t i, const std::vector<int>& fold, int f, bool keep) {
+      Eigen::MatrixXd N = Ng.back() - Ng[i];
+      Eigen::VectorXd g = gg.back() - gg[i];
       std::vector<MarkerObservation> test;
       std::vector<std::size_t> test_index;
       for (std::size_t k = 0; k < obs_.size(); ++k) {
         if (fold[k] != f) continue;
-        const auto rows = Eigen::seqN(first_row[k], first_row[k + 1] - first_row[k]);
-        N -= Af(rows, Eigen::all).transpose() * Af(rows, Eigen::all);
-        g -= Af(rows, Eigen::all).transpose() * b(rows);
         test.push_back(obs_[k]);
         test_index.push_back(k);
       }
@@ -175,8 +172,10 @@ class Diagnoser {
       for (std::size_t t = 0; keep && t < test.size(); ++t) r.residual[test_index[t]] = std::move(nu[t]);
       return sse;
     };
-    for (int f = 0; f < folds_.k; ++f) r.sse += holdOut(folds_.fold, f, true);
-    for (const std::string& c : extremes) r.extremes[c] = holdOut(extreme_folds_.at(c), 1, false);
+    for (int f = 0; f < folds_.k; ++f) r.sse += holdOut(static_cast<std::size_t>(f), folds_.fold, f, true);
+    for (std::size_t e = 0; e < extremes.size(); ++e) {
+      r.extremes[extremes[e]] = holdOut(static_cast<std::size_t>(folds_.k) + e, extreme_folds_.at(extremes[e]), 1, false);
+    }
     return r;
   }
 
