@@ -55,16 +55,19 @@ struct TruncatedSolve {
   Eigen::MatrixXd covariance;
   int rank = 0;
 };
-TruncatedSolve truncatedSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
-  const sim::ScaledSvd svd = sim::scaledSvd(A, sim::kRankTolerance);
+/// The same from A's scaled SVD (svd.U needed only for dy: without it, dy stays empty).
+TruncatedSolve truncatedSolve(const sim::ScaledSvd& svd, const Eigen::VectorXd& b) {
   TruncatedSolve out;
   out.rank = svd.rank;
   // Keep the first `rank` singular triplets: dy = D V_r S_r^-1 U_r^T b, covariance D V_r S_r^-2 V_r^T D.
   const Eigen::MatrixXd VD = svd.scale.asDiagonal() * svd.V.leftCols(svd.rank);
   const Eigen::VectorXd inv = svd.singular_values.head(svd.rank).cwiseInverse();
-  out.dy = VD * (inv.asDiagonal() * (svd.U.leftCols(svd.rank).transpose() * b));
+  if (svd.U.size()) out.dy = VD * (inv.asDiagonal() * (svd.U.leftCols(svd.rank).transpose() * b));
   out.covariance = VD * inv.array().square().matrix().asDiagonal() * VD.transpose();
   return out;
+}
+TruncatedSolve truncatedSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
+  return truncatedSolve(sim::scaledSvd(A, sim::kRankTolerance), b);
 }
 
 /// The stacked system at y, whitened when `weighted`, on the parameters `cols` alone (empty: all), each
@@ -173,6 +176,30 @@ void whitenedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, Eigen::
 void whitenedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, const std::vector<int>& cols, const Eigen::VectorXd& scale,
                     Eigen::MatrixXd& A, Eigen::VectorXd& b) {
   stackedSystem(m, y, true, cols, scale, A, b);
+}
+
+Eigen::MatrixXd whitenedRFactor(const MeasurementModel& m, const Eigen::VectorXd& y, const std::vector<int>& zeroed) {
+  const int n = m.numParams();
+  const auto part = [&](int k0, int k1) {
+    RFactor r(n);
+    Eigen::MatrixXd H;
+    Eigen::VectorXd b;
+    for (int k = k0; k < k1; ++k) {
+      whitenedRows(m, k, y, H, b);
+      for (int p : zeroed) H.col(p).setZero();
+      r.add(H);
+    }
+    return r.matrix();
+  };
+  RFactor r(n);
+  const int half = m.numSamples() < 64 ? m.numSamples() : m.numSamples() / 2;  // two halves side by side
+  auto upper = std::async(half < m.numSamples() ? std::launch::async : std::launch::deferred, part, half, m.numSamples());
+  r.add(part(0, half));
+  r.add(upper.get());
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(n, n);
+  const Eigen::MatrixXd top = r.matrix();
+  R.topRows(std::min<Eigen::Index>(n, top.rows())) = top.topRows(std::min<Eigen::Index>(n, top.rows()));
+  return R;
 }
 
 void whitenedRows(const MeasurementModel& m, int k, const Eigen::VectorXd& y, Eigen::MatrixXd& H, Eigen::VectorXd& b) {
@@ -440,12 +467,9 @@ StreamedLmOptions streamedOptions(const LmOptions& o, const std::vector<int>& fr
 Estimate finishLm(const MeasurementModel& m, const LmOptions& o, Clock::time_point t0, const std::vector<int>& fixed, Estimate e) {
   const int n = m.numParams();
   if (o.covariance) {
-    // Covariance from the whitened Jacobian at the solution, on the free parameters.
-    Eigen::MatrixXd A;
-    Eigen::VectorXd b;
-    stackedSystem(m, e.y, true, A, b);
-    for (int p : fixed) A.col(p).setZero();
-    const TruncatedSolve ts = truncatedSolve(A, b);
+    // Covariance from the whitened Jacobian at the solution, on the free parameters: from its R factor
+    // (the same singular values and right vectors), never the stacked Jacobian.
+    const TruncatedSolve ts = truncatedSolve(sim::scaledSvd(whitenedRFactor(m, e.y, fixed), sim::kRankTolerance, false), {});
     e.rank = ts.rank;
     e.covariance = ts.covariance;
   } else {

@@ -15,6 +15,10 @@ namespace orbcal::calib {
 void whitenedSystem(const MeasurementModel& model, const Eigen::VectorXd& y, const std::vector<int>& cols, const Eigen::VectorXd& scale,
                     Eigen::MatrixXd& A, Eigen::VectorXd& b);
 
+/// The R factor (n x n, n parameters) of the whitened Jacobian at y with the columns `zeroed` set to
+/// zero: its column norms, singular values and right singular vectors, a few samples at a time.
+Eigen::MatrixXd whitenedRFactor(const MeasurementModel& model, const Eigen::VectorXd& y, const std::vector<int>& zeroed = {});
+
 /// Sample k's rows of the whitened system at y (whitenedSystem's): W H_k (every column) and W nu_k.
 void whitenedRows(const MeasurementModel& model, int k, const Eigen::VectorXd& y, Eigen::MatrixXd& H, Eigen::VectorXd& b);
 
