@@ -180,6 +180,11 @@ void whitenedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, const s
 
 Eigen::MatrixXd whitenedRFactor(const MeasurementModel& m, const Eigen::VectorXd& y, const std::vector<int>& zeroed) {
   const int n = m.numParams();
+  // The columns at their typical magnitudes while the QR runs (J T = Q R_T, so J = Q R_T T^-1): a
+  // Householder QR's error is relative to the largest column, and a whitened column in metres is
+  // 10^4 times one in millimetres; scaledSvd's rank decision then sees round-off as directions.
+  Eigen::VectorXd t = m.layout().typical();
+  for (Eigen::Index i = 0; i < t.size(); ++i) t[i] = t[i] > 0.0 ? t[i] : 1.0;
   const auto part = [&](int k0, int k1) {
     RFactor r(n);
     Eigen::MatrixXd H;
@@ -187,7 +192,7 @@ Eigen::MatrixXd whitenedRFactor(const MeasurementModel& m, const Eigen::VectorXd
     for (int k = k0; k < k1; ++k) {
       whitenedRows(m, k, y, H, b);
       for (int p : zeroed) H.col(p).setZero();
-      r.add(H);
+      r.add(H * t.asDiagonal());
     }
     return r.matrix();
   };
@@ -199,7 +204,7 @@ Eigen::MatrixXd whitenedRFactor(const MeasurementModel& m, const Eigen::VectorXd
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(n, n);
   const Eigen::MatrixXd top = r.matrix();
   R.topRows(std::min<Eigen::Index>(n, top.rows())) = top.topRows(std::min<Eigen::Index>(n, top.rows()));
-  return R;
+  return R * t.cwiseInverse().asDiagonal();
 }
 
 void whitenedRows(const MeasurementModel& m, int k, const Eigen::VectorXd& y, Eigen::MatrixXd& H, Eigen::VectorXd& b) {
@@ -463,9 +468,10 @@ StreamedLmOptions streamedOptions(const LmOptions& o, const std::vector<int>& fr
   return s;
 }
 
-/// The covariance (LmOptions::covariance), the time and the cost of an estimate e.y.
-Estimate finishLm(const MeasurementModel& m, const LmOptions& o, Clock::time_point t0, const std::vector<int>& fixed, Estimate e) {
+/// The covariance (LmOptions::covariance, with e.held's columns zero), the time and the cost of an estimate e.y.
+Estimate finishLm(const MeasurementModel& m, const LmOptions& o, Clock::time_point t0, Estimate e) {
   const int n = m.numParams();
+  const std::vector<int>& fixed = e.held;
   if (o.covariance) {
     // Covariance from the whitened Jacobian at the solution, on the free parameters: from its R factor
     // (the same singular values and right vectors), never the stacked Jacobian.
@@ -518,7 +524,7 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
     for (std::size_t c = 0; c < free.size(); ++c) e.y[free[c]] = s.x[static_cast<Eigen::Index>(c)];
     e.iterations = s.iterations;
     e.converged = s.converged;
-    return finishLm(m, o, t0, fixed, std::move(e));
+    return finishLm(m, o, t0, std::move(e));
   }
   for (int k = 0; k < m.numSamples() && !free.empty();) {
     if (o.loss == LmOptions::Loss::kNone) {  // blocks of samples, each evaluated on two threads
@@ -551,7 +557,7 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   // Nothing free: converged where it started (as Ceres says of a problem with no free parameter).
   e.iterations = free.empty() ? 0 : static_cast<int>(summary.iterations.size()) - 1;
   e.converged = free.empty() || summary.termination_type == ceres::CONVERGENCE;
-  return finishLm(m, o, t0, fixed, std::move(e));
+  return finishLm(m, o, t0, std::move(e));
 }
 
 }  // namespace orbcal::calib
