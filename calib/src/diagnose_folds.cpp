@@ -5,7 +5,9 @@
 #include <cmath>
 #include <future>
 #include <limits>
+#include <numeric>
 
+#include "stacked_system.hpp"
 #include "orbcal/calib/heldout.hpp"
 #include "orbcal/sim/csv.hpp"
 
@@ -112,6 +114,79 @@ std::vector<Alternative> alternativesOf(const Diagnosis& out, const std::functio
   for (const Alternative& a : alts) jobs.push_back(std::async(std::launch::async, [&fit, &a] { return fit(a.effects); }));
   for (std::size_t k = 0; k < alts.size(); ++k) alts[k].fit = jobs[k].get();
   return alts;
+}
+
+namespace {
+
+struct Normals {
+  std::vector<Eigen::MatrixXd> N;  ///< lower triangles
+  std::vector<Eigen::VectorXd> g;
+};
+
+Normals groupNormalsOf(const MeasurementModel& m, const std::vector<int>& cols, const Eigen::VectorXd& scale,
+                       const std::vector<HeldOutGroup>& groups, int k0, int k1) {
+  constexpr int kBlock = 128;
+  const auto nc = static_cast<Eigen::Index>(cols.size());
+  Normals s;
+  s.N.assign(groups.size() + 1, Eigen::MatrixXd::Zero(nc, nc));
+  s.g.assign(groups.size() + 1, Eigen::VectorXd::Zero(nc));
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(m.numParams());
+  Eigen::MatrixXd A, H;
+  Eigen::VectorXd b, bk;
+  std::vector<Eigen::Index> first(kBlock + 1);
+  for (int c0 = k0; c0 < k1; c0 += kBlock) {
+    const int c1 = std::min(k1, c0 + kBlock);
+    Eigen::Index rows = 0;
+    for (int k = c0; k < c1; ++k) rows += m.rows(k);
+    A.resize(rows, nc);
+    b.resize(rows);
+    for (int k = c0, row = 0; k < c1; row += m.rows(k), ++k) {
+      first[static_cast<std::size_t>(k - c0)] = row;
+      whitenedRows(m, k, zero, H, bk);
+      for (Eigen::Index c = 0; c < nc; ++c) A.block(row, c, m.rows(k), 1) = H.col(cols[static_cast<std::size_t>(c)]) * scale[c];
+      b.segment(row, m.rows(k)) = bk;
+    }
+    first[static_cast<std::size_t>(c1 - c0)] = rows;
+    const auto add = [&](std::size_t i, const std::vector<Eigen::Index>& r) {
+      if (r.empty()) return;
+      s.N[i].selfadjointView<Eigen::Lower>().rankUpdate(A(r, Eigen::all).transpose());
+      s.g[i].noalias() += A(r, Eigen::all).transpose() * b(r);
+    };
+    std::vector<Eigen::Index> all(static_cast<std::size_t>(rows));
+    std::iota(all.begin(), all.end(), Eigen::Index{0});
+    add(groups.size(), all);
+    for (std::size_t i = 0; i < groups.size(); ++i) {
+      std::vector<Eigen::Index> r;
+      for (int k = c0; k < c1; ++k) {
+        if ((*groups[i].fold)[static_cast<std::size_t>(k)] != groups[i].value) continue;
+        for (Eigen::Index j = first[static_cast<std::size_t>(k - c0)]; j < first[static_cast<std::size_t>(k - c0 + 1)]; ++j) r.push_back(j);
+      }
+      add(i, r);
+    }
+  }
+  return s;
+}
+
+}  // namespace
+
+void groupNormals(const MeasurementModel& m, const std::vector<int>& cols, const Eigen::VectorXd& scale,
+                  const std::vector<HeldOutGroup>& groups, std::vector<Eigen::MatrixXd>& N, std::vector<Eigen::VectorXd>& g) {
+  const int n = m.numSamples();
+  Normals s;
+  if (n < 64) {
+    s = groupNormalsOf(m, cols, scale, groups, 0, n);
+  } else {  // two halves side by side, added in a fixed order
+    auto upper = std::async(std::launch::async, [&] { return groupNormalsOf(m, cols, scale, groups, n / 2, n); });
+    s = groupNormalsOf(m, cols, scale, groups, 0, n / 2);
+    const Normals u = upper.get();
+    for (std::size_t i = 0; i < s.N.size(); ++i) {
+      s.N[i] += u.N[i];
+      s.g[i] += u.g[i];
+    }
+  }
+  N.clear();
+  for (const Eigen::MatrixXd& x : s.N) N.push_back(x.selfadjointView<Eigen::Lower>());
+  g = std::move(s.g);
 }
 
 }  // namespace orbcal::calib

@@ -47,6 +47,18 @@ std::string beyondRangeAdvice(const std::vector<sim::Effect>& effects, const sim
 /// Two effects that claim one cause (a key in common: cyclic:2 and cyclic:2/6, compliance:3 and
 /// compliance:3/3) cannot both be in a model.
 bool sharesCause(const sim::Effect& a, const sim::Effect& b);
+/// A group of held-out samples: those whose (*fold)[k] == value (a random fold; a variable's extremes).
+struct HeldOutGroup {
+  const std::vector<int>* fold = nullptr;
+  int value = 0;
+};
+
+/// The normal equations of the whitened system of `m` at zero on its parameters `cols`, column c times
+/// scale[c]: per group of `groups` the sums over its samples of A_k^T A_k (N) and A_k^T b_k (g), and over
+/// all samples as the last entry; a block of samples at a time, never the stacked columns.
+void groupNormals(const MeasurementModel& m, const std::vector<int>& cols, const Eigen::VectorXd& scale,
+                  const std::vector<HeldOutGroup>& groups, std::vector<Eigen::MatrixXd>& N, std::vector<Eigen::VectorXd>& g);
+
 /// The alternatives of the selection (Diagnosis::alternatives), each fitted by `fit`.
 std::vector<Alternative> alternativesOf(const Diagnosis& out, const std::function<Fit(const std::vector<sim::Effect>&)>& fit);
 

@@ -15,6 +15,7 @@
 
 #include "diagnose_candidates.hpp"
 #include "diagnose_folds.hpp"
+#include "diagnose_scores.hpp"
 #include "stacked_system.hpp"
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/sim/config.hpp"
@@ -140,26 +141,23 @@ class Diagnoser {
       prior_f[c] = prior[i] * scale[c] * scale[c];
       p_f[c] = full.p[i] / scale[c];
     }
-    Eigen::MatrixXd Af;  // the free columns alone, scaled
-    Eigen::VectorXd b;
-    whitenedSystem(m, Eigen::VectorXd::Zero(n), free, scale, Af, b);
-    std::vector<Eigen::Index> first_row(obs_.size() + 1, 0);
-    for (std::size_t k = 0; k < obs_.size(); ++k) first_row[k + 1] = first_row[k] + m.rows(static_cast<int>(k));
-    const Eigen::MatrixXd N_all = Af.transpose() * Af;
-    const Eigen::VectorXd g_all = Af.transpose() * b;
+    // The normal equations (free columns alone, scaled) of each group of held-out samples and of all.
+    std::vector<HeldOutGroup> groups;
+    for (int f = 0; f < folds_.k; ++f) groups.push_back({&folds_.fold, f});
+    for (const std::string& c : extremes) groups.push_back({&extreme_folds_.at(c), 1});
+    std::vector<Eigen::MatrixXd> Ng;
+    std::vector<Eigen::VectorXd> gg;
+    groupNormals(m, free, scale, groups, Ng, gg);
     CvResult r;
     r.residual.resize(obs_.size());
-    // The held-out whitened SSE of the observations with fold[k] == f, their residuals into r.residual.
-    const auto holdOut = [&](const std::vector<int>& fold, int f, bool keep) {
-      Eigen::MatrixXd N = N_all;
-      Eigen::VectorXd g = g_all;
+    // The held-out whitened SSE of group i's observations (fold[k] == f), their residuals into r.residual.
+    const auto holdOut = [&](std::size_t i, const std::vector<int>& fold, int f, bool keep) {
+      Eigen::MatrixXd N = Ng.back() - Ng[i];
+      Eigen::VectorXd g = gg.back() - gg[i];
       std::vector<MarkerObservation> test;
       std::vector<std::size_t> test_index;
       for (std::size_t k = 0; k < obs_.size(); ++k) {
         if (fold[k] != f) continue;
-        const auto rows = Eigen::seqN(first_row[k], first_row[k + 1] - first_row[k]);
-        N -= Af(rows, Eigen::all).transpose() * Af(rows, Eigen::all);
-        g -= Af(rows, Eigen::all).transpose() * b(rows);
         test.push_back(obs_[k]);
         test_index.push_back(k);
       }
@@ -174,14 +172,15 @@ class Diagnoser {
       for (std::size_t t = 0; keep && t < test.size(); ++t) r.residual[test_index[t]] = std::move(nu[t]);
       return sse;
     };
-    for (int f = 0; f < folds_.k; ++f) r.sse += holdOut(folds_.fold, f, true);
-    for (const std::string& c : extremes) r.extremes[c] = holdOut(extreme_folds_.at(c), 1, false);
+    for (int f = 0; f < folds_.k; ++f) r.sse += holdOut(static_cast<std::size_t>(f), folds_.fold, f, true);
+    for (std::size_t e = 0; e < extremes.size(); ++e) {
+      r.extremes[extremes[e]] = holdOut(static_cast<std::size_t>(folds_.k) + e, extreme_folds_.at(extremes[e]), 1, false);
+    }
     return r;
   }
 
   /// Score tests of the candidates at the full fit of `current`.
   struct Projection {
-    Eigen::MatrixXd Bperp;  ///< candidate columns beyond the current model's column space
     double absorbed = 0.0;  ///< fraction of the columns' norm the current model absorbs
   };
   std::vector<CandidateResult> scoreTests(const std::vector<sim::Effect>& current, const Fit& fit,
@@ -198,45 +197,39 @@ class Diagnoser {
       if (it == layers.end()) it = layers.insert(layers.end(), std::vector<std::size_t>{});
       it->push_back(c);
     }
-    Eigen::MatrixXd A;
-    Eigen::VectorXd b;
-    std::vector<Eigen::MatrixXd> columns(candidates.size());  // each candidate's columns at typical magnitudes
-    for (const std::vector<std::size_t>& layer : layers) {
+    // Each layer's extended model at the fit (its candidates at zero), each candidate's columns at its
+    // parameters' typical magnitudes: each column is then the whitened change a typical-size effect
+    // makes to the data.
+    std::vector<MarkerPoseModel> models;
+    std::vector<CandidateColumns> columns(candidates.size());
+    for (std::size_t l = 0; l < layers.size(); ++l) {
       std::vector<sim::Effect> all = current;
-      for (std::size_t c : layer) all.push_back(candidates[c]);
+      for (std::size_t c : layers[l]) all.push_back(candidates[c]);
       const sim::KinematicModel ext = sim::makeKinematicModel(fit.model.arm, fit.model.sessions, fit.model.base, fit.model.marker,
                                                               fit.model.world_T_base, fit.model.flange_T_marker, all, true,
                                                               fit.model.marker_points);
       Eigen::VectorXd p = Eigen::VectorXd::Zero(ext.layout.size());
       p.head(fit.p.size()) = fit.p;
-      const MarkerPoseModel m(ext, obs_, noise_, p);
-      whitenedSystem(m, Eigen::VectorXd::Zero(ext.layout.size()), A, b);
-      // The candidate's columns at its parameters' typical magnitudes: each column is then the whitened
-      // change a typical-size effect makes to the data.
       const Eigen::VectorXd typical = ext.layout.typical();
-      for (std::size_t k = 0; k < layer.size(); ++k) {
-        Eigen::MatrixXd& B = columns[layer[k]];
-        B.resize(A.rows(), 0);
+      for (std::size_t k = 0; k < layers[l].size(); ++k) {
+        CandidateColumns& cc = columns[layers[l][k]];
+        cc.layer = l;
         for (const int blk : ext.effect_blocks[current.size() + k]) {
           const sim::ParamBlock& pb = ext.layout.block(blk);
-          B.conservativeResize(Eigen::NoChange, B.cols() + pb.size());
-          B.rightCols(pb.size()) = A.middleCols(pb.offset, pb.size()) * typical.segment(pb.offset, pb.size()).asDiagonal();
+          for (int i = pb.offset; i < pb.offset + pb.size(); ++i) cc.cols.push_back(i);
         }
+        cc.scale.resize(static_cast<Eigen::Index>(cc.cols.size()));
+        for (std::size_t i = 0; i < cc.cols.size(); ++i) cc.scale[static_cast<Eigen::Index>(i)] = typical[cc.cols[i]];
       }
+      models.emplace_back(ext, obs_, noise_, p);
     }
-    // The current model's free columns and an orthonormal basis of their span.
+    // The current model's free columns span what the fit absorbs.
     std::vector<int> free;
     for (int i = 0; i < fit.model.layout.size(); ++i) {
       if (!std::binary_search(fit.estimate.held.begin(), fit.estimate.held.end(), i)) free.push_back(i);
     }
-    Eigen::MatrixXd Af(A.rows(), static_cast<Eigen::Index>(free.size()));
-    for (std::size_t c = 0; c < free.size(); ++c) Af.col(static_cast<Eigen::Index>(c)) = A.col(free[c]);
-    const sim::ScaledSvd svd = sim::scaledSvd(Af, sim::kRankTolerance);
-    const int rank = svd.rank;
-    const Eigen::MatrixXd Q = rank > 0 ? Eigen::MatrixXd(svd.U.leftCols(rank)) : Eigen::MatrixXd::Zero(A.rows(), 0);
-    const Eigen::VectorXd e = b - Q * (Q.transpose() * b);  // the residual (orthogonal to the model at its optimum)
-    const double dof = std::max(1.0, static_cast<double>(A.rows() - rank));
-    const double s2 = e.squaredNorm() / dof;  // residual variance in whitened units (1 when the noise is right)
+    const ScoreStatistics stats = scoreStatistics(models, free, columns);
+    const double dof = stats.dof;
 
     std::vector<CandidateResult> out;
     if (projections) projections->clear();
@@ -244,28 +237,17 @@ class Diagnoser {
       CandidateResult r;
       r.effect = candidates[c];
       r.step = step;
-      const Eigen::MatrixXd& B = columns[c];
-      r.params = static_cast<int>(B.cols());
-      const Eigen::MatrixXd Bp = B - Q * (Q.transpose() * B);
-      Projection pr;
-      pr.absorbed = B.norm() > 0 ? 1.0 - Bp.norm() / B.norm() : 1.0;
-      // What this data can see of it: the directions beyond the current model along which an effect of
-      // typical size moves the whitened data by at least one noise sigma in all (singular values of the
-      // typical-scaled projected columns above 1). A joint that never moves, a torque that is only
-      // sensor noise: rank 0, not testable here.
-      const Eigen::JacobiSVD<Eigen::MatrixXd> bs(Bp, Eigen::ComputeThinU);
-      int q = 0;
-      for (Eigen::Index i = 0; i < bs.singularValues().size(); ++i) q += bs.singularValues()[i] > 1.0;
-      r.rank = q;
-      pr.Bperp = bs.matrixU().leftCols(q);
-      if (q > 0) {
-        const Eigen::VectorXd proj = pr.Bperp.transpose() * e;
-        r.score = proj.squaredNorm() / s2;
+      r.params = static_cast<int>(columns[c].cols.size());
+      const ScoreStatistic& st = stats.candidates[c];
+      // A joint that never moves, a torque that is only sensor noise: rank 0, not testable here.
+      r.rank = st.rank;
+      if (st.rank > 0) {
+        r.score = st.score;
         // F form: the residual variance is estimated from the same fit.
-        r.p_value = fSurvival(r.score / q, q, dof - q);
+        r.p_value = fSurvival(r.score / st.rank, st.rank, dof - st.rank);
       }
       out.push_back(r);
-      if (projections) projections->push_back(std::move(pr));
+      if (projections) projections->push_back(Projection{st.absorbed});
     }
     std::vector<double> ps;
     for (const CandidateResult& r : out) ps.push_back(r.p_value);

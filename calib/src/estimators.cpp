@@ -15,6 +15,7 @@
 
 #include "orbcal/sim/identifiability.hpp"
 #include "stacked_system.hpp"
+#include "streamed_lm.hpp"
 
 namespace orbcal::calib {
 
@@ -54,16 +55,19 @@ struct TruncatedSolve {
   Eigen::MatrixXd covariance;
   int rank = 0;
 };
-TruncatedSolve truncatedSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
-  const sim::ScaledSvd svd = sim::scaledSvd(A, sim::kRankTolerance);
+/// The same from A's scaled SVD (svd.U needed only for dy: without it, dy stays empty).
+TruncatedSolve truncatedSolve(const sim::ScaledSvd& svd, const Eigen::VectorXd& b) {
   TruncatedSolve out;
   out.rank = svd.rank;
   // Keep the first `rank` singular triplets: dy = D V_r S_r^-1 U_r^T b, covariance D V_r S_r^-2 V_r^T D.
   const Eigen::MatrixXd VD = svd.scale.asDiagonal() * svd.V.leftCols(svd.rank);
   const Eigen::VectorXd inv = svd.singular_values.head(svd.rank).cwiseInverse();
-  out.dy = VD * (inv.asDiagonal() * (svd.U.leftCols(svd.rank).transpose() * b));
+  if (svd.U.size()) out.dy = VD * (inv.asDiagonal() * (svd.U.leftCols(svd.rank).transpose() * b));
   out.covariance = VD * inv.array().square().matrix().asDiagonal() * VD.transpose();
   return out;
+}
+TruncatedSolve truncatedSolve(const Eigen::MatrixXd& A, const Eigen::VectorXd& b) {
+  return truncatedSolve(sim::scaledSvd(A, sim::kRankTolerance), b);
 }
 
 /// The stacked system at y, whitened when `weighted`, on the parameters `cols` alone (empty: all), each
@@ -172,6 +176,43 @@ void whitenedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, Eigen::
 void whitenedSystem(const MeasurementModel& m, const Eigen::VectorXd& y, const std::vector<int>& cols, const Eigen::VectorXd& scale,
                     Eigen::MatrixXd& A, Eigen::VectorXd& b) {
   stackedSystem(m, y, true, cols, scale, A, b);
+}
+
+Eigen::MatrixXd whitenedRFactor(const MeasurementModel& m, const Eigen::VectorXd& y, const std::vector<int>& zeroed) {
+  const int n = m.numParams();
+  // The columns at their typical magnitudes while the QR runs (J T = Q R_T, so J = Q R_T T^-1): a
+  // Householder QR's error is relative to the largest column, and a whitened column in metres is
+  // 10^4 times one in millimetres; scaledSvd's rank decision then sees round-off as directions.
+  Eigen::VectorXd t = m.layout().typical();
+  for (Eigen::Index i = 0; i < t.size(); ++i) t[i] = t[i] > 0.0 ? t[i] : 1.0;
+  const auto part = [&](int k0, int k1) {
+    RFactor r(n);
+    Eigen::MatrixXd H;
+    Eigen::VectorXd b;
+    for (int k = k0; k < k1; ++k) {
+      whitenedRows(m, k, y, H, b);
+      for (int p : zeroed) H.col(p).setZero();
+      r.add(H * t.asDiagonal());
+    }
+    return r.matrix();
+  };
+  RFactor r(n);
+  const int half = m.numSamples() < 64 ? m.numSamples() : m.numSamples() / 2;  // two halves side by side
+  auto upper = std::async(half < m.numSamples() ? std::launch::async : std::launch::deferred, part, half, m.numSamples());
+  r.add(part(0, half));
+  r.add(upper.get());
+  Eigen::MatrixXd R = Eigen::MatrixXd::Zero(n, n);
+  const Eigen::MatrixXd top = r.matrix();
+  R.topRows(std::min<Eigen::Index>(n, top.rows())) = top.topRows(std::min<Eigen::Index>(n, top.rows()));
+  return R * t.cwiseInverse().asDiagonal();
+}
+
+void whitenedRows(const MeasurementModel& m, int k, const Eigen::VectorXd& y, Eigen::MatrixXd& H, Eigen::VectorXd& b) {
+  const Linearization lin = m.linearize(k, y);
+  requireFinite(lin, k);
+  const Eigen::MatrixXd W = whitener(lin.R);
+  H.noalias() = W * lin.H;
+  b.noalias() = W * lin.innovation;
 }
 
 Eigen::MatrixXd whitenedJacobian(const MeasurementModel& m, const Eigen::VectorXd& y) {
@@ -298,40 +339,6 @@ std::vector<int> unidentifiableToFix(const MeasurementModel& m, const Eigen::Vec
   return unidentifiableToFix(m, linearizeAll(m, y), held);
 }
 
-namespace {
-
-/// The R factor of a tall matrix given a few rows at a time (A = Q R, accumulated over blocks of rows:
-/// [R; next rows] = Q' R'): A's column norms, singular values and right singular vectors in n x n,
-/// without A (a long log's whitened Jacobian is gigabytes).
-class RFactor {
- public:
-  explicit RFactor(Eigen::Index n) : n_(n), block_(std::max<Eigen::Index>(256, 4 * n)), stacked_(block_ + n + 6, n) {}
-  void add(const Eigen::MatrixXd& rows) {
-    if (used_ + rows.rows() > stacked_.rows()) stacked_.conservativeResize(used_ + rows.rows() + block_, Eigen::NoChange);
-    stacked_.middleRows(used_, rows.rows()) = rows;
-    used_ += rows.rows();
-    if (used_ >= block_) reduce();
-  }
-  Eigen::MatrixXd matrix() {
-    reduce();
-    return stacked_.topRows(used_);
-  }
-
- private:
-  void reduce() {
-    if (used_ == kept_) return;  // nothing added since the last reduction
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(stacked_.topRows(used_));
-    kept_ = std::min(used_, n_);
-    stacked_.topRows(kept_) = qr.matrixQR().topRows(kept_).triangularView<Eigen::Upper>();
-    used_ = kept_;
-  }
-  Eigen::Index n_, block_;
-  Eigen::MatrixXd stacked_;
-  Eigen::Index used_ = 0, kept_ = 0;
-};
-
-}  // namespace
-
 std::vector<int> unidentifiableToFix(const MeasurementModel& m, const StackedLinearization& at, const std::vector<int>& held) {
   RFactor r(m.numParams());
   for (int k = 0, row = 0; k < m.numSamples(); row += m.rows(k), ++k) {
@@ -442,6 +449,45 @@ void addPrior(const LmOptions& o, const std::vector<int>& free, ceres::Problem& 
 
 }  // namespace
 
+namespace {
+
+/// LmOptions' prior on the free parameters, as streamedLm takes it.
+StreamedLmOptions streamedOptions(const LmOptions& o, const std::vector<int>& free) {
+  StreamedLmOptions s;
+  s.max_iterations = o.max_iterations;
+  s.function_tolerance = o.function_tolerance;
+  if (o.prior_sigma.size() == 0) return s;
+  const auto nf = static_cast<Eigen::Index>(free.size());
+  s.prior_information = Eigen::VectorXd::Zero(nf);
+  s.prior_mean = Eigen::VectorXd::Zero(nf);
+  for (Eigen::Index c = 0; c < nf; ++c) {
+    const int i = free[static_cast<std::size_t>(c)];
+    if (o.prior_sigma[i] > 0.0) s.prior_information[c] = 1.0 / (o.prior_sigma[i] * o.prior_sigma[i]);
+    if (o.prior_mean.size()) s.prior_mean[c] = o.prior_mean[i];
+  }
+  return s;
+}
+
+/// The covariance (LmOptions::covariance, with e.held's columns zero), the time and the cost of an estimate e.y.
+Estimate finishLm(const MeasurementModel& m, const LmOptions& o, Clock::time_point t0, Estimate e) {
+  const int n = m.numParams();
+  const std::vector<int>& fixed = e.held;
+  if (o.covariance) {
+    // Covariance from the whitened Jacobian at the solution, on the free parameters: from its R factor
+    // (the same singular values and right vectors), never the stacked Jacobian.
+    const TruncatedSolve ts = truncatedSolve(sim::scaledSvd(whitenedRFactor(m, e.y, fixed), sim::kRankTolerance, false), {});
+    e.rank = ts.rank;
+    e.covariance = ts.covariance;
+  } else {
+    e.rank = n - static_cast<int>(fixed.size());
+  }
+  e.seconds = since(t0);
+  e.cost = weightedCost(m, e.y);
+  return e;
+}
+
+}  // namespace
+
 Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   const auto t0 = Clock::now();
   Estimate e;
@@ -472,6 +518,14 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   }
   // Ceres works on the free parameters alone (x; y = x on them, 0 elsewhere).
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(free.size()));
+  if (o.normal_equations && o.loss == LmOptions::Loss::kNone) {
+    // The same iterations on the normal equations accumulated per block of samples: no stacked Jacobian.
+    const StreamedLmResult s = streamedLm(m, W, free, streamedOptions(o, free));
+    for (std::size_t c = 0; c < free.size(); ++c) e.y[free[c]] = s.x[static_cast<Eigen::Index>(c)];
+    e.iterations = s.iterations;
+    e.converged = s.converged;
+    return finishLm(m, o, t0, std::move(e));
+  }
   for (int k = 0; k < m.numSamples() && !free.empty();) {
     if (o.loss == LmOptions::Loss::kNone) {  // blocks of samples, each evaluated on two threads
       const int k1 = std::min(m.numSamples(), k + SamplesCost::kSamplesPerBlock);
@@ -503,21 +557,7 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   // Nothing free: converged where it started (as Ceres says of a problem with no free parameter).
   e.iterations = free.empty() ? 0 : static_cast<int>(summary.iterations.size()) - 1;
   e.converged = free.empty() || summary.termination_type == ceres::CONVERGENCE;
-  if (o.covariance) {
-    // Covariance from the whitened Jacobian at the solution, on the free parameters.
-    Eigen::MatrixXd A;
-    Eigen::VectorXd b;
-    stackedSystem(m, e.y, true, A, b);
-    for (int p : fixed) A.col(p).setZero();
-    const TruncatedSolve ts = truncatedSolve(A, b);
-    e.rank = ts.rank;
-    e.covariance = ts.covariance;
-  } else {
-    e.rank = n - static_cast<int>(fixed.size());
-  }
-  e.seconds = since(t0);
-  e.cost = weightedCost(m, e.y);
-  return e;
+  return finishLm(m, o, t0, std::move(e));
 }
 
 }  // namespace orbcal::calib

@@ -10,6 +10,7 @@
 #include <limits>
 #include <map>
 
+#include "stacked_system.hpp"
 #include "orbcal/calib/registration.hpp"
 #include "orbcal/calib/rigid_body.hpp"
 #include "orbcal/sim/marker_points.hpp"
@@ -463,8 +464,10 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     if (round == 0 && o.analyze) {
       std::vector<std::string> names;
       for (int i = 0; i < m.numParams(); ++i) names.push_back(m.paramName(i));
-      fit.identifiability = sim::analyzeJacobian(whitenedJacobian(m, Eigen::VectorXd::Zero(m.numParams())), names,
+      // From the whitened Jacobian's R factor (its column norms, singular values and right vectors).
+      fit.identifiability = sim::analyzeJacobian(whitenedRFactor(m, Eigen::VectorXd::Zero(m.numParams())), names,
                                                  m.numSamples(), sim::kRankTolerance);
+      fit.identifiability.num_rows = rows;
     }
     fit.estimate = runFitMethod(m, o, start.layout, fit.p0);
     fit.p = fit.p0 + fit.estimate.y;

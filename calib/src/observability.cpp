@@ -10,6 +10,7 @@
 #include <random>
 #include <stdexcept>
 
+#include "stacked_system.hpp"
 #include "orbcal/calib/estimators.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/errors.hpp"
@@ -114,7 +115,17 @@ Eigen::MatrixXd stackBlocks(const std::vector<Eigen::MatrixXd>& blocks, const st
 
 ObservabilityIndices observability(const MeasurementModel& model, const Eigen::VectorXd& y, const std::vector<int>& held,
                                    double rank_tolerance) {
-  return observabilityIndices(stackBlocks(observabilityBlocks(model, y, held)), model.numSamples(), rank_tolerance);
+  // The typical-scaled kept columns of the whitened Jacobian's R factor: the same singular values as the
+  // stacked columns (observabilityBlocks), without them.
+  const Eigen::MatrixXd R = whitenedRFactor(model, y);
+  const Eigen::VectorXd typical = model.layout().typical();
+  std::vector<Eigen::Index> keep;
+  for (int p = 0; p < model.numParams(); ++p) {
+    if (std::find(held.begin(), held.end(), p) == held.end()) keep.push_back(p);
+  }
+  Eigen::MatrixXd A(R.rows(), static_cast<Eigen::Index>(keep.size()));
+  for (std::size_t c = 0; c < keep.size(); ++c) A.col(static_cast<Eigen::Index>(c)) = R.col(keep[c]) * typical[keep[c]];
+  return observabilityIndices(A, model.numSamples(), rank_tolerance);
 }
 
 MarkerPoseModel posePlanningModel(const sim::Arm& nominal, const std::vector<Eigen::VectorXd>& configs,

@@ -5,7 +5,9 @@
 #include <catch2/catch.hpp>
 #include <random>
 
+#include "orbcal/calib/marker_model.hpp"
 #include "orbcal/calib/measured_fit.hpp"
+#include "orbcal/sim/identifiability.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
 #include "orbcal/sim/simulate.hpp"
@@ -244,5 +246,48 @@ TEST_CASE("every estimator keeps a held parameter at its starting value", "[meas
     const calib::Fit fit = calib::fitMarkerModel(start, obs, o, p0);
     CHECK(fit.p[held] == p0[held]);
     CHECK(std::binary_search(fit.estimate.held.begin(), fit.estimate.held.end(), held));
+  }
+}
+
+TEST_CASE("the LM on normal equations accumulated per block of samples stops where Ceres's QR solve stops", "[measured][long-log]") {
+  // LmOptions::normal_equations solves with J^T J and J^T f summed a block of samples at a time (no
+  // stacked Jacobian: a long log's is gigabytes); Ceres's DENSE_QR solve of the stacked Jacobian is the
+  // independent reference. Both minimize one cost to a function tolerance of 1e-10 of it, so the
+  // estimates agree to a small fraction of their standard deviations and the costs to ~1e-10.
+  const sim::Arm arm = sim::loadArm(test::sourcePath("scenes/iiwa7.yaml"));
+  const std::vector<sim::Effect> effects = {sim::Compliance{{1, 3}}, sim::Cyclic{{4}, 2}};
+  const sim::SimulatedData s = simulate(arm, effects, 77, sim::FrameSharing::kPerSession, 0.0, 300);
+  const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(s.data, true);
+  const sim::KinematicModel start = calib::startingModel(s.data, obs, effects);
+  calib::FitOptions o;
+  o.sigma_position_m = s.data.noise_position_m;
+  o.sigma_rotation_rad = s.data.noise_rotation_rad;
+  const calib::Fit qr = calib::fitMarkerModel(start, obs, o);
+  o.normal_equations = true;
+  const calib::Fit streamed = calib::fitMarkerModel(start, obs, o);
+  REQUIRE(qr.estimate.converged);
+  REQUIRE(streamed.estimate.converged);
+  REQUIRE(streamed.estimate.held == qr.estimate.held);
+  CHECK(streamed.chi2 == Approx(qr.chi2).epsilon(1e-8));
+  int compared = 0;
+  for (int i = 0; i < start.layout.size(); ++i) {
+    if (std::binary_search(qr.estimate.held.begin(), qr.estimate.held.end(), i)) continue;
+    const double sigma = std::sqrt(qr.estimate.covariance(i, i));
+    CAPTURE(start.layout.param(i).name, qr.p[i], streamed.p[i], sigma);
+    CHECK(std::abs(streamed.p[i] - qr.p[i]) < 0.01 * sigma);
+    // The covariance from the R factor of the whitened Jacobian, accumulated per sample.
+    CHECK(std::sqrt(streamed.estimate.covariance(i, i)) == Approx(sigma).epsilon(1e-6));
+    ++compared;
+  }
+  CHECK(compared > 40);
+  // The identifiability analysis from that R factor against the stacked whitened Jacobian's SVD.
+  const calib::MarkerPoseModel m(start, obs, qr.noise, qr.p0);
+  const Eigen::MatrixXd J = calib::whitenedJacobian(m, Eigen::VectorXd::Zero(m.numParams()));
+  const sim::ScaledSvd svd = sim::scaledSvd(J, sim::kRankTolerance, false);
+  CHECK(streamed.identifiability.num_rows == J.rows());
+  CHECK(streamed.identifiability.rank == svd.rank);
+  REQUIRE(streamed.identifiability.singular_values.size() == svd.singular_values.size());
+  for (int i = 0; i < svd.rank; ++i) {
+    CHECK(streamed.identifiability.singular_values[i] == Approx(svd.singular_values[i]).epsilon(1e-8));
   }
 }

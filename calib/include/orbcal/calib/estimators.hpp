@@ -89,7 +89,9 @@ struct LmOptions {
   bool covariance = true;
   /// Solve each step from the normal equations (Cholesky of J^T J) instead of a QR of the tall J:
   /// several times cheaper; the condition number is squared, which the Jacobi scaling of the columns
-  /// and the held unidentifiable parameters keep well below round-off for the marker fits.
+  /// and the held unidentifiable parameters keep well below round-off for the marker fits. With the
+  /// squared loss, J^T J and J^T f are summed a block of samples at a time (calib/src/streamed_lm.hpp,
+  /// Ceres's Levenberg-Marquardt strategy), never the stacked J: a 10^5-sample log's is gigabytes.
   bool normal_equations = false;
   /// A Gaussian prior y_i ~ N(prior_mean_i, prior_sigma_i^2) on the parameters whose prior_sigma_i is
   /// positive (empty: none, the least-squares estimate): the maximum a-posteriori estimate, with the

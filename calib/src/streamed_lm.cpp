@@ -1,0 +1,179 @@
+#include "streamed_lm.hpp"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <future>
+#include <limits>
+
+namespace orbcal::calib {
+
+namespace {
+
+/// Ceres's Levenberg-Marquardt constants (Solver::Options' defaults; TrustRegionMinimizer's
+/// initial_trust_region_radius as runLm sets it).
+constexpr double kInitialRadius = 1e8, kMaxRadius = 1e16, kMinRadius = 1e-32;
+constexpr double kMinDiagonal = 1e-6, kMaxDiagonal = 1e32, kMinRelativeDecrease = 1e-3;
+constexpr double kGradientTolerance = 1e-14, kParameterTolerance = 1e-14;
+constexpr int kBlock = 128;      ///< samples per accumulated block
+constexpr int kParallel = 64;    ///< fewer samples: one thread
+
+/// The sums over samples at one point: 1/2 |f|^2 and, with the Jacobian, J^T J (lower triangle) and J^T f.
+struct Sums {
+  double cost = 0.0;
+  Eigen::MatrixXd JtJ;
+  Eigen::VectorXd g;
+  bool finite = true;
+};
+
+class Accumulator {
+ public:
+  Accumulator(const MeasurementModel& m, const std::vector<Eigen::MatrixXd>& W, const std::vector<int>& free, const StreamedLmOptions& o)
+      : m_(m), W_(W), free_(free), o_(o), nf_(static_cast<Eigen::Index>(free.size())) {}
+
+  /// The sums at x, the prior's rows included.
+  Sums at(const Eigen::VectorXd& x, bool jacobian) const {
+    Eigen::VectorXd y = Eigen::VectorXd::Zero(m_.numParams());
+    for (Eigen::Index c = 0; c < nf_; ++c) y[free_[static_cast<std::size_t>(c)]] = x[c];
+    const int n = m_.numSamples();
+    Sums s;
+    if (n < kParallel) {
+      s = part(y, 0, n, jacobian);
+    } else {
+      auto upper = std::async(std::launch::async, [&] { return part(y, n / 2, n, jacobian); });
+      s = part(y, 0, n / 2, jacobian);
+      const Sums u = upper.get();
+      s.cost += u.cost;
+      s.finite = s.finite && u.finite;
+      if (jacobian && s.finite) {
+        s.JtJ += u.JtJ;
+        s.g += u.g;
+      }
+    }
+    if (o_.prior_information.size() == 0) return s;
+    const Eigen::VectorXd d = x - o_.prior_mean;
+    s.cost += 0.5 * d.cwiseProduct(d).dot(o_.prior_information);
+    if (jacobian && s.finite) {
+      s.JtJ.diagonal() += o_.prior_information;
+      s.g += o_.prior_information.cwiseProduct(d);
+    }
+    return s;
+  }
+
+ private:
+  Sums part(const Eigen::VectorXd& y, int k0, int k1, bool jacobian) const {
+    Sums s;
+    if (jacobian) {
+      s.JtJ = Eigen::MatrixXd::Zero(nf_, nf_);
+      s.g = Eigen::VectorXd::Zero(nf_);
+    }
+    Eigen::MatrixXd J;
+    Eigen::VectorXd f;
+    for (int c0 = k0; c0 < k1; c0 += kBlock) {
+      const int c1 = std::min(k1, c0 + kBlock);
+      if (!jacobian) {
+        for (int k = c0; k < c1; ++k) {
+          const Eigen::VectorXd r = W_[static_cast<std::size_t>(k)] * m_.innovation(k, y);
+          if (!r.allFinite()) return Sums{0.0, {}, {}, false};
+          s.cost += 0.5 * r.squaredNorm();
+        }
+        continue;
+      }
+      Eigen::Index rows = 0;
+      for (int k = c0; k < c1; ++k) rows += m_.rows(k);
+      J.resize(rows, nf_);
+      f.resize(rows);
+      for (int k = c0, row = 0; k < c1; row += m_.rows(k), ++k) {
+        const Linearization lin = m_.linearize(k, y);
+        if (!lin.innovation.allFinite() || !lin.H.allFinite()) return Sums{0.0, {}, {}, false};
+        const Eigen::MatrixXd& Wk = W_[static_cast<std::size_t>(k)];
+        f.segment(row, m_.rows(k)) = Wk * lin.innovation;
+        const Eigen::MatrixXd WH = Wk.lazyProduct(lin.H);
+        for (Eigen::Index c = 0; c < nf_; ++c) J.col(c).segment(row, m_.rows(k)) = -WH.col(free_[static_cast<std::size_t>(c)]);
+      }
+      s.cost += 0.5 * f.squaredNorm();
+      s.g.noalias() += J.transpose() * f;
+      s.JtJ.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
+    }
+    return s;
+  }
+
+  const MeasurementModel& m_;
+  const std::vector<Eigen::MatrixXd>& W_;
+  const std::vector<int>& free_;
+  const StreamedLmOptions& o_;
+  Eigen::Index nf_;
+};
+
+}  // namespace
+
+StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::MatrixXd>& W, const std::vector<int>& free,
+                            const StreamedLmOptions& o) {
+  const auto nf = static_cast<Eigen::Index>(free.size());
+  StreamedLmOptions opt = o;
+  if (opt.prior_information.size() > 0 && opt.prior_mean.size() == 0) opt.prior_mean = Eigen::VectorXd::Zero(nf);
+  const Accumulator acc(m, W, free, opt);
+  StreamedLmResult r;
+  r.x = Eigen::VectorXd::Zero(nf);
+  Sums now = acc.at(r.x, true);
+  if (!now.finite) return r;
+  // Ceres's Jacobi scaling: every column divided by 1 + its norm at the start.
+  const Eigen::VectorXd scale = (1.0 + now.JtJ.diagonal().cwiseMax(0.0).array().sqrt()).inverse().matrix();
+  double radius = kInitialRadius, decrease = 2.0;
+  const auto gradientSmall = [&] { return nf == 0 || now.g.lpNorm<Eigen::Infinity>() <= kGradientTolerance; };
+  if (gradientSmall()) {
+    r.converged = true;
+    return r;
+  }
+  const auto shrink = [&] {
+    radius /= decrease;
+    decrease *= 2.0;
+    return radius >= kMinRadius;
+  };
+  for (int it = 0; it < o.max_iterations; ++it) {
+    r.iterations = it + 1;
+    const Eigen::MatrixXd A = scale.asDiagonal() * Eigen::MatrixXd(now.JtJ.selfadjointView<Eigen::Lower>()) * scale.asDiagonal();
+    const Eigen::VectorXd gs = scale.cwiseProduct(now.g);
+    const Eigen::VectorXd damping = A.diagonal().cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal) / radius;
+    Eigen::MatrixXd Ad = A;
+    Ad.diagonal() += damping;
+    const Eigen::LLT<Eigen::MatrixXd> llt(Ad);
+    const Eigen::VectorXd z = llt.info() == Eigen::Success ? Eigen::VectorXd(-llt.solve(gs)) : Eigen::VectorXd();
+    // The linearized model's decrease of the cost along the step.
+    const double model_change = z.size() && z.allFinite() ? -(gs.dot(z) + 0.5 * z.dot(A * z)) : 0.0;
+    if (!(model_change > 0.0)) {
+      if (!shrink()) break;
+      continue;
+    }
+    const Eigen::VectorXd delta = scale.cwiseProduct(z);
+    if (delta.norm() <= (r.x.norm() + kParameterTolerance) * kParameterTolerance) {
+      r.converged = true;
+      break;
+    }
+    const Eigen::VectorXd candidate = r.x + delta;
+    const Sums trial = acc.at(candidate, false);
+    const double cost = trial.finite ? trial.cost : std::numeric_limits<double>::max();
+    if (std::abs(now.cost - cost) <= o.function_tolerance * now.cost) {
+      r.converged = true;  // Ceres stops at the current point
+      break;
+    }
+    const double rho = (now.cost - cost) / model_change;
+    if (!(rho > kMinRelativeDecrease)) {
+      if (!shrink()) break;
+      continue;
+    }
+    Sums next = acc.at(candidate, true);
+    if (!next.finite) break;  // Ceres: the Jacobian's evaluation failed
+    r.x = candidate;
+    now = std::move(next);
+    radius = std::min(kMaxRadius, radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3)));
+    decrease = 2.0;
+    if (gradientSmall()) {
+      r.converged = true;
+      break;
+    }
+  }
+  return r;
+}
+
+}  // namespace orbcal::calib

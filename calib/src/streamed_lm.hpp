@@ -1,0 +1,34 @@
+#pragma once
+// Levenberg-Marquardt on the normal equations accumulated a block of samples at a time (runLm's
+// LmOptions::normal_equations with the squared loss): J^T J and J^T f of the whitened samples, never
+// the stacked Jacobian (Ceres's dense Jacobian of a 10^5-sample log is half a gigabyte).
+#include <Eigen/Core>
+#include <vector>
+
+#include "orbcal/calib/model.hpp"
+
+namespace orbcal::calib {
+
+struct StreamedLmOptions {
+  int max_iterations = 100;
+  double function_tolerance = 1e-10;
+  Eigen::VectorXd prior_information;  ///< per free parameter, 1/sigma^2 (0: no prior); empty: none
+  Eigen::VectorXd prior_mean;         ///< per free parameter (with prior_information)
+};
+
+struct StreamedLmResult {
+  Eigen::VectorXd x;  ///< the free parameters
+  int iterations = 0;
+  bool converged = false;
+};
+
+/// min 1/2 sum_k |W_k nu_k(y)|^2 + 1/2 |prior rows|^2 over the free parameters x (y = x on `free`, 0
+/// elsewhere), from x = 0, with the trust-region strategy of Ceres's Levenberg-Marquardt (Jacobi-scaled
+/// columns, the damping diag(J^T J) / radius, the radius grown or shrunk by the step's relative decrease,
+/// convergence when a step changes the cost by less than function_tolerance of it), so that it stops
+/// where Ceres's DENSE_NORMAL_CHOLESKY solve of the same problem stops. The samples are evaluated in two
+/// halves side by side, their sums added in a fixed order (the same result on any machine).
+StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::MatrixXd>& W, const std::vector<int>& free,
+                            const StreamedLmOptions& o);
+
+}  // namespace orbcal::calib
