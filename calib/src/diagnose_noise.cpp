@@ -13,9 +13,8 @@ namespace orbcal::calib {
 namespace {
 
 /// The flexible model's terms at one level of flexibility: per moving joint its harmonics 1..h
-/// (cyclic), smooth functions of degree d of its own angle and torque (empirical) and its link's bending
-/// (where the arm has masses), and with `couplings` each joint's reading off by a multiple of every
-/// other's (coupling).
+/// (cyclic) and smooth functions of degree d of its own angle and torque (empirical), and with
+/// `couplings` each joint's reading off by a multiple of every other's (coupling).
 std::vector<sim::Effect> flexibleTerms(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
                                        const std::vector<sim::Effect>& effects, int h, int d, bool couplings) {
   std::vector<sim::Effect> out = effects;
@@ -34,11 +33,6 @@ std::vector<sim::Effect> flexibleTerms(const sim::MeasuredData& data, const std:
   }
   for (int j : moving) add(sim::Effect(*sim::findEffectKind("cyclic"), {j}, h));
   for (const sim::Effect& e : empiricalCandidates(data, obs, d)) add(e);
-  // Every link's bending under the load it carries (where the arm has masses): smooth structure that no
-  // joint's own angle or torque follows, which a joint-noise estimate would otherwise take.
-  if (!data.arm.masses.empty()) {
-    for (int j : moving) add(sim::Effect(*sim::findEffectKind("link_bending"), {j}));
-  }
   if (couplings) {
     for (int i : moving) {
       for (int j : moving) {
