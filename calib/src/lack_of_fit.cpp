@@ -379,7 +379,8 @@ LackOfFit lackOfFit(const sim::MeasuredData& data, const std::vector<MarkerObser
   const Eigen::MatrixXd Y = whitenedResiduals(fit, obs, noise, own, &whitened_jq);
   const std::vector<EvidenceVariable> vars = evidenceVariables(data, obs, fit.model, fit.p, true, &whitened_jq);
   if (lof.pure.replicated > 0) {
-    // One row per configuration: its copies share the held-out prediction (and its estimation error).
+    // One row per configuration: copies of one configuration are no new configurations of its structure
+    // (rows repeated exactly must not change the verdict), so the family is tested on their means.
     std::vector<EvidenceVariable> means = vars;
     const int m = static_cast<int>(residual.front().size());
     for (EvidenceVariable& v : means) {

@@ -29,11 +29,11 @@
 
 namespace orbcal::calib {
 
-/// One row of the evidence table: held-out residuals against one variable.
+/// One row of the evidence table: residuals against one variable.
 struct VariableTest {
   std::string variable;   ///< e.g. "joint 2 angle (harmonics 1, 2)", "joint 4 torque", "temperature"
   double statistic = 0;   ///< F statistic
-  int dof = 0;            ///< regressors
+  int dof = 0;            ///< the F's numerator degrees of freedom: regressors (beside a model's columns, the directions it cannot take)
   double p_value = 1, p_adjusted = 1;  ///< Holm-adjusted over the family
 };
 
@@ -145,7 +145,7 @@ struct LackOfFit {
   double level = 0.01;                 ///< the significance level each route of the verdict uses
   bool significant = false;            ///< the test rejects
   PureError pure;
-  std::vector<VariableTest> evidence;     ///< the model's held-out residuals, extended family
+  std::vector<VariableTest> evidence;     ///< the model's own residuals beside its columns, extended family
   std::vector<VariableTest> unexplained;  ///< the significant ones, most significant first
   std::string axis_label;                 ///< of the most significant unexplained variable, for figures
   Eigen::VectorXd axis_values;
