@@ -223,11 +223,12 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
   d.setNoise(out.base_fit.noise);
   const int folds = std::max(2, o.folds);
   const int replicated = pureError(obs, std::vector<Eigen::VectorXd>(obs.size(), Eigen::VectorXd::Zero(3))).replicated;
-  chooseJointFloor(out.noise, replicated);
 
   CvResult cv_base = d.crossValidate({});
   out.cv_base = cv_base.sse;
   out.residual_base = cv_base.residual;
+  testEstimate(out.noise, out.base_fit, obs, cv_base.residual, folds, o.alpha);
+  chooseJointFloor(out.noise, replicated);
   out.evidence = residualEvidence(data, obs, cv_base.residual, out.base_fit.noise, out.base_fit.model, out.base_fit.p);
 
   // Forward selection: the catalog's causes; then, where their model still leaves significant structure

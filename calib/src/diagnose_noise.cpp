@@ -13,8 +13,9 @@ namespace orbcal::calib {
 namespace {
 
 /// The flexible model's terms at one level of flexibility: per moving joint its harmonics 1..h
-/// (cyclic) and smooth functions of degree d of its own angle and torque (empirical), and with
-/// `couplings` each joint's reading off by a multiple of every other's (coupling).
+/// (cyclic), smooth functions of degree d of its own angle and torque (empirical) and its link's bending
+/// (where the arm has masses), and with `couplings` each joint's reading off by a multiple of every
+/// other's (coupling).
 std::vector<sim::Effect> flexibleTerms(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
                                        const std::vector<sim::Effect>& effects, int h, int d, bool couplings) {
   std::vector<sim::Effect> out = effects;
@@ -33,6 +34,11 @@ std::vector<sim::Effect> flexibleTerms(const sim::MeasuredData& data, const std:
   }
   for (int j : moving) add(sim::Effect(*sim::findEffectKind("cyclic"), {j}, h));
   for (const sim::Effect& e : empiricalCandidates(data, obs, d)) add(e);
+  // Every link's bending under the load it carries (where the arm has masses): smooth structure that no
+  // joint's own angle or torque follows, which a joint-noise estimate would otherwise take.
+  if (!data.arm.masses.empty()) {
+    for (int j : moving) add(sim::Effect(*sim::findEffectKind("link_bending"), {j}));
+  }
   if (couplings) {
     for (int i : moving) {
       for (int j : moving) {
@@ -87,13 +93,33 @@ void chooseJointFloor(NoiseFloors& n, int replicated) {
   } else if (replicated > 0) {
     n.joint_floor_rad = 0.0;  // the repeats' scatter holds the whole noise: the floor is the pure error's
     n.joint_source = "pure error";
-  } else if (n.survived.resolved(2) && !n.flexible_structured) {
+  } else if (n.survived.resolved(2) && !n.flexible_structured && !n.estimate_contradicted) {
     n.joint_floor_rad = n.joint_estimate_rad;
     n.joint_source = "survives";
   } else {
     n.joint_floor_rad = 0.0;
     n.joint_source = "unstated";
   }
+}
+
+void testEstimate(NoiseFloors& n, const Fit& fit, const std::vector<MarkerObservation>& obs,
+                  const std::vector<Eigen::VectorXd>& residual, int folds, double alpha) {
+  n.estimate_contradicted = false;
+  if (!n.joint_estimated || obs.empty()) return;
+  MarkerNoise with = n.whitening;
+  with.joint_noise_sigma_rad = n.joint_estimate_rad;
+  const HeldoutNoise h = heldoutNoise(fit, obs, with, residual, folds);
+  // Two lower tails, each at alpha / 2 (Bonferroni): the whitened sum, chi-square(3N) under the noise, and
+  // the plain mean square, a scaled chi-square of Satterthwaite's degrees of freedom nu = 2 E^2 / Var.
+  // Unmodelled structure raises both; either too small says the estimate holds more than noise.
+  n.estimate_chi2 = h.chi2 - h.whitened_estimation;
+  n.estimate_chi2_expected = 3.0 * static_cast<double>(obs.size());
+  const bool whitened_low = 1.0 - chiSquareSurvival(std::max(0.0, n.estimate_chi2), n.estimate_chi2_expected) < alpha / 2;
+  n.estimate_ms_m2 = h.residual_ms_m2;
+  n.estimate_ms_expected_m2 = h.position_ms_m2 + h.estimation_ms_m2;
+  const double nu = h.residual_ms_var_m4 > 0.0 ? 2.0 * n.estimate_ms_expected_m2 * n.estimate_ms_expected_m2 / h.residual_ms_var_m4 : 0.0;
+  const bool plain_low = nu > 0.0 && 1.0 - chiSquareSurvival(nu * h.residual_ms_m2 / n.estimate_ms_expected_m2, nu) < alpha / 2;
+  n.estimate_contradicted = whitened_low || plain_low;
 }
 
 void measureFloors(NoiseFloors& n, const Fit& fit, const std::vector<MarkerObservation>& obs,
@@ -244,6 +270,7 @@ void judgeAgainstFloor(const sim::MeasuredData& data, const std::vector<MarkerOb
     out.noise.flexible_structured = leavesStructure(data, obs, f, o.alpha);
     out.noise.survived = f.noise_components;
     out.noise.joint_estimate_rad = f.noise.joint_noise_sigma_rad;
+    testEstimate(out.noise, out.fit, obs, out.residual_selected, folds, o.alpha);
     chooseJointFloor(out.noise, replicated);
   }
   // Lack of fit of the selected model (the base model when nothing is selected), against the floor.
@@ -251,7 +278,7 @@ void judgeAgainstFloor(const sim::MeasuredData& data, const std::vector<MarkerOb
   measureFloors(out.noise, out.fit, obs, out.residual_selected, folds);
   if (out.lack_of_fit.source == NoiseSource::kResiduals) {
     out.noise.verdict_depends_on_noise = !out.lack_of_fit.left();
-  } else if (out.noise.joint_source == "unstated" && out.lack_of_fit.left()) {
+  } else if (out.noise.joint_source == "unstated" && out.lack_of_fit.left() && !out.noise.estimate_contradicted) {
     const LackOfFit with = lackOfFit(data, obs, out.fit, out.noise.whitening, out.residual_selected, true, folds, o.alpha);
     out.noise.verdict_depends_on_noise = !with.left();
   }

@@ -29,6 +29,12 @@ MarkerNoise floorNoise(const NoiseFloors& n);
 /// the survived estimate.
 void chooseJointFloor(NoiseFloors& n, int replicated);
 
+/// Sets n's estimate_contradicted (and its chi-square): the held-out position residuals `residual` of
+/// `fit`, whitened with the tracker noise plus the estimated joint noise, fall below noise's lower alpha
+/// quantile. Call before chooseJointFloor.
+void testEstimate(NoiseFloors& n, const Fit& fit, const std::vector<MarkerObservation>& obs,
+                  const std::vector<Eigen::VectorXd>& residual, int folds, double alpha);
+
 /// The floors with and without the estimated joint noise, and the joint noise at which the held-out
 /// position residuals `residual` of `fit` would be noise.
 void measureFloors(NoiseFloors& n, const Fit& fit, const std::vector<MarkerObservation>& obs,

@@ -289,17 +289,24 @@ HeldoutNoise heldoutNoise(const Fit& fit, const std::vector<MarkerObservation>& 
     const Eigen::Matrix3d Rp = lin.R.topLeftCorner(3, 3);
     const Eigen::LDLT<Eigen::Matrix3d> Rinv(Rp);
     h.position_ms_m2 += Rp.trace();
+    Eigen::Matrix3d S = Rp;
     if (have_cov) {
       const Eigen::MatrixXd Hp = lin.H.topRows(3);
       const Eigen::Matrix3d V = k * Hp * cov * Hp.transpose();
       h.estimation_ms_m2 += V.trace();
       h.whitened_estimation += Rinv.solve(V).trace();
+      S += V;
     }
     const Eigen::Vector3d r = residual[static_cast<std::size_t>(s)].head<3>();
     h.chi2 += r.dot(Rinv.solve(r));
+    h.residual_ms_m2 += r.squaredNorm();
+    h.residual_ms_var_m4 += 2.0 * S.squaredNorm();  // Var(r^T r) = 2 tr(S^2) for r ~ N(0, S)
   }
-  h.position_ms_m2 /= m.numSamples();
-  h.estimation_ms_m2 /= m.numSamples();
+  const double n = m.numSamples();
+  h.position_ms_m2 /= n;
+  h.estimation_ms_m2 /= n;
+  h.residual_ms_m2 /= n;
+  h.residual_ms_var_m4 /= n * n;
   return h;
 }
 
@@ -434,6 +441,14 @@ std::string unexplainedSentence(const Diagnosis& d) {
                                  ? "the stated tracker noise and the joint readings' " +
                                        sim::formatNumber("%.2g", n.joint_floor_rad * sim::kRadToDeg) +
                                        " deg (estimated, and resolved beside empirical corrections of every joint)"
+                             : n.joint_source == "unstated" && n.estimate_contradicted
+                                 ? "the stated tracker noise (the joint readings' noise is not stated, and the " +
+                                       sim::formatNumber("%.2g", n.joint_estimate_rad * sim::kRadToDeg) +
+                                       " deg the fits estimate is contradicted by the held-out positions: with it, noise alone would give them " +
+                                       sim::formatNumber("%.3g", std::sqrt(n.estimate_ms_expected_m2) * 1e3) + " mm RMS and a whitened chi-square of " +
+                                       sim::formatNumber("%.0f", n.estimate_chi2_expected) + ", they show " +
+                                       sim::formatNumber("%.3g", std::sqrt(n.estimate_ms_m2) * 1e3) + " mm and " +
+                                       sim::formatNumber("%.0f", n.estimate_chi2) + ": none counted)"
                              : n.joint_source == "unstated" ? "the stated tracker noise (the joint readings' noise is not stated: none counted)"
                                                             : "the stated noise";
   const std::string noise = l.source == NoiseSource::kStated      ? stated

@@ -57,8 +57,8 @@ std::string selectedText(const calib::Diagnosis& d) {
 // `unexplained` names its floor and where it came from.
 namespace {
 
-void checkFloorHonest(sim::OpenCauseKind kind, std::uint64_t seed) {
-  const sim::OpenWorldDataset ds = unstatedJointNoise(kind, 20.0, 0.0, seed);
+calib::Diagnosis checkFloorHonest(sim::OpenCauseKind kind, std::uint64_t seed, int samples = 150) {
+  const sim::OpenWorldDataset ds = unstatedJointNoise(kind, 20.0, 0.0, seed, samples);
   const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(ds.data, true);
   const calib::Diagnosis d = calib::diagnose(ds.data, obs, {});
   const double floor = trueFloor(d, obs, 0.0);
@@ -70,6 +70,7 @@ void checkFloorHonest(sim::OpenCauseKind kind, std::uint64_t seed) {
     CHECK(d.verdict.find(sim::formatNumber("%.3g", d.lack_of_fit.noise_position_rms_m * 1e3) + " mm") != std::string::npos);
     CHECK((d.verdict.find("stated tracker noise") != std::string::npos || d.verdict.find("the stated noise") != std::string::npos));
   }
+  return d;
 }
 
 }  // namespace
@@ -77,16 +78,23 @@ void checkFloorHonest(sim::OpenCauseKind kind, std::uint64_t seed) {
 TEST_CASE("diagnose: an unstated joint noise cannot hide structure in the floor", "[calib][diagnose][noise]") {
   checkFloorHonest(sim::OpenCauseKind::kCoupling, 12);
   checkFloorHonest(sim::OpenCauseKind::kHarmonic4, 13);
+  // A bending link, which the flexible model takes with every link's bending (the iiwa7 has masses):
+  // before it did, a 0.0095 deg estimate survived and lifted the floor to 1.48x the true one.
+  checkFloorHonest(sim::OpenCauseKind::kLinkBending, 11);
 }
 
-// A KNOWN FAILURE of the criterion above, kept visible: this bending-link dataset gets an `effects`
-// verdict (link_bending:3 compliance:2 link_bending:5) at 1.62x the true floor, because a joint-noise
-// estimate of 0.0095 deg survives the flexible model (which has no term for a link's bending load) and
-// lifts the floor to 1.48x. [!shouldfail]: this case fails the suite the day the criterion holds here;
-// then drop the tag and move it into the case above.
-TEST_CASE("diagnose: an unstated joint noise hides a bending link's structure (a known failure)",
-          "[calib][diagnose][noise][!shouldfail]") {
-  checkFloorHonest(sim::OpenCauseKind::kLinkBending, 11);
+// A bending the catalog's cantilever does not follow exactly (sim/open_world.hpp bends the link by its
+// end load alone): what is left, mostly in the marker's rotation, inflates the joint-noise estimate
+// (0.032 deg, where the truth has none) beyond what the held-out positions show (0.30 mm RMS against
+// the 0.6 mm it would give). The estimate is refused by the positions, not counted, and the verdict
+// says so and is judged against the stated tracker noise.
+TEST_CASE("diagnose: an estimate the held-out positions contradict stays out of the floor", "[calib][diagnose][noise]") {
+  const calib::Diagnosis d = checkFloorHonest(sim::OpenCauseKind::kLinkBending, 1, 200);
+  CHECK(d.noise.estimate_contradicted);
+  CHECK(d.noise.joint_source == "unstated");
+  CHECK(d.noise.estimate_ms_m2 < d.noise.estimate_ms_expected_m2);
+  CHECK(d.unexplained);
+  CHECK(d.verdict.find("contradicted by the held-out positions") != std::string::npos);
 }
 
 // (c) Joint noise in the truth, unstated: its level recovered within a factor 2 (it survives the
@@ -104,6 +112,7 @@ TEST_CASE("diagnose: an unstated joint noise that is there is recovered and coun
     CHECK(estimate_deg > 0.5 * truth_deg);
     CHECK(estimate_deg < 2.0 * truth_deg);
     CHECK(d.noise.joint_source == "survives");
+    CHECK_FALSE(d.noise.estimate_contradicted);
     if (ratio < 1.2) CHECK_FALSE(d.unexplained);
   }
 }

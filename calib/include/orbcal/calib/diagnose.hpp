@@ -93,10 +93,11 @@ struct HeldoutStats {
 /// The floor may hold joint-reading noise only from a source independent of the residuals it judges:
 /// stated (the description's noise.joint_deg, --joint-noise-deg), pure error of repeated
 /// configurations, or an estimate that survives a model flexible enough to take smooth structure
-/// (the selected model plus, per joint, harmonics, smooth functions of its own angle and torque and
-/// couplings to every other joint: diagnose_noise.hpp's flexibleFit), is resolved there (its variance
-/// above twice its standard deviation) and leaves no structure there (lack_of_fit's variable family). Otherwise an estimated
-/// joint noise whitens the fits but stays out of the floor, and the report gives both floors.
+/// (the selected model plus, per joint, harmonics, smooth functions of its own angle and torque,
+/// couplings to every other joint and its link's bending: diagnose_noise.hpp's flexibleFit), is resolved
+/// there (its variance above twice its standard deviation), leaves no structure there (lack_of_fit's
+/// variable family) and is not contradicted by the held-out positions (estimate_contradicted). Otherwise
+/// an estimated joint noise whitens the fits but stays out of the floor, and the report gives both floors.
 struct NoiseFloors {
   MarkerNoise whitening;         ///< as every fit whitens with it
   bool tracker_stated = false;   ///< the tracker's sigmas (or each sample's own covariance) are given
@@ -109,6 +110,15 @@ struct NoiseFloors {
   /// The flexible fit's residuals are still structured (lack_of_fit's family): its joint-noise estimate
   /// may be structure it could not take, and stays out of the floor.
   bool flexible_structured = false;
+  /// The held-out position residuals contradict the estimated joint noise: with the tracker's noise plus
+  /// it, their whitened chi-square (`estimate_chi2`, less the folds' estimation share; chi-square(3 per
+  /// sample) under that noise) or their plain mean square (`estimate_ms_m2`; a scaled chi-square about
+  /// `estimate_ms_expected_m2`) falls below its lower alpha/2 quantile. Unmodelled structure only raises
+  /// both, so a sum too small says the estimate holds more than the positions show (structure elsewhere,
+  /// e.g. in the rotations or at other lever arms, that it was stretched to cover).
+  bool estimate_contradicted = false;
+  double estimate_chi2 = 0.0, estimate_chi2_expected = 0.0;
+  double estimate_ms_m2 = 0.0, estimate_ms_expected_m2 = 0.0;
   NoiseComponents survived;            ///< of the selected model + empirical corrections (where estimated)
   double joint_estimate_rad = 0.0;     ///< the joint noise of `survived`
   double joint_floor_rad = 0.0;        ///< the joint noise in the verdict's floor

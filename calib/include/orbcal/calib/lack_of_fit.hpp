@@ -124,6 +124,10 @@ struct HeldoutNoise {
   double estimation_ms_m2 = 0.0;
   double whitened_estimation = 0.0;  ///< the same, summed over samples, each whitened by R_pos
   double chi2 = 0.0;                 ///< sum r_pos^T R_pos^-1 r_pos of the held-out residuals
+  double residual_ms_m2 = 0.0;       ///< mean over samples of |r_pos|^2 of the held-out residuals (m^2)
+  /// The variance of that mean under the noise alone, each sample's r_pos ~ N(0, R_pos + its prediction's
+  /// covariance): sum 2 tr(S^2) / N^2 (m^4).
+  double residual_ms_var_m4 = 0.0;
 };
 HeldoutNoise heldoutNoise(const Fit& fit, const std::vector<MarkerObservation>& obs, const MarkerNoise& noise,
                           const std::vector<Eigen::VectorXd>& residual, int folds);
