@@ -28,7 +28,7 @@ Eigen::Isometry3d refitPose(const CornerView& v, const CornerModel& model) {
   cv::Mat rvec, tvec = (cv::Mat_<double>(3, 1) << v.camera_T_board.translation().x(), v.camera_T_board.translation().y(),
                         v.camera_T_board.translation().z());
   cv::Rodrigues(R, rvec);
-  cv::solvePnPRefineLM(object, image, K, dist, rvec, tvec, cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 50, 1e-12));
+  cv::solvePnPRefineLM(object, image, K, dist, rvec, tvec, cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 30, 1e-10));
   cv::Rodrigues(rvec, R);
   Eigen::Matrix3d Re;
   cv::cv2eigen(R, Re);
@@ -71,18 +71,18 @@ SharedFit fitSharedWithPoses(const std::vector<CornerView>& all, const SharedMod
   fit.rms_start_px = std::sqrt(r.squaredNorm() / static_cast<double>(fit.corners));
   Eigen::MatrixXd J(N, P);
   for (int it = 0; it < kIterations; ++it) {
-    for (Eigen::Index j = 0; j < P; ++j) {
-      Eigen::VectorXd hi = p, lo = p;
+    for (Eigen::Index j = 0; j < P; ++j) {  // forward differences: the residuals are smooth in the shared parameters
+      Eigen::VectorXd hi = p;
       hi(j) += step(j);
-      lo(j) -= step(j);
-      J.col(j) = (residuals(hi) - residuals(lo)) / (2.0 * step(j));  // d r / d p: r = detected - projected
+      J.col(j) = (residuals(hi) - r) / step(j);  // d r / d p: r = detected - projected
     }
     const Eigen::VectorXd dp = -(J.transpose() * J).ldlt().solve(J.transpose() * r);
     const Eigen::VectorXd r_new = residuals(p + dp);
     if (!(r_new.squaredNorm() <= r.squaredNorm())) break;
+    const double gain = r.squaredNorm() - r_new.squaredNorm();
     p += dp;
     r = r_new;
-    if ((dp.array().abs() < 1e-3 * step.array()).all()) break;
+    if ((dp.array().abs() < 1e-3 * step.array()).all() || gain < 1e-6 * r.squaredNorm()) break;
   }
   const double dof = static_cast<double>(N - 6 * static_cast<Eigen::Index>(views.size()) - P);
   if (dof <= 0.0) return fit;

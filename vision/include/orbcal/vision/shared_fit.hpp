@@ -44,8 +44,8 @@ Eigen::Isometry3d refitPose(const CornerView& view, const CornerModel& model);
 /// its residuals, detected minus projected (px), stacked u0 v0 u1 v1 ... over the views in order.
 Eigen::VectorXd refittedResiduals(const std::vector<CornerView>& views, const CornerModel& model);
 
-/// Gauss-Newton on the shared parameters from `start` (central differences of refittedResiduals with
-/// `step`), at most 10 iterations; the standard errors from the residuals' variance over 2N - 6 views -
+/// Gauss-Newton on the shared parameters from `start` (forward differences of refittedResiduals with
+/// `step`), at most 10 iterations, until a step gains less than 1e-6 of the sum of squares; the standard errors from the residuals' variance over 2N - 6 views -
 /// parameters. Views with fewer than 6 corners are left out; !ok without at least two views.
 SharedFit fitSharedWithPoses(const std::vector<CornerView>& views, const SharedModel& model, const Eigen::VectorXd& start,
                              const Eigen::VectorXd& step);
