@@ -1,4 +1,5 @@
-"""orbcal from Python: robots, measured data, calibration, diagnosis, rendering and studies.
+"""orbcal from Python: robots, measured data, calibration, diagnosis, rendering, twins of real
+images and studies.
 
 SI units throughout (m, rad, N m, degC, s); numpy arrays in and out. Bad input raises orbcal.Error (a
 RuntimeError) carrying orbcal's one-line message, which names the file and the key; a calibration that
@@ -14,8 +15,8 @@ RuntimeError) carrying orbcal's one-line message, which names the file and the k
 """
 from ._orbcal import (Calibration, Diagnosis, Error, Measurements, Model, Refused, Robot, __version__,  # noqa: F401
                       calibrate, diagnose, evaluate, load_measurements, load_model, load_robot,
-                      measurements_from_arrays, render_dataset, run_study, simulate, version)
+                      measurements_from_arrays, render_dataset, run_study, simulate, twin, version)
 
 __all__ = ["Calibration", "Diagnosis", "Error", "Measurements", "Model", "Refused", "Robot", "__version__", "calibrate",
            "diagnose", "evaluate", "load_measurements", "load_model", "load_robot", "measurements_from_arrays",
-           "render_dataset", "run_study", "simulate", "version"]
+           "render_dataset", "run_study", "simulate", "twin", "version"]

@@ -19,7 +19,31 @@ bool CameraProfile::imageIdentity() const {
          noise.identity() && !background.mean_dn.has_value();
 }
 
-bool CameraProfile::identity() const { return imageIdentity() && board.identity(); }
+bool CameraProfile::identity() const { return imageIdentity() && geometryIdentity(); }
+
+sim::Camera profiledCamera(const sim::Camera& stated, const CameraProfile& profile) {
+  sim::Camera c = stated;
+  c.distortion[0] += profile.lens.k1;
+  c.distortion[1] += profile.lens.k2;
+  return c;
+}
+
+double lensShiftAtImageCorner(const sim::Camera& stated, const LensResidual& lens) {
+  CameraProfile p;
+  p.lens = lens;
+  const sim::Camera real = profiledCamera(stated, p);
+  double farthest = -1.0, shift = 0.0;
+  for (const double u : {0.0, static_cast<double>(stated.width_px)}) {
+    for (const double v : {0.0, static_cast<double>(stated.height_px)}) {
+      const Eigen::Vector2d xy((u - stated.cx_px) / stated.fx_px, (v - stated.cy_px) / stated.fy_px);
+      if (xy.norm() <= farthest) continue;
+      farthest = xy.norm();
+      const Eigen::Vector2d d = sim::distortNormalized(real.distortion, xy) - sim::distortNormalized(stated.distortion, xy);
+      shift = std::hypot(d.x() * stated.fx_px, d.y() * stated.fy_px);
+    }
+  }
+  return shift;
+}
 
 double toneCurve(const ToneCurve& tone, double in_dn) {
   const double x = std::clamp(in_dn / 255.0, 0.0, 1.0);

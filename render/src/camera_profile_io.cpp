@@ -73,7 +73,7 @@ BoardPrint parseBoard(const sim::ConfigNode& n) {
 
 CameraProfile loadCameraProfile(const std::string& path) {
   const sim::ConfigNode root = sim::ConfigNode::load(path);
-  root.requireOnlyKeys({"format", "tone", "vignetting", "blur_sigma_px", "sharpening", "noise", "background", "board"});
+  root.requireOnlyKeys({"format", "tone", "vignetting", "blur_sigma_px", "sharpening", "noise", "background", "lens", "board"});
   const std::string format = root["format"].asString();
   if (format != kFormat) root["format"].fail(std::string("expected ") + kFormat + ", got " + sim::quoteInput(format));
   CameraProfile p;
@@ -98,6 +98,11 @@ CameraProfile loadCameraProfile(const std::string& path) {
     p.background.texture_scale_px = within(s, "texture_scale_px", p.background.texture_scale_px, 0.5, 200.0, "0.5 to 200 px");
     if (p.background.texture_dn > 0 && !p.background.mean_dn) s.fail("texture_dn needs mean_dn");
   }
+  if (const sim::ConfigNode s = root.optional("lens"); s.defined()) {
+    s.requireOnlyKeys({"k1", "k2"});
+    p.lens.k1 = within(s, "k1", 0.0, -1.0, 1.0, "-1 to 1");
+    p.lens.k2 = within(s, "k2", 0.0, -1.0, 1.0, "-1 to 1");
+  }
   p.board = parseBoard(root.optional("board"));
   return p;
 }
@@ -119,6 +124,7 @@ void saveCameraProfile(const CameraProfile& p, const std::string& path) {
   if (p.background.mean_dn) out << "mean_dn: " << num(*p.background.mean_dn) << ", ";
   out << "texture_dn: " << num(p.background.texture_dn) << ", texture_scale_px: " << num(p.background.texture_scale_px)
       << "}\n"
+      << "lens: {k1: " << num(p.lens.k1) << ", k2: " << num(p.lens.k2) << "}\n"
       << "board:\n"
       << "  scale_x: " << num(p.board.scale_x) << "\n"
       << "  scale_y: " << num(p.board.scale_y) << "\n"

@@ -52,6 +52,13 @@ Eigen::Matrix4d glProjection(const sim::Camera& c, double near_m, double far_m) 
   return P;
 }
 
+namespace {
+sim::Scene withProfiledCamera(sim::Scene scene, const CameraProfile& profile) {
+  scene.camera = profiledCamera(scene.camera, profile);
+  return scene;
+}
+}  // namespace
+
 struct BoardRenderer::Impl {
   sim::Scene scene;
   RenderSettings settings;
@@ -75,7 +82,7 @@ struct BoardRenderer::Impl {
   std::vector<Drawable> drawables;  // [0] is the board
 
   Impl(const sim::Scene& sc, const RenderSettings& st, const CameraProfile& pr, std::future<DistortionMap>* prebuilt)
-      : scene(sc), settings(st), profile(pr), coverage(pr.background.mean_dn.has_value()), context(3, 3) {
+      : scene(withProfiledCamera(sc, pr)), settings(st), profile(pr), coverage(pr.background.mean_dn.has_value()), context(3, 3) {
     checkBoardPrint(profile, scene.board);
     // Meshes first: a missing file is an input error, reported before any GL work.
     const Eigen::Isometry3d board_T_base = scene.base_T_board.inverse();
@@ -98,7 +105,8 @@ struct BoardRenderer::Impl {
 
     if (scene.camera.hasDistortion()) {
       distorted = true;
-      distortion = prebuilt && prebuilt->valid() ? prebuilt->get() : makeDistortionMap(scene.camera);
+      // a profile's lens part changes the camera a prebuilt map was made for
+      distortion = prebuilt && prebuilt->valid() && pr.lens.identity() ? prebuilt->get() : makeDistortionMap(scene.camera);
       pinhole = distortion.pinhole;
     } else {
       pinhole = scene.camera;

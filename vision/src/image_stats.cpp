@@ -1,6 +1,7 @@
 #include "orbcal/vision/image_stats.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
@@ -288,22 +289,39 @@ Falloff radialFalloff(const std::vector<std::vector<FlatSample>>& samples) {
 }
 
 cv::Mat boardHullMask(const sim::Camera& camera, const sim::Board& board, const Eigen::Isometry3d& camera_T_board, double grow_m) {
+  // Each side sampled densely: a lens's distortion curves the sides. Beyond the image's own radius (1.2 times
+  // its corners', normalised) the distortion polynomial is not the lens's and may fold back into the image:
+  // there the pinhole projection stands in (those points lie outside the image either way).
+  constexpr int kPerSide = 24;
+  constexpr double kTrusted = 1.2;
   cv::Mat mask = cv::Mat::zeros(camera.height_px, camera.width_px, CV_8UC1);
   const std::array<Eigen::Vector3d, 4> outline = sim::boardOutline(board);
   const Eigen::Vector3d centre = sim::boardCentre(board);
-  std::vector<cv::Point> poly;
-  for (const Eigen::Vector3d& p : outline) {
-    Eigen::Vector3d grown = p;
-    grown.x() += (p.x() > centre.x() ? 1.0 : -1.0) * grow_m;
-    grown.y() += (p.y() > centre.y() ? 1.0 : -1.0) * grow_m;
-    const Eigen::Vector3d p_cam = camera_T_board * grown;
-    if (p_cam.z() <= 0.0) return cv::Mat(mask.size(), CV_8UC1, cv::Scalar(255));  // the hull reaches behind: all board
-    const Eigen::Vector2d px = sim::project(camera, p_cam);
-    poly.emplace_back(static_cast<int>(std::lround(px.x())), static_cast<int>(std::lround(px.y())));
+  double image_radius = 0.0;
+  for (const double u : {0.0, static_cast<double>(camera.width_px)}) {
+    for (const double v : {0.0, static_cast<double>(camera.height_px)}) {
+      image_radius = std::max(image_radius, std::hypot((u - camera.cx_px) / camera.fx_px, (v - camera.cy_px) / camera.fy_px));
+    }
   }
-  std::vector<cv::Point> hull;
-  cv::convexHull(poly, hull);
-  cv::fillConvexPoly(mask, hull, cv::Scalar(255));
+  std::array<Eigen::Vector3d, 4> grown;
+  for (int k = 0; k < 4; ++k) {
+    grown[k] = outline[k];
+    grown[k].x() += (outline[k].x() > centre.x() ? 1.0 : -1.0) * grow_m;
+    grown[k].y() += (outline[k].y() > centre.y() ? 1.0 : -1.0) * grow_m;
+  }
+  std::vector<cv::Point> poly;
+  for (int k = 0; k < 4; ++k) {
+    for (int i = 0; i < kPerSide; ++i) {
+      const Eigen::Vector3d p_cam = camera_T_board * (grown[k] + (grown[(k + 1) % 4] - grown[k]) * (static_cast<double>(i) / kPerSide));
+      if (p_cam.z() <= 0.0) return cv::Mat(mask.size(), CV_8UC1, cv::Scalar(255));  // the hull reaches behind: all board
+      const Eigen::Vector2d xy = p_cam.head<2>() / p_cam.z();
+      sim::Camera pinhole = camera;
+      if (xy.norm() > kTrusted * image_radius) pinhole.distortion = {0.0, 0.0, 0.0, 0.0, 0.0};
+      const Eigen::Vector2d px = sim::project(pinhole, p_cam);
+      poly.emplace_back(static_cast<int>(std::lround(std::clamp(px.x(), -1e6, 1e6))), static_cast<int>(std::lround(std::clamp(px.y(), -1e6, 1e6))));
+    }
+  }
+  cv::fillPoly(mask, std::vector<std::vector<cv::Point>>{poly}, cv::Scalar(255));
   return mask;
 }
 

@@ -39,9 +39,8 @@ cv::Mat toneReference(const cv::Mat& clean, double clean_width_px, double width_
   return blurred;
 }
 
-ViewStats measureStats(const sim::Camera& camera, const sim::Board& board, const cv::Mat& gray, const cv::Mat& ignored,
-                       const vision::ViewMeasurement& det, const Eigen::Isometry3d& pose, const cv::Mat& clean,
-                       double clean_width_px = std::numeric_limits<double>::quiet_NaN()) {
+/// The corner statistics of a view's detection: residuals about its own pose under the stated camera.
+ViewStats cornerStats(const sim::Camera& camera, const sim::Board& board, const vision::ViewMeasurement& det) {
   ViewStats s;
   s.found = det.measurement.found();
   s.markers = det.markers;
@@ -52,7 +51,15 @@ ViewStats measureStats(const sim::Camera& camera, const sim::Board& board, const
     for (std::size_t n = 0; n < own.corners_px.size(); ++n) own.ids.push_back(det.measurement.cornerId(n));
     s.residuals = vision::cornerResiduals(camera, board, own);
     s.corners = static_cast<int>(own.ids.size());
+    s.corners_seen = {own.camera_T_board, own.ids, own.corners_px};
   }
+  return s;
+}
+
+/// The pixel statistics, where `camera` (the stated one, or with the lens the corners show) and `pose`
+/// put the pattern; the tone against `reference` (a clean twin drawn alike) blurred to the image's edges.
+void pixelStats(ViewStats& s, const sim::Camera& camera, const sim::Board& board, const cv::Mat& gray, const cv::Mat& ignored,
+                const Eigen::Isometry3d& pose, const cv::Mat& reference, double clean_width_px = std::numeric_limits<double>::quiet_NaN()) {
   vision::BoardImage v;
   v.gray = gray;
   v.ignored = ignored;
@@ -62,9 +69,36 @@ ViewStats measureStats(const sim::Camera& camera, const sim::Board& board, const
   s.noise = vision::noiseLevels(s.flat);
   s.edges = vision::edgeStats(camera, board, v);
   s.background = vision::backgroundStats(camera, board, v);
-  const cv::Mat reference = toneReference(clean, clean_width_px, s.edges.width_px);
-  s.gamma = vision::fitToneCurve(vision::tonePairs(camera, board, v, reference, kToneStep)).gamma;
-  return s;
+  const cv::Mat blurred = toneReference(reference, clean_width_px, s.edges.width_px);
+  s.gamma = vision::fitToneCurve(vision::tonePairs(camera, board, v, blurred, kToneStep)).gamma;
+}
+
+/// Where a view's pattern is under a geometry, and its clean twin drawn through it (`drawn`: a renderer
+/// with that geometry; null: the stated camera, `pose` and `clean`). The statistics assume the board as
+/// designed, so they are placed by the lens part alone (the camera with it, the pose refitted under it);
+/// the twin is drawn with all of it at the pose refitted under all of it, and its own edge width is
+/// measured where the statistics look (the tone's reference is blurred from there to the image's).
+struct Aligned {
+  sim::Camera camera;
+  Eigen::Isometry3d pose;
+  cv::Mat clean;
+  vision::EdgeStats clean_edges;
+};
+Aligned aligned(render::BoardRenderer* drawn, const render::CameraProfile& geometry, const sim::Camera& camera, const sim::Board& board,
+                const ViewStats& seen, const Eigen::Isometry3d& pose, const cv::Mat& clean, const vision::EdgeStats& clean_edges) {
+  if (!drawn || !seen.found) return {camera, pose, clean, clean_edges};
+  const Eigen::VectorXd g = twin_detail::geometryOf(geometry);
+  Eigen::VectorXd lens_only = Eigen::VectorXd::Zero(g.size());
+  lens_only.head<2>() = g.head<2>();
+  Aligned a;
+  a.camera = render::profiledCamera(camera, geometry);
+  a.pose = vision::refitPose(seen.corners_seen, twin_detail::geometryModel(camera, board, lens_only));
+  a.clean = drawn->renderClean(vision::refitPose(seen.corners_seen, twin_detail::geometryModel(camera, board, g)));
+  vision::BoardImage b;
+  b.gray = a.clean;
+  b.camera_T_board = a.pose;
+  a.clean_edges = vision::edgeStats(a.camera, board, b);
+  return a;
 }
 
 /// Jackknife estimate over views of a statistic of all views (`of` takes the views to use).
@@ -93,8 +127,8 @@ vision::Estimate jackknife(std::size_t n, const std::function<double(const std::
   return e;
 }
 
-/// Every statistic of one kind of image over the views.
-std::map<std::string, vision::Estimate> aggregate(const std::vector<ViewStats>& views) {
+/// Every statistic of one kind of image over the views (`geometry`: their fitGeometry).
+std::map<std::string, vision::Estimate> aggregate(const sim::Camera& camera, const std::vector<ViewStats>& views, const vision::SharedFit& geometry) {
   std::map<std::string, vision::Estimate> out;
   const auto over = [&](const std::function<double(const ViewStats&)>& f) {
     std::vector<double> x;
@@ -110,6 +144,8 @@ std::map<std::string, vision::Estimate> aggregate(const std::vector<ViewStats>& 
     }
     return vision::repeatableCornerPart(r).share;
   });
+  out["lens_shift_px"] = twin_detail::lensShiftEstimate(camera, geometry);
+  out["bow_mm"] = twin_detail::bowEstimate(geometry);
   out["corners"] = over([](const ViewStats& v) { return static_cast<double>(v.corners); });
   out["markers"] = over([](const ViewStats& v) { return static_cast<double>(v.markers); });
   out["black_dn"] = over([](const ViewStats& v) { return v.levels.black; });
@@ -162,6 +198,8 @@ const std::vector<std::pair<std::string, std::string>>& twinStatisticNames() {
   static const std::vector<std::pair<std::string, std::string>> names{
       {"corner_scatter_px", "corner scatter about the view's fitted pose [px RMS]"},
       {"corner_repeatable_share", "share of the corner scatter repeating per corner id"},
+      {"lens_shift_px", "radial distortion beyond the stated intrinsics: shift at the image corner [px]"},
+      {"bow_mm", "board bow: sagitta at the half diagonal [mm]"},
       {"corners", "corners detected per view"},
       {"markers", "markers decoded per view"},
       {"black_dn", "black level [DN]"},
@@ -184,36 +222,58 @@ TwinComparison compareWithTwins(const sim::Camera& camera, const sim::Board& boa
   const auto t0 = std::chrono::steady_clock::now();
   TwinComparison c;
   c.profiled = profile != nullptr;
+  c.camera = camera;
   c.per_view.assign(3, {});
   const sim::Scene scene = twinScene(camera, board);
   render::BoardRenderer renderer(scene, render::RenderSettings{});
-  std::unique_ptr<render::BoardRenderer> printed;
-  if (profile && !profile->board.identity()) printed = std::make_unique<render::BoardRenderer>(scene, render::RenderSettings{}, *profile);
-  std::mt19937_64 rng(seed);
+  // the corners first, real and the clean twins' (detected with the real view's ignored pixels filled as
+  // the real image's were), and the geometry they show
+  const auto detect = [&](const cv::Mat& img, const cv::Mat& ignored) {
+    return vision::measureGray(vision::fillIgnored(img, ignored), camera, board, measureSettings());
+  };
   std::vector<RealView> used;
   std::vector<cv::Mat> cleans;
   for (const RealView& v : views) {
     if (!v.detection.measurement.found()) continue;
-    const Eigen::Isometry3d& pose = v.detection.measurement.camera_T_board;
-    const cv::Mat clean = renderer.renderClean(pose);
-    // the twins are detected with the real view's ignored pixels filled as the real image's were
-    const auto detect = [&](const cv::Mat& img) { return vision::measureGray(vision::fillIgnored(img, v.ignored), camera, board, measureSettings()); };
-    c.per_view[kRendered].push_back(measureStats(camera, board, clean, v.ignored, detect(clean), pose, clean));
-    const double clean_width = c.per_view[kRendered].back().edges.width_px;
-    c.per_view[kReal].push_back(measureStats(camera, board, v.gray, v.ignored, v.detection, pose, clean, clean_width));
-    cv::Mat profiled;
-    if (profile) {
-      profiled = twin_detail::profiledTwin(printed.get(), scene, pose, clean, *profile, rng);
-      c.per_view[kProfiled].push_back(measureStats(camera, board, profiled, v.ignored, detect(profiled), pose, clean, clean_width));
-    }
-    c.crops.push_back(sideBySide(camera, board, pose, {v.gray, clean, profiled}));
+    cleans.push_back(renderer.renderClean(v.detection.measurement.camera_T_board));
+    c.per_view[kRendered].push_back(cornerStats(camera, board, detect(cleans.back(), v.ignored)));
+    c.per_view[kReal].push_back(cornerStats(camera, board, v.detection));
     c.views.push_back(v.name);
     used.push_back(v);
-    cleans.push_back(clean);
   }
   if (c.views.empty()) throw sim::InputError("orbcal twin: the board was found in no view: nothing to compare");
-  const auto real = aggregate(c.per_view[kReal]), rendered = aggregate(c.per_view[kRendered]);
-  const auto profiled = profile ? aggregate(c.per_view[kProfiled]) : std::map<std::string, vision::Estimate>{};
+  for (int kind : {kReal, kRendered}) c.geometry.push_back(twin_detail::fitGeometry(camera, board, c.per_view[kind]));
+  // the real images' pixels are measured where the geometry their corners show puts the pattern
+  const render::CameraProfile shown = twin_detail::shownGeometry(c);
+  std::unique_ptr<render::BoardRenderer> drawn, printed;
+  if (!shown.geometryIdentity()) drawn = std::make_unique<render::BoardRenderer>(scene, render::RenderSettings{}, shown);
+  if (profile && !profile->geometryIdentity()) printed = std::make_unique<render::BoardRenderer>(scene, render::RenderSettings{}, *profile);
+  std::mt19937_64 rng(seed);
+  std::vector<RealView> at_real = used;  // the real views at the poses their corners give under the shown geometry
+  std::vector<cv::Mat> drawn_cleans;      // and their clean twins drawn through it (the profile's fit pairs pixels with these)
+  for (std::size_t k = 0; k < used.size(); ++k) {
+    const RealView& v = used[k];
+    const Eigen::Isometry3d& pose = v.detection.measurement.camera_T_board;
+    pixelStats(c.per_view[kRendered][k], camera, board, cleans[k], v.ignored, pose, cleans[k]);
+    const vision::EdgeStats& clean_edges = c.per_view[kRendered][k].edges;
+    const Aligned real = aligned(drawn.get(), shown, camera, board, c.per_view[kReal][k], pose, cleans[k], clean_edges);
+    pixelStats(c.per_view[kReal][k], real.camera, board, v.gray, v.ignored, real.pose, real.clean, real.clean_edges.width_px);
+    c.per_view[kReal][k].reference_edges = real.clean_edges;
+    at_real[k].detection.measurement.camera_T_board = real.pose;
+    drawn_cleans.push_back(real.clean);
+    cv::Mat profiled;
+    if (profile) {
+      // drawn through the profile's geometry at the pose the real corners give under it
+      const Aligned at = aligned(printed.get(), *profile, camera, board, c.per_view[kReal][k], pose, cleans[k], clean_edges);
+      profiled = render::applyCameraProfile(at.clean, vision::boardHullMask(at.camera, board, at.pose, 0.0), *profile, camera, rng);
+      c.per_view[kProfiled].push_back(cornerStats(camera, board, detect(profiled, v.ignored)));
+      pixelStats(c.per_view[kProfiled].back(), at.camera, board, profiled, v.ignored, at.pose, at.clean, at.clean_edges.width_px);
+    }
+    c.crops.push_back(sideBySide(camera, board, pose, {v.gray, cleans[k], profiled}));
+  }
+  if (profile) c.geometry.push_back(twin_detail::fitGeometry(camera, board, c.per_view[kProfiled]));
+  const auto real = aggregate(camera, c.per_view[kReal], c.geometry[kReal]), rendered = aggregate(camera, c.per_view[kRendered], c.geometry[kRendered]);
+  const auto profiled = profile ? aggregate(camera, c.per_view[kProfiled], c.geometry[kProfiled]) : std::map<std::string, vision::Estimate>{};
   for (const auto& [key, label] : twinStatisticNames()) {
     TwinStatistic s;
     s.key = key;
@@ -225,7 +285,7 @@ TwinComparison compareWithTwins(const sim::Camera& camera, const sim::Board& boa
     s.profiled_significant = vision::differsSignificantly(s.real, s.profiled);
     c.statistics.push_back(s);
   }
-  c.fitted = fitCameraProfile(camera, board, c, used, cleans);
+  c.fitted = fitCameraProfile(camera, board, c, at_real, drawn_cleans);
   c.effects = namedEffects(c);
   c.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return c;

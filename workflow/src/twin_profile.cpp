@@ -4,18 +4,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include "orbcal/render/degrade.hpp"
+#include "orbcal/sim/csv.hpp"
 #include "orbcal/workflow/twin.hpp"
 #include "twin_detail.hpp"
 
 namespace orbcal::workflow {
 
 namespace twin_detail {
-
-cv::Mat profiledTwin(render::BoardRenderer* printed, const sim::Scene& scene, const Eigen::Isometry3d& pose, const cv::Mat& clean,
-                     const render::CameraProfile& profile, std::mt19937_64& rng) {
-  const cv::Mat covered = vision::boardHullMask(scene.camera, scene.board, pose, 0.0);
-  return render::applyCameraProfile(printed ? printed->renderClean(pose) : clean, covered, profile, scene.camera, rng);
-}
 
 namespace {
 
@@ -111,8 +106,31 @@ render::ToneCurve fitTone(const sim::Camera& camera, const sim::Board& board, co
   return {std::max(0.0, t.black), t.white, t.gamma};
 }
 
-/// The lens's fall-off: the real white's radial fall-off less the twins' (their lighting), carried from DN
-/// to radiance through the tone curve's slope at the white level, d log radiance = gamma v / (v - black) d log v.
+/// Mean over the real views of their clean twins' edges as drawn through the geometry the corners show
+/// (the baseline blur and sharpening are fitted against).
+vision::Estimate referenceEdges(const TwinComparison& c, double vision::EdgeStats::*member) {
+  std::vector<double> x;
+  for (const ViewStats& s : c.per_view[0]) x.push_back(s.reference_edges.*member);
+  return vision::meanOverViews(x);
+}
+
+/// The radial fall-off (c2) of the twins' flat samples with the vignetting `vg` and the tone curve applied
+/// (the profile's deterministic part: the flat samples lie inside squares, where blur changes nothing).
+double profiledFalloff(const std::vector<std::vector<vision::FlatSample>>& twins, const render::ToneCurve& tone, const render::Vignetting& vg) {
+  std::vector<std::vector<vision::FlatSample>> out = twins;
+  for (auto& view : out) {
+    for (vision::FlatSample& f : view) f.value = std::min(255.0, render::toneCurve(tone, f.value * render::vignettingFactor(vg, f.r)));  // 8 bits
+  }
+  return vision::radialFalloff(out).c2;
+}
+
+/// The lens's fall-off, fitted on the statistic itself: a2 (with a4 = a2^2 / 2, exp(c2 r^2)'s series)
+/// such that the twins' flat samples, vignetted and put through the tone curve, fall off as the real
+/// ones do (secant steps from the first-order guess: the real fall-off less the twins', carried from DN
+/// to radiance through the tone curve's slope at the white level, gamma v / (v - black)). The real
+/// fall-off is reproduced whether or not it differs significantly from the twins' (not significant, it
+/// is not named). Blur, sharpening and noise leave the flat samples' fall-off alone: on the Doosan set
+/// the whole profile applied to every twin gave a c2 within 1e-4 of this model's.
 render::Vignetting fitVignetting(const TwinComparison& c, const render::ToneCurve& tone, double white_dn) {
   std::vector<std::vector<vision::FlatSample>> flat[2];
   for (int kind = 0; kind < 2; ++kind) {
@@ -121,24 +139,46 @@ render::Vignetting fitVignetting(const TwinComparison& c, const render::ToneCurv
   const vision::Falloff real = vision::radialFalloff(flat[0]), twin = vision::radialFalloff(flat[1]);
   render::Vignetting vg;
   if (!std::isfinite(real.c2) || !std::isfinite(twin.c2) || !(white_dn > tone.black_dn)) return vg;
-  const double slope = tone.gamma * white_dn / (white_dn - tone.black_dn);
-  vg.a2 = slope * (real.c2 - twin.c2);
-  vg.a4 = 0.5 * vg.a2 * vg.a2;  // exp(c2 r^2) = 1 + c2 r^2 + c2^2 r^4 / 2 + ...
+  const auto with = [](double a2) { return render::Vignetting{a2, 0.5 * a2 * a2, 0.0}; };
+  const auto miss = [&](double a2) { return profiledFalloff(flat[1], tone, with(a2)) - real.c2; };
+  double a = 0.0, fa = miss(a);
+  double b = tone.gamma * white_dn / (white_dn - tone.black_dn) * (real.c2 - twin.c2), fb = miss(b);
+  constexpr int kSteps = 6;
+  for (int k = 0; k < kSteps && std::abs(fb) > 1e-6 && fb != fa; ++k) {
+    const double next = b - fb * (b - a) / (fb - fa);
+    a = b;
+    fa = fb;
+    b = std::clamp(next, -2.0, 2.0);
+    fb = miss(b);
+  }
+  vg = with(b);
   constexpr double kMinGain = 0.2;  // a fall-off beyond this within the image is not a lens's
-  if (render::vignettingFactor(vg, 1.0) < kMinGain) vg = {};
+  if (!std::isfinite(b) || render::vignettingFactor(vg, 1.0) < kMinGain) vg = {};
   return vg;
+}
+
+/// Each view's corner residuals (px, by id) with its pose refitted under `model`.
+std::map<int, Eigen::Vector2d> residualsUnder(const ViewStats& s, const vision::CornerModel& model) {
+  const Eigen::VectorXd r = vision::refittedResiduals({s.corners_seen}, model);
+  std::map<int, Eigen::Vector2d> out;
+  for (std::size_t n = 0; n < s.corners_seen.ids.size(); ++n) out[s.corners_seen.ids[n]] = r.segment<2>(2 * static_cast<Eigen::Index>(n));
+  return out;
 }
 
 /// The repeatable corner displacement in the board plane (real's less the render's own), and the print's
 /// scale along x and y relative to each other (a uniform scale moves no corner about a view's own pose).
+/// The real residuals are taken under the profile's geometry `p` (its lens and bow: what they explain is
+/// not a displacement of the print), the twins' under the stated camera and a flat board.
 render::BoardPrint fitBoardPrint(const sim::Camera& camera, const sim::Board& board, const TwinComparison& c,
-                                 const std::vector<RealView>& views) {
+                                 const std::vector<RealView>& views, const render::CameraProfile& p) {
+  const Eigen::VectorXd geometry[2] = {twin_detail::geometryOf(p), Eigen::Vector4d::Zero()};
   std::map<int, std::vector<Eigen::Vector2d>> shifts[2];
   for (int kind = 0; kind < 2; ++kind) {
+    const vision::CornerModel model = twin_detail::geometryModel(camera, board, geometry[kind]);
     for (std::size_t k = 0; k < views.size(); ++k) {
       const ViewStats& s = c.per_view[kind][k];
       if (!s.found) continue;
-      for (const auto& [id, r] : s.residuals) {
+      for (const auto& [id, r] : residualsUnder(s, model)) {
         shifts[kind][id].push_back(vision::boardPlaneShift(camera, board, views[k].detection.measurement.camera_T_board, id, r));
       }
     }
@@ -153,7 +193,8 @@ render::BoardPrint fitBoardPrint(const sim::Camera& camera, const sim::Board& bo
   for (const auto& [id, v] : shifts[0]) {
     if (v.size() >= kMinViews) field[id] = mean(v) - mean(shifts[1][id]);
   }
-  render::BoardPrint print;
+  render::BoardPrint print = p.board;
+  print.corner_displacement_m.clear();
   if (field.size() < 4) return print;
   Eigen::Vector2d centre = Eigen::Vector2d::Zero();
   for (const auto& [id, d] : field) centre += sim::cornerInBoard(board, id).head<2>();
@@ -167,8 +208,8 @@ render::BoardPrint fitBoardPrint(const sim::Camera& camera, const sim::Board& bo
     syd += p.y() * d.y();
   }
   const double ex = sxx > 0 ? sxd / sxx : 0.0, ey = syy > 0 ? syd / syy : 0.0;
-  print.scale_x = 1.0 + ex;
-  print.scale_y = 1.0 + ey;
+  print.scale_x *= 1.0 + ex;
+  print.scale_y *= 1.0 + ey;
   for (const auto& [id, d] : field) {
     const Eigen::Vector2d p = sim::cornerInBoard(board, id).head<2>() - centre;
     print.corner_displacement_m[id] = d - Eigen::Vector2d(ex * p.x(), ey * p.y());
@@ -184,8 +225,8 @@ void closeTheLoop(const sim::Camera& camera, const sim::Board& board, const Twin
                   const std::vector<cv::Mat>& rendered, render::CameraProfile& p) {
   constexpr std::size_t kLoopViews = 8;
   constexpr int kRounds = 2;
-  const TwinStatistic width = statistic(c, "edge_width_px"), over = statistic(c, "edge_overshoot");
-  if (!width.rendered.valid() || !over.rendered.valid()) return;
+  const vision::Estimate base_w = referenceEdges(c, &vision::EdgeStats::width_px), base_o = referenceEdges(c, &vision::EdgeStats::overshoot);
+  if (!base_w.valid() || !base_o.valid()) return;
   std::vector<std::size_t> loop;
   for (std::size_t k = 0; k < views.size(); k += std::max<std::size_t>(1, views.size() / kLoopViews)) loop.push_back(k);
   // the real statistics of the loop's views
@@ -200,7 +241,7 @@ void closeTheLoop(const sim::Camera& camera, const sim::Board& board, const Twin
   const auto mean = [](const std::vector<double>& x) { return vision::meanOverViews(x); };
   const vision::Estimate real_w = mean(rw), real_o = mean(ro), real_nb = mean(rb), real_nw = mean(rwh);
   if (!real_w.valid() || !real_o.valid()) return;
-  double target_w = real_w.value, target_o = real_o.value - over.rendered.value;
+  double target_w = real_w.value, target_o = real_o.value - base_o.value;
   std::mt19937_64 rng(1);
   for (int round = 0; round < kRounds; ++round) {
     std::vector<double> w, o, sd_b, sd_w;
@@ -219,7 +260,7 @@ void closeTheLoop(const sim::Camera& camera, const sim::Board& board, const Twin
       target_w += real_w.value - pw.value;
       target_o += real_o.value - po.value;
       std::tie(p.blur_sigma_px, p.sharpening.amount) =
-          twin_detail::blurAndSharpening(width.rendered.value, std::max(0.5, target_w), target_o, p.sharpening.sigma_px);
+          twin_detail::blurAndSharpening(base_w.value, std::max(0.5, target_w), target_o, p.sharpening.sigma_px);
     }
     if (real_nb.valid() && real_nw.valid() && pb.valid() && pwh.valid() && pb.value > 0 && pwh.value > 0) {
       // the variance's ratio, real over profiled, averaged over black and white
@@ -240,22 +281,25 @@ render::CameraProfile fitCameraProfile(const sim::Camera& camera, const sim::Boa
   // blur and sharpening from the edges; the tone on renders blurred alike, the fall-off through its slope,
   // then the tone again on vignetted renders
   const TwinStatistic width = statistic(c, "edge_width_px"), over = statistic(c, "edge_overshoot");
-  if (width.real.valid() && width.rendered.valid()) {
-    const double overshoot = over.real.valid() && over.rendered.valid() ? over.real.value - over.rendered.value : 0.0;
-    std::tie(p.blur_sigma_px, p.sharpening.amount) =
-        twin_detail::blurAndSharpening(width.rendered.value, width.real.value, overshoot, p.sharpening.sigma_px);
+  const vision::Estimate base_w = referenceEdges(c, &vision::EdgeStats::width_px), base_o = referenceEdges(c, &vision::EdgeStats::overshoot);
+  if (width.real.valid() && base_w.valid()) {
+    const double overshoot = over.real.valid() && base_o.valid() ? over.real.value - base_o.value : 0.0;
+    std::tie(p.blur_sigma_px, p.sharpening.amount) = twin_detail::blurAndSharpening(base_w.value, width.real.value, overshoot, p.sharpening.sigma_px);
   }
   std::vector<cv::Mat> blurred;
   for (const cv::Mat& r : rendered) {
     blurred.push_back(r.clone());
     render::gaussianBlur(blurred.back(), p.blur_sigma_px);
   }
-  p.tone = fitTone(camera, board, views, blurred);
+  // pixels are paired where the geometry the corners show puts the pattern (views and rendered are drawn so)
+  const sim::Camera pixels = render::profiledCamera(camera, twin_detail::shownGeometry(c));
+  p.tone = fitTone(pixels, board, views, blurred);
   const TwinStatistic white = statistic(c, "white_dn");
   p.vignetting = fitVignetting(c, p.tone, white.real.valid() ? white.real.value : p.tone.white_dn);
   std::vector<cv::Mat> lit;
   for (const cv::Mat& r : blurred) lit.push_back(vignetted(r, camera, p.vignetting));
-  p.tone = fitTone(camera, board, views, lit);
+  p.tone = fitTone(pixels, board, views, lit);
+  p.vignetting = fitVignetting(c, p.tone, white.real.valid() ? white.real.value : p.tone.white_dn);  // again, with the final tone
   // noise: the real Poisson-Gaussian variance less the render's own
   std::vector<vision::NoiseLevels> nr, nt;
   for (const ViewStats& s : c.per_view[0]) nr.push_back(s.noise);
@@ -263,11 +307,15 @@ render::CameraProfile fitCameraProfile(const sim::Camera& camera, const sim::Boa
   const vision::PoissonGaussian real = vision::fitPoissonGaussian(nr), twin = vision::fitPoissonGaussian(nt);
   p.noise.a_dn = std::max(0.0, real.a - twin.a);
   p.noise.b_dn2 = std::max(0.0, real.b - twin.b);
-  closeTheLoop(camera, board, c, views, rendered, p);
+  closeTheLoop(pixels, board, c, views, rendered, p);
   const TwinStatistic bg = statistic(c, "background_dn"), bg_sd = statistic(c, "background_sd_dn");
   if (bg.real.valid()) p.background.mean_dn = bg.real.value;
   if (bg_sd.real.valid()) p.background.texture_dn = bg_sd.real.value;
-  p.board = fitBoardPrint(camera, board, c, views);
+  // the geometry (lens, bow, print scale) where the real corners show it beyond the twins' own
+  const render::CameraProfile shown = twin_detail::shownGeometry(c);
+  p.lens = shown.lens;
+  p.board = shown.board;
+  p.board = fitBoardPrint(camera, board, c, views, p);
   return p;
 }
 
@@ -280,6 +328,7 @@ std::vector<NamedEffect> namedEffects(const TwinComparison& c) {
   // on the shared sets, and a clean render's fit stays below them.
   constexpr double kMinA2 = 0.05, kMinGamma = 0.05, kMinLevelDn = 3.0, kMinBlurPx = 0.2, kMinSharpening = 0.1;
   constexpr double kMinNoiseDn = 0.5, kMinScale = 0.002, kMinDisplacementMm = 0.05, kMinBackgroundDn = 5.0;
+  constexpr double kMinLensShiftPx = 0.5, kMinBowMm = 0.5;
   const auto sig = [&](const std::string& key) { return statistic(c, key).significant; };
   const render::CameraProfile& p = c.fitted;
   std::vector<NamedEffect> out;
@@ -304,6 +353,13 @@ std::vector<NamedEffect> namedEffects(const TwinComparison& c) {
   const double rms_mm = p.board.corner_displacement_m.empty() ? 0.0 : 1e3 * std::sqrt(ss / p.board.corner_displacement_m.size());
   name(sig("corner_repeatable_share") && sig("corner_scatter_px") && rms_mm > kMinDisplacementMm, "corner displacement", rms_mm, "mm RMS",
        "corner_repeatable_share");
+  const double lens_px = render::lensShiftAtImageCorner(c.camera, p.lens);
+  name(sig("lens_shift_px") && lens_px > kMinLensShiftPx, "lens distortion", lens_px, "px at the image corner", "lens_shift_px");
+  if (!out.empty() && out.back().name == "lens distortion") {
+    out.back().detail = "the stated intrinsics miss a radial distortion of k1 = " + sim::formatNumber("%.4g", p.lens.k1) +
+                        ", k2 = " + sim::formatNumber("%.4g", p.lens.k2) + " (normalised coordinates)";
+  }
+  name(sig("bow_mm") && std::abs(p.board.bow_m) * 1e3 > kMinBowMm, "bow", p.board.bow_m * 1e3, "mm sagitta at the half diagonal", "bow_mm");
   const TwinStatistic bg = statistic(c, "background_dn");
   name(bg.significant && std::abs(bg.real.value - bg.rendered.value) > kMinBackgroundDn, "background", bg.real.value - bg.rendered.value, "DN",
        "background_dn");

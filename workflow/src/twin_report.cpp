@@ -44,7 +44,8 @@ std::string twinJson(const TwinResult& r) {
   for (std::size_t k = 0; k < c.effects.size(); ++k) {
     const NamedEffect& e = c.effects[k];
     o << (k ? "," : "") << "\n    {\"name\": " << sim::jsonString(e.name) << ", \"size\": " << sim::jsonNumber(e.size, "twin.json: effects." + e.name)
-      << ", \"unit\": " << sim::jsonString(e.unit) << ", \"statistic\": " << sim::jsonString(e.statistic) << "}";
+      << ", \"unit\": " << sim::jsonString(e.unit) << ", \"statistic\": " << sim::jsonString(e.statistic)
+      << ", \"detail\": " << sim::jsonString(e.detail) << "}";
   }
   o << "\n  ]\n}\n";
   return o.str();
@@ -83,7 +84,8 @@ std::string twinMarkdown(const TwinResult& r, const std::string& description) {
   m << "\n## Effects named\n\n";
   if (c.effects.empty()) m << "None: no part of the fitted profile is both beyond its practical threshold and significant.\n";
   for (const NamedEffect& e : c.effects) {
-    m << "- " << e.name << ": " << sim::formatNumber("%.4g", e.size) << " " << e.unit << " (shown by " << e.statistic << ")\n";
+    m << "- " << e.name << ": " << sim::formatNumber("%.4g", e.size) << " " << e.unit << " (shown by " << e.statistic << ")"
+      << (e.detail.empty() ? "" : ": " + e.detail) << "\n";
   }
   const render::CameraProfile& p = c.fitted;
   m << "\n## Fitted camera profile (camera_profile.yaml)\n\n";
@@ -94,7 +96,9 @@ std::string twinMarkdown(const TwinResult& r, const std::string& description) {
   m << "- extra blur sigma " << sim::formatNumber("%.3f", p.blur_sigma_px) << " px, unsharp mask gain "
     << sim::formatNumber("%.3f", p.sharpening.amount) << " (sigma " << sim::formatNumber("%.2f", p.sharpening.sigma_px) << " px)\n";
   m << "- print scale x / y " << sim::formatNumber("%.5f", p.board.scale_x) << " / " << sim::formatNumber("%.5f", p.board.scale_y)
-    << "; " << p.board.corner_displacement_m.size() << " corner displacements\n";
+    << ", bow " << sim::formatNumber("%.3f", p.board.bow_m * 1e3) << " mm; " << p.board.corner_displacement_m.size() << " corner displacements\n";
+  m << "- radial distortion beyond the stated intrinsics: k1 " << sim::formatNumber("%.4f", p.lens.k1) << ", k2 " << sim::formatNumber("%.4f", p.lens.k2)
+    << " (" << sim::formatNumber("%.2f", render::lensShiftAtImageCorner(c.camera, p.lens)) << " px at the image corner)\n";
   m << "\n## Views: real | rendered" << (c.profiled ? " | profiled" : "") << "\n\n";
   for (std::size_t k = 0; k < std::min(kCropsShown, c.crops.size()); ++k) m << "![" << c.views[k] << "](crops/view" << k << ".png)\n\n";
   return m.str();

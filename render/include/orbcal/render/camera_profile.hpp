@@ -16,6 +16,9 @@
 //   - background: where the board and meshes do not cover the image, a mean level [DN] with a spatial
 //     texture of standard deviation texture_dn and correlation length texture_scale_px (a wood table and
 //     clutter are not modelled one by one: their level and spread are);
+//   - lens: the radial distortion the stated intrinsics lack (a real lens against a camera file without
+//     distortion coefficients, or with too few): k1 and k2 added to the camera's own (OpenCV's model,
+//     normalised coordinates); the renderer draws through the camera so corrected (profiledCamera);
 //   - board: the printed sheet as it is, not as designed: a print scale per axis (1 = exact), a bow
 //     (sagitta over the board's half diagonal, along the printed face's normal), and a repeatable
 //     displacement per inner-corner id in the board plane (Strobl and Hirzinger 2011).
@@ -63,6 +66,11 @@ struct Background {
   double texture_scale_px = 8.0;   ///< correlation length of the texture [px]
 };
 
+struct LensResidual {
+  double k1 = 0.0, k2 = 0.0;  ///< added to the stated camera's k1, k2
+  bool identity() const { return k1 == 0.0 && k2 == 0.0; }
+};
+
 struct BoardPrint {
   double scale_x = 1.0, scale_y = 1.0;   ///< printed / designed length along the board's x and y
   double bow_m = 0.0;                    ///< sagitta at the half diagonal, along the face normal [m]
@@ -80,8 +88,11 @@ struct CameraProfile {
   Sharpening sharpening;
   SignalNoise noise;
   Background background;
+  LensResidual lens;
   BoardPrint board;
   bool identity() const;
+  /// Nothing for the renderer to draw differently: no lens part and the board as designed.
+  bool geometryIdentity() const { return lens.identity() && board.identity(); }
   /// Nothing for applyCameraProfile to do (the board part may still be set).
   bool imageIdentity() const;
 };
@@ -92,6 +103,12 @@ struct CameraProfile {
 CameraProfile loadCameraProfile(const std::string& path);
 /// Writes it atomically (a temporary file renamed), millimetres and DN labelled in the keys.
 void saveCameraProfile(const CameraProfile& profile, const std::string& path);
+
+/// The camera the images are taken through: `stated` with the profile's lens part added to its k1, k2.
+sim::Camera profiledCamera(const sim::Camera& stated, const CameraProfile& profile);
+/// Length (px) of the shift a residual distortion `lens` gives the image corner farthest from the
+/// principal point of `stated` (the lens part's size as named: distortNormalized with and without it).
+double lensShiftAtImageCorner(const sim::Camera& stated, const LensResidual& lens);
 
 /// The tone curve at one grey level: black + (white - black) * (clamp(in_dn, 0, 255) / 255)^(1 / gamma).
 double toneCurve(const ToneCurve& tone, double in_dn);

@@ -20,6 +20,7 @@
 #include "orbcal/sim/scene.hpp"
 #include "orbcal/vision/image_stats.hpp"
 #include "orbcal/vision/real_views.hpp"
+#include "orbcal/vision/shared_fit.hpp"
 
 namespace orbcal::workflow {
 
@@ -45,19 +46,25 @@ struct TwinStatistic {
 /// practical threshold, whose statistic differs significantly between real and rendered.
 struct NamedEffect {
   std::string name;       ///< "vignetting", "tone curve", "black level", "white level", "blur", "sharpening",
-                          ///< "noise", "print scale", "corner displacement", "background"
+                          ///< "noise", "print scale", "corner displacement", "background",
+                          ///< "lens distortion" (the stated intrinsics miss it), "bow"
   double size = 0.0;      ///< in `unit`
   std::string unit;       ///< e.g. "a2", "gamma", "DN", "px sigma", "x/y scale ratio - 1", "mm RMS"
   std::string statistic;  ///< the statistic that shows it
+  std::string detail;     ///< the fitted parameters behind the size, where more than one (may be empty)
 };
 /// Every view's statistics, per image kind (real, rendered, profiled).
 struct ViewStats {
   std::map<int, Eigen::Vector2d> residuals;  ///< corner residuals about the view's own pose (px)
+  vision::CornerView corners_seen;           ///< the detected corners and the view's own pose
   int corners = 0, markers = 0;
   bool found = false;
   vision::Levels levels;
   vision::NoiseLevels noise;
   vision::EdgeStats edges;
+  /// real views: the edges of the clean twin as drawn through the geometry the corners show, measured
+  /// where this view's are (the clean twin's own where it shows none): the baseline of blur and sharpening
+  vision::EdgeStats reference_edges;
   vision::BackgroundStats background;
   std::vector<vision::FlatSample> flat;
   double gamma = std::numeric_limits<double>::quiet_NaN();  ///< tone fit of this image against the clean twin
@@ -67,7 +74,11 @@ struct TwinComparison {
   std::vector<TwinStatistic> statistics;
   std::vector<std::string> views;           ///< names of the views compared (the board found in the real image)
   std::vector<std::vector<ViewStats>> per_view;  ///< [kind][view], kind 0 real, 1 rendered, 2 profiled
+  /// [kind]: the radial distortion beyond the stated intrinsics (k1, k2) and the board's bow (sagitta, m)
+  /// fitted to the corners with every pose refitted (vision/shared_fit.hpp), empty where a kind has no views
+  std::vector<vision::SharedFit> geometry;
   render::CameraProfile fitted;             ///< the profile fitted from real against rendered
+  sim::Camera camera;                       ///< the stated camera the twins were rendered with
   std::vector<NamedEffect> effects;         ///< namedEffects of this comparison
   std::vector<cv::Mat> crops;               ///< per view: real | rendered | profiled side by side (CV_8UC1)
   bool profiled = false;
@@ -92,7 +103,9 @@ TwinComparison compareWithTwins(const sim::Camera& camera, const sim::Board& boa
 
 /// The profile of real images against their twins: tone, vignetting, noise, blur and sharpening,
 /// background and the board as printed (per-corner displacement, scale along x and y relative to each
-/// other). Used by compareWithTwins; its inputs are the comparison's per-view statistics.
+/// other; lens and bow from the corners: twin_geometry.cpp). Used by compareWithTwins; its inputs are the
+/// comparison's per-view statistics, the real views at the poses their corners give under the geometry
+/// the comparison shows, and their clean twins drawn through it (the stated camera where it shows none).
 render::CameraProfile fitCameraProfile(const sim::Camera& camera, const sim::Board& board, const TwinComparison& c,
                                        const std::vector<RealView>& views, const std::vector<cv::Mat>& rendered);
 
