@@ -456,8 +456,12 @@ StreamedLmOptions streamedOptions(const LmOptions& o, const std::vector<int>& fr
   StreamedLmOptions s;
   s.max_iterations = o.max_iterations;
   s.function_tolerance = o.function_tolerance;
-  if (o.prior_sigma.size() == 0) return s;
   const auto nf = static_cast<Eigen::Index>(free.size());
+  if (o.start.size() > 0) {
+    s.start.resize(nf);
+    for (Eigen::Index c = 0; c < nf; ++c) s.start[c] = o.start[free[static_cast<std::size_t>(c)]];
+  }
+  if (o.prior_sigma.size() == 0) return s;
   s.prior_information = Eigen::VectorXd::Zero(nf);
   s.prior_mean = Eigen::VectorXd::Zero(nf);
   for (Eigen::Index c = 0; c < nf; ++c) {
@@ -518,6 +522,7 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   }
   // Ceres works on the free parameters alone (x; y = x on them, 0 elsewhere).
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(free.size()));
+  for (std::size_t c = 0; c < free.size() && o.start.size() > 0; ++c) x[static_cast<Eigen::Index>(c)] = o.start[free[c]];
   if (o.normal_equations && o.loss == LmOptions::Loss::kNone) {
     // The same iterations on the normal equations accumulated per block of samples: no stacked Jacobian.
     const StreamedLmResult s = streamedLm(m, W, free, streamedOptions(o, free));

@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <future>
 #include <limits>
@@ -38,10 +39,10 @@ class Accumulator {
     const int n = m_.numSamples();
     Sums s;
     if (n < kParallel) {
-      s = part(y, 0, n, jacobian);
+      s = part(y, 0, n, jacobian, buffers_[0]);
     } else {
-      auto upper = std::async(std::launch::async, [&] { return part(y, n / 2, n, jacobian); });
-      s = part(y, 0, n / 2, jacobian);
+      auto upper = std::async(std::launch::async, [&] { return part(y, n / 2, n, jacobian, buffers_[1]); });
+      s = part(y, 0, n / 2, jacobian, buffers_[0]);
       const Sums u = upper.get();
       s.cost += u.cost;
       s.finite = s.finite && u.finite;
@@ -61,14 +62,21 @@ class Accumulator {
   }
 
  private:
-  Sums part(const Eigen::VectorXd& y, int k0, int k1, bool jacobian) const {
+  /// One half's block of whitened rows, kept between evaluations: a block of a flexible model is a
+  /// megabyte, which allocated afresh at every evaluation costs fresh pages (page faults) each time.
+  struct Buffers {
+    Eigen::MatrixXd J;
+    Eigen::VectorXd f;
+  };
+
+  Sums part(const Eigen::VectorXd& y, int k0, int k1, bool jacobian, Buffers& b) const {
     Sums s;
     if (jacobian) {
       s.JtJ = Eigen::MatrixXd::Zero(nf_, nf_);
       s.g = Eigen::VectorXd::Zero(nf_);
     }
-    Eigen::MatrixXd J;
-    Eigen::VectorXd f;
+    Eigen::MatrixXd& J = b.J;
+    Eigen::VectorXd& f = b.f;
     for (int c0 = k0; c0 < k1; c0 += kBlock) {
       const int c1 = std::min(k1, c0 + kBlock);
       if (!jacobian) {
@@ -103,6 +111,7 @@ class Accumulator {
   const std::vector<int>& free_;
   const StreamedLmOptions& o_;
   Eigen::Index nf_;
+  mutable std::array<Buffers, 2> buffers_;  ///< per half of the samples (each evaluated on its own thread)
 };
 
 }  // namespace
@@ -114,7 +123,7 @@ StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::
   if (opt.prior_information.size() > 0 && opt.prior_mean.size() == 0) opt.prior_mean = Eigen::VectorXd::Zero(nf);
   const Accumulator acc(m, W, free, opt);
   StreamedLmResult r;
-  r.x = Eigen::VectorXd::Zero(nf);
+  r.x = o.start.size() == nf ? o.start : Eigen::VectorXd::Zero(nf);
   Sums now = acc.at(r.x, true);
   if (!now.finite) return r;
   // Ceres's Jacobi scaling: every column divided by 1 + its norm at the start.

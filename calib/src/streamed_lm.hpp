@@ -14,6 +14,7 @@ struct StreamedLmOptions {
   double function_tolerance = 1e-10;
   Eigen::VectorXd prior_information;  ///< per free parameter, 1/sigma^2 (0: no prior); empty: none
   Eigen::VectorXd prior_mean;         ///< per free parameter (with prior_information)
+  Eigen::VectorXd start;              ///< per free parameter, the first iterate (empty: 0)
 };
 
 struct StreamedLmResult {
@@ -23,7 +24,7 @@ struct StreamedLmResult {
 };
 
 /// min 1/2 sum_k |W_k nu_k(y)|^2 + 1/2 |prior rows|^2 over the free parameters x (y = x on `free`, 0
-/// elsewhere), from x = 0, with the trust-region strategy of Ceres's Levenberg-Marquardt (Jacobi-scaled
+/// elsewhere), from x = 0 (or StreamedLmOptions::start), with the trust-region strategy of Ceres's Levenberg-Marquardt (Jacobi-scaled
 /// columns, the damping diag(J^T J) / radius, the radius grown or shrunk by the step's relative decrease,
 /// convergence when a step changes the cost by less than function_tolerance of it), so that it stops
 /// where Ceres's DENSE_NORMAL_CHOLESKY solve of the same problem stops. The samples are evaluated in two

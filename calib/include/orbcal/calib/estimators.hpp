@@ -99,6 +99,9 @@ struct LmOptions {
   /// Estimate::cost stays the measurements' cost alone.
   Eigen::VectorXd prior_sigma;
   Eigen::VectorXd prior_mean;  ///< empty: zero
+  /// The iterations start at y = start (empty: 0); the whiteners, the held parameters and the prior
+  /// stay those of y = 0 (a warm start of the same problem: the same minimum, fewer iterations).
+  Eigen::VectorXd start;
 };
 
 Estimate runEkf(const MeasurementModel& model, const EkfOptions& options);

@@ -54,6 +54,7 @@ struct FitControls {
   /// tau^2 = sum ((y_i - mean_i) / scaled_prior_i)^2 / gamma, gamma the well-determined parameters
   /// among them (shrinkage()), until tau changes by less than 0.1 %. Empty: the prior as given.
   Eigen::VectorXd scaled_prior;
+  Eigen::VectorXd start;  ///< LM: LmOptions::start
 };
 
 Estimate runMethod(const MethodSpec& method, const sim::Arm& nominal, const std::vector<PoseObservation>& observations);
