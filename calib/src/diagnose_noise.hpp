@@ -29,9 +29,9 @@ MarkerNoise floorNoise(const NoiseFloors& n);
 /// the survived estimate.
 void chooseJointFloor(NoiseFloors& n, int replicated);
 
-/// Sets n's estimate_contradicted (and its chi-square): the held-out position residuals `residual` of
-/// `fit`, whitened with the tracker noise plus the estimated joint noise, fall below noise's lower alpha
-/// quantile. Call before chooseJointFloor.
+/// Sets n's estimate_contradicted (and the sums it compares): under the tracker noise plus the estimated
+/// joint noise, the held-out position residuals `residual` of `fit` have a whitened chi-square or a plain
+/// mean square below its lower alpha/2 quantile. Call before chooseJointFloor.
 void testEstimate(NoiseFloors& n, const Fit& fit, const std::vector<MarkerObservation>& obs,
                   const std::vector<Eigen::VectorXd>& residual, int folds, double alpha);
 
