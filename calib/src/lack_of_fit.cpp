@@ -432,25 +432,33 @@ std::string describeUnexplained(const std::vector<VariableTest>& unexplained, st
 
 namespace orbcal::calib {
 
+namespace {
+
+/// What a stated floor holds, in words: the tracker's noise and, by NoiseFloors::joint_source, the joint
+/// readings' estimate that survived, or why none is counted (with the sums that refused it).
+std::string statedFloorWords(const NoiseFloors& n) {
+  const auto deg = [](double rad) { return sim::formatNumber("%.2g", rad * sim::kRadToDeg); };
+  if (n.joint_source == "survives") {
+    return "the stated tracker noise and the joint readings' " + deg(n.joint_floor_rad) +
+           " deg (estimated, and resolved beside empirical corrections of every joint)";
+  }
+  if (n.joint_source != "unstated") return "the stated noise";
+  if (!n.estimate_contradicted) return "the stated tracker noise (the joint readings' noise is not stated: none counted)";
+  const auto mm = [](double ms_m2) { return sim::formatNumber("%.3g", std::sqrt(ms_m2) * 1e3); };
+  return "the stated tracker noise (the joint readings' noise is not stated, and the " + deg(n.joint_estimate_rad) +
+         " deg the fits estimate is contradicted by the held-out positions: with it, noise alone would give them " +
+         mm(n.estimate_ms_expected_m2) + " mm RMS and a whitened chi-square of " + sim::formatNumber("%.0f", n.estimate_chi2_expected) +
+         ", they show " + mm(n.estimate_ms_m2) + " mm and " + sim::formatNumber("%.0f", n.estimate_chi2) + ": none counted)";
+}
+
+}  // namespace
+
 std::string unexplainedSentence(const Diagnosis& d) {
   const LackOfFit& l = d.lack_of_fit;
   if (!d.unexplained) return "";
   const auto mm = [](double m) { return sim::formatNumber("%.3g", m * 1e3) + " mm"; };
   const NoiseFloors& n = d.noise;
-  const std::string stated = n.joint_source == "survives"
-                                 ? "the stated tracker noise and the joint readings' " +
-                                       sim::formatNumber("%.2g", n.joint_floor_rad * sim::kRadToDeg) +
-                                       " deg (estimated, and resolved beside empirical corrections of every joint)"
-                             : n.joint_source == "unstated" && n.estimate_contradicted
-                                 ? "the stated tracker noise (the joint readings' noise is not stated, and the " +
-                                       sim::formatNumber("%.2g", n.joint_estimate_rad * sim::kRadToDeg) +
-                                       " deg the fits estimate is contradicted by the held-out positions: with it, noise alone would give them " +
-                                       sim::formatNumber("%.3g", std::sqrt(n.estimate_ms_expected_m2) * 1e3) + " mm RMS and a whitened chi-square of " +
-                                       sim::formatNumber("%.0f", n.estimate_chi2_expected) + ", they show " +
-                                       sim::formatNumber("%.3g", std::sqrt(n.estimate_ms_m2) * 1e3) + " mm and " +
-                                       sim::formatNumber("%.0f", n.estimate_chi2) + ": none counted)"
-                             : n.joint_source == "unstated" ? "the stated tracker noise (the joint readings' noise is not stated: none counted)"
-                                                            : "the stated noise";
+  const std::string stated = statedFloorWords(n);
   const std::string noise = l.source == NoiseSource::kStated      ? stated
                             : l.source == NoiseSource::kPureError ? "the noise of " + std::to_string(l.pure.replicated) + " repeated configurations (pure error)"
                                                                   : "noise estimated from these residuals";

@@ -17,13 +17,31 @@ Eigen::MatrixXd stackedJacobian(const Arm& arm, const std::vector<Eigen::VectorX
   return J;
 }
 
-ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance, bool with_u) {
-  ScaledSvd out;
-  out.scale.resize(J.cols());
+namespace {
+
+/// D of scaledSvd: 1 / |column| per column of J (1 for a zero column).
+Eigen::VectorXd unitColumnScale(const Eigen::MatrixXd& J) {
+  Eigen::VectorXd scale(J.cols());
   for (Eigen::Index c = 0; c < J.cols(); ++c) {
     const double n = J.col(c).norm();
-    out.scale[c] = n > 0.0 ? 1.0 / n : 1.0;
+    scale[c] = n > 0.0 ? 1.0 / n : 1.0;
   }
+  return scale;
+}
+
+/// The singular values above rank_tolerance times the largest.
+int rankOf(const Eigen::VectorXd& singular_values, double rank_tolerance) {
+  const double smax = singular_values.size() ? singular_values[0] : 0.0;
+  int rank = 0;
+  for (Eigen::Index i = 0; i < singular_values.size(); ++i) rank += singular_values[i] > rank_tolerance * smax;
+  return rank;
+}
+
+}  // namespace
+
+ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance, bool with_u) {
+  ScaledSvd out;
+  out.scale = unitColumnScale(J);
   if (J.cols() == 0) return out;  // nothing to decompose: rank 0, no directions
   const Eigen::MatrixXd JD = J * out.scale.asDiagonal();
   if (with_u || J.rows() <= J.cols()) {
@@ -38,8 +56,7 @@ ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance, bool with_u
     out.singular_values = svd.singularValues();
     out.V = svd.matrixV();
   }
-  const double smax = out.singular_values.size() ? out.singular_values[0] : 0.0;
-  for (Eigen::Index i = 0; i < out.singular_values.size(); ++i) out.rank += out.singular_values[i] > rank_tolerance * smax;
+  out.rank = rankOf(out.singular_values, rank_tolerance);
   return out;
 }
 
@@ -52,11 +69,7 @@ namespace {
 /// tenth of a diagnosis.
 ScaledSvd rankSvd(const Eigen::MatrixXd& J) {
   ScaledSvd out;
-  out.scale.resize(J.cols());
-  for (Eigen::Index c = 0; c < J.cols(); ++c) {
-    const double n = J.col(c).norm();
-    out.scale[c] = n > 0.0 ? 1.0 / n : 1.0;
-  }
+  out.scale = unitColumnScale(J);
   if (J.cols() == 0) return out;
   Eigen::MatrixXd JD = J * out.scale.asDiagonal();
   if (JD.rows() > JD.cols()) {
@@ -66,8 +79,7 @@ ScaledSvd rankSvd(const Eigen::MatrixXd& J) {
   const Eigen::BDCSVD<Eigen::MatrixXd> svd(JD, Eigen::ComputeFullV);
   out.singular_values = svd.singularValues();
   out.V = svd.matrixV();
-  const double smax = out.singular_values.size() ? out.singular_values[0] : 0.0;
-  for (Eigen::Index i = 0; i < out.singular_values.size(); ++i) out.rank += out.singular_values[i] > kRankTolerance * smax;
+  out.rank = rankOf(out.singular_values, kRankTolerance);
   return out;
 }
 
