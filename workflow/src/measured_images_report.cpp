@@ -115,7 +115,10 @@ std::string imageReport(const sim::ImageViews& data, const ImageCalibrateResult&
   md << "Description `" << o.description << "`: " << r.views.size() << " images, " << sim::handEyeSetupName(data.setup)
      << "; the board found in " << r.used << " (" << r.configurations << " configurations). Flange poses "
      << (data.arm ? "of the nominal arm " + data.robot_file + " at the joint readings" : std::string("from the controller"))
-     << ". Calibrated at the frames level: " << hand << " and " << base << " (12 parameters), no robot parameter.\n\n";
+     << ". "
+     << (r.robot ? "Calibrated at the robot level " + calib::levelName(r.level) + ": " + hand + " and " + base +
+                       " with the robot's parameters (below).\n\n"
+                 : "Calibrated at the frames level: " + hand + " and " + base + " (12 parameters), no robot parameter.\n\n");
   for (const std::string& w : r.warnings) md << "Warning: " << w << ".\n\n";
   if (fitted) {
     md << "Start: closed form (Shah 2013's robot-world / hand-eye rotations, least-squares translations) on each view's own board "
@@ -143,11 +146,13 @@ std::string imageReport(const sim::ImageViews& data, const ImageCalibrateResult&
           "coordinate): " << formatNumber("%.3f", r.detection_sigma_px) << " px. "
        << (!r.cross_validated ? "\n\n"
            : r.heldout_rms_px > 2.0 * r.detection_sigma_px
-               ? "The held-out residuals exceed it: the rest is the flange poses' error (a controller reports its nominal model's "
-                 "poses) or the camera's intrinsics, which the frames level does not fit.\n\n"
+               ? std::string(r.robot ? "The held-out residuals exceed it: the rest is what the level's model lacks, or the "
+                                       "camera's intrinsics, which it does not fit.\n\n"
+                                     : "The held-out residuals exceed it: the rest is the flange poses' error (a controller reports "
+                                       "its nominal model's poses) or the camera's intrinsics, which the frames level does not fit.\n\n")
                : "The held-out residuals are at that noise.\n\n");
   }
-  md << "## Views\n\n| row | image | corners | lost markers | PnP RMS (px) | fitted (px) | fitted (mm) | held out (px) | held out (mm) |\n"
+  md << robotLevelSection(data, r) << "## Views\n\n| row | image | corners | lost markers | PnP RMS (px) | fitted (px) | fitted (mm) | held out (px) | held out (mm) |\n"
         "|---|---|---|---|---|---|---|---|---|\n";
   for (std::size_t k = 0; k < r.views.size(); ++k) {
     const ImageViewOutcome& v = r.views[k];
