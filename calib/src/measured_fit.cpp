@@ -431,7 +431,7 @@ FitControls fitControls(const FitOptions& o, const sim::ParamLayout& layout, con
   }
   if (o.map) {
     controls.scaled_prior = Eigen::VectorXd::Zero(layout.size());
-    const int g = layout.find("geometry");
+    const int g = layout.find(sim::BlockKind::kGeometry);
     if (g >= 0) controls.scaled_prior.segment(layout.block(g).offset, layout.block(g).size()) = layout.typical().segment(layout.block(g).offset, layout.block(g).size());
   }
   return controls;
@@ -441,7 +441,8 @@ Eigen::VectorXd geometryPriorSigma(const sim::ParamLayout& layout) {
   const Eigen::VectorXd typical = layout.typical();
   Eigen::VectorXd sigma = Eigen::VectorXd::Zero(layout.size());
   for (const sim::ParamBlock& b : layout.blocks()) {
-    if (b.effect != "geometry" && b.effect != "base" && b.effect != "marker" && !sim::isPointBlock(b)) continue;
+    using K = sim::BlockKind;
+    if (b.kind != K::kGeometry && b.kind != K::kBase && b.kind != K::kMarker && !sim::isPointBlock(b)) continue;
     sigma.segment(b.offset, b.size()) = typical.segment(b.offset, b.size());
   }
   return sigma;
@@ -552,7 +553,7 @@ Fit predictWithModel(const CalibratedModel& c, const sim::MeasuredData& data, co
   FitOptions o = options;
   o.hold.clear();
   for (const sim::ParamBlock& b : m.layout.blocks()) {
-    const bool refit = b.effect == "base" || b.effect == "marker" || b.effect == "mount";
+    const bool refit = sim::isRegistrationFrame(b.kind);
     for (int i = 0; i < b.size(); ++i) {
       if (refit) continue;
       o.hold.push_back(b.offset + i);

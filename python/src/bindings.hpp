@@ -76,5 +76,6 @@ void bindCalibrate(py::module_& m);
 void bindCalibration(py::module_& m);
 void bindDiagnose(py::module_& m);
 void bindWorkflow(py::module_& m);
+void bindImages(py::module_& m);
 
 }  // namespace orbcal::python

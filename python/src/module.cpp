@@ -64,4 +64,5 @@ PYBIND11_MODULE(_orbcal, m) {
   orbcal::python::bindCalibration(m);
   orbcal::python::bindDiagnose(m);
   orbcal::python::bindWorkflow(m);
+  orbcal::python::bindImages(m);
 }

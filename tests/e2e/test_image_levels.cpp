@@ -64,7 +64,7 @@ TEST_CASE("images with joint readings: --level offsets finds hidden joint offset
   // predicts the held-out views at the corners' own scale.
   CHECK(r.heldout_rms_mm < 0.05 * r.frames_heldout_rms_mm);
   const calib::CornerLevelFit& f = *r.robot;
-  const int g = f.start.layout.block(f.start.layout.find("geometry")).offset;
+  const int g = f.start.layout.block(f.start.layout.find(sim::BlockKind::kGeometry)).offset;
   for (int j = 1; j < 6; ++j) {
     const int i = g + 4 * j;  // theta of joint j + 1
     REQUIRE(f.start.layout.param(i).name == "theta" + std::to_string(j + 1));

@@ -211,6 +211,9 @@ ImageCalibrateResult calibrateImageViews(const sim::ImageViews& data, const std:
   fitAndJudge(data, views, used, r);
   if (data.arm && level.kind != calib::LevelKind::kFrames && r.cross_validated) robotLevel(data, views, used, level, r);
   r.level_sentence = levelSentence(r);
+  if (robot_level && data.arm && !r.cross_validated) {
+    r.level_sentence = "level " + calib::levelName(level) + " asked, not fitted: the frames level it is judged against is not cross-validated";
+  }
   return r;
 }
 

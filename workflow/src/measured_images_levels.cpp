@@ -93,7 +93,7 @@ std::string robotLevelSection(const sim::ImageViews& data, const ImageCalibrateR
      << " px from the residuals, and the jackknife over the configurations; held: not free at this level or not identifiable "
         "from these views):\n\n| parameter | value | 1-sigma (fit) | 1-sigma (jackknife) | unit |\n|---|---|---|---|---|\n";
   const sim::ParamLayout& L = f.start.layout;
-  const sim::ParamBlock& g = L.block(L.find("geometry"));
+  const sim::ParamBlock& g = L.block(L.find(sim::BlockKind::kGeometry));
   for (int i = g.offset; i < g.offset + g.size(); ++i) {
     const sim::ParamInfo& info = L.param(i);
     const bool held = std::binary_search(f.estimate.held.begin(), f.estimate.held.end(), i);

@@ -82,6 +82,9 @@ std::string framesYaml(const sim::ImageViews& data, const ImageCalibrateResult& 
     << "# a_T_b maps coordinates in frame b to frame a: p_a = R p_b + t. matrix: the 4x4 homogeneous transform, row by row,\n"
     << "# translation in metres; xyz_m: t; quaternion_xyzw: R as a unit quaternion [x, y, z, w] (Hamilton).\n"
     << "# sigma_*: 1-sigma per axis of the parent frame a, the jackknife over the views' configurations (leave one out).\n"
+    << (r.robot ? "# Calibrated at the robot level " + calib::levelName(r.level) +
+                      ": the frames of the calibrated arm's flange (report.md lists the arm's parameters).\n"
+                : std::string())
     << "# The board frame is OpenCV's " << (data.board_frame == sim::BoardFrameConvention::kOpenCv ? ">= 4.6" : "legacy (<= 4.5)")
     << " CharucoBoard frame (origin at the outer corner of square (0, 0)).\n"
     << "format: orbcal-hand-eye-1\n"

@@ -84,10 +84,10 @@ std::vector<vision::ViewMeasurement> detectImageViews(const sim::ImageViews& dat
 
 /// The fit and its judgement on the detections of the rows of `data` (one per row): runImageCalibrate
 /// without reading images or writing files (`seconds`, the paths and `detections` left empty).
-/// `level`: auto or frames, or with joint readings any level (calib/levels.hpp); auto without joint
-/// readings is frames.
+/// `level`: frames (the default), auto, or with joint readings any level (calib/levels.hpp); auto without
+/// joint readings is frames. InputError naming --level for a robot level without joint readings.
 ImageCalibrateResult calibrateImageViews(const sim::ImageViews& data, const std::vector<vision::ViewMeasurement>& detections,
-                                         const calib::Level& level = {});
+                                         const calib::Level& level = {calib::LevelKind::kFrames, {}});
 
 /// The whole run: read, detect, fit, cross-validate, write (into o.out, default <description's
 /// folder>/calibration). o.level: auto or frames, or with joint readings (robot + joints) any level;
