@@ -24,6 +24,7 @@ void printImageViews(const workflow::ImageCalibrateResult& r, const std::string&
   for (const std::string& w : r.warnings) std::fprintf(stderr, "orbcal: calibrate: warning: %s\n", w.c_str());
   std::printf("%zu images, board found in %d (%d configurations); %s\n", r.views.size(), r.used, r.configurations,
               sim::handEyeSetupName(r.setup));
+  std::printf("%s\n", r.level_sentence.c_str());
   if (r.fit.corners > 0 && r.cross_validated) {
     const Eigen::Vector3d t = r.hand_T_eye.translation() * 1e3;
     std::printf("%s: [%.2f, %.2f, %.2f] mm (1-sigma per axis at most %.2f mm, %.3f deg)\n",

@@ -20,14 +20,15 @@ sim::Camera withDelta(const sim::Camera& camera, const Eigen::Ref<const Eigen::V
 
 CornerMeasurementModel::CornerMeasurementModel(sim::KinematicModel model, sim::Camera camera, sim::Board board,
                                                std::vector<CornerObservation> observations, CornerNoise noise,
-                                               Eigen::VectorXd p0)
+                                               Eigen::VectorXd p0, sim::HandEyeSetup setup)
     : model_(std::move(model)),
       camera_(camera),
       board_(board),
       observations_(std::move(observations)),
       noise_(noise),
       p0_(std::move(p0)),
-      layout_(model_.layout) {
+      layout_(model_.layout),
+      setup_(setup) {
   layout_.add(sim::distortionBlock());
   if (p0_.size() == 0) p0_ = Eigen::VectorXd::Zero(layout_.size());
   if (p0_.size() != layout_.size()) throw std::invalid_argument("CornerMeasurementModel: p0 has the wrong size");
@@ -55,10 +56,15 @@ sim::Camera CornerMeasurementModel::cameraAt(const Eigen::VectorXd& p) const {
   return withDelta(camera_, p.segment(distortionOffset(), 4));
 }
 
+Eigen::Isometry3d CornerMeasurementModel::cameraTBoard(int k, const Eigen::VectorXd& p) const {
+  const Eigen::Isometry3d world_T_marker =
+      sim::predictMarkerPose(model_, p.head(model_.layout.size()), observations_.at(static_cast<std::size_t>(k)).sample);
+  return setup_ == sim::HandEyeSetup::kEyeInHand ? world_T_marker.inverse() : world_T_marker;
+}
+
 Eigen::VectorXd CornerMeasurementModel::residual(int k, const Eigen::VectorXd& p) const {
   const CornerObservation& o = observations_.at(static_cast<std::size_t>(k));
-  const int nc = model_.layout.size();
-  const Eigen::Isometry3d camera_T_board = sim::predictMarkerPose(model_, p.head(nc), o.sample).inverse();
+  const Eigen::Isometry3d camera_T_board = cameraTBoard(k, p);
   const sim::Camera cam = cameraAt(p);
   Eigen::VectorXd nu(rows(k));
   for (int i = 0; i < static_cast<int>(o.corners_px.size()); ++i) {
@@ -74,17 +80,19 @@ Linearization CornerMeasurementModel::linearize(int k, const Eigen::VectorXd& y)
   const int nc = model_.layout.size();
   const bool joint_noise = noise_.joint_noise_sigma_rad > 0.0;
   Eigen::MatrixXd J_e_p, J_e_q;
-  const Eigen::Isometry3d camera_T_board =
-      sim::predictMarkerPose(model_, p.head(nc), o.sample, &J_e_p, joint_noise ? &J_e_q : nullptr).inverse();
+  const bool in_hand = setup_ == sim::HandEyeSetup::kEyeInHand;
+  const Eigen::Isometry3d world_T_marker = sim::predictMarkerPose(model_, p.head(nc), o.sample, &J_e_p, joint_noise ? &J_e_q : nullptr);
+  const Eigen::Isometry3d camera_T_board = in_hand ? world_T_marker.inverse() : world_T_marker;
   const sim::Camera cam = cameraAt(p);
   const Eigen::Matrix2d F = Eigen::Vector2d(cam.fx_px, cam.fy_px).asDiagonal();
   const int m = rows(k);
   Linearization lin;
   lin.innovation.resize(m);
   lin.H.setZero(m, layout_.size());
-  Eigen::MatrixXd G(m, 6);  // d(uv) / d(xi), xi the right perturbation of board_T_camera in the camera frame
+  Eigen::MatrixXd G(m, 6);  // d(uv) / d(xi), xi the right perturbation of world_T_marker in the marker frame
   for (int i = 0; i < static_cast<int>(o.corners_px.size()); ++i) {
-    const Eigen::Vector3d pc = camera_T_board * sim::cornerInBoard(board_, o.cornerId(static_cast<std::size_t>(i)));
+    const Eigen::Vector3d X = sim::cornerInBoard(board_, o.cornerId(static_cast<std::size_t>(i)));
+    const Eigen::Vector3d pc = camera_T_board * X;
     const double z = pc.z();
     const Eigen::Vector2d xy(pc.x() / z, pc.y() / z);
     Eigen::Matrix2d J_d_xy;
@@ -94,7 +102,11 @@ Linearization CornerMeasurementModel::linearize(int k, const Eigen::VectorXd& y)
     Eigen::Matrix<double, 2, 3> J_xy_pc;
     J_xy_pc << 1.0 / z, 0.0, -xy.x() / z, 0.0, 1.0 / z, -xy.y() / z;
     Eigen::Matrix<double, 3, 6> J_pc_xi;
-    J_pc_xi << -Eigen::Matrix3d::Identity(), sim::skew(pc);
+    if (in_hand) {
+      J_pc_xi << -Eigen::Matrix3d::Identity(), sim::skew(pc);
+    } else {
+      J_pc_xi << camera_T_board.linear(), -camera_T_board.linear() * sim::skew(X);
+    }
     G.middleRows<2>(2 * i) = F * J_d_xy * J_xy_pc * J_pc_xi;
     // d(xd, yd) / d(k1, k2, p1, p2) of sim::distortNormalized's polynomial.
     const double x = xy.x(), yy = xy.y(), r2 = x * x + yy * yy;

@@ -107,18 +107,22 @@ HandEyeFit fitHandEyeCorners(const std::vector<HandEyeView>& views, const sim::C
 
 ViewResidual viewResidual(const HandEyeView& view, const HandEyeFrames& frames, const sim::Camera& camera, const sim::Board& board,
                           sim::HandEyeSetup setup) {
+  return viewResidual(view.corners_px, view.ids, predictedCameraTBoard(frames, view.base_T_flange, setup), camera, board);
+}
+
+ViewResidual viewResidual(const std::vector<Eigen::Vector2d>& corners_px, const std::vector<int>& ids, const Eigen::Isometry3d& camera_T_board,
+                          const sim::Camera& camera, const sim::Board& board) {
   ViewResidual out;
-  if (view.ids.empty()) return out;
-  const Eigen::Isometry3d camera_T_board = predictedCameraTBoard(frames, view.base_T_flange, setup);
+  if (ids.empty()) return out;
   const double focal = std::sqrt(camera.fx_px * camera.fy_px);
   double sse_px = 0.0, sse_m = 0.0;
-  for (std::size_t n = 0; n < view.ids.size(); ++n) {
-    const Eigen::Vector3d p = camera_T_board * sim::cornerInBoard(board, view.ids[n]);
-    const double e2 = (view.corners_px[n] - sim::project(camera, p)).squaredNorm();
+  for (std::size_t n = 0; n < ids.size(); ++n) {
+    const Eigen::Vector3d p = camera_T_board * sim::cornerInBoard(board, ids[n]);
+    const double e2 = (corners_px[n] - sim::project(camera, p)).squaredNorm();
     sse_px += e2;
     sse_m += e2 * (p.z() / focal) * (p.z() / focal);
   }
-  const auto N = static_cast<double>(view.ids.size());
+  const auto N = static_cast<double>(ids.size());
   out.rms_px = std::sqrt(sse_px / (2.0 * N));
   out.rms_m = std::sqrt(sse_m / N);
   return out;

@@ -56,7 +56,7 @@ std::vector<int> levelHold(const sim::KinematicModel& model, const Level& level,
     }
   }
   std::vector<int> hold;
-  const int g = L.find("geometry");
+  const int g = L.find(sim::BlockKind::kGeometry);
   if (g < 0 || level.kind == LevelKind::kFull || level.kind == LevelKind::kMap) return hold;
   const sim::ParamBlock& b = L.block(g);
   for (int i = 0; i < b.size(); ++i) {

@@ -147,25 +147,6 @@ std::vector<Eigen::Isometry3d> framesFor(sim::FrameSharing sharing, int sessions
   return std::vector<Eigen::Isometry3d>(sharing == sim::FrameSharing::kPerSession ? static_cast<std::size_t>(sessions) : 1, T);
 }
 
-Estimate runFitMethod(const MeasurementModel& m, const FitOptions& o, const sim::ParamLayout& layout, const Eigen::VectorXd& p0, const Eigen::VectorXd& y_start = {}) {
-  FitControls controls;
-  controls.start = y_start;
-  controls.hold = o.hold;
-  controls.fix_unidentifiable = o.fix_unidentifiable;
-  controls.covariance = o.analyze;
-  controls.normal_equations = o.normal_equations;
-  if (o.geometry_prior || o.map) {
-    controls.prior_sigma = geometryPriorSigma(layout);
-    controls.prior_mean = -p0;  // centred on the starting model: p = p0 + y = 0
-  }
-  if (o.map) {
-    controls.scaled_prior = Eigen::VectorXd::Zero(layout.size());
-    const int g = layout.find("geometry");
-    if (g >= 0) controls.scaled_prior.segment(layout.block(g).offset, layout.block(g).size()) = layout.typical().segment(layout.block(g).offset, layout.block(g).size());
-  }
-  return runMethod(findMethod(comparisonMethods(o.joint_noise_sigma_rad), o.method, "method"), m, controls);
-}
-
 /// tr(P V_c P V_d) of REML's information (Koch 1999, ch. 3.6), P = W - W A N^-1 A^T W, with W = R^-1
 /// block diagonal per sample, A the free columns of the Jacobian and N = A^T W A + S (S the prior):
 /// sum_k tr(W V_c W V_d) - 2 tr(N^-1 C_cd) + tr(N^-1 B_c N^-1 B_d), B_c = sum_k A_k^T W V_c W A_k,
@@ -438,11 +419,30 @@ ResidualStats residualStats(const sim::KinematicModel& model, const Eigen::Vecto
   return residualStats(residuals);
 }
 
+FitControls fitControls(const FitOptions& o, const sim::ParamLayout& layout, const Eigen::VectorXd& p0) {
+  FitControls controls;
+  controls.hold = o.hold;
+  controls.fix_unidentifiable = o.fix_unidentifiable;
+  controls.covariance = o.analyze;
+  controls.normal_equations = o.normal_equations;
+  if (o.geometry_prior || o.map) {
+    controls.prior_sigma = geometryPriorSigma(layout);
+    controls.prior_mean = -p0;  // centred on the starting model: p = p0 + y = 0
+  }
+  if (o.map) {
+    controls.scaled_prior = Eigen::VectorXd::Zero(layout.size());
+    const int g = layout.find(sim::BlockKind::kGeometry);
+    if (g >= 0) controls.scaled_prior.segment(layout.block(g).offset, layout.block(g).size()) = layout.typical().segment(layout.block(g).offset, layout.block(g).size());
+  }
+  return controls;
+}
+
 Eigen::VectorXd geometryPriorSigma(const sim::ParamLayout& layout) {
   const Eigen::VectorXd typical = layout.typical();
   Eigen::VectorXd sigma = Eigen::VectorXd::Zero(layout.size());
   for (const sim::ParamBlock& b : layout.blocks()) {
-    if (b.effect != "geometry" && b.effect != "base" && b.effect != "marker" && !sim::isPointBlock(b)) continue;
+    using K = sim::BlockKind;
+    if (b.kind != K::kGeometry && b.kind != K::kBase && b.kind != K::kMarker && !sim::isPointBlock(b)) continue;
     sigma.segment(b.offset, b.size()) = typical.segment(b.offset, b.size());
   }
   return sigma;
@@ -472,7 +472,9 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     }
     // Without analyses the last round starts where the round before ended (not the 2nd: docs/benchmarks.md).
     const bool warm = !o.analyze && round > 0 && round + 1 == rounds;
-    fit.estimate = runFitMethod(m, o, start.layout, fit.p0, warm ? fit.estimate.y : Eigen::VectorXd());
+    FitControls controls = fitControls(o, start.layout, fit.p0);
+    if (warm) controls.start = fit.estimate.y;
+    fit.estimate = runMethod(findMethod(comparisonMethods(o.joint_noise_sigma_rad), o.method, "method"), m, controls);
     fit.p = fit.p0 + fit.estimate.y;
     fit.chi2 = 2.0 * fit.estimate.cost;
     const int free = m.numParams() - static_cast<int>(fit.estimate.held.size());
@@ -555,7 +557,7 @@ Fit predictWithModel(const CalibratedModel& c, const sim::MeasuredData& data, co
   FitOptions o = options;
   o.hold.clear();
   for (const sim::ParamBlock& b : m.layout.blocks()) {
-    const bool refit = b.effect == "base" || b.effect == "marker" || b.effect == "mount";
+    const bool refit = sim::isRegistrationFrame(b.kind);
     for (int i = 0; i < b.size(); ++i) {
       if (refit) continue;
       o.hold.push_back(b.offset + i);

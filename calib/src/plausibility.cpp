@@ -107,7 +107,7 @@ PlausibilityBounds plausibilityBounds(const sim::Arm& arm) {
 Fit fitRegistration(const sim::KinematicModel& start, const std::vector<MarkerObservation>& obs, FitOptions options) {
   options.method = "LM";
   for (const sim::ParamBlock& b : start.layout.blocks()) {
-    if (b.effect == "base" || b.effect == "marker" || b.effect == "mount" || sim::isPointBlock(b)) continue;
+    if (sim::isRegistrationFrame(b.kind) || sim::isPointBlock(b)) continue;
     for (int i = 0; i < b.size(); ++i) options.hold.push_back(b.offset + i);
   }
   std::sort(options.hold.begin(), options.hold.end());
@@ -172,7 +172,7 @@ std::string fitRefusal(const Fit& fit, const std::vector<MarkerObservation>& obs
 }
 
 void requirePlausibleGeometry(const sim::MeasuredData& data, const Fit& fit) {
-  const int g = fit.model.layout.find("geometry");
+  const int g = fit.model.layout.find(sim::BlockKind::kGeometry);
   if (g < 0) return;
   const sim::ParamBlock& block = fit.model.layout.block(g);
   const sim::Arm& arm = fit.model.arm;

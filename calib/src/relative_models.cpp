@@ -199,6 +199,7 @@ PlaneRangeModel::PlaneRangeModel(sim::KinematicModel model, LaserBeam beam, Plan
     static const char* kNames[] = {"plane_nx", "plane_ny", "plane_nz", "plane_f"};
     sim::ParamBlock block;
     block.effect = "plane";
+    block.kind = sim::BlockKind::kOther;
     for (int c : plane_.identified) {
       if (c < 0 || c > 3) throw std::invalid_argument("PlaneRangeModel: plane coefficient index out of 0..3");
       block.params.push_back(c < 3 ? sim::ParamInfo{kNames[c], "1", "1", 1.0, plane_.typical_n, sim::Quantity::kOther}

@@ -77,5 +77,6 @@ void bindCalibration(py::module_& m);
 void bindDiagnose(py::module_& m);
 void bindWorkflow(py::module_& m);
 void bindTwin(py::module_& m);
+void bindImages(py::module_& m);
 
 }  // namespace orbcal::python

@@ -65,4 +65,5 @@ PYBIND11_MODULE(_orbcal, m) {
   orbcal::python::bindDiagnose(m);
   orbcal::python::bindWorkflow(m);
   orbcal::python::bindTwin(m);
+  orbcal::python::bindImages(m);
 }

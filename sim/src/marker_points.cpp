@@ -15,11 +15,12 @@ constexpr double kTypicalPointOffset = 10e-3;
 ParamBlock pointBlock(int point) {
   ParamBlock b;
   b.effect = "point" + std::to_string(point + 1);
+  b.kind = BlockKind::kMarkerPoint;
   for (const char* axis : {"x", "y", "z"}) b.params.push_back(lengthParam(b.effect + "_" + axis, kTypicalPointOffset));
   return b;
 }
 
-bool isPointBlock(const ParamBlock& b) { return b.effect.rfind("point", 0) == 0 && b.size() == 3; }
+bool isPointBlock(const ParamBlock& b) { return b.kind == BlockKind::kMarkerPoint; }
 
 int pointBlockIndex(const KinematicModel& m, int point) {
   const int b = m.layout.find("point" + std::to_string(point + 1));

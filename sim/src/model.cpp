@@ -33,6 +33,15 @@ const ParamInfo& ParamLayout::param(int i) const {
   return b.params[static_cast<std::size_t>(i - b.offset)];
 }
 
+bool isRegistrationFrame(BlockKind kind) { return kind == BlockKind::kBase || kind == BlockKind::kMarker || kind == BlockKind::kMount; }
+
+int ParamLayout::find(BlockKind kind, int session) const {
+  for (std::size_t b = 0; b < blocks_.size(); ++b) {
+    if (blocks_[b].kind == kind && (session < 0 || blocks_[b].session == session)) return static_cast<int>(b);
+  }
+  return -1;
+}
+
 int ParamLayout::find(const std::string& effect, int session) const {
   for (std::size_t b = 0; b < blocks_.size(); ++b) {
     if (blocks_[b].effect == effect && (session < 0 || blocks_[b].session == session)) return static_cast<int>(b);
@@ -88,9 +97,12 @@ constexpr double kTypicalFrameLength = 10e-3;
 
 }  // namespace
 
-ParamBlock frameBlock(const std::string& effect, int session) {
+ParamBlock frameBlock(BlockKind kind, int session) {
+  if (!isRegistrationFrame(kind)) throw std::invalid_argument("frameBlock: not a frame's kind");
+  const std::string effect = kind == BlockKind::kBase ? "base" : kind == BlockKind::kMarker ? "marker" : "mount";
   ParamBlock b;
   b.effect = effect;
+  b.kind = kind;
   b.session = session;
   const std::string p = effect + (session >= 0 ? std::to_string(session + 1) : std::string()) + "_";
   for (const char* axis : {"x", "y", "z"}) b.params.push_back(lengthParam(p + axis, kTypicalFrameLength));
@@ -105,6 +117,7 @@ namespace {
 ParamBlock geometryBlock(const Arm& arm) {
   ParamBlock b;
   b.effect = "geometry";
+  b.kind = BlockKind::kGeometry;
   for (int i = 0; i < arm.numParams(); ++i) {
     b.params.push_back(isAngleParam(arm, i) ? angleParam(paramName(arm, i), kTypicalAngle)
                                             : lengthParam(paramName(arm, i), kTypicalLength));
@@ -206,6 +219,7 @@ bool isCameraEffect(const std::string& spec, const std::string& what) {
 ParamBlock distortionBlock() {
   ParamBlock b;
   b.effect = "distortion";
+  b.kind = BlockKind::kCamera;
   b.params.push_back({"dk1", "1", "1", 1.0, 1e-2, Quantity::kOther});
   b.params.push_back({"dk2", "1", "1", 1.0, 1e-2, Quantity::kOther});
   b.params.push_back({"dp1", "1", "1", 1.0, 1e-3, Quantity::kOther});
@@ -247,14 +261,14 @@ KinematicModel makeKinematicModel(Arm arm, int sessions, FrameSharing base, Fram
   m.flange_T_marker = std::move(flange_T_marker);
   m.effects = std::move(effects);
   m.geometry = geometry;
-  const auto addFrames = [&](const std::string& name, FrameSharing s) {
-    if (s == FrameSharing::kShared) m.layout.add(frameBlock(name, -1));
+  const auto addFrames = [&](BlockKind kind, FrameSharing s) {
+    if (s == FrameSharing::kShared) m.layout.add(frameBlock(kind, -1));
     if (s == FrameSharing::kPerSession) {
-      for (int k = 0; k < sessions; ++k) m.layout.add(frameBlock(name, k));
+      for (int k = 0; k < sessions; ++k) m.layout.add(frameBlock(kind, k));
     }
   };
-  addFrames("base", base);
-  addFrames("marker", marker);
+  addFrames(BlockKind::kBase, base);
+  addFrames(BlockKind::kMarker, marker);
   m.marker_points = std::move(marker_points);
   for (std::size_t k = 0; k < m.marker_points.size(); ++k) m.layout.add(pointBlock(static_cast<int>(k)));
   if (geometry) m.layout.add(geometryBlock(m.arm));
@@ -305,9 +319,9 @@ Matrix6d frameDeltaJacobian(const Eigen::Ref<const Eigen::VectorXd>& tw) {
 }
 
 /// Index of the block of a frame for a session (shared or per session); -1 when the frame is known.
-int frameBlockIndex(const KinematicModel& m, const std::string& name, FrameSharing sharing, int session) {
+int frameBlockIndex(const KinematicModel& m, BlockKind kind, FrameSharing sharing, int session) {
   if (sharing == FrameSharing::kKnown) return -1;
-  return m.layout.find(name, sharing == FrameSharing::kPerSession ? session : -1);
+  return m.layout.find(kind, sharing == FrameSharing::kPerSession ? session : -1);
 }
 
 /// Walks the effects with their layout blocks (effects with several blocks, i.e. mount, visit each).
@@ -375,7 +389,7 @@ Arm scaledArm(const KinematicModel& m, const Eigen::VectorXd& p, double length_s
   arm.joints = m.arm.joints;
   arm.last_T_flange = m.arm.last_T_flange;
   if (m.geometry) {
-    const ParamBlock& g = m.layout.block(m.layout.find("geometry"));
+    const ParamBlock& g = m.layout.block(m.layout.find(BlockKind::kGeometry));
     addErrors(arm, p.segment(g.offset, g.size()));  // in place: no second copy of the rows
   }
   if (length_scale != 1.0) {
@@ -461,8 +475,8 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   const Inserts inserts = chainInserts(m, p, s);
 
   // The chain's factors: world_T_base = W0 X_b; D (base inserts); F; flange_T_marker = M0 X_m; Y (marker inserts).
-  const int b_blk = frameBlockIndex(m, "base", m.base, s.session);
-  const int m_blk = frameBlockIndex(m, "marker", m.marker, s.session);
+  const int b_blk = frameBlockIndex(m, BlockKind::kBase, m.base, s.session);
+  const int m_blk = frameBlockIndex(m, BlockKind::kMarker, m.marker, s.session);
   const auto seg = [&](int blk) { return p.segment(m.layout.block(blk).offset, 6); };
   const Eigen::Isometry3d W = b_blk >= 0 ? m.baseStart(s.session) * frameDelta(seg(b_blk)) : m.baseStart(s.session);
   const Eigen::Isometry3d D = insertsAt(inserts, ChainInsert::Place::kBase);
@@ -498,7 +512,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
 
   // Geometry: lengths enter as (nominal + error) * scale.
   if (m.geometry) {
-    const int g = m.layout.block(m.layout.find("geometry")).offset;
+    const int g = m.layout.block(m.layout.find(BlockKind::kGeometry)).offset;
     for (int i = 0; i < m.arm.numParams(); ++i) {
       J.col(g + i) += isAngleParam(m.arm, i) ? J_geo.col(i) : Matrix6Xd(lengths.scale * J_geo.col(i));
     }
@@ -521,17 +535,17 @@ FoldedModel foldParameters(const KinematicModel& m, const Eigen::VectorXd& p) {
   if (p.size() != m.layout.size()) throw std::invalid_argument("foldParameters: wrong parameter count");
   KinematicModel out = m;
   if (m.geometry) {
-    const ParamBlock& g = m.layout.block(m.layout.find("geometry"));
+    const ParamBlock& g = m.layout.block(m.layout.find(BlockKind::kGeometry));
     out.arm = withErrors(m.arm, p.segment(g.offset, g.size()));
   }
-  const auto foldFrames = [&](const std::string& name, FrameSharing sharing, std::vector<Eigen::Isometry3d>& frames) {
+  const auto foldFrames = [&](BlockKind kind, FrameSharing sharing, std::vector<Eigen::Isometry3d>& frames) {
     for (std::size_t k = 0; k < frames.size(); ++k) {
-      const int blk = frameBlockIndex(m, name, sharing, static_cast<int>(k));
+      const int blk = frameBlockIndex(m, kind, sharing, static_cast<int>(k));
       if (blk >= 0) frames[k] = frames[k] * frameDelta(p.segment(m.layout.block(blk).offset, 6));
     }
   };
-  foldFrames("base", m.base, out.world_T_base);
-  foldFrames("marker", m.marker, out.flange_T_marker);
+  foldFrames(BlockKind::kBase, m.base, out.world_T_base);
+  foldFrames(BlockKind::kMarker, m.marker, out.flange_T_marker);
   out.marker_points = foldedMarkerPoints(m, p);
   Eigen::VectorXd q = Eigen::VectorXd::Zero(p.size());
   for (const std::vector<int>& blocks : m.effect_blocks) {

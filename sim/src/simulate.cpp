@@ -144,7 +144,7 @@ SimulatedData simulateMeasured(const Arm& nominal, const SimulationSpec& spec) {
   if (spec.markers > 0) M.assign(1, Eigen::Isometry3d::Identity());
   out.truth = makeKinematicModel(nominal, S, spec.base, marker, W, M, spec.effects, true, points);
   out.p_true = Eigen::VectorXd::Zero(out.truth.layout.size());
-  const ParamBlock& g = out.truth.layout.block(out.truth.layout.find("geometry"));
+  const ParamBlock& g = out.truth.layout.block(out.truth.layout.find(BlockKind::kGeometry));
   out.p_true.segment(g.offset, g.size()) = makeErrorSet(nominal, spec.geometry, "simulate: geometry");
   const int first_effect = g.offset + g.size();
   const int n_effect = out.truth.layout.size() - first_effect;

@@ -25,7 +25,7 @@ TrueArm assemble(const Arm& arm, const Eigen::VectorXd& y, std::vector<Effect> e
   t.model = makeKinematicModel(arm, 1, FrameSharing::kKnown, FrameSharing::kKnown, {Eigen::Isometry3d::Identity()},
                                {Eigen::Isometry3d::Identity()}, std::move(effects));
   t.p = Eigen::VectorXd::Zero(t.model.layout.size());
-  const ParamBlock& g = t.model.layout.block(t.model.layout.find("geometry"));
+  const ParamBlock& g = t.model.layout.block(t.model.layout.find(BlockKind::kGeometry));
   t.p.segment(g.offset, g.size()) = y;
   t.covariates.payload_kg = arm.masses.payload_kg;
   return t;
@@ -113,7 +113,7 @@ double CovariateProfile::temperatureAt(double t_s) const {
 }
 
 Eigen::VectorXd TrueArm::geometryErrors() const {
-  const ParamBlock& g = model.layout.block(model.layout.find("geometry"));
+  const ParamBlock& g = model.layout.block(model.layout.find(BlockKind::kGeometry));
   return p.segment(g.offset, g.size());
 }
 

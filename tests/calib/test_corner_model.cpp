@@ -102,6 +102,29 @@ TEST_CASE("corner model: the whole Jacobian matches central differences, with an
   }
 }
 
+TEST_CASE("corner model: eye to hand (a fixed camera, the board on the flange), its Jacobian matches central differences",
+          "[calib][corner]") {
+  Setup s = makeSetup({sim::Cyclic{{1}, 2}}, 1, nullptr, nullptr, 0.0, 11);
+  const sim::Camera taken = s.scene.camera;  // the corners' camera
+  s.scene.camera = distortedCamera(s.scene.camera);
+  // world = the camera, marker = the board on the flange: the camera placed where view 0 sees the board as rendered.
+  const Eigen::Isometry3d flange_T_board = s.scene.flange_T_camera;
+  const Eigen::Isometry3d camera_T_board = sim::predictMarkerPose(s.model, Eigen::VectorXd::Zero(s.model.layout.size()), s.obs[0].sample).inverse();
+  const Eigen::Isometry3d base_T_flange = sim::flangePose(s.model, Eigen::VectorXd::Zero(s.model.layout.size()), s.obs[0].sample);
+  const sim::KinematicModel model =
+      sim::makeKinematicModel(s.model.arm, 1, sim::FrameSharing::kShared, sim::FrameSharing::kShared,
+                              {camera_T_board * (base_T_flange * flange_T_board).inverse()}, {flange_T_board}, s.model.effects);
+  const calib::CornerMeasurementModel m(model, s.scene.camera, s.scene.board, s.obs, {}, {}, sim::HandEyeSetup::kEyeToHand);
+  // With the corners' camera it predicts view 0's corners where they are (the same camera_T_board) at the start.
+  const calib::CornerMeasurementModel same(model, taken, s.scene.board, s.obs, {}, {}, sim::HandEyeSetup::kEyeToHand);
+  CHECK(same.residual(0, Eigen::VectorXd::Zero(m.numParams())).cwiseAbs().maxCoeff() < 1e-6);
+  CHECK((m.cameraTBoard(0, Eigen::VectorXd::Zero(m.numParams())).matrix() - camera_T_board.matrix()).cwiseAbs().maxCoeff() < 1e-9);
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  checkJacobian(m, m.layout().typical().unaryExpr([&](double t) { return t * u(rng); }));
+  checkJacobian(m, Eigen::VectorXd::Zero(m.numParams()));
+}
+
 TEST_CASE("corner model: joint noise enters R through the corner Jacobian", "[calib][corner]") {
   const Setup s = makeSetup({}, 2, nullptr, nullptr, 0.0, 12);
   calib::CornerNoise noise;

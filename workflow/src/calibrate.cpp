@@ -86,7 +86,7 @@ FrameEstimate estimateFrames(const sim::Dataset& d, const std::vector<vision::Me
   FrameEstimate f;
   f.fit = calib::fitMarkerModel(start, obs, fo);
   calib::FitOptions ref = fo;
-  const sim::ParamBlock& g = start.layout.block(start.layout.find("geometry"));
+  const sim::ParamBlock& g = start.layout.block(start.layout.find(sim::BlockKind::kGeometry));
   for (int i = 0; i < g.size(); ++i) ref.hold.push_back(g.offset + i);
   const calib::Fit reference = calib::fitMarkerModel(start, obs, ref);
   f.reference_p = reference.p;

@@ -74,7 +74,8 @@ std::string cornerSection(const CornerEstimate& c) {
   if (!c.effects.empty()) {
     md << "| effect parameter | estimate +- 1 sigma |\n|---|---|\n";
     for (const sim::ParamBlock& b : c.layout.blocks()) {
-      if (b.effect == "geometry" || b.effect == "base" || b.effect == "marker" || b.effect == "distortion") continue;
+      using K = sim::BlockKind;
+      if (b.kind == K::kGeometry || b.kind == K::kBase || b.kind == K::kMarker || b.kind == K::kCamera) continue;
       for (int i = 0; i < b.size(); ++i) {
         const int k = b.offset + i;
         const sim::ParamInfo& info = c.layout.param(k);

@@ -104,7 +104,7 @@ struct Fit {
 /// Identifies one model by weighted Gauss-Newton with the truncated-SVD pseudo-inverse (runLse),
 /// joint 1's parameters held, and the unidentifiable ones held as runLse finds them.
 Fit identify(const calib::MeasurementModel& model, const sim::Arm& arm, bool classify) {
-  const int geometry = model.layout().block(model.layout().find("geometry")).offset;
+  const int geometry = model.layout().block(model.layout().find(sim::BlockKind::kGeometry)).offset;
   calib::LseOptions lse;
   lse.weighted = true;
   const sim::ParamBlock g = sim::geometryBlock(arm);

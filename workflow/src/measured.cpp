@@ -112,7 +112,7 @@ const calib::ParameterClasses* coveringClasses(const sim::ParamLayout& layout, c
 
 /// The injected value (SI) of parameter i of `layout` where it is a geometry parameter `truth` holds, else nullptr.
 const double* geometryTruth(const sim::ParamLayout& layout, const Eigen::VectorXd* truth, int i) {
-  const int g = layout.find("geometry");
+  const int g = layout.find(sim::BlockKind::kGeometry);
   if (!truth || g < 0) return nullptr;
   const int k = i - layout.block(g).offset;
   return k >= 0 && k < layout.block(g).size() && k < truth->size() ? &(*truth)[k] : nullptr;
@@ -145,8 +145,8 @@ std::string parameterTable(const calib::Fit& fit, const calib::ParameterClasses*
       combinationPartners(classified ? classified->groups : fit.identifiability.redundancies, L.size());
   bool frames = false;
   for (int i = 0; i < L.size(); ++i) {
-    const std::string& block = L.block(L.blockOf(i)).effect;
-    if (block == "base" || block == "marker") {  // shown as frames (registrationFramesTable), not as increments
+    const sim::BlockKind kind = L.block(L.blockOf(i)).kind;
+    if (kind == sim::BlockKind::kBase || kind == sim::BlockKind::kMarker) {  // shown as frames (registrationFramesTable), not as increments
       frames = true;
       continue;
     }

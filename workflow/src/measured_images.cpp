@@ -28,10 +28,6 @@ constexpr double kMaxViewRmsPx = 2.0;
 constexpr double kMaxSigmaM = 5e-3, kMaxSigmaRad = 0.5 * sim::kDegToRad;
 
 void checkOptions(const MeasuredCalibrateOptions& o) {
-  if (o.level.kind != calib::LevelKind::kAuto && o.level.kind != calib::LevelKind::kFrames) {
-    throw sim::InputError("--level: " + calib::levelName(o.level) + ": a description of images calibrates the frames only "
-                          "(the hand-eye and the board's frame); use --level frames or auto");
-  }
   if (!o.effects.empty()) throw sim::InputError("--effects: not for a description of images (the frames only are fitted)");
   if (o.holdout) throw sim::InputError("--holdout: a description of images is judged by leave-one-configuration-out cross-validation");
 }
@@ -41,6 +37,65 @@ double rms(const std::vector<double>& v) {
   for (double x : v) s += x * x;
   return v.empty() ? 0.0 : std::sqrt(s / static_cast<double>(v.size()));
 }
+
+}  // namespace
+
+void measured_images_detail::setResiduals(const std::vector<calib::ViewResidual>& fitted, const std::vector<calib::ViewResidual>& heldout,
+                                          const std::vector<std::size_t>& used, ImageCalibrateResult& r) {
+  std::vector<double> held_px, held_mm, start_px, start_mm, fit_px, fit_mm, sigma;
+  for (std::size_t i = 0; i < fitted.size(); ++i) {
+    ImageViewOutcome& v = r.views[used[i]];
+    v.fitted = fitted[i];
+    v.heldout = heldout[i];
+    held_px.push_back(v.heldout.rms_px);
+    held_mm.push_back(v.heldout.rms_m * 1e3);
+    start_px.push_back(r.cv.heldout_start[i].rms_px);
+    start_mm.push_back(r.cv.heldout_start[i].rms_m * 1e3);
+    fit_px.push_back(v.fitted.rms_px);
+    fit_mm.push_back(v.fitted.rms_m * 1e3);
+    sigma.push_back(v.pnp_sigma_px);
+  }
+  r.heldout_rms_px = rms(held_px);
+  r.heldout_rms_mm = rms(held_mm);
+  r.heldout_start_rms_px = rms(start_px);
+  r.heldout_start_rms_mm = rms(start_mm);
+  r.fitted_rms_px = rms(fit_px);
+  r.fitted_rms_mm = rms(fit_mm);
+  std::nth_element(sigma.begin(), sigma.begin() + static_cast<std::ptrdiff_t>(sigma.size() / 2), sigma.end());
+  r.detection_sigma_px = sigma[sigma.size() / 2];
+}
+
+void measured_images_detail::setFrames(const sim::ImageViews& data, const calib::HandEyeFrames& frames,
+                                       const std::vector<calib::HandEyeFrames>& refits, ImageCalibrateResult& r) {
+  // The frames as written: the board's in the description's convention.
+  const Eigen::Isometry3d board_T_printed = sim::printedFromBoard(data.board, data.board_frame).inverse();
+  const bool in_hand = data.setup == sim::HandEyeSetup::kEyeInHand;
+  const auto written = [&](const calib::HandEyeFrames& f) {
+    return std::make_pair(in_hand ? f.flange_T_marker : Eigen::Isometry3d(f.flange_T_marker * board_T_printed),
+                          in_hand ? Eigen::Isometry3d(f.world_T_base.inverse() * board_T_printed) : Eigen::Isometry3d(f.world_T_base.inverse()));
+  };
+  std::tie(r.hand_T_eye, r.base_T_other) = written(frames);
+  std::vector<Eigen::Isometry3d> hands, bases;
+  for (const calib::HandEyeFrames& f : refits) {
+    const auto [h, b] = written(f);
+    hands.push_back(h);
+    bases.push_back(b);
+  }
+  r.hand_sigma = calib::jackknifeSigma(hands, r.hand_T_eye);
+  r.base_sigma = calib::jackknifeSigma(bases, r.base_T_other);
+  if (!r.cross_validated) return;
+  const auto [hand, base] = frameNames(data.setup);
+  for (const auto& [name, s] : {std::make_pair(hand, r.hand_sigma), std::make_pair(base, r.base_sigma)}) {
+    if (s.head<3>().maxCoeff() > kMaxSigmaM || s.tail<3>().maxCoeff() > kMaxSigmaRad) {
+      r.refusals.push_back("the views do not determine " + name + ": its cross-validation (jackknife) 1-sigma is " +
+                           sim::formatNumber("%.2f", s.head<3>().maxCoeff() * 1e3) + " mm, " +
+                           sim::formatNumber("%.3f", s.tail<3>().maxCoeff() * sim::kRadToDeg) +
+                           " deg (at most 5 mm and 0.5 deg are accepted): add views that turn the flange about other axes");
+    }
+  }
+}
+
+namespace {
 
 /// Outcomes of the detections; the used views as hand-eye views (used[i]: the row of views[i]).
 std::vector<calib::HandEyeView> handEyeViews(const sim::ImageViews& data, const std::vector<vision::ViewMeasurement>& det,
@@ -103,53 +158,12 @@ void fitAndJudge(const sim::ImageViews& data, const std::vector<calib::HandEyeVi
   const calib::HeldoutVerdict& verdict = r.cv.verdict;
   if (!verdict.refusal.empty() && (!verdict.gain.enough || verdict.worse)) r.refusals.push_back(verdict.refusal);
   r.cross_validated = !r.cv.refits.empty();
-  std::vector<double> held_px, held_mm, start_px, start_mm, fit_px, fit_mm, sigma;
-  for (std::size_t i = 0; i < views.size(); ++i) {
-    ImageViewOutcome& v = r.views[used[i]];
-    v.fitted = calib::viewResidual(views[i], r.fit.frames, data.camera, data.board, data.setup);
-    v.heldout = r.cv.heldout[i];
-    held_px.push_back(v.heldout.rms_px);
-    held_mm.push_back(v.heldout.rms_m * 1e3);
-    start_px.push_back(r.cv.heldout_start[i].rms_px);
-    start_mm.push_back(r.cv.heldout_start[i].rms_m * 1e3);
-    fit_px.push_back(v.fitted.rms_px);
-    fit_mm.push_back(v.fitted.rms_m * 1e3);
-    sigma.push_back(v.pnp_sigma_px);
-  }
-  r.heldout_rms_px = rms(held_px);
-  r.heldout_rms_mm = rms(held_mm);
-  r.heldout_start_rms_px = rms(start_px);
-  r.heldout_start_rms_mm = rms(start_mm);
-  r.fitted_rms_px = rms(fit_px);
-  r.fitted_rms_mm = rms(fit_mm);
-  std::nth_element(sigma.begin(), sigma.begin() + static_cast<std::ptrdiff_t>(sigma.size() / 2), sigma.end());
-  r.detection_sigma_px = sigma[sigma.size() / 2];
-  // The frames as written: the board's in the description's convention.
-  const Eigen::Isometry3d board_T_printed = sim::printedFromBoard(data.board, data.board_frame).inverse();
-  const bool in_hand = data.setup == sim::HandEyeSetup::kEyeInHand;
-  const auto written = [&](const calib::HandEyeFrames& f) {
-    return std::make_pair(in_hand ? f.flange_T_marker : Eigen::Isometry3d(f.flange_T_marker * board_T_printed),
-                          in_hand ? Eigen::Isometry3d(f.world_T_base.inverse() * board_T_printed) : Eigen::Isometry3d(f.world_T_base.inverse()));
-  };
-  std::tie(r.hand_T_eye, r.base_T_other) = written(r.fit.frames);
-  std::vector<Eigen::Isometry3d> hands, bases;
-  for (const calib::HandEyeFrames& f : r.cv.refits) {
-    const auto [h, b] = written(f);
-    hands.push_back(h);
-    bases.push_back(b);
-  }
-  r.hand_sigma = calib::jackknifeSigma(hands, r.hand_T_eye);
-  r.base_sigma = calib::jackknifeSigma(bases, r.base_T_other);
-  if (!r.cross_validated) return;
-  const auto [hand, base] = frameNames(data.setup);
-  for (const auto& [name, s] : {std::make_pair(hand, r.hand_sigma), std::make_pair(base, r.base_sigma)}) {
-    if (s.head<3>().maxCoeff() > kMaxSigmaM || s.tail<3>().maxCoeff() > kMaxSigmaRad) {
-      r.refusals.push_back("the views do not determine " + name + ": its cross-validation (jackknife) 1-sigma is " +
-                           sim::formatNumber("%.2f", s.head<3>().maxCoeff() * 1e3) + " mm, " +
-                           sim::formatNumber("%.3f", s.tail<3>().maxCoeff() * sim::kRadToDeg) +
-                           " deg (at most 5 mm and 0.5 deg are accepted): add views that turn the flange about other axes");
-    }
-  }
+  std::vector<calib::ViewResidual> fitted;
+  for (const calib::HandEyeView& v : views) fitted.push_back(calib::viewResidual(v, r.fit.frames, data.camera, data.board, data.setup));
+  setResiduals(fitted, r.cv.heldout, used, r);
+  r.frames_heldout_rms_px = r.heldout_rms_px;
+  r.frames_heldout_rms_mm = r.heldout_rms_mm;
+  setFrames(data, r.fit.frames, r.cv.refits, r);
 }
 
 std::string folderOf(const std::string& path) {
@@ -180,14 +194,26 @@ std::vector<vision::ViewMeasurement> detectImageViews(const sim::ImageViews& dat
   return out;
 }
 
-ImageCalibrateResult calibrateImageViews(const sim::ImageViews& data, const std::vector<vision::ViewMeasurement>& detections) {
+ImageCalibrateResult calibrateImageViews(const sim::ImageViews& data, const std::vector<vision::ViewMeasurement>& detections,
+                                         const calib::Level& level) {
   if (detections.size() != data.views.size()) throw std::invalid_argument("calibrateImageViews: one detection per row expected");
+  const bool robot_level = level.kind != calib::LevelKind::kAuto && level.kind != calib::LevelKind::kFrames;
+  if (robot_level && !data.arm) {
+    throw sim::InputError("--level: " + calib::levelName(level) + ": " + data.description + " gives flange poses, no joint readings: "
+                          "it calibrates the frames only (the hand-eye and the board's frame); give robot: and joints: to fit the "
+                          "robot's parameters, or use --level frames or auto");
+  }
   ImageCalibrateResult r;
   r.setup = data.setup;
   r.warnings = data.warnings;
   std::vector<std::size_t> used;
   const std::vector<calib::HandEyeView> views = handEyeViews(data, detections, r, used);
   fitAndJudge(data, views, used, r);
+  if (data.arm && level.kind != calib::LevelKind::kFrames && r.cross_validated) robotLevel(data, views, used, level, r);
+  r.level_sentence = levelSentence(r);
+  if (robot_level && data.arm && !r.cross_validated) {
+    r.level_sentence = "level " + calib::levelName(level) + " asked, not fitted: the frames level it is judged against is not cross-validated";
+  }
   return r;
 }
 
@@ -196,7 +222,7 @@ ImageCalibrateResult runImageCalibrate(const MeasuredCalibrateOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   const sim::ImageViews data = sim::loadImageViews(o.description);
   std::vector<vision::ViewMeasurement> det = detectImageViews(data);
-  ImageCalibrateResult r = calibrateImageViews(data, det);
+  ImageCalibrateResult r = calibrateImageViews(data, det, o.level);
   r.detections = std::move(det);
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 

@@ -82,6 +82,9 @@ std::string framesYaml(const sim::ImageViews& data, const ImageCalibrateResult& 
     << "# a_T_b maps coordinates in frame b to frame a: p_a = R p_b + t. matrix: the 4x4 homogeneous transform, row by row,\n"
     << "# translation in metres; xyz_m: t; quaternion_xyzw: R as a unit quaternion [x, y, z, w] (Hamilton).\n"
     << "# sigma_*: 1-sigma per axis of the parent frame a, the jackknife over the views' configurations (leave one out).\n"
+    << (r.robot ? "# Calibrated at the robot level " + calib::levelName(r.level) +
+                      ": the frames of the calibrated arm's flange (report.md lists the arm's parameters).\n"
+                : std::string())
     << "# The board frame is OpenCV's " << (data.board_frame == sim::BoardFrameConvention::kOpenCv ? ">= 4.6" : "legacy (<= 4.5)")
     << " CharucoBoard frame (origin at the outer corner of square (0, 0)).\n"
     << "format: orbcal-hand-eye-1\n"
@@ -115,7 +118,10 @@ std::string imageReport(const sim::ImageViews& data, const ImageCalibrateResult&
   md << "Description `" << o.description << "`: " << r.views.size() << " images, " << sim::handEyeSetupName(data.setup)
      << "; the board found in " << r.used << " (" << r.configurations << " configurations). Flange poses "
      << (data.arm ? "of the nominal arm " + data.robot_file + " at the joint readings" : std::string("from the controller"))
-     << ". Calibrated at the frames level: " << hand << " and " << base << " (12 parameters), no robot parameter.\n\n";
+     << ". "
+     << (r.robot ? "Calibrated at the robot level " + calib::levelName(r.level) + ": " + hand + " and " + base +
+                       " with the robot's parameters (below).\n\n"
+                 : "Calibrated at the frames level: " + hand + " and " + base + " (12 parameters), no robot parameter.\n\n");
   for (const std::string& w : r.warnings) md << "Warning: " << w << ".\n\n";
   if (fitted) {
     md << "Start: closed form (Shah 2013's robot-world / hand-eye rotations, least-squares translations) on each view's own board "
@@ -143,11 +149,13 @@ std::string imageReport(const sim::ImageViews& data, const ImageCalibrateResult&
           "coordinate): " << formatNumber("%.3f", r.detection_sigma_px) << " px. "
        << (!r.cross_validated ? "\n\n"
            : r.heldout_rms_px > 2.0 * r.detection_sigma_px
-               ? "The held-out residuals exceed it: the rest is the flange poses' error (a controller reports its nominal model's "
-                 "poses) or the camera's intrinsics, which the frames level does not fit.\n\n"
+               ? std::string(r.robot ? "The held-out residuals exceed it: the rest is what the level's model lacks, or the "
+                                       "camera's intrinsics, which it does not fit.\n\n"
+                                     : "The held-out residuals exceed it: the rest is the flange poses' error (a controller reports "
+                                       "its nominal model's poses) or the camera's intrinsics, which the frames level does not fit.\n\n")
                : "The held-out residuals are at that noise.\n\n");
   }
-  md << "## Views\n\n| row | image | corners | lost markers | PnP RMS (px) | fitted (px) | fitted (mm) | held out (px) | held out (mm) |\n"
+  md << robotLevelSection(data, r) << "## Views\n\n| row | image | corners | lost markers | PnP RMS (px) | fitted (px) | fitted (mm) | held out (px) | held out (mm) |\n"
         "|---|---|---|---|---|---|---|---|---|\n";
   for (std::size_t k = 0; k < r.views.size(); ++k) {
     const ImageViewOutcome& v = r.views[k];

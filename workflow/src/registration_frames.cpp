@@ -53,10 +53,10 @@ std::string sigmaCells(const calib::Fit& fit, const sim::ParamBlock& b, const Ei
   return triple(sp, 1e3, "%.3g") + " | " + triple(sr, sim::kRadToDeg, "%.3g") + " | " + determinedCell(fit, b);
 }
 
-/// The rows of one frame kind ("base": world_T_base, "marker": flange_T_marker): one per fitted block
+/// The rows of one frame kind (kBase: world_T_base, kMarker: flange_T_marker): one per fitted block
 /// (shared: all sessions; per session: each), or the known frames (`known` says whose).
-std::string frameRows(const calib::Fit& fit, const sim::KinematicModel& folded, const std::string& kind, const std::string& known) {
-  const bool base = kind == "base";
+std::string frameRows(const calib::Fit& fit, const sim::KinematicModel& folded, sim::BlockKind kind, const std::string& known) {
+  const bool base = kind == sim::BlockKind::kBase;
   const std::string name = base ? "world_T_base" : "flange_T_marker";
   const std::vector<Eigen::Isometry3d>& frames = base ? folded.world_T_base : folded.flange_T_marker;
   const sim::FrameSharing sharing = base ? fit.model.base : fit.model.marker;
@@ -71,7 +71,7 @@ std::string frameRows(const calib::Fit& fit, const sim::KinematicModel& folded, 
     return md;
   }
   for (const sim::ParamBlock& b : fit.model.layout.blocks()) {
-    if (b.effect != kind) continue;
+    if (b.kind != kind) continue;
     const std::size_t k = b.session < 0 ? 0 : static_cast<std::size_t>(b.session);
     const Eigen::Matrix3d R0 = (base ? fit.model.baseStart(static_cast<int>(k)) : fit.model.markerStart(static_cast<int>(k))).linear();
     row(k, b.session < 0 ? "all (shared)" : std::to_string(b.session + 1), sigmaCells(fit, b, R0));
@@ -90,7 +90,7 @@ std::string registrationFramesTable(const calib::Fit& fit, const std::string& kn
          "(held: not at all, kept at their starting value; only in a combination: with the parameters named).\n\n"
          "| frame | session | position x, y, z (mm) | roll, pitch, yaw (deg) | 1-sigma x, y, z (mm) | 1-sigma about x, y, z (deg) | determined |\n"
          "|---|---|---|---|---|---|---|\n" +
-         frameRows(fit, folded, "base", known) + frameRows(fit, folded, "marker", known);
+         frameRows(fit, folded, sim::BlockKind::kBase, known) + frameRows(fit, folded, sim::BlockKind::kMarker, known);
 }
 
 }  // namespace orbcal::workflow

@@ -21,7 +21,7 @@ class MountKind final : public EffectKind {
   }
   std::vector<ParamBlock> blocks(const Effect&, const Arm&, int num_sessions) const override {
     std::vector<ParamBlock> out;
-    for (int s = 1; s < num_sessions; ++s) out.push_back(frameBlock("mount", s));
+    for (int s = 1; s < num_sessions; ++s) out.push_back(frameBlock(BlockKind::kMount, s));
     return out;
   }
   void addChainInserts(const Effect&, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,

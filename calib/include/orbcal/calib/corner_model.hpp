@@ -20,12 +20,18 @@
 // corner Jacobian (G J_e_q sigma_q^2 J_e_q^T G^T, one rank-n term per image: joint noise moves all the
 // corners of an image together). With joint_noise_sigma_rad = 0 (the default) joint noise is not
 // modelled: its per-image common shift then counts as pixel noise.
+//
+// Eye to hand (sim::HandEyeSetup::kEyeToHand: a fixed camera, the board on the flange) the model's world
+// is the camera and its marker the board: camera_T_board(p) = predictMarkerPose(model, p, s_k) itself,
+// and the chain columns are d(uv)/d(p_cam) R [I, -S(X_i)] J_e_p (the right perturbation of
+// camera_T_board in the board frame: p_cam' = p_cam + R (rho + omega x X_i)).
 #include <Eigen/Core>
 #include <vector>
 
 #include "orbcal/calib/estimators.hpp"
 #include "orbcal/calib/model.hpp"
 #include "orbcal/sim/model.hpp"
+#include "orbcal/sim/image_views.hpp"
 #include "orbcal/sim/scene.hpp"
 
 namespace orbcal::calib {
@@ -47,8 +53,10 @@ class CornerMeasurementModel : public MeasurementModel {
   /// `model`: world = the board, marker = the camera. `camera`: the scene's (its distortion is the
   /// starting point dk = 0). Throws std::invalid_argument on an observation without every corner of
   /// the board, or p0 of the wrong size (the model's layout + 4).
+  /// `setup`: eye in hand (the default) or eye to hand (file comment).
   CornerMeasurementModel(sim::KinematicModel model, sim::Camera camera, sim::Board board,
-                         std::vector<CornerObservation> observations, CornerNoise noise, Eigen::VectorXd p0 = {});
+                         std::vector<CornerObservation> observations, CornerNoise noise, Eigen::VectorXd p0 = {},
+                         sim::HandEyeSetup setup = sim::HandEyeSetup::kEyeInHand);
   int numSamples() const override { return static_cast<int>(observations_.size()); }
   int rows(int k) const override;
   const sim::ParamLayout& layout() const override { return layout_; }
@@ -64,6 +72,8 @@ class CornerMeasurementModel : public MeasurementModel {
   sim::Camera cameraAt(const Eigen::VectorXd& p) const;
   /// nu_k at parameters p (not y).
   Eigen::VectorXd residual(int k, const Eigen::VectorXd& p) const;
+  /// camera_T_board of observation k at parameters p (model parameters + distortion block).
+  Eigen::Isometry3d cameraTBoard(int k, const Eigen::VectorXd& p) const;
 
  private:
   sim::KinematicModel model_;
@@ -73,6 +83,7 @@ class CornerMeasurementModel : public MeasurementModel {
   CornerNoise noise_;
   Eigen::VectorXd p0_;
   sim::ParamLayout layout_;
+  sim::HandEyeSetup setup_ = sim::HandEyeSetup::kEyeInHand;
 };
 
 /// RMS over every corner coordinate of nu at parameters p (px).

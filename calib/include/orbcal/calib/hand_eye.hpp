@@ -73,6 +73,9 @@ struct ViewResidual {
 };
 ViewResidual viewResidual(const HandEyeView& view, const HandEyeFrames& frames, const sim::Camera& camera, const sim::Board& board,
                           sim::HandEyeSetup setup);
+/// The same for corners `corners_px` of identities `ids` seen at a given camera_T_board (any chain's).
+ViewResidual viewResidual(const std::vector<Eigen::Vector2d>& corners_px, const std::vector<int>& ids, const Eigen::Isometry3d& camera_T_board,
+                          const sim::Camera& camera, const sim::Board& board);
 
 /// Configurations of the views: views whose flange poses agree within 1 um and 1 urad are one (a row
 /// repeated in the file), numbered from 0 in the order of their first view.

@@ -126,6 +126,10 @@ struct Fit {
 /// geometry and frame blocks, 0 (no prior) on the effects'. The prior is centred on the starting model
 /// (p = 0).
 Eigen::VectorXd geometryPriorSigma(const sim::ParamLayout& layout);
+/// The estimator's controls of `options` on a model of `layout` whose starting parameters are p0: the
+/// hold, the geometry prior (centred on p = 0) and map's scaled prior; any measurement model (marker
+/// poses, corners) is fitted with them.
+FitControls fitControls(const FitOptions& options, const sim::ParamLayout& layout, const Eigen::VectorXd& p0);
 Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObservation>& observations,
                    const FitOptions& options, const Eigen::VectorXd& p0 = {});
 

@@ -54,8 +54,24 @@ struct ParamInfo {
   int joint = -1;            ///< a geometry parameter's joint (its row of the table), from 0; -1 for every other
 };
 
+/// What a block is, told apart by type: the code that treats kinds of parameters differently (priors,
+/// refits, reports) tests the kind, never the block's name.
+enum class BlockKind {
+  kGeometry,     ///< the DH errors (geometryBlock)
+  kBase,         ///< the registration frame world_T_base (frameBlock)
+  kMarker,       ///< the registration frame flange_T_marker
+  kMount,        ///< a marker's change between sessions (the mount effect)
+  kMarkerPoint,  ///< a rigid body's marker point offset (sim/marker_points.hpp)
+  kCamera,       ///< the camera's lens (distortionBlock)
+  kEffect,       ///< a catalog effect of the chain
+  kOther,        ///< a measurement model's own parameters (a plane's coefficients)
+};
+/// The frames a calibration registers to each data set: base, marker, mount.
+bool isRegistrationFrame(BlockKind kind);
+
 struct ParamBlock {
-  std::string effect;       ///< "geometry", "base", "marker", or a catalog effect's name
+  std::string effect;       ///< "geometry", "base", "marker", or a catalog effect's name (for people and files)
+  BlockKind kind = BlockKind::kEffect;
   std::vector<int> joints;  ///< joints it acts on, from 0 (empty for frames and global effects)
   int session = -1;         ///< for per-session frames: the session; -1 otherwise
   int offset = 0;           ///< index of its first parameter in p
@@ -74,6 +90,8 @@ class ParamLayout {
   int blockOf(int i) const;  ///< index of the block holding parameter i
   /// Index of the first block of `effect` (and `session`, where >= 0); -1 when absent.
   int find(const std::string& effect, int session = -1) const;
+  /// Index of the first block of `kind` (and `session`, where >= 0); -1 when absent.
+  int find(BlockKind kind, int session = -1) const;
   /// Typical magnitudes of every parameter (SI).
   Eigen::VectorXd typical() const;
 
@@ -151,8 +169,9 @@ double readParameterValue(const ConfigNode& node, const ParamInfo& info);
 /// read in mm) of a typical magnitude.
 ParamInfo angleParam(std::string name, double typical_rad);
 ParamInfo lengthParam(std::string name, double typical_m);
-/// The six parameters of a frame change [x, y, z (m); rx, ry, rz (rad)] named `effect`[session]_x ...
-ParamBlock frameBlock(const std::string& effect, int session);
+/// The six parameters of a frame change [x, y, z (m); rx, ry, rz (rad)] of `kind` (kBase, kMarker or kMount),
+/// named base[session]_x, marker..., mount...
+ParamBlock frameBlock(BlockKind kind, int session);
 
 // ---- The model ----------------------------------------------------------------------------------
 

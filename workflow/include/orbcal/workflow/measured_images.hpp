@@ -11,6 +11,9 @@
 #include <string>
 #include <vector>
 
+#include <optional>
+
+#include "orbcal/calib/corner_levels.hpp"
 #include "orbcal/calib/hand_eye.hpp"
 #include "orbcal/sim/image_views.hpp"
 #include "orbcal/vision/real_views.hpp"
@@ -56,6 +59,18 @@ struct ImageCalibrateResult {
   bool cross_validated = false;
   double heldout_rms_px = 0.0, heldout_rms_mm = 0.0, heldout_start_rms_px = 0.0, heldout_start_rms_mm = 0.0;
   double fitted_rms_px = 0.0, fitted_rms_mm = 0.0, detection_sigma_px = 0.0;
+  /// The level calibrated: frames, or with joint readings a robot level (calib/corner_levels.hpp): the
+  /// level asked for, or with auto the robot level of the smallest cross-validated mm residual among
+  /// those that predict the views significantly better than the frames level (frames when none does).
+  /// `tried`: the robot levels judged (offsets, map, full with auto); `robot`: the chosen one's fit on
+  /// every view and `robot_sigma` its parameters' jackknife 1-sigma. The frames, the views' residuals
+  /// and the figures above are then the robot level's; `frames_heldout_rms_mm` keeps the frames level's.
+  calib::Level level{calib::LevelKind::kFrames, {}};
+  std::vector<calib::CornerLevelCrossValidation> tried;
+  std::optional<calib::CornerLevelFit> robot;
+  Eigen::VectorXd robot_sigma;
+  double frames_heldout_rms_px = 0.0, frames_heldout_rms_mm = 0.0;
+  std::string level_sentence;            ///< for the terminal and the report: "level offsets (as asked)"
   std::vector<std::string> warnings;     ///< re-orthonormalised poses, ...
   std::vector<std::string> refusals;     ///< empty: accepted
   double seconds = 0.0;                  ///< wall time of detection + fit + cross-validation
@@ -69,11 +84,14 @@ std::vector<vision::ViewMeasurement> detectImageViews(const sim::ImageViews& dat
 
 /// The fit and its judgement on the detections of the rows of `data` (one per row): runImageCalibrate
 /// without reading images or writing files (`seconds`, the paths and `detections` left empty).
-ImageCalibrateResult calibrateImageViews(const sim::ImageViews& data, const std::vector<vision::ViewMeasurement>& detections);
+/// `level`: frames (the default), auto, or with joint readings any level (calib/levels.hpp); auto without
+/// joint readings is frames. InputError naming --level for a robot level without joint readings.
+ImageCalibrateResult calibrateImageViews(const sim::ImageViews& data, const std::vector<vision::ViewMeasurement>& detections,
+                                         const calib::Level& level = {calib::LevelKind::kFrames, {}});
 
 /// The whole run: read, detect, fit, cross-validate, write (into o.out, default <description's
-/// folder>/calibration). o.level must be auto or frames (no robot parameters are fitted from images
-/// yet); o.effects empty; o.holdout empty (the judge is cross-validation): InputError naming the option
+/// folder>/calibration). o.level: auto or frames, or with joint readings (robot + joints) any level;
+/// o.effects empty; o.holdout empty (the judge is cross-validation): InputError naming the option
 /// otherwise.
 ImageCalibrateResult runImageCalibrate(const MeasuredCalibrateOptions& o);
 
