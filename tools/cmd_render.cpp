@@ -43,8 +43,10 @@ void addRenderCommand(CLI::App& app) {
                            ->check(CLI::Range(1, 1000000));
   cmd->add_option("--configs", opt->job.configs,
                   "render these configurations, in order, instead of planned ones: a CSV with columns index (optional) and "
-                  "q1_rad..qN_rad (or qJ_deg in degrees, qJ_m for a prismatic joint), as `orbcal configs` writes; "
-                  "the dataset has one sample per row (not with --count)")
+                  "q1_rad..qN_rad (or qJ_deg in degrees, qJ_m for a prismatic joint), as `orbcal configs` writes, or "
+                  "flange poses (the controller's base_T_flange: flange_x_m, flange_y_m, flange_z_m, flange_qw, flange_qx, "
+                  "flange_qy, flange_qz; no joint or link acts, and DIR/images.yaml describes the views for "
+                  "`orbcal calibrate` and `orbcal twin`); the dataset has one sample per row (not with --count)")
       ->excludes(count);
   cmd->add_option("--profile", opt->job.profile,
                   "camera profile (camera_profile.yaml: tone curve, vignetting, blur, sharpening, Poisson-Gaussian noise, "

@@ -16,7 +16,8 @@ namespace {
 bool reservedInDataset(const std::filesystem::path& relative, const sim::DatasetManifest& m) {
   const std::string first = relative.begin()->string();
   return first == m.robot_file || first == sim::kDatasetUrdfFile || first == m.scene_file || first == m.samples_file ||
-         first == "manifest.yaml" || first == kProfileFile || first == kConfigsFile ||
+         first == "manifest.yaml" || first == kProfileFile || first == kConfigsFile || first == kImagesCameraFile ||
+         first == sim::kImagesDescriptionFile ||
          first == "images" || (!m.error_set_file.empty() && first == m.error_set_file);
 }
 

@@ -15,6 +15,8 @@ namespace orbcal::render::dataset_copies {
 /// Where `orbcal render --profile` and `--configs` keep their files in the dataset folder.
 inline constexpr const char* kProfileFile = "camera_profile.yaml";
 inline constexpr const char* kConfigsFile = "configurations.csv";
+/// A dataset of flange poses: its image description (sim::kImagesDescriptionFile) names this camera file.
+inline constexpr const char* kImagesCameraFile = "images_camera.yaml";
 
 struct MeshCopy {
   std::string relative;    ///< path inside the dataset folder, '/'-separated

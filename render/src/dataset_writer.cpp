@@ -26,6 +26,8 @@
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/fileio.hpp"
+#include "orbcal/sim/flange_poses.hpp"
+#include "orbcal/sim/camera_io.hpp"
 #include "orbcal/sim/truth.hpp"
 #include "dataset_copies.hpp"
 
@@ -195,6 +197,7 @@ struct RunInputs {
   std::string scene_text;    ///< the scene file as read
   CameraProfile profile;     ///< job.profile's (identity without one)
   std::vector<Eigen::VectorXd> given;  ///< job.configs' configurations (empty: planned)
+  std::vector<Eigen::Isometry3d> given_flange;  ///< job.configs' flange poses (base_T_flange), when it gives poses
   int count = 0;             ///< samples of the whole dataset
   std::string profile_text, configs_text;  ///< job.profile's and job.configs' files as read (empty: none)
 };
@@ -206,6 +209,23 @@ struct InputCopies {
   std::string scene_copy;       ///< scene.yaml, paths rewritten to the copies
   std::vector<MeshCopy> files;  ///< the meshes and the camera file
 };
+
+/// The plant of views given as flange poses: no joint or link acts (the flange is where the pose says),
+/// so a named error set (table3, random) is not injected, and an error-set file may only change the
+/// camera (its `distortion`); one with DH errors or chain effects is refused, naming --errors.
+sim::TrueArm flangePoseTruth(const sim::Arm& nominal, const sim::TrueArm& truth, const DatasetJob& job) {
+  if (!truth.fromFile()) {
+    sim::ErrorSetSpec zero = job.errors;
+    zero.name = "zero";
+    return sim::makeTrueArm(nominal, zero, "--errors");
+  }
+  if (!truth.model.effects.empty() || truth.geometryErrors().cwiseAbs().maxCoeff() > 0.0) {
+    throw sim::InputError("--errors: " + job.errors.name + " changes the arm (DH errors or effects), but " + job.configs +
+                          " gives flange poses, where no joint or link acts: give joint configurations, or an error set "
+                          "with the camera's distortion only");
+  }
+  return truth;
+}
 
 /// Reads and checks the robot, the scene and its render settings, and the error set; the robot's text
 /// as the dataset keeps it goes to copies.robot_text and copies.urdf_text.
@@ -236,9 +256,15 @@ RunInputs readRunInputs(const DatasetJob& job, InputCopies& copies) {
   in.count = job.count;
   if (!job.configs.empty()) {
     in.configs_text = sim::readTextSource(job.configs);
-    in.given = sim::parseConfigurationsCsv(in.configs_text, job.configs, nominal.numJoints());
-    if (in.given.empty()) throw sim::InputError(job.configs + ": no configurations (a header and no rows)");
-    in.count = static_cast<int>(in.given.size());
+    if (sim::holdsFlangePoses(in.configs_text, job.configs)) {
+      in.given_flange = sim::parseFlangePosesCsv(in.configs_text, job.configs);
+      in.truth = flangePoseTruth(nominal, in.truth, job);
+      in.count = static_cast<int>(in.given_flange.size());
+    } else {
+      in.given = sim::parseConfigurationsCsv(in.configs_text, job.configs, nominal.numJoints());
+      in.count = static_cast<int>(in.given.size());
+    }
+    if (in.count == 0) throw sim::InputError(job.configs + ": no configurations (a header and no rows)");
   }
   return in;
 }
@@ -253,8 +279,8 @@ sim::DatasetManifest runManifest(const DatasetJob& job, const RunInputs& in, con
   m.shard = shard;
   m.true_errors = in.truth.geometryErrors();
   m.true_errors_per_joint = in.nominal.paramsPerJoint();
-  m.error_set = in.truth.fromFile() ? "file" : job.errors.name;
-  m.joint_noise_sigma_rad = job.joint_noise_sigma_rad;
+  m.error_set = in.truth.fromFile() ? "file" : in.given_flange.empty() ? job.errors.name : "zero";
+  m.joint_noise_sigma_rad = in.given_flange.empty() ? job.joint_noise_sigma_rad : 0.0;
   m.configuration_seed = job.configuration_seed;
   m.noise_seed = job.noise_seed;
   m.render_seed = job.render_seed;
@@ -307,7 +333,7 @@ std::vector<std::string> differingInputs(const sim::Dataset& dataset, const std:
   for (const MeshCopy& c : copies.files) {
     if (!fileEquals(dataset.path(c.relative), c.bytes)) differ.push_back(c.relative);
   }
-  for (const char* name : {kProfileFile, kConfigsFile}) {  // an earlier run's that this one does not use
+  for (const char* name : {kProfileFile, kConfigsFile, kImagesCameraFile, sim::kImagesDescriptionFile}) {  // an earlier run's that this one does not use
     std::error_code ec;
     if (!hasCopy(copies, name) && std::filesystem::exists(dataset.path(name), ec)) differ.push_back(name);
   }
@@ -338,7 +364,7 @@ bool resumeOrReplace(const DatasetJob& job, const sim::Dataset& dataset, const I
   removeForForce(dataset.path(m.samples_file), false);
   removeForForce(manifest_path, false);
   if (!truth.fromFile()) removeForForce(dataset.path(sim::kDatasetErrorSetFile), false);  // an earlier run's
-  for (const char* name : {kProfileFile, kConfigsFile}) {
+  for (const char* name : {kProfileFile, kConfigsFile, kImagesCameraFile, sim::kImagesDescriptionFile}) {
     if (!hasCopy(copies, name)) removeForForce(dataset.path(name), false);
   }
   removeForForce(dataset.path("images"), true);
@@ -351,6 +377,17 @@ bool resumeOrReplace(const DatasetJob& job, const sim::Dataset& dataset, const I
 /// of job.count (the generator stops there, with job.count's attempt budget) and the joint noise is
 /// drawn for every sample before `end`, in order.
 void planSamples(const DatasetJob& job, const RunInputs& in, int first, int end, sim::Dataset& dataset) {
+  if (!in.given_flange.empty()) {  // the flange where the pose says: no joints, no joint noise
+    for (int i = first; i < end; ++i) {
+      sim::DatasetSample s;
+      s.index = i;
+      s.image = imageName(i);
+      s.base_T_flange = in.given_flange[static_cast<std::size_t>(i)];
+      s.camera_T_board_true = sim::cameraTBoard(*s.base_T_flange, in.scene);
+      dataset.samples.push_back(std::move(s));
+    }
+    return;
+  }
   std::vector<Eigen::VectorXd> commanded = in.given;
   if (commanded.empty()) {
     sim::GeneratorSettings gen;
@@ -457,6 +494,11 @@ DatasetRunReport renderDataset(const DatasetJob& job, const DatasetProgress& pro
   copies.scene_copy = placeCameraFile(in.scene, rewriteMeshPaths(in.scene_text, in.settings, copies.files), copies.files);
   if (!job.profile.empty()) copies.files.push_back(MeshCopy{kProfileFile, in.profile_text});
   if (!job.configs.empty()) copies.files.push_back(MeshCopy{kConfigsFile, in.configs_text});
+  if (!in.given_flange.empty()) {  // the views as an image set with controller poses
+    copies.files.push_back(MeshCopy{kImagesCameraFile, sim::formatCameraInfoYaml(in.scene.camera, "orbcal render")});
+    copies.files.push_back(MeshCopy{sim::kImagesDescriptionFile,
+                                    sim::flangePoseImagesDescription(in.scene, dataset.manifest.samples_file, kImagesCameraFile)});
+  }
 
   // The folder is locked while this run writes it (a second writer is refused); a folder this run
   // creates is removed again when the run fails before its first image is written.

@@ -160,6 +160,14 @@ std::string formatConfigurationsCsv(const std::vector<Eigen::VectorXd>& configs,
   return out.str();
 }
 
+void checkIndexOnce(const CsvTable& t, std::size_t r, int c_index, std::map<int, int>& first_line, const std::string& what) {
+  if (c_index < 0) return;
+  const auto [it, fresh] = first_line.emplace(t.wholeNumber(r, c_index), t.line(r));
+  if (fresh) return;
+  throw InputError(t.where(r) + ": index: " + what + " " + std::to_string(it->first) + " given twice (first on line " +
+                   std::to_string(it->second) + ")");
+}
+
 std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, const std::string& source, int n) {
   const CsvTable t = CsvTable::parse(text, source);
   std::vector<int> cols;
@@ -178,13 +186,7 @@ std::vector<Eigen::VectorXd> parseConfigurationsCsv(const std::string& text, con
   std::map<int, int> index_line;  // index -> line of its first row
   std::vector<Eigen::VectorXd> configs;
   for (std::size_t r = 0; r < t.rows(); ++r) {
-    if (c_index >= 0) {
-      const auto [it, fresh] = index_line.emplace(t.wholeNumber(r, c_index), t.line(r));
-      if (!fresh) {
-        throw InputError(t.where(r) + ": index: configuration " + std::to_string(it->first) + " given twice (first on line " +
-                         std::to_string(it->second) + ")");
-      }
-    }
+    checkIndexOnce(t, r, c_index, index_line, "configuration");
     auto q = t.numbers(r, cols);
     if (!q) throw InputError(t.where(r) + ": q1_rad: joint angles are empty");
     for (int j = 0; j < n; ++j) {

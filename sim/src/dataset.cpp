@@ -8,12 +8,14 @@
 #include <filesystem>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 
 #include "orbcal/sim/arm.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/fileio.hpp"
+#include "orbcal/sim/flange_poses.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/measured.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -277,8 +279,13 @@ std::string formatSamplesCsv(const std::vector<DatasetSample>& samples, int n) {
     has_true |= s.q_true_rad.has_value();
     has_pose |= s.camera_T_board_true.has_value();
   }
+  const bool by_pose = !samples.empty() && samples.front().base_T_flange.has_value();
+  if (by_pose) n = 0;
   std::ostringstream out;
   out << "index,image";
+  if (by_pose) {
+    for (const char* c : kFlangePoseColumns) out << "," << c;
+  }
   for (int j = 1; j <= n; ++j) out << ",q" << j << "_rad";
   if (has_true) {
     for (int j = 1; j <= n; ++j) out << ",q" << j << "_true_rad";
@@ -289,6 +296,11 @@ std::string formatSamplesCsv(const std::vector<DatasetSample>& samples, int n) {
   out << "\n";
   for (const auto& s : samples) {
     out << s.index << "," << s.image;
+    if (by_pose) {
+      if (!s.base_T_flange) throw std::logic_error("formatSamplesCsv: flange poses given for some samples only");
+      const Eigen::Matrix<double, 7, 1> v = flangePoseValues(*s.base_T_flange);
+      for (int i = 0; i < 7; ++i) out << "," << exactNumber(v[i]);
+    }
     for (int j = 0; j < n; ++j) out << "," << exactNumber(s.q_rad[j]);
     if (has_true) {
       for (int j = 0; j < n; ++j) out << "," << (s.q_true_rad ? exactNumber((*s.q_true_rad)[j]) : "");
@@ -309,7 +321,12 @@ std::string formatSamplesCsv(const std::vector<DatasetSample>& samples, int n) {
 std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::string& source, int n, const Arm* limits) {
   const CsvTable t = CsvTable::parse(text, source);
   const int c_index = t.requireColumn("index"), c_image = t.requireColumn("image");
-  std::vector<int> c_q, c_qt, c_pose;
+  std::vector<int> c_q, c_qt, c_pose, c_flange;
+  if (t.column(kFlangePoseColumns[0]) >= 0) {  // views given by flange poses: no joints
+    for (const char* c : kFlangePoseColumns) c_flange.push_back(t.requireColumn(c));
+    if (t.column("q1_rad") >= 0) throw InputError(source + ": header: both joint readings (q1_rad) and flange poses (flange_x_m)");
+    n = 0;
+  }
   for (int j = 1; j <= n; ++j) c_q.push_back(t.requireColumn("q" + std::to_string(j) + "_rad"));
   if (t.column("q" + std::to_string(n + 1) + "_rad") >= 0) {
     throw InputError(source + ": header: column 'q" + std::to_string(n + 1) + "_rad' but the robot has " +
@@ -328,10 +345,7 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
     DatasetSample s;
     s.index = t.wholeNumber(r, c_index);
     const int line = t.line(r);
-    if (const auto [it, fresh] = index_line.emplace(s.index, line); !fresh) {
-      throw InputError(t.where(r) + ": index: sample " + std::to_string(s.index) + " given twice (first on line " +
-                       std::to_string(it->second) + ")");
-    }
+    checkIndexOnce(t, r, c_index, index_line, "sample");
     s.image = t.cell(r, c_image);
     if (s.image.empty()) throw InputError(t.where(r) + ": image: empty");
     checkImagePath(t, r, s.image);
@@ -339,7 +353,12 @@ std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::s
       throw InputError(t.where(r) + ": image: " + quoteInput(s.image) + " given twice (first on line " +
                        std::to_string(it->second) + ")");
     }
-    const auto q = t.numbers(r, c_q);
+    if (!c_flange.empty()) {
+      const auto v = t.numbers(r, c_flange);
+      if (!v) throw InputError(t.where(r) + ": flange_x_m: the flange pose is empty");
+      s.base_T_flange = flangePoseFromValues(*v, t.where(r));
+    }
+    const auto q = c_flange.empty() ? t.numbers(r, c_q) : std::optional<Eigen::VectorXd>(Eigen::VectorXd());
     if (!q) throw InputError(t.where(r) + ": q1_rad: joint readings are empty");
     s.q_rad = *q;
     for (int j = 0; limits && j < n; ++j) {
@@ -381,6 +400,14 @@ Dataset loadDataset(const std::string& folder) {
                      std::to_string(d.manifest.true_errors->size() / d.manifest.true_errors_per_joint));
   }
   return d;
+}
+
+bool viewsByFlangePose(const Dataset& d) { return !d.samples.empty() && d.samples.front().base_T_flange.has_value(); }
+
+void requireJointReadings(const Dataset& d, const std::string& what) {
+  if (!viewsByFlangePose(d)) return;
+  throw InputError(d.path(d.manifest.samples_file) + ": its views are flange poses, without joint readings, which " + what +
+                   " needs: `orbcal calibrate " + d.path(kImagesDescriptionFile) + "` estimates the hand-eye and board frames");
 }
 
 void writeDatasetTables(const Dataset& d, int num_joints) {

@@ -1,11 +1,18 @@
 // `orbcal render --configs FILE --profile FILE` on the command line: the configurations `orbcal configs`
 // wrote are the ones rendered, each image goes through the profile, bad input is one line naming the file.
+// `--configs` of flange poses: the camera is where the poses and the scene's flange_T_camera put it, and the
+// folder's images.yaml calibrates that hand-eye back from the images (no robot model involved).
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
+#include "orbcal/sim/configurations.hpp"
 #include "orbcal/sim/csv.hpp"
+#include "orbcal/sim/flange_poses.hpp"
+#include "orbcal/sim/image_views.hpp"
+#include "orbcal/sim/se3.hpp"
+#include "orbcal/workflow/measured_images.hpp"
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/io.hpp"
 #include "run_orbcal.hpp"
@@ -42,4 +49,59 @@ TEST_CASE("orbcal render --configs --profile renders the given configurations th
   CHECK_THAT(short_csv.err, Contains("short.csv") && Contains("q2_rad"));
   CHECK(!std::filesystem::exists(dir + "/ds3"));
   CHECK(!std::filesystem::exists(dir + "/ds4"));
+}
+
+TEST_CASE("orbcal render --configs of flange poses: the views calibrate back to the scene's hand-eye", "[e2e][render][real-images]") {
+  const std::string dir = test::tempDir("e2e-render-flange");
+  const std::string scene_path = test::sourcePath("scenes/quick_scene.yaml");
+  const sim::Arm arm = sim::loadArm(sim::RobotSource{sim::kDefaultRobot, "", ""});
+  const sim::Scene scene = sim::loadScene(scene_path);
+  sim::GeneratorSettings gen;
+  gen.count = 12;
+  gen.seed = 31;
+  std::vector<Eigen::Isometry3d> poses;
+  for (const Eigen::VectorXd& q : sim::generateConfigurations(arm, scene, gen)) poses.push_back(sim::forwardKinematics(arm, q));
+  test::write(dir + "/flange.csv", sim::formatFlangePosesCsv(poses));
+  const test::OrbcalRun run = test::runOrbcal(dir, "render --scene " + scene_path + " --configs flange.csv -o ds");
+  CAPTURE(run.out, run.err);
+  REQUIRE(run.status == 0);
+
+  // samples.csv: the poses bit for bit, no joints; the truth is the scene's chain from them.
+  const sim::Dataset ds = sim::loadDataset(dir + "/ds");
+  REQUIRE(sim::viewsByFlangePose(ds));
+  REQUIRE(ds.samples.size() == poses.size());
+  for (std::size_t k = 0; k < poses.size(); ++k) {
+    CHECK(ds.samples[k].q_rad.size() == 0);
+    CHECK((ds.samples[k].base_T_flange->matrix() - poses[k].matrix()).cwiseAbs().maxCoeff() < 1e-15);
+    const Eigen::Isometry3d expected = scene.flange_T_camera.inverse() * poses[k].inverse() * scene.base_T_board;
+    CHECK((ds.samples[k].camera_T_board_true->matrix() - expected.matrix()).cwiseAbs().maxCoeff() < 1e-12);
+  }
+
+  // images.yaml: the hand-eye from the images alone, within 4 of its jackknife 1-sigma of the truth.
+  const sim::ImageViews views = sim::loadImageViews(ds.path(sim::kImagesDescriptionFile));
+  const workflow::ImageCalibrateResult r = workflow::calibrateImageViews(views, workflow::detectImageViews(views));
+  CAPTURE(r.refusals, r.heldout_rms_px, r.hand_sigma.transpose());
+  CHECK(r.used == 12);
+  CHECK(r.refusals.empty());
+  const sim::Vector6d error = sim::poseMinus(r.hand_T_eye, scene.flange_T_camera);
+  CAPTURE(error.transpose());
+  for (int i = 0; i < 6; ++i) CHECK(std::abs(error[i]) < 4.0 * r.hand_sigma[i]);
+  CHECK(error.head<3>().norm() < 2e-3);  // and within 2 mm: the issue's criterion for real sets
+
+  // calibrate DIR (joint levels) refuses it, naming images.yaml; an error set that moves the arm is refused.
+  const test::OrbcalRun joints = test::runOrbcal(dir, "calibrate ds -o cal");
+  CHECK(joints.status != 0);
+  CHECK_THAT(joints.err, Contains("flange poses") && Contains("images.yaml"));
+  std::string errors = "format: orbcal-errors-1\ngeometry:\n";
+  for (int j = 0; j < arm.numJoints(); ++j) errors += std::string("  - {theta_deg: ") + (j == 1 ? "0.1" : "0") + ", alpha_deg: 0, a_mm: 0, d_mm: 0}\n";
+  test::write(dir + "/errors.yaml", errors);
+  const test::OrbcalRun moved = test::runOrbcal(dir, "render --scene " + scene_path + " --configs flange.csv --errors errors.yaml -o ds2");
+  CHECK(moved.status != 0);
+  CHECK_THAT(moved.err, Contains("--errors") && Contains("flange.csv"));
+  test::write(dir + "/bad.csv", "index,flange_x_m,flange_y_m,flange_z_m,flange_qw,flange_qx,flange_qy,flange_qz\n0,1,2,3,0.9,0,0,0\n");
+  const test::OrbcalRun bad = test::runOrbcal(dir, "render --scene " + scene_path + " --configs bad.csv -o ds3");
+  CHECK(bad.status != 0);
+  CHECK_THAT(bad.err, Contains("bad.csv: line 2: flange_qw"));
+  CHECK(!std::filesystem::exists(dir + "/ds2"));
+  CHECK(!std::filesystem::exists(dir + "/ds3"));
 }

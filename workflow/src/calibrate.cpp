@@ -433,6 +433,7 @@ CalibrateResult runCalibrate(const CalibrateOptions& o) {
   checkCalibrateOptions(o);
   CalibrationRun run(o);
   run.d = sim::loadDataset(o.dataset);
+  sim::requireJointReadings(run.d, "calibrate");
   // With -o nothing is written into the dataset folder (it may be read-only, or hold a measurements.csv
   // of `orbcal measure` with other settings): measurements.csv goes to OUT too. Without -o it goes into
   // the dataset folder, locked meanwhile, so that two runs never mix their files.

@@ -436,6 +436,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
     obs = calib::observationsFrom(data, data.has_torque || !data.arm.masses.empty());
   } else {
     dataset = sim::loadDataset(o.input);
+    sim::requireJointReadings(*dataset, "diagnose");
     {
       Progress bar(o.callbacks.progress, o.quiet ? "" : "measure images", o.quiet ? 0 : static_cast<int>(dataset->samples.size()));
       meas = vision::measureDataset(*dataset, {}, [&](int done, int) { bar.update(done); });

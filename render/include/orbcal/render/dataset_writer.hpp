@@ -2,7 +2,8 @@
 // `orbcal render`: a rendered calibration dataset (layout: sim/dataset.hpp and docs/file-formats.md).
 //
 //  1. configurations: sim::generateConfigurations on the NOMINAL arm (the planner knows only the
-//     nominal model), seed = configuration seed; or the given ones (job.configs), in their order;
+//     nominal model), seed = configuration seed; or the given ones (job.configs: joints or flange poses),
+//     in their order;
 //  2. true joints = commanded + N(0, joint noise) (sim::addJointNoise, stream kJointNoiseStream);
 //  3. ground truth camera_T_board = sim::cameraTBoard(the TRUE arm's flange pose at q_true): sim::TrueArm,
 //     nominal + injected DH errors, plus the effects of an error-set file (sample i at t_i, approach
@@ -82,6 +83,11 @@ struct DatasetJob {
   std::string profile;
   /// A configurations CSV (sim::parseConfigurationsCsv: index, q1_rad..qN_rad, or qJ_deg / qJ_m columns)
   /// rendered in its order instead of planned ones; `count` is then its number of rows. Empty: planned.
+  /// Or flange poses (sim::parseFlangePosesCsv: flange_x_m .. flange_qz, the controller's base_T_flange):
+  /// the camera is placed by them with no joint or link acting (no joint noise, a named error set not
+  /// injected; an error-set file may change the camera only), samples.csv holds the poses instead of
+  /// joints, and the folder also holds images.yaml (sim::flangePoseImagesDescription) and its camera
+  /// file images_camera.yaml: `orbcal calibrate DIR/images.yaml` estimates the hand-eye from them.
   std::string configs;
 };
 

@@ -4,6 +4,7 @@
 // line endings, spaces around cells, empty lines (skipped). Errors name the file, the line and the
 // column; a cell echoed in a message has non-printable bytes escaped (\xNN) and is cut at 40 characters.
 #include <Eigen/Core>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -37,6 +38,11 @@ class CsvTable {
   std::vector<std::vector<std::string>> rows_;
   std::vector<int> line_numbers_;
 };
+
+/// Row r's index (column c_index; nothing when c_index < 0, the column being optional) seen for the first
+/// time: `first_line` maps each index to the line of its first row. Throws InputError "<file>: line L:
+/// index: <what> N given twice (first on line M)" otherwise.
+void checkIndexOnce(const CsvTable& t, std::size_t r, int c_index, std::map<int, int>& first_line, const std::string& what);
 
 /// "%.17g": a double that reads back bit for bit.
 std::string exactNumber(double v);

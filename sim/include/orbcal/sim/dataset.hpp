@@ -86,7 +86,10 @@ std::vector<std::string> manifestDifferences(const DatasetManifest& a, const Dat
 struct DatasetSample {
   int index = 0;
   std::string image;                                   ///< relative to the dataset folder
-  Eigen::VectorXd q_rad;                               ///< joint readings (commanded or encoder)
+  Eigen::VectorXd q_rad;                               ///< joint readings (commanded or encoder); empty with base_T_flange
+  /// The view given as the flange's pose instead of joint readings (`render --configs` of flange poses,
+  /// sim/flange_poses.hpp): samples.csv's kFlangePoseColumns, no joint columns.
+  std::optional<Eigen::Isometry3d> base_T_flange;
   std::optional<Eigen::VectorXd> q_true_rad;           ///< simulation only
   std::optional<Eigen::Isometry3d> camera_T_board_true;  ///< simulation only
 };
@@ -102,12 +105,22 @@ struct Dataset {
 
 std::string formatManifest(const DatasetManifest& m);
 DatasetManifest parseManifest(const std::string& text, const std::string& source);
+/// The samples' table; samples given by flange poses (all or none) have kFlangePoseColumns instead of
+/// the num_joints joint columns.
 std::string formatSamplesCsv(const std::vector<DatasetSample>& samples, int num_joints);
 /// Throws InputError naming the file, line and column for an index that is not a whole number from 0, an
 /// index or an image given twice, empty joint readings, and (with `limits`) a reading outside the arm's
 /// joint limits.
 std::vector<DatasetSample> parseSamplesCsv(const std::string& text, const std::string& source, int num_joints,
                                            const Arm* limits = nullptr);
+/// True when the dataset's views are given by flange poses (no joint readings).
+bool viewsByFlangePose(const Dataset& d);
+/// Throws InputError naming d's samples.csv when its views are given by flange poses: joint-level
+/// calibration, diagnosis and the study need joint readings (`what`: e.g. "calibrate"); the image
+/// description kImagesDescriptionFile beside it calibrates the hand-eye and board frames.
+void requireJointReadings(const Dataset& d, const std::string& what);
+/// The image description (orbcal-measurements-1) a dataset of flange poses holds beside samples.csv.
+inline constexpr const char* kImagesDescriptionFile = "images.yaml";
 
 /// Reads manifest, robot, scene and samples (not the images). Throws InputError naming the file, line and
 /// column; the joint readings are checked against the robot's limits and num_samples against the rows.
