@@ -1,16 +1,15 @@
 #include "orbcal/calib/measured_fit.hpp"
 
-#include "orbcal/calib/observability.hpp"
-
 #include <Eigen/SVD>
+#include <algorithm>
 #include <array>
 #include <cmath>
-#include <algorithm>
 #include <future>
 #include <limits>
 #include <map>
 
 #include "stacked_system.hpp"
+#include "orbcal/calib/observability.hpp"
 #include "orbcal/calib/registration.hpp"
 #include "orbcal/calib/rigid_body.hpp"
 #include "orbcal/sim/marker_points.hpp"
@@ -471,9 +470,8 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
       fit.identifiability.num_rows = rows;
     }
     // Without analyses the last round starts where the round before ended (not the 2nd: docs/benchmarks.md).
-    const bool warm = !o.analyze && round > 0 && round + 1 == rounds;
     FitControls controls = fitControls(o, start.layout, fit.p0);
-    if (warm) controls.start = fit.estimate.y;
+    if (!o.analyze && round > 0 && round + 1 == rounds) controls.start = fit.estimate.y;
     fit.estimate = runMethod(findMethod(comparisonMethods(o.joint_noise_sigma_rad), o.method, "method"), m, controls);
     fit.p = fit.p0 + fit.estimate.y;
     fit.chi2 = 2.0 * fit.estimate.cost;
