@@ -17,7 +17,7 @@ constexpr double kRelativeTolerance = 1e-10;
 constexpr double kSameTranslationM = 1e-6, kSameRotationRad = 1e-6;
 
 HandEyeFrames applyStep(const HandEyeFrames& f, const Eigen::VectorXd& y) {
-  return {sim::posePlus(f.world_T_base, y.head<6>()), sim::posePlus(f.flange_T_marker, y.tail<6>())};
+  return {sim::posePlus(f.world_T_base, y.head<6>()), sim::posePlus(f.flange_T_marker, y.segment<6>(6))};
 }
 
 /// The corner residuals of view `v` (2 per corner, detected - predicted, px).
@@ -55,24 +55,38 @@ HandEyeFrames closedFormHandEye(const std::vector<HandEyeView>& views, sim::Hand
   return {g.world_T_base, g.flange_T_marker};
 }
 
+sim::Camera withLens(const sim::Camera& camera, const Eigen::Vector2d& lens_k) {
+  sim::Camera c = camera;
+  c.distortion[0] += lens_k[0];
+  c.distortion[1] += lens_k[1];
+  return c;
+}
+
 HandEyeFit fitHandEyeCorners(const std::vector<HandEyeView>& views, const sim::Camera& camera, const sim::Board& board,
-                             sim::HandEyeSetup setup, const HandEyeFrames& start, const std::vector<int>& which_in) {
+                             sim::HandEyeSetup setup, const HandEyeFrames& start, const std::vector<int>& which_in, bool fit_lens) {
   std::vector<int> which = which_in;
   if (which.empty()) {
     for (std::size_t k = 0; k < views.size(); ++k) which.push_back(static_cast<int>(k));
   }
   HandEyeFit fit;
   fit.frames = start;
-  Eigen::VectorXd r = residuals(views, which, fit.frames, camera, board, setup);
+  fit.lens_fitted = fit_lens;
+  const int P = fit_lens ? 14 : 12;  // the frames' 12 corrections, then k1 and k2
+  // The frames and lens after step y (in the frames' corrections and the lens's k1, k2).
+  const auto residualsAt = [&](const HandEyeFrames& f, const Eigen::Vector2d& k) {
+    return residuals(views, which, f, withLens(camera, k), board, setup);
+  };
+  const auto lensAfter = [&](const Eigen::VectorXd& y) { return fit_lens ? Eigen::Vector2d(fit.lens_k + y.tail<2>()) : fit.lens_k; };
+  Eigen::VectorXd r = residualsAt(fit.frames, fit.lens_k);
   double cost = r.squaredNorm(), lambda = 1e-3;
   for (fit.iterations = 0; fit.iterations < kMaxIterations; ++fit.iterations) {
-    Eigen::MatrixXd J(r.size(), 12);
-    for (int j = 0; j < 12; ++j) {
-      Eigen::VectorXd y = Eigen::VectorXd::Zero(12);
+    Eigen::MatrixXd J(r.size(), P);
+    for (int j = 0; j < P; ++j) {
+      Eigen::VectorXd y = Eigen::VectorXd::Zero(P);
       y[j] = kStep;
-      const Eigen::VectorXd plus = residuals(views, which, applyStep(fit.frames, y), camera, board, setup);
+      const Eigen::VectorXd plus = residualsAt(applyStep(fit.frames, y), lensAfter(y));
       y[j] = -kStep;
-      const Eigen::VectorXd minus = residuals(views, which, applyStep(fit.frames, y), camera, board, setup);
+      const Eigen::VectorXd minus = residualsAt(applyStep(fit.frames, y), lensAfter(y));
       J.col(j) = (plus - minus) / (2.0 * kStep);
     }
     const Eigen::MatrixXd JtJ = J.transpose() * J;
@@ -83,11 +97,13 @@ HandEyeFit fitHandEyeCorners(const std::vector<HandEyeView>& views, const sim::C
       A.diagonal() += lambda * JtJ.diagonal().cwiseMax(1e-12);
       const Eigen::VectorXd y = -A.ldlt().solve(g);  // r = detected - predicted: J is d r / d y
       const HandEyeFrames trial = applyStep(fit.frames, y);
-      const Eigen::VectorXd rt = residuals(views, which, trial, camera, board, setup);
+      const Eigen::Vector2d trial_lens = lensAfter(y);
+      const Eigen::VectorXd rt = residualsAt(trial, trial_lens);
       const double ct = rt.squaredNorm();
       if (ct < cost) {
         const double gain = cost - ct;
         fit.frames = trial;
+        fit.lens_k = trial_lens;
         r = rt;
         cost = ct;
         lambda = std::max(1e-12, lambda / 10.0);
@@ -144,13 +160,14 @@ std::vector<int> viewConfigurations(const std::vector<HandEyeView>& views) {
 }
 
 HandEyeCrossValidation crossValidateHandEye(const std::vector<HandEyeView>& views, const sim::Camera& camera, const sim::Board& board,
-                                            sim::HandEyeSetup setup, const HandEyeFit& full) {
+                                            sim::HandEyeSetup setup, const HandEyeFit& full, const HandEyeCrossValidation* stated_lens) {
   HandEyeCrossValidation cv;
   cv.heldout.resize(views.size());
   cv.heldout_start.resize(views.size());
   const std::vector<int> group = viewConfigurations(views);
   cv.configurations = group.empty() ? 0 : *std::max_element(group.begin(), group.end()) + 1;
   std::vector<HandEyeFrames> refits(static_cast<std::size_t>(cv.configurations));
+  std::vector<Eigen::Vector2d> refit_lens(static_cast<std::size_t>(cv.configurations), Eigen::Vector2d::Zero());
   const auto distance = [](const ViewResidual& r) { return Eigen::VectorXd::Constant(1, r.rms_m); };
   // Each fold writes only its own views' and configuration's entries: the folds run in parallel.
   const FoldPredictor predict = [&](const std::vector<int>& train, const std::vector<int>& held) {
@@ -158,25 +175,33 @@ HandEyeCrossValidation crossValidateHandEye(const std::vector<HandEyeView>& view
     for (int k : train) fitted.push_back(views[static_cast<std::size_t>(k)]);
     // Where the closed form fails on the fold's views (degenerate without the one held out), the full fit stands in
     // for it: a reference that saw the view held out only makes the corner fit's gain harder to show.
-    HandEyeFrames start = full.frames;
-    try {
-      start = closedFormHandEye(fitted, setup);
-    } catch (const std::invalid_argument&) {
+    // With the lens fitted, the fold starts from the stated lens's fold fit of the same configuration.
+    const auto g = static_cast<std::size_t>(group[static_cast<std::size_t>(held.front())]);
+    HandEyeFrames start = stated_lens ? stated_lens->refits.at(g) : full.frames;
+    if (!stated_lens) {
+      try {
+        start = closedFormHandEye(fitted, setup);
+      } catch (const std::invalid_argument&) {
+      }
     }
-    const HandEyeFit fold = fitHandEyeCorners(views, camera, board, setup, start, train);
+    const HandEyeFit fold = fitHandEyeCorners(views, camera, board, setup, start, train, full.lens_fitted);
     FoldPrediction out;
     for (int k : held) {
       const auto i = static_cast<std::size_t>(k);
-      cv.heldout_start[i] = viewResidual(views[i], start, camera, board, setup);
-      cv.heldout[i] = viewResidual(views[i], fold.frames, camera, board, setup);
+      cv.heldout_start[i] = stated_lens ? stated_lens->heldout.at(i) : viewResidual(views[i], start, camera, board, setup);
+      cv.heldout[i] = viewResidual(views[i], fold.frames, withLens(camera, fold.lens_k), board, setup);
       out.before.push_back(distance(cv.heldout_start[i]));
       out.after.push_back(distance(cv.heldout[i]));
     }
-    refits[static_cast<std::size_t>(group[static_cast<std::size_t>(held.front())])] = fold.frames;
+    refits[g] = fold.frames;
+    refit_lens[g] = fold.lens_k;
     return out;
   };
-  cv.verdict = crossValidatedVerdict(group, predict, "the closed form (each view's own board pose)");
-  if (cv.configurations >= kMinHeldoutConfigurations) cv.refits = refits;  // the folds ran
+  cv.verdict = crossValidatedVerdict(group, predict, stated_lens ? "the stated lens" : "the closed form (each view's own board pose)");
+  if (cv.configurations >= kMinHeldoutConfigurations) {  // the folds ran
+    cv.refits = refits;
+    cv.refit_lens = refit_lens;
+  }
   return cv;
 }
 

@@ -4,6 +4,7 @@
 // folder's images.yaml calibrates that hand-eye back from the images (no robot model involved).
 #include <catch2/catch.hpp>
 #include <filesystem>
+#include <random>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 
@@ -51,17 +52,30 @@ TEST_CASE("orbcal render --configs --profile renders the given configurations th
   CHECK(!std::filesystem::exists(dir + "/ds4"));
 }
 
+namespace {
+
+/// `count` flange poses of the default arm at planned configurations of the quick scene (seed `seed`), written to DIR/flange.csv.
+std::vector<Eigen::Isometry3d> flangePoses(const std::string& dir, int count, std::uint64_t seed) {
+  const sim::Arm arm = sim::loadArm(sim::RobotSource{sim::kDefaultRobot, "", ""});
+  sim::GeneratorSettings gen;
+  gen.count = count;
+  gen.seed = seed;
+  std::vector<Eigen::Isometry3d> poses;
+  for (const Eigen::VectorXd& q : sim::generateConfigurations(arm, sim::loadScene(test::sourcePath("scenes/quick_scene.yaml")), gen)) {
+    poses.push_back(sim::forwardKinematics(arm, q));
+  }
+  test::write(dir + "/flange.csv", sim::formatFlangePosesCsv(poses));
+  return poses;
+}
+
+}  // namespace
+
 TEST_CASE("orbcal render --configs of flange poses: the views calibrate back to the scene's hand-eye", "[e2e][render][real-images]") {
   const std::string dir = test::tempDir("e2e-render-flange");
   const std::string scene_path = test::sourcePath("scenes/quick_scene.yaml");
   const sim::Arm arm = sim::loadArm(sim::RobotSource{sim::kDefaultRobot, "", ""});
   const sim::Scene scene = sim::loadScene(scene_path);
-  sim::GeneratorSettings gen;
-  gen.count = 12;
-  gen.seed = 31;
-  std::vector<Eigen::Isometry3d> poses;
-  for (const Eigen::VectorXd& q : sim::generateConfigurations(arm, scene, gen)) poses.push_back(sim::forwardKinematics(arm, q));
-  test::write(dir + "/flange.csv", sim::formatFlangePosesCsv(poses));
+  const std::vector<Eigen::Isometry3d> poses = flangePoses(dir, 12, 31);
   const test::OrbcalRun run = test::runOrbcal(dir, "render --scene " + scene_path + " --configs flange.csv -o ds");
   CAPTURE(run.out, run.err);
   REQUIRE(run.status == 0);
@@ -87,6 +101,8 @@ TEST_CASE("orbcal render --configs of flange poses: the views calibrate back to 
   CAPTURE(error.transpose());
   for (int i = 0; i < 6; ++i) CHECK(std::abs(error[i]) < 4.0 * r.hand_sigma[i]);
   CHECK(error.head<3>().norm() < 2e-3);  // and within 2 mm: the issue's criterion for real sets
+  CHECK(r.lens_checked);
+  CHECK_FALSE(r.lens_taken);  // the stated lens is the one the images were taken through
 
   // calibrate DIR (joint levels) refuses it, naming images.yaml; an error set that moves the arm is refused.
   const test::OrbcalRun joints = test::runOrbcal(dir, "calibrate ds -o cal");
@@ -104,4 +120,33 @@ TEST_CASE("orbcal render --configs of flange poses: the views calibrate back to 
   CHECK_THAT(bad.err, Contains("bad.csv: line 2: flange_qw"));
   CHECK(!std::filesystem::exists(dir + "/ds2"));
   CHECK(!std::filesystem::exists(dir + "/ds3"));
+}
+
+TEST_CASE("images whose camera file misses the lens's distortion: the lens check finds it and the hand-eye holds",
+          "[e2e][render][real-images]") {
+  const std::string dir = test::tempDir("e2e-render-lens");
+  const std::string scene_path = test::sourcePath("scenes/quick_scene.yaml");
+  const sim::Scene scene = sim::loadScene(scene_path);
+  flangePoses(dir, 16, 37);
+  // A barrel distortion the camera file does not state (as in tests/e2e/test_distortion.cpp: k1 -0.05..-0.10, k2 0..0.04).
+  std::mt19937_64 rng(41);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const double dk1 = -(0.05 + 0.05 * u(rng)), dk2 = 0.04 * u(rng);
+  test::write(dir + "/lens.yaml", "format: orbcal-errors-1\ngeometry: zero\neffects:\n  - {spec: distortion, parameters: {dk1: " +
+                                      sim::formatNumber("%.17g", dk1) + ", dk2: " + sim::formatNumber("%.17g", dk2) + ", dp1: 0, dp2: 0}}\n");
+  const test::OrbcalRun run = test::runOrbcal(dir, "render --scene " + scene_path + " --configs flange.csv --errors lens.yaml -o ds");
+  CAPTURE(run.out, run.err);
+  REQUIRE(run.status == 0);
+  const sim::ImageViews views = sim::loadImageViews(dir + "/ds/" + sim::kImagesDescriptionFile);
+  const workflow::ImageCalibrateResult r = workflow::calibrateImageViews(views, workflow::detectImageViews(views));
+  const sim::Vector6d error = sim::poseMinus(r.hand_T_eye, scene.flange_T_camera);
+  CAPTURE(dk1, dk2, r.lens_k.transpose(), r.lens_sigma.transpose(), r.lens_stated_heldout_rms_px, r.heldout_rms_px, r.refusals,
+          error.transpose(), r.hand_sigma.transpose());
+  REQUIRE(r.lens_checked);
+  CHECK(r.lens_taken);
+  CHECK(std::abs(r.lens_k[0] - dk1) < 4.0 * r.lens_sigma[0]);
+  CHECK(std::abs(r.lens_k[1] - dk2) < 4.0 * r.lens_sigma[1]);
+  CHECK(r.heldout_rms_px < 0.5 * r.lens_stated_heldout_rms_px);
+  CHECK(r.refusals.empty());
+  for (int i = 0; i < 6; ++i) CHECK(std::abs(error[i]) < 4.0 * r.hand_sigma[i]);
 }

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <future>
 
+#include "orbcal/render/camera_profile.hpp"
 #include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
@@ -131,9 +132,38 @@ std::vector<calib::HandEyeView> handEyeViews(const sim::ImageViews& data, const 
   return views;
 }
 
+/// The lens check (ImageCalibrateResult::lens_*): k1, k2 fitted with the frames from the stated lens's
+/// fit, judged against it by cross-validation, taken into r.fit and r.cv (held-out residuals and refits;
+/// the closed form's stay) when it predicts the views held out significantly better.
+void lensCheck(const sim::ImageViews& data, const std::vector<calib::HandEyeView>& views, const std::vector<std::size_t>& used,
+               ImageCalibrateResult& r) {
+  const calib::HandEyeFit lens = calib::fitHandEyeCorners(views, data.camera, data.board, data.setup, r.fit.frames, {}, true);
+  if (!lens.converged) return;
+  const calib::HandEyeCrossValidation cv = calib::crossValidateHandEye(views, data.camera, data.board, data.setup, lens, &r.cv);
+  if (cv.refits.empty()) return;
+  r.lens_checked = true;
+  r.lens_k = lens.lens_k;
+  std::vector<Eigen::VectorXd> refits(cv.refit_lens.begin(), cv.refit_lens.end());
+  r.lens_sigma = calib::jackknifeSigma(refits);
+  r.lens_shift_px = render::lensShiftAtImageCorner(data.camera, {lens.lens_k[0], lens.lens_k[1]});
+  r.lens_verdict = cv.verdict;
+  std::vector<calib::ViewResidual> stated;
+  for (std::size_t i = 0; i < used.size(); ++i) stated.push_back(r.cv.heldout[i]);
+  std::vector<double> px, mm;
+  for (const calib::ViewResidual& v : stated) px.push_back(v.rms_px), mm.push_back(v.rms_m * 1e3);
+  r.lens_stated_heldout_rms_px = rms(px);
+  r.lens_stated_heldout_rms_mm = rms(mm);
+  r.lens_taken = cv.verdict.refusal.empty();
+  if (!r.lens_taken) return;
+  r.fit = lens;
+  r.cv.heldout = cv.heldout;
+  r.cv.refits = cv.refits;
+  r.cv.refit_lens = cv.refit_lens;
+}
+
 /// The fit, its cross-validation and the frames as written; refusals where the data do not determine them.
 void fitAndJudge(const sim::ImageViews& data, const std::vector<calib::HandEyeView>& views, const std::vector<std::size_t>& used,
-                 ImageCalibrateResult& r) {
+                 bool check_lens, ImageCalibrateResult& r) {
   r.used = static_cast<int>(views.size());
   const std::vector<int> config = calib::viewConfigurations(views);
   r.configurations = config.empty() ? 0 : *std::max_element(config.begin(), config.end()) + 1;
@@ -158,8 +188,10 @@ void fitAndJudge(const sim::ImageViews& data, const std::vector<calib::HandEyeVi
   const calib::HeldoutVerdict& verdict = r.cv.verdict;
   if (!verdict.refusal.empty() && (!verdict.gain.enough || verdict.worse)) r.refusals.push_back(verdict.refusal);
   r.cross_validated = !r.cv.refits.empty();
+  if (r.cross_validated && check_lens) lensCheck(data, views, used, r);
+  const sim::Camera camera = calib::withLens(data.camera, r.fit.lens_k);
   std::vector<calib::ViewResidual> fitted;
-  for (const calib::HandEyeView& v : views) fitted.push_back(calib::viewResidual(v, r.fit.frames, data.camera, data.board, data.setup));
+  for (const calib::HandEyeView& v : views) fitted.push_back(calib::viewResidual(v, r.fit.frames, camera, data.board, data.setup));
   setResiduals(fitted, r.cv.heldout, used, r);
   r.frames_heldout_rms_px = r.heldout_rms_px;
   r.frames_heldout_rms_mm = r.heldout_rms_mm;
@@ -208,8 +240,14 @@ ImageCalibrateResult calibrateImageViews(const sim::ImageViews& data, const std:
   r.warnings = data.warnings;
   std::vector<std::size_t> used;
   const std::vector<calib::HandEyeView> views = handEyeViews(data, detections, r, used);
-  fitAndJudge(data, views, used, r);
-  if (data.arm && level.kind != calib::LevelKind::kFrames && r.cross_validated) robotLevel(data, views, used, level, r);
+  // The lens is checked where the frames level is the last: a robot level's errors would pass for a lens at the frames
+  // level (a rendered arm with joint offsets does: the check took k1, k2 there, and the offsets level through that lens was refused).
+  fitAndJudge(data, views, used, !data.arm || level.kind == calib::LevelKind::kFrames, r);
+  if (data.arm && level.kind != calib::LevelKind::kFrames && r.cross_validated) {
+    sim::ImageViews lensed = data;  // a robot level's corners seen through the lens the frames level took
+    lensed.camera = calib::withLens(data.camera, r.fit.lens_k);
+    robotLevel(lensed, views, used, level, r);
+  }
   r.level_sentence = levelSentence(r);
   if (robot_level && data.arm && !r.cross_validated) {
     r.level_sentence = "level " + calib::levelName(level) + " asked, not fitted: the frames level it is judged against is not cross-validated";

@@ -91,6 +91,12 @@ std::string framesYaml(const sim::ImageViews& data, const ImageCalibrateResult& 
     << "setup: " << sim::handEyeSetupName(data.setup) << "\n"
     << "board_frame: " << (data.board_frame == sim::BoardFrameConvention::kOpenCv ? "opencv" : "legacy") << "\n"
     << frameYaml(hand, r.hand_T_eye, r.hand_sigma) << frameYaml(base, r.base_T_other, r.base_sigma);
+  if (r.lens_taken) {
+    s << "# The frames hold with this radial distortion added to the camera file's k1, k2 (normalised coordinates; the lens check\n"
+      << "# of report.md): project through it, or the frames misplace the outer corners.\n"
+      << "camera_distortion_added:\n  k1_k2: " << list({r.lens_k[0], r.lens_k[1]}, "%.17g") << "\n  sigma_k1_k2: "
+      << list({r.lens_sigma[0], r.lens_sigma[1]}, "%.4g") << "\n";
+  }
   return s.str();
 }
 
@@ -108,6 +114,25 @@ std::string viewsCsv(const ImageCalibrateResult& r) {
         << "," << num(fitted && r.cross_validated, v.heldout.rms_px) << "," << num(fitted && r.cross_validated, v.heldout.rms_m * 1e3) << "\n";
   }
   return csv.str();
+}
+
+/// The lens check's paragraph of report.md ("" when it did not run).
+std::string lensSection(const ImageCalibrateResult& r) {
+  if (!r.lens_checked) return "";
+  std::ostringstream md;
+  md << "## Lens check\n\nThe camera's radial distortion fitted with the frames on the corners, added to the camera file's: k1 = "
+     << formatNumber("%.4f", r.lens_k[0]) << " +- " << formatNumber("%.4f", r.lens_sigma[0]) << ", k2 = " << formatNumber("%.4f", r.lens_k[1])
+     << " +- " << formatNumber("%.4f", r.lens_sigma[1]) << " (normalised coordinates, jackknife 1-sigma), "
+     << formatNumber("%.2f", r.lens_shift_px) << " px at the image corner farthest from the principal point. Cross-validated against the "
+     << "stated lens, the views held out: " << formatNumber("%.3f", r.lens_verdict.gain.after_rms_m * 1e3) << " mm with it, "
+     << formatNumber("%.3f", r.lens_stated_heldout_rms_mm) << " mm (" << formatNumber("%.3f", r.lens_stated_heldout_rms_px)
+     << " px) without; one-sided paired test of their squared mm residuals t = " << formatNumber("%.2f", r.lens_verdict.gain.t)
+     << ", p = " << formatNumber("%.2g", r.lens_verdict.gain.p_value) << " over " << r.lens_verdict.gain.configurations
+     << " configurations. "
+     << (r.lens_taken ? "**Taken**: the camera file misses this distortion; the frames, residuals and figures above are with it, and "
+                        "frames.yaml gives it (`camera_distortion_added`).\n\n"
+                      : "Not taken (" + r.lens_verdict.refusal + "): the stated lens stands.\n\n");
+  return md.str();
 }
 
 std::string imageReport(const sim::ImageViews& data, const ImageCalibrateResult& r, const MeasuredCalibrateOptions& o, bool written) {
@@ -152,10 +177,10 @@ std::string imageReport(const sim::ImageViews& data, const ImageCalibrateResult&
                ? std::string(r.robot ? "The held-out residuals exceed it: the rest is what the level's model lacks, or the "
                                        "camera's intrinsics, which it does not fit.\n\n"
                                      : "The held-out residuals exceed it: the rest is the flange poses' error (a controller reports "
-                                       "its nominal model's poses) or the camera's intrinsics, which the frames level does not fit.\n\n")
+                                       "its nominal model's poses) or the camera's intrinsics beyond the lens check's k1, k2.\n\n")
                : "The held-out residuals are at that noise.\n\n");
   }
-  md << robotLevelSection(data, r) << "## Views\n\n| row | image | corners | lost markers | PnP RMS (px) | fitted (px) | fitted (mm) | held out (px) | held out (mm) |\n"
+  md << lensSection(r) << robotLevelSection(data, r) << "## Views\n\n| row | image | corners | lost markers | PnP RMS (px) | fitted (px) | fitted (mm) | held out (px) | held out (mm) |\n"
         "|---|---|---|---|---|---|---|---|---|\n";
   for (std::size_t k = 0; k < r.views.size(); ++k) {
     const ImageViewOutcome& v = r.views[k];

@@ -54,15 +54,24 @@ HandEyeFrames closedFormHandEye(const std::vector<HandEyeView>& views, sim::Hand
 
 struct HandEyeFit {
   HandEyeFrames frames;
+  /// With the lens fitted: the radial distortion (k1, k2) added to the stated camera's, which the
+  /// corners show beyond it (the stated intrinsics' k1, k2 held otherwise: zero).
+  bool lens_fitted = false;
+  Eigen::Vector2d lens_k = Eigen::Vector2d::Zero();
   double rms_px = 0.0;        ///< over every corner coordinate
   int corners = 0;            ///< detected corners used
   int iterations = 0;
   bool converged = false;
 };
 
-/// The corner-level fit from `start` on the views `which` (all when empty).
+/// The corner-level fit from `start` on the views `which` (all when empty); with fit_lens the camera's
+/// radial distortion k1, k2 too (two more parameters, added to the stated ones: a lens the stated
+/// intrinsics miss moves every view's outer corners alike, which the frames alone absorb wrongly).
 HandEyeFit fitHandEyeCorners(const std::vector<HandEyeView>& views, const sim::Camera& camera, const sim::Board& board,
-                             sim::HandEyeSetup setup, const HandEyeFrames& start, const std::vector<int>& which = {});
+                             sim::HandEyeSetup setup, const HandEyeFrames& start, const std::vector<int>& which = {},
+                             bool fit_lens = false);
+/// `camera` with `lens_k` added to its k1, k2.
+sim::Camera withLens(const sim::Camera& camera, const Eigen::Vector2d& lens_k);
 
 /// A view's residuals under `frames`: the RMS over its corner coordinates of the reprojection residual
 /// (px), and the RMS over its corners of the residual's length carried to the corner's distance,
@@ -93,10 +102,15 @@ struct HandEyeCrossValidation {
   std::vector<ViewResidual> heldout_start;  ///< per view: that fold's closed form
   int configurations = 0;
   std::vector<HandEyeFrames> refits;        ///< one per configuration held out
+  std::vector<Eigen::Vector2d> refit_lens;  ///< their lens (k1, k2 added; zero unless fitted)
   HeldoutVerdict verdict;
 };
+/// `full` with its lens fitted (full.lens_fitted) is judged against the stated lens instead: every fold
+/// fits the frames and k1, k2 from `stated_lens`'s refit of the same configuration, and the reference
+/// (heldout_start) is stated_lens's held-out residual of the view (the corner fit with the stated lens).
 HandEyeCrossValidation crossValidateHandEye(const std::vector<HandEyeView>& views, const sim::Camera& camera, const sim::Board& board,
-                                            sim::HandEyeSetup setup, const HandEyeFit& full);
+                                            sim::HandEyeSetup setup, const HandEyeFit& full,
+                                            const HandEyeCrossValidation* stated_lens = nullptr);
 
 /// The jackknife 1-sigma of a frame a_T_b from its G leave-one-out refits (file comment), per axis of
 /// the parent frame a: [translation (m); rotation (rad), logSO3(R_refit R_full^T)]; zero below 2 refits.

@@ -70,6 +70,18 @@ struct ImageCalibrateResult {
   std::optional<calib::CornerLevelFit> robot;
   Eigen::VectorXd robot_sigma;
   double frames_heldout_rms_px = 0.0, frames_heldout_rms_mm = 0.0;
+  /// The lens check (once the frames level is cross-validated, without joint readings or at --level frames):
+  /// the camera's radial distortion k1, k2
+  /// fitted with the frames on the corners (added to the stated ones), cross-validated against the
+  /// stated lens by the same judge (lens_verdict; the reference is each view's held-out residual with
+  /// the stated lens). Taken when it predicts the views held out significantly better: `fit`, the frames,
+  /// the views' residuals and the figures above (and a robot level's fit) are then with that lens, and
+  /// frames.yaml gives it (`camera_distortion_added`); lens_stated_heldout_rms_* keep the stated lens's.
+  bool lens_checked = false, lens_taken = false;
+  Eigen::Vector2d lens_k = Eigen::Vector2d::Zero(), lens_sigma = Eigen::Vector2d::Zero();  ///< k1, k2 and their jackknife 1-sigma
+  double lens_shift_px = 0.0;            ///< what lens_k moves the image corner farthest from the principal point by
+  calib::HeldoutVerdict lens_verdict;
+  double lens_stated_heldout_rms_px = 0.0, lens_stated_heldout_rms_mm = 0.0;
   std::string level_sentence;            ///< for the terminal and the report: "level offsets (as asked)"
   std::vector<std::string> warnings;     ///< re-orthonormalised poses, ...
   std::vector<std::string> refusals;     ///< empty: accepted
