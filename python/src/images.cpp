@@ -35,6 +35,14 @@ py::dict imageDict(const workflow::ImageCalibrateResult& r, const std::string& r
                           py::arg("t") = t.verdict.gain.t, py::arg("p_value") = t.verdict.gain.p_value,
                           py::arg("accepted") = t.verdict.refusal.empty()));
   }
+  py::object lens = py::none();  // the lens check (ImageCalibrateResult::lens_*), when it ran
+  if (r.lens_checked) {
+    lens = py::dict(py::arg("taken") = r.lens_taken, py::arg("k1_k2_added") = Eigen::VectorXd(r.lens_k),
+                    py::arg("sigma") = Eigen::VectorXd(r.lens_sigma), py::arg("shift_at_image_corner_px") = r.lens_shift_px,
+                    py::arg("stated_heldout_rms_px") = r.lens_stated_heldout_rms_px,
+                    py::arg("stated_heldout_rms_m") = r.lens_stated_heldout_rms_mm * 1e-3, py::arg("t") = r.lens_verdict.gain.t,
+                    py::arg("p_value") = r.lens_verdict.gain.p_value);
+  }
   return py::dict(py::arg("accepted") = r.refusals.empty(), py::arg("refusals") = r.refusals, py::arg("warnings") = r.warnings,
                   py::arg("setup") = sim::handEyeSetupName(r.setup), py::arg("views") = r.views.size(), py::arg("used") = r.used,
                   py::arg("configurations") = r.configurations, py::arg("level") = calib::levelName(r.level),
@@ -44,7 +52,7 @@ py::dict imageDict(const workflow::ImageCalibrateResult& r, const std::string& r
                   py::arg("cross_validated") = r.cross_validated, py::arg("heldout_rms_px") = r.heldout_rms_px,
                   py::arg("heldout_rms_m") = r.heldout_rms_mm * 1e-3, py::arg("frames_heldout_rms_m") = r.frames_heldout_rms_mm * 1e-3,
                   py::arg("fitted_rms_px") = r.fitted_rms_px, py::arg("detection_sigma_px") = r.detection_sigma_px,
-                  py::arg("parameters") = geometryRecords(r), py::arg("report") = report);
+                  py::arg("parameters") = geometryRecords(r), py::arg("lens") = lens, py::arg("report") = report);
 }
 
 }  // namespace

@@ -66,8 +66,12 @@ void bindWorkflow(py::module_& m) {
       "render_dataset",
       [](const std::string& scene, int count, const std::string& out, const std::optional<std::string>& errors, std::uint64_t seed,
          const std::string& robot, const std::optional<std::string>& base_link, const std::optional<std::string>& tip_link,
-         double joint_noise_rad, bool force, const py::object& progress) {
+         double joint_noise_rad, bool force, const std::optional<std::string>& configs, const std::optional<std::string>& profile,
+         const py::object& progress) {
+        if (configs && count != 0) throw sim::InputError("count: not with configs (their rows are the samples; give 0)");
         render::DatasetJob job;
+        job.configs = configs.value_or("");
+        job.profile = profile.value_or("");
         job.robot = robot;
         job.base_link = base_link.value_or("");
         job.tip_link = tip_link.value_or("");
@@ -89,11 +93,14 @@ void bindWorkflow(py::module_& m) {
       },
       py::arg("scene"), py::arg("count"), py::arg("out"), py::kw_only(), py::arg("errors") = py::none(), py::arg("seed") = 1,
       py::arg("robot") = sim::kDefaultRobot, py::arg("base_link") = py::none(), py::arg("tip_link") = py::none(),
-      py::arg("joint_noise_rad") = 0.01 * sim::kDegToRad, py::arg("force") = false, py::arg("progress") = py::none(),
+      py::arg("joint_noise_rad") = 0.01 * sim::kDegToRad, py::arg("force") = false, py::arg("configs") = py::none(),
+      py::arg("profile") = py::none(), py::arg("progress") = py::none(),
       "Renders a calibration dataset into the folder `out` as `orbcal render` does: `count` configurations of `robot` "
       "(default the built-in SSRMS), the true arm (nominal + `errors`: None for none, 'table3', 'random' drawn with `seed`, "
       "or an error-set file) at the noisy plant joints (joint_noise_rad, 1 sigma), and the eye-in-hand camera's images "
-      "of the board of `scene` ('builtin:default_scene.yaml' or a scene file). A rerun with the same inputs resumes. "
+      "of the board of `scene` ('builtin:default_scene.yaml' or a scene file). `configs`: a configurations CSV rendered "
+      "instead of `count` planned ones (count 0): joints, or flange poses (flange_x_m .. flange_qz; the folder's images.yaml "
+      "then calibrates with calibrate_images); `profile`: a camera_profile.yaml applied to every image. A rerun with the same inputs resumes. "
       "progress(done, total) is called as images are written. Returns what was rendered.");
 
   m.def("run_study", &runStudy, py::arg("study_file"), py::arg("out"), py::kw_only(), py::arg("jobs") = py::none(),
