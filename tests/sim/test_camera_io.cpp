@@ -145,7 +145,7 @@ TEST_CASE("ChArUco board keys: read, and bad values named at their key", "[sim][
   withBoard("  type: charuco\n  dictionary: DICT_5X5_100\n");
   CHECK(inputError([&] { loadScene(f); }) == f + ": board.marker_m: missing");
   withBoard("  type: charuko\n");
-  CHECK(inputError([&] { loadScene(f); }) == f + ": board.type: expected chessboard or charuco, got 'charuko'");
+  CHECK(inputError([&] { loadScene(f); }) == f + ": board.type: expected chessboard, charuco or circles, got 'charuko'");
   withBoard("  marker_m: 0.06\n");
   CHECK(inputError([&] { loadScene(f); }) == f + ": board.marker_m: only for a ChArUco board (type: charuco)");
   // 9 x 10 inner corners: 10 x 11 squares, 55 of them white, one marker each: more than DICT_4X4_50 has.
