@@ -62,7 +62,11 @@ CornerDetection detectCircles(const cv::Mat& gray, const sim::Board& board) {
   const cv::Ptr<cv::FeatureDetector> blobs = cv::SimpleBlobDetector::create(params);
   std::vector<cv::Point2f> found;
   const int flags = board.asymmetric ? cv::CALIB_CB_ASYMMETRIC_GRID : cv::CALIB_CB_SYMMETRIC_GRID;
-  const bool ok = cv::findCirclesGrid(gray, cv::Size(board.corners_x, board.corners_y), found, flags, blobs);
+  const cv::Size size(board.corners_x, board.corners_y);
+  // The grid finder fails on a symmetric grid whose rows stand closer to the image's vertical; the clustering one
+  // (more robust to perspective, more sensitive to clutter) then finds it.
+  const bool ok = cv::findCirclesGrid(gray, size, found, flags, blobs) ||
+                  cv::findCirclesGrid(gray, size, found, flags | cv::CALIB_CB_CLUSTERING, blobs);
   if (!ok || static_cast<int>(found.size()) != board.numCorners()) {
     return failure(ImageStatus::kNotFound, "no board found", "no " + pattern + " circle grid found (findCirclesGrid)");
   }

@@ -2,7 +2,8 @@
 // Circle grids (sim::BoardType::kCircles): dark circles on white, found by cv::findCirclesGrid
 // (CALIB_CB_SYMMETRIC_GRID or CALIB_CB_ASYMMETRIC_GRID) with a cv::SimpleBlobDetector set for dark blobs
 // whose area lies between 10 px^2 and the image's area over twice the circle count (a board filling the
-// image). The centres are the blobs' centroids, in OpenCV's order: row by row, as sim::cornerInBoard
+// image); where its grid finder fails (in rendered views: a symmetric grid whose rows stand closer to the
+// image's vertical, about half the views), again with CALIB_CB_CLUSTERING. The centres are the blobs' centroids, in OpenCV's order: row by row, as sim::cornerInBoard
 // numbers them, or that order after a half turn of the board (findCirclesGrid orders by the image: which
 // end it starts from depends on how the board is turned in the image). A mirrored order (the board's
 // rows read right to left, which no rigid pose of the printed face gives) is reversed into a proper one.
