@@ -33,12 +33,14 @@ std::vector<double> subdivide(const std::vector<double>& lines, double step) {
 std::vector<float> boardVertices(const sim::Board& b, const RenderOptions& o, const BoardPrint& print) {
   const double s = b.square_m, m = b.margin_m;
   const std::array<Eigen::Vector3d, 4> outline = sim::boardOutline(b);  // [0] lowest x and y, [2] highest
+  const std::array<Eigen::Vector3d, 4> pattern = sim::squaresOutline(b);  // whole spacings from -s
+  const int nx = static_cast<int>(std::lround((pattern[2].x() - pattern[0].x()) / s)), ny = static_cast<int>(std::lround((pattern[2].y() - pattern[0].y()) / s));
   std::vector<double> xs, ys;
   if (m > 0) xs.push_back(outline[0].x());
-  for (int i = -1; i <= b.corners_x; ++i) xs.push_back(i * s);
+  for (int i = -1; i < nx; ++i) xs.push_back(i * s);
   if (m > 0) xs.push_back(outline[2].x());
   if (m > 0) ys.push_back(outline[0].y());
-  for (int j = -1; j <= b.corners_y; ++j) ys.push_back(j * s);
+  for (int j = -1; j < ny; ++j) ys.push_back(j * s);
   if (m > 0) ys.push_back(outline[2].y());
   const double step = print.identity() ? 0.0 : s / kPrintSubdivisions;
   const std::vector<double> fx = subdivide(xs, step), fy = subdivide(ys, step);
@@ -48,7 +50,7 @@ std::vector<float> boardVertices(const sim::Board& b, const RenderOptions& o, co
       // square (i, j) of the cell's centre; margin outside 0..corners
       const int i = static_cast<int>(std::floor(0.5 * (fx[a] + fx[a + 1]) / s)) + 1;
       const int j = static_cast<int>(std::floor(0.5 * (fy[c] + fy[c + 1]) / s)) + 1;
-      const bool square = i >= 0 && i <= b.corners_x && j >= 0 && j <= b.corners_y;
+      const bool square = b.type != sim::BoardType::kCircles && i >= 0 && i <= b.corners_x && j >= 0 && j <= b.corners_y;  // circles: white
       const double albedo = (square && sim::isBlackSquare(i, j)) ? o.board_black : o.board_white;
       const Eigen::Vector2d q00(fx[a], fy[c]), q10(fx[a + 1], fy[c]), q11(fx[a + 1], fy[c + 1]), q01(fx[a], fy[c + 1]);
       for (const auto* q : {&q00, &q10, &q11, &q00, &q11, &q01}) {

@@ -162,17 +162,16 @@ struct BoardRenderer::Impl {
     }
     checkGl("geometry upload");
     if (!caster_points.empty() && settings.lighting.sun_intensity > 0) buildShadowMap(caster_points);
-    const bool charuco = scene.board.type == sim::BoardType::kCharuco;
-    if (charuco) {
-      if (!settings.options.board_filter) {
-        throw sim::InputError(settings.source + ": render.board_filter: a ChArUco board is drawn by the board filter; "
-                              "it must be on");
-      }
-      uploadMarkers();
+    const bool charuco = scene.board.type == sim::BoardType::kCharuco, circles = scene.board.type == sim::BoardType::kCircles;
+    if ((charuco || circles) && !settings.options.board_filter) {
+      throw sim::InputError(settings.source + std::string(": render.board_filter: a ") + (charuco ? "ChArUco board" : "circle grid") +
+                            " is drawn by the board filter; it must be on");
     }
+    if (charuco) uploadMarkers();
     std::string fragment = kFragmentShader;  // the switches go right after the #version line
     fragment.insert(fragment.find('\n', fragment.find("#version")) + 1, std::string("#define SHADOWS ") + (shadows ? "1" : "0") +
-                                                                          "\n#define CHARUCO " + (charuco ? "1" : "0") + "\n");
+                                                                          "\n#define CHARUCO " + (charuco ? "1" : "0") +
+                                                                          "\n#define CIRCLES " + (circles ? "1" : "0") + "\n");
     program = link(kVertexShader, fragment.c_str());
   }
 
@@ -356,6 +355,9 @@ struct BoardRenderer::Impl {
     const sim::Board& b = scene.board;
     glUniform4f(loc("u_squares"), -1.f, -1.f, float(b.corners_x), float(b.corners_y));
     glUniform1f(loc("u_square"), float(b.square_m));
+    if (b.type == sim::BoardType::kCircles) {
+      glUniform4f(loc("u_circles"), float(b.corners_x), float(b.corners_y), b.asymmetric ? 1.f : 0.f, float(0.5 * b.diameter_m / b.square_m));
+    }
     glUniform1f(loc("u_black"), float(settings.options.board_black));
     glUniform1f(loc("u_white"), float(settings.options.board_white));
     for (std::size_t i = 0; i < drawables.size(); ++i) {

@@ -18,7 +18,7 @@ namespace orbcal::render::renderer_detail {
 inline constexpr int kFloatsPerVertex = 9;  // position (3), normal (3), albedo (1), pattern (2)
 
 // shaders.cpp: GLSL 330 core. The board program (kVertexShader, kFragmentShader: the lighting model of
-// renderer.hpp; the fragment shader wants "#define SHADOWS 0|1" and "#define CHARUCO 0|1" inserted
+// renderer.hpp; the fragment shader wants "#define SHADOWS 0|1" and "#define CHARUCO 0|1" and "#define CIRCLES 0|1" inserted
 // after its #version line) and the shadow-map program (depth only).
 extern const char* const kVertexShader;
 extern const char* const kFragmentShader;

@@ -54,6 +54,9 @@ uniform float u_white;
 #if CHARUCO
 uniform sampler2D u_markers;    // ArUco marker blackness over the squared area (charucoMarkerImage)
 #endif
+#if CIRCLES
+uniform vec4 u_circles;         // circles a row, rows, 1 for the asymmetric layout, radius (all in spacings)
+#endif
 out vec4 o_colour;
 // Antiderivative of the square wave that is +1 on [2k, 2k+1) and -1 on [2k+1, 2k+2).
 float triangleWave(float t) { return 1.0 - abs(mod(t, 2.0) - 1.0); }
@@ -61,8 +64,32 @@ float triangleWave(float t) { return 1.0 - abs(mod(t, 2.0) - 1.0); }
 // the pixel (a point-symmetric kernel, so corners stay exactly in place). Black where
 // (floor(x / s) + floor(y / s)) is even inside the squared area, i.e. 0.5 + 0.5 sx sy, which is separable.
 // This is sim::isBlackSquare (square i = floor(x / s) + 1, j likewise), the contract; tests/render checks it.
+#if CIRCLES
+// A circle grid (sim::cornerInBoard's layout, p in spacings): the blackness of the nearest circle of the
+// nearest three rows, its edge a linear ramp one pixel's footprint wide (symmetric about the circle, so
+// every threshold of it is a circle of the same centre).
+float circleBlackness(vec2 p) {
+  vec2 w = fwidth(p);
+  float fw = max(0.5 * (w.x + w.y), 1e-6);
+  float step = u_circles.z > 0.5 ? 2.0 : 1.0;
+  float row0 = clamp(floor(p.y + 0.5), 0.0, u_circles.y - 1.0);
+  float black = 0.0;
+  for (int dr = -1; dr <= 1; ++dr) {
+    float row = row0 + float(dr);
+    if (row < 0.0 || row > u_circles.y - 1.0) continue;
+    float shift = u_circles.z > 0.5 ? mod(row, 2.0) : 0.0;
+    float col = clamp(floor((p.x - shift) / step + 0.5), 0.0, u_circles.x - 1.0);
+    float d = length(p - vec2(col * step + shift, row));
+    black = max(black, clamp(0.5 - (d - u_circles.w) / fw, 0.0, 1.0));
+  }
+  return black;
+}
+#endif
 float filteredChecker() {
   vec2 p = v_pattern / u_square;
+#if CIRCLES
+  return mix(u_white, u_black, circleBlackness(p));
+#else
   vec2 h = 0.5 * (abs(dFdx(p)) + abs(dFdy(p))) + 1e-6;
   vec2 a = max(p - h, u_squares.xy), b = min(p + h, u_squares.zw);
   vec2 inside = max(b - a, vec2(0.0)) / (2.0 * h);
@@ -73,6 +100,7 @@ float filteredChecker() {
   black = min(1.0, black + texture(u_markers, (p - u_squares.xy) / (u_squares.zw - u_squares.xy)).r);
 #endif
   return mix(u_white, u_black, black);
+#endif
 }
 float sunVisibility() {
 #if !SHADOWS  // a compile-time switch: llvmpipe runs both sides of a branch, so a uniform one would still sample 9 times

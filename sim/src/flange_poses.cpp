@@ -100,7 +100,10 @@ std::string flangePoseImagesDescription(const Scene& scene, const std::string& s
       << kFlangePoseColumns[5] << ", " << kFlangePoseColumns[6] << "], length_unit: m}\nimages: {column: image}\ncamera: "
       << camera_file << "\nboard: {";
   const std::string squares = "squares: [" + std::to_string(b.corners_x + 1) + ", " + std::to_string(b.corners_y + 1) + "]";
-  if (b.type == BoardType::kCharuco) {
+  if (b.type == BoardType::kCircles) {
+    out << "circles: {grid: [" << b.corners_x << ", " << b.corners_y << "], spacing_mm: " << mm(b.square_m)
+        << ", diameter_mm: " << mm(b.diameter_m) << ", asymmetric: " << (b.asymmetric ? "true" : "false") << "}";
+  } else if (b.type == BoardType::kCharuco) {
     out << "charuco: {" << squares << ", square_mm: " << mm(b.square_m) << ", marker_mm: " << mm(b.marker_m)
         << ", dictionary: " << b.dictionary << "}";
   } else {

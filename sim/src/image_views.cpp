@@ -172,11 +172,41 @@ void readMask(const ConfigNode& images, ImageViews& v) {
   }
 }
 
-/// board: {charuco | chessboard: {squares: [X, Y], square_mm, [marker_mm, dictionary]}, frame, margin_mm}.
+/// circles: {grid: [cols, rows], spacing_mm, diameter_mm, asymmetric} (sim::BoardType::kCircles).
+void readCircles(const ConfigNode& b, Board& board) {
+  b.requireOnlyKeys({"grid", "spacing_mm", "diameter_mm", "asymmetric"});
+  board.type = BoardType::kCircles;
+  const Eigen::VectorXd grid = valueOf(b, "grid").asVectorWithin(2, 2, 100, "2 to 100 circles a row and rows");
+  if (grid[0] != std::floor(grid[0]) || grid[1] != std::floor(grid[1])) b["grid"].fail("expected whole numbers");
+  board.corners_x = static_cast<int>(grid[0]);
+  board.corners_y = static_cast<int>(grid[1]);
+  board.asymmetric = b.optional("asymmetric").asBool(false);
+  if (!board.asymmetric && board.corners_x == board.corners_y) {
+    b["grid"].fail("a symmetric grid of as many circles a row as rows looks the same after a quarter turn: give unequal sides");
+  }
+  board.square_m = valueOf(b, "spacing_mm").asDoubleWithin(1, 1000, "1 to 1000 mm") * 1e-3;
+  board.diameter_m = valueOf(b, "diameter_mm").asDoubleWithin(0.5, 1000, "0.5 to 1000 mm") * 1e-3;
+  // Nearest neighbours: s apart (symmetric), s sqrt(2) (asymmetric: 2 s along a row, diagonally to the next row).
+  const double nearest = board.asymmetric ? std::sqrt(2.0) * board.square_m : board.square_m;
+  if (board.diameter_m >= 0.9 * nearest) {
+    b["diameter_mm"].fail("must be below 0.9 of the nearest circles' distance (" + formatNumber("%.4g", nearest * 1e3) +
+                          " mm), so that neighbouring circles stay apart in an image");
+  }
+}
+
+/// board: {charuco | chessboard: {squares: [X, Y], square_mm, [marker_mm, dictionary]} | circles: {...}, frame, margin_mm}.
 void readBoard(const ConfigNode& node, ImageViews& v) {
   node.requireOnlyKeys({"charuco", "chessboard", "circles", "frame", "margin_mm"});
-  if (node.has("circles")) node["circles"].fail("circle grids are not detected by orbcal yet (a chessboard or ChArUco board is)");
-  if (node.has("charuco") == node.has("chessboard")) node.fail("expected one of charuco or chessboard");
+  if (node.has("charuco") + node.has("chessboard") + node.has("circles") != 1) node.fail("expected one of charuco, chessboard or circles");
+  Board& board = v.board;
+  board.margin_m = node.has("margin_mm") ? node["margin_mm"].asDoubleWithin(0, 1000, "0 to 1000 mm") * 1e-3 : 0.0;
+  if (node.has("circles")) {
+    readCircles(node["circles"], board);
+    if (const auto frame = optionalValueOf(node, "frame"); frame && frame->asString() != "opencv") {
+      frame->fail("a circle grid has one board frame (OpenCV's calibration sample's: origin at the first circle's centre): opencv");
+    }
+    return;
+  }
   const bool charuco = node.has("charuco");
   const ConfigNode b = charuco ? node["charuco"] : node["chessboard"];
   if (charuco) {
@@ -184,7 +214,6 @@ void readBoard(const ConfigNode& node, ImageViews& v) {
   } else {
     b.requireOnlyKeys({"squares", "square_mm"});
   }
-  Board& board = v.board;
   board.type = charuco ? BoardType::kCharuco : BoardType::kChessboard;
   const Eigen::VectorXd squares = valueOf(b, "squares").asVectorWithin(2, 3, 100, "3 to 100 squares per side");
   if (squares[0] != std::floor(squares[0]) || squares[1] != std::floor(squares[1])) b["squares"].fail("expected whole numbers");
@@ -198,7 +227,6 @@ void readBoard(const ConfigNode& node, ImageViews& v) {
     ArucoDictionaryInfo info;
     if (!arucoDictionary(board.dictionary, &info)) b["dictionary"].fail("expected one of OpenCV's DICT_NxN_M (N 4..7, M 50, 100, 250, 1000)");
   }
-  board.margin_m = node.has("margin_mm") ? node["margin_mm"].asDoubleWithin(0, 1000, "0 to 1000 mm") * 1e-3 : 0.0;
   if (const auto frame = optionalValueOf(node, "frame")) {
     const std::string f = frame->asString();
     if (f != "opencv" && f != "legacy") frame->fail("expected opencv (OpenCV >= 4.6's board frame) or legacy (<= 4.5's)");
@@ -222,6 +250,7 @@ Eigen::Matrix3d controllerRotation(const Eigen::Matrix3d& R, const std::string& 
 }
 
 Eigen::Isometry3d printedFromBoard(const Board& board, BoardFrameConvention convention) {
+  if (board.type == BoardType::kCircles) return Eigen::Isometry3d::Identity();  // one frame: the first circle's centre
   // orbcal's frame is OpenCV's shifted by (-s, -s, 0): opencv_T_board translates by (s, s, 0).
   Eigen::Isometry3d opencv_T_board = Eigen::Isometry3d::Identity();
   opencv_T_board.translation() << board.square_m, board.square_m, 0.0;

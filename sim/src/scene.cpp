@@ -34,7 +34,31 @@ Eigen::Vector2d project(const Camera& camera, const Eigen::Vector3d& p_cam) {
 }
 
 Eigen::Vector3d cornerInBoard(const Board& board, int k) {
-  return {(k % board.corners_x) * board.square_m, (k / board.corners_x) * board.square_m, 0.0};
+  const int c = k % board.corners_x, r = k / board.corners_x;
+  if (board.type == BoardType::kCircles && board.asymmetric) return {(2 * c + r % 2) * board.square_m, r * board.square_m, 0.0};
+  return {c * board.square_m, r * board.square_m, 0.0};
+}
+
+namespace {
+/// The corners' extent along x and y (m): the largest x and y of cornerInBoard (the smallest are 0).
+Eigen::Vector2d cornerExtent(const Board& board) {
+  const double cols = board.type == BoardType::kCircles && board.asymmetric ? 2 * board.corners_x - (board.corners_y > 1 ? 1 : 2)
+                                                                             : board.corners_x - 1;
+  return {cols * board.square_m, (board.corners_y - 1) * board.square_m};
+}
+}  // namespace
+
+bool halfTurnSymmetric(const Board& board) {
+  if (board.type == BoardType::kCharuco) return false;
+  if (board.type == BoardType::kChessboard) return board.corners_x % 2 == board.corners_y % 2;
+  return !board.asymmetric || board.corners_y % 2 == 0;
+}
+
+Eigen::Isometry3d halfTurn(const Board& board) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::Vector3d(-1.0, -1.0, 1.0).asDiagonal();
+  T.translation().head<2>() = cornerExtent(board);
+  return T;
 }
 
 bool isBlackSquare(int i, int j) { return (i + j) % 2 == 0; }
@@ -75,7 +99,8 @@ std::vector<Eigen::Vector3d> boardCorners(const Board& board) {
 
 std::array<Eigen::Vector3d, 4> squaresOutline(const Board& board) {
   const double s = board.square_m;
-  const double x0 = -s, y0 = -s, x1 = board.corners_x * s, y1 = board.corners_y * s;
+  const Eigen::Vector2d e = cornerExtent(board);
+  const double x0 = -s, y0 = -s, x1 = e.x() + s, y1 = e.y() + s;
   return {Eigen::Vector3d(x0, y0, 0), Eigen::Vector3d(x1, y0, 0), Eigen::Vector3d(x1, y1, 0),
           Eigen::Vector3d(x0, y1, 0)};
 }
@@ -90,7 +115,8 @@ std::array<Eigen::Vector3d, 4> boardOutline(const Board& board) {
 }
 
 Eigen::Vector3d boardCentre(const Board& board) {
-  return {0.5 * (board.corners_x - 1) * board.square_m, 0.5 * (board.corners_y - 1) * board.square_m, 0.0};
+  const Eigen::Vector2d e = cornerExtent(board);
+  return {0.5 * e.x(), 0.5 * e.y(), 0.0};
 }
 
 Visibility boardVisibility(const Scene& scene, const Eigen::Isometry3d& camera_T_board) {

@@ -145,7 +145,7 @@ TEST_CASE("ChArUco board keys: read, and bad values named at their key", "[sim][
   withBoard("  type: charuco\n  dictionary: DICT_5X5_100\n");
   CHECK(inputError([&] { loadScene(f); }) == f + ": board.marker_m: missing");
   withBoard("  type: charuko\n");
-  CHECK(inputError([&] { loadScene(f); }) == f + ": board.type: expected chessboard or charuco, got 'charuko'");
+  CHECK(inputError([&] { loadScene(f); }) == f + ": board.type: expected chessboard, charuco or circles, got 'charuko'");
   withBoard("  marker_m: 0.06\n");
   CHECK(inputError([&] { loadScene(f); }) == f + ": board.marker_m: only for a ChArUco board (type: charuco)");
   // 9 x 10 inner corners: 10 x 11 squares, 55 of them white, one marker each: more than DICT_4X4_50 has.
@@ -154,4 +154,29 @@ TEST_CASE("ChArUco board keys: read, and bad values named at their key", "[sim][
   big.replace(big.find("board:\n"), 7, "board:\n  type: charuco\n  dictionary: DICT_4X4_50\n  marker_m: 0.06\n");
   write(f, big);
   CHECK(inputError([&] { loadScene(f); }) == f + ": board.dictionary: DICT_4X4_50 has 50 markers, the board needs 55");
+}
+
+TEST_CASE("circle-grid board keys of a scene: read, and bad values named at their key", "[sim][io][circles][badinput]") {
+  const std::string dir = orbcal::test::tempDir("scene-circles");
+  const std::string f = dir + "/scene.yaml";
+  std::string good = slurp(orbcal::test::sourcePath("scenes/default_scene.yaml"));
+  const auto from = good.find("board:\n"), to = good.find("\n", good.find("margin_m:", from));
+  REQUIRE(to != std::string::npos);
+  const auto withBoard = [&](const std::string& board) {
+    std::string t = good;
+    write(f, t.replace(from, to - from, "board: " + board));
+  };
+  withBoard("{type: circles, grid: [4, 11], spacing_m: 0.04, diameter_m: 0.03, asymmetric: true}");
+  const Scene s = loadScene(f);
+  CHECK(s.board.type == BoardType::kCircles);
+  CHECK(s.board.asymmetric);
+  CHECK(s.board.numCorners() == 44);
+  CHECK(s.board.margin_m == 0.04);  // one spacing by default
+  CHECK(cornerInBoard(s.board, 43).isApprox(Eigen::Vector3d(0.24, 0.40, 0.0)));  // row 10, column 3: ((2 * 3 + 0) s, 10 s)
+  withBoard("{type: circles, grid: [4, 11], spacing_m: 0.04, diameter_m: 0.06, asymmetric: true}");
+  CHECK(inputError([&] { loadScene(f); }) == f + ": board.diameter_m: must be below 0.9 of the nearest circles' distance");
+  withBoard("{type: circles, grid: [4, 11], square_m: 0.04, diameter_m: 0.03}");
+  CHECK_THAT(inputError([&] { loadScene(f); }), Catch::StartsWith(f + ": board.square_m: not for a circle grid"));
+  withBoard("{type: chessboard, inner_corners_x: 9, inner_corners_y: 6, square_m: 0.08, diameter_m: 0.03}");
+  CHECK(inputError([&] { loadScene(f); }) == f + ": board.diameter_m: only for a circle grid (type: circles)");
 }

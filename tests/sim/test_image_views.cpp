@@ -1,6 +1,8 @@
 // A measurement description of images (sim/image_views.hpp): flange poses from pose files (a 4x4 text
 // matrix in mm, a YAML position + quaternion in m) or joint readings of a robot, the board's frame
-// conventions, and the one-line errors of bad input.
+// conventions, circle grids (their layout and half turn), and the one-line errors of bad input.
+#include <tuple>
+
 #include "orbcal/sim/image_views.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -85,4 +87,65 @@ TEST_CASE("image descriptions: bad input is one line naming the file and the key
   CHECK(sim::describesImages(d));
   write(d, std::string(kHead) + "flange_pose: {file_column: pose, length_unit: m}\ncircles: 1\n");
   CHECK_THROWS_WITH(sim::loadImageViews(d), Catch::Contains("d.yaml") && Catch::Contains("circles"));
+}
+
+TEST_CASE("image descriptions: circle grids, their layout, half turn and one-line errors", "[image-views][circles]") {
+  const std::string dir = test::tempDir("image-views-circles");
+  write(dir + "/views.csv", "image,pose\nimg.png,p.txt\n");
+  write(dir + "/p.txt", "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n");
+  const std::string head =
+      "format: orbcal-measurements-1\nfiles: [views.csv]\nimages: {column: image}\n"
+      "camera: {width_px: 640, height_px: 480, fx_px: 500, fy_px: 500, cx_px: 320, cy_px: 240}\n"
+      "flange_pose: {file_column: pose, length_unit: m}\nsetup: eye_in_hand\n";
+  const std::string d = dir + "/d.yaml";
+  write(d, head + "board: {circles: {grid: [4, 11], spacing_mm: 20, diameter_mm: 15, asymmetric: true}, margin_mm: 10}\n");
+  const sim::ImageViews a = sim::loadImageViews(d);
+  CHECK(a.board.type == sim::BoardType::kCircles);
+  CHECK(a.board.asymmetric);
+  CHECK(a.board.corners_x == 4);
+  CHECK(a.board.corners_y == 11);
+  CHECK(a.board.square_m == Approx(0.020));
+  CHECK(a.board.diameter_m == Approx(0.015));
+  CHECK(a.board.margin_m == Approx(0.010));
+  // OpenCV's sample layout: ((2 j + i % 2) s, i s) for circle i * cols + j.
+  CHECK(sim::cornerInBoard(a.board, 0).isApprox(Eigen::Vector3d(0, 0, 0)));
+  CHECK(sim::cornerInBoard(a.board, 5).isApprox(Eigen::Vector3d(0.060, 0.020, 0)));  // row 1, column 1: x = 3 s
+  CHECK(sim::printedFromBoard(a.board, a.board_frame).isApprox(Eigen::Isometry3d::Identity()));
+  CHECK_FALSE(sim::halfTurnSymmetric(a.board));  // 11 rows: the half turn puts even rows on odd ones' places
+  // The half turn maps corner k onto corner N - 1 - k where the board has the symmetry.
+  for (const auto& [cols, rows, asym] : {std::make_tuple(9, 6, false), std::make_tuple(4, 10, true)}) {
+    sim::Board b;
+    b.type = sim::BoardType::kCircles;
+    b.corners_x = cols, b.corners_y = rows, b.asymmetric = asym, b.square_m = 0.03;
+    REQUIRE(sim::halfTurnSymmetric(b));
+    const Eigen::Isometry3d F = sim::halfTurn(b);
+    for (int k = 0; k < b.numCorners(); ++k) {
+      CHECK((F * sim::cornerInBoard(b, b.numCorners() - 1 - k) - sim::cornerInBoard(b, k)).norm() < 1e-12);
+    }
+    CHECK((F * sim::boardCentre(b) - sim::boardCentre(b)).norm() < 1e-12);
+  }
+  // Bad values and keys: one line naming the file and the key.
+  const std::vector<std::pair<std::string, std::string>> bad{
+      {"{circles: {grid: [4.5, 11], spacing_mm: 20, diameter_mm: 15}}", "grid"},
+      {"{circles: {grid: [5, 5], spacing_mm: 20, diameter_mm: 15}}", "grid"},
+      {"{circles: {grid: [4, 11], spacing_mm: 20, diameter_mm: 19}}", "diameter_mm"},
+      {"{circles: {grid: [4, 11], spacing_mm: 20, diameter_mm: 15, radius_mm: 7}}", "radius_mm"},
+      {"{circles: {grid: [4, 11], diameter_mm: 15}}", "spacing_mm"},
+      {"{circles: {grid: [4, 11], spacing_mm: 20, diameter_mm: 15, asymmetric: maybe}}", "asymmetric"},
+      {"{circles: {grid: [4, 11], spacing_mm: 20, diameter_mm: 15}, frame: legacy}", "frame"},
+      {"{circles: {grid: [4, 11], spacing_mm: 20, diameter_mm: 15}, chessboard: {squares: [10, 7], square_mm: 25}}", "board"},
+  };
+  for (const auto& [board, key] : bad) {
+    CAPTURE(board);
+    write(d, head + "board: " + board + "\n");
+    try {
+      sim::loadImageViews(d);
+      FAIL("accepted");
+    } catch (const sim::InputError& e) {
+      const std::string what = e.what();
+      CHECK(what.find("d.yaml") != std::string::npos);
+      CHECK(what.find(key) != std::string::npos);
+      CHECK(what.find('\n') == std::string::npos);
+    }
+  }
 }

@@ -11,6 +11,7 @@
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/vision/charuco.hpp"
+#include "orbcal/vision/circles.hpp"
 #include "orbcal/vision/measurement.hpp"
 
 namespace orbcal::vision {
@@ -130,7 +131,8 @@ IntrinsicsResult calibrateIntrinsicsFromFiles(const std::vector<std::string>& pa
       if (!d.found()) continue;
       view = {d.corners_px, d.ids};
     } else {
-      const CornerDetection d = detectCorners(gray, board, det);
+      // A circle grid's order may be half-turned: a plane all the same to the intrinsics.
+      const CornerDetection d = board.type == sim::BoardType::kCircles ? detectCircles(gray, board) : detectCorners(gray, board, det);
       im.status = d.status;
       im.reason = d.reason;
       im.detail = d.detail;
@@ -163,11 +165,15 @@ std::string formatIntrinsicsYaml(const IntrinsicsResult& r, const sim::Board& bo
   s << "ok: " << (r.ok ? "true" : "false") << "\n";
   if (!r.ok) s << "reason: " << quoted(r.reason) << "\n";
   s << "board: {";
-  if (board.type == sim::BoardType::kCharuco) {
-    s << "type: charuco, dictionary: " << board.dictionary << ", marker_m: " << n(board.marker_m) << ", ";
+  if (board.type == sim::BoardType::kCircles) {
+    s << "type: circles, grid: [" << board.corners_x << ", " << board.corners_y << "], spacing_m: " << n(board.square_m)
+      << ", diameter_m: " << n(board.diameter_m) << ", asymmetric: " << (board.asymmetric ? "true" : "false") << "}\n";
+  } else {
+    if (board.type == sim::BoardType::kCharuco) {
+      s << "type: charuco, dictionary: " << board.dictionary << ", marker_m: " << n(board.marker_m) << ", ";
+    }
+    s << "inner_corners_x: " << board.corners_x << ", inner_corners_y: " << board.corners_y << ", square_m: " << n(board.square_m) << "}\n";
   }
-  s << "inner_corners_x: " << board.corners_x << ", inner_corners_y: " << board.corners_y
-    << ", square_m: " << n(board.square_m) << "}\n";
   if (r.ok) {
     const sim::Camera& c = r.camera;
     s << "camera:\n  width_px: " << c.width_px << "\n  height_px: " << c.height_px << "\n  fx_px: " << n(c.fx_px)

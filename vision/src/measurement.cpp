@@ -8,6 +8,7 @@
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/vision/charuco.hpp"
+#include "orbcal/vision/circles.hpp"
 
 namespace orbcal::vision {
 
@@ -80,12 +81,13 @@ Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim
     corners_px = det.corners_px;
     ids = det.ids;
   } else {
-    const CornerDetection det = detectCorners(gray, scene.board, settings.detector);
+    const bool circles = scene.board.type == sim::BoardType::kCircles;
+    const CornerDetection det = circles ? detectCircles(gray, scene.board) : detectCorners(gray, scene.board, settings.detector);
     m.status = det.status;
     m.reason = det.reason;
     m.detail = det.detail;
     if (!det.found()) return m;
-    if (!det.orientation_known) {
+    if (!det.orientation_known && !(circles && settings.half_turn_resolved_across_views)) {
       // Possible when the detector settings make the orientation optional (intrinsics do): a pose from
       // a half-turned corner order would be wrong by a half turn about the board normal, not noisy.
       m.status = ImageStatus::kRejected;
@@ -97,8 +99,15 @@ Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim
   }
   m.num_corners = static_cast<int>(corners_px.size());
 
-  const BoardPose pose = ids.empty() ? estimateBoardPose(cam, scene.board, corners_px)
-                                     : estimateBoardPose(cam, scene.board, corners_px, ids);
+  BoardPose pose = ids.empty() ? estimateBoardPose(cam, scene.board, corners_px)
+                               : estimateBoardPose(cam, scene.board, corners_px, ids);
+  if (pose.ok && scene.board.type == sim::BoardType::kCircles && settings.correct_ellipse_bias) {
+    // The centroids are the ellipses' centres: take off the bias the pose predicts and solve again (circles.hpp).
+    for (int k = 0; k < scene.board.numCorners(); ++k) {
+      corners_px[static_cast<std::size_t>(k)] -= ellipseCentreBias(cam, scene.board, pose.camera_T_board, k);
+    }
+    pose = estimateBoardPose(cam, scene.board, corners_px);
+  }
   if (!pose.ok) {
     m.status = ImageStatus::kRejected;
     m.reason = pose.reason;

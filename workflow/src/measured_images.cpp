@@ -161,6 +161,29 @@ void lensCheck(const sim::ImageViews& data, const std::vector<calib::HandEyeView
   r.cv.refit_lens = cv.refit_lens;
 }
 
+/// A half-turn-symmetric board's views in one orientation (calib::resolveHalfTurns); the ambiguous ones left out.
+std::vector<calib::HandEyeView> orientedViews(const sim::ImageViews& data, std::vector<calib::HandEyeView> views, ImageCalibrateResult& r,
+                                              std::vector<std::size_t>& used) {
+  const calib::HalfTurnResolution turns = calib::resolveHalfTurns(views, data.board, data.setup);
+  std::vector<calib::HandEyeView> kept;
+  std::vector<std::size_t> kept_rows;
+  for (std::size_t i = 0; i < views.size(); ++i) {
+    ImageViewOutcome& v = r.views[used[i]];
+    v.half_turned = turns.turned[i];
+    if (turns.ambiguous[i]) {
+      v.used = false;
+      v.reason = "orientation undecidable (the circle grid is the same after a half turn, and neither orientation of this view agrees "
+                 "clearly with the other views' flange motions)";
+      continue;
+    }
+    v.camera_T_board = views[i].camera_T_board;
+    kept.push_back(std::move(views[i]));
+    kept_rows.push_back(used[i]);
+  }
+  used = kept_rows;
+  return kept;
+}
+
 /// The fit, its cross-validation and the frames as written; refusals where the data do not determine them.
 void fitAndJudge(const sim::ImageViews& data, const std::vector<calib::HandEyeView>& views, const std::vector<std::size_t>& used,
                  bool check_lens, ImageCalibrateResult& r) {
@@ -208,6 +231,7 @@ std::string folderOf(const std::string& path) {
 std::vector<vision::ViewMeasurement> detectImageViews(const sim::ImageViews& data) {
   vision::MeasureSettings settings;
   settings.max_rms_px = kMaxViewRmsPx;
+  settings.half_turn_resolved_across_views = true;  // calibrateImageViews resolves it (calib::resolveHalfTurns)
   std::vector<vision::ViewMeasurement> out(data.views.size());
   constexpr std::size_t kParallel = 2;
   for (std::size_t first = 0; first < data.views.size(); first += kParallel) {
@@ -239,7 +263,7 @@ ImageCalibrateResult calibrateImageViews(const sim::ImageViews& data, const std:
   r.setup = data.setup;
   r.warnings = data.warnings;
   std::vector<std::size_t> used;
-  const std::vector<calib::HandEyeView> views = handEyeViews(data, detections, r, used);
+  const std::vector<calib::HandEyeView> views = orientedViews(data, handEyeViews(data, detections, r, used), r, used);
   // The lens is checked where the frames level is the last: a robot level's errors would pass for a lens at the frames
   // level (a rendered arm with joint offsets does: the check took k1, k2 there, and the offsets level through that lens was refused).
   fitAndJudge(data, views, used, !data.arm || level.kind == calib::LevelKind::kFrames, r);

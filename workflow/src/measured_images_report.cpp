@@ -102,7 +102,7 @@ std::string framesYaml(const sim::ImageViews& data, const ImageCalibrateResult& 
 
 std::string viewsCsv(const ImageCalibrateResult& r) {
   std::ostringstream csv;
-  csv << "row,image,used,reason,corners,lost_markers,ignored_px,pnp_rms_px,fitted_rms_px,fitted_rms_mm,heldout_rms_px,heldout_rms_mm\n";
+  csv << "row,image,used,reason,corners,lost_markers,ignored_px,pnp_rms_px,fitted_rms_px,fitted_rms_mm,heldout_rms_px,heldout_rms_mm,half_turned\n";
   const auto num = [](bool used, double v) { return used ? formatNumber("%.4f", v) : std::string(); };
   for (std::size_t k = 0; k < r.views.size(); ++k) {
     const ImageViewOutcome& v = r.views[k];
@@ -111,7 +111,8 @@ std::string viewsCsv(const ImageCalibrateResult& r) {
     for (char& c : reason) c = c == ',' ? ';' : c;
     csv << k << "," << v.image << "," << (v.used ? 1 : 0) << "," << reason << "," << v.corners << "," << joinIds(v.lost_markers) << ","
         << v.ignored_px << "," << num(v.used, v.pnp_rms_px) << "," << num(fitted, v.fitted.rms_px) << "," << num(fitted, v.fitted.rms_m * 1e3)
-        << "," << num(fitted && r.cross_validated, v.heldout.rms_px) << "," << num(fitted && r.cross_validated, v.heldout.rms_m * 1e3) << "\n";
+        << "," << num(fitted && r.cross_validated, v.heldout.rms_px) << "," << num(fitted && r.cross_validated, v.heldout.rms_m * 1e3) << ","
+        << (v.half_turned ? 1 : 0) << "\n";
   }
   return csv.str();
 }

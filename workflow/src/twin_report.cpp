@@ -117,6 +117,10 @@ TwinResult runTwin(const TwinOptions& o) {
     throw sim::InputError(o.description + ": images: missing: orbcal twin compares a description of images (docs/real-images.md)");
   }
   const sim::ImageViews data = sim::loadImageViews(o.description);
+  if (data.board.type == sim::BoardType::kCircles) {
+    throw sim::InputError(o.description + ": board: circles: orbcal twin's statistics are those of chessboard and ChArUco squares "
+                          "(edges, flat squares); a circle grid calibrates (orbcal calibrate) but has no twin");
+  }
   std::optional<render::CameraProfile> profile;
   if (!o.profile.empty()) profile = render::loadCameraProfile(o.profile);
   const std::vector<vision::ViewMeasurement> det = detectImageViews(data);

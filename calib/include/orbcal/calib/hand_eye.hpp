@@ -20,6 +20,7 @@
 // over the configurations (leave one out; Efron and Stein 1981): var = (G - 1) / G * sum (theta_g -
 // mean)^2 of the refits, per axis of the frame's parent (jackknifeSigma).
 #include <Eigen/Geometry>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -89,6 +90,27 @@ ViewResidual viewResidual(const std::vector<Eigen::Vector2d>& corners_px, const 
 /// Configurations of the views: views whose flange poses agree within 1 um and 1 urad are one (a row
 /// repeated in the file), numbered from 0 in the order of their first view.
 std::vector<int> viewConfigurations(const std::vector<HandEyeView>& views);
+
+/// A board that is the same after a half turn (sim::halfTurnSymmetric: circle grids) is detected in an
+/// order that may be turned by half a turn (vision/circles.hpp); the flange motions tell. The relative
+/// motion of two views, A = base_T_flange_i^-1 base_T_flange_j, and the camera's (eye in hand,
+/// P_i P_j^-1, P = camera_T_board) or the board's (eye to hand, P_i^-1 P_j) are conjugate (A Z = Z B),
+/// so they share their rotation angle and their translation along the rotation axis; one view turned
+/// (P_j sim::halfTurn) changes both. halfTurnDisagreements: per pair (i, j) (index i n + j), the
+/// disagreement |angle_A - angle_B| + 1 rad/m | |t_A . axis_A| - |t_B . axis_B| | with neither view turned
+/// [0] or one of them [1]. resolveHalfTurns labels the views so that the sum over all pairs is least
+/// (each view tried as the reference that labels the others), keeps the orientation most views were
+/// detected in, and turns the others: ids k -> numCorners() - 1 - k and camera_T_board * halfTurn. A view
+/// whose median disagreement with the others is not below half the median in its other orientation is
+/// ambiguous (its order cannot be told; the caller leaves it out). Nothing changes for a board without
+/// the symmetry or fewer than 3 views.
+struct HalfTurnResolution {
+  std::vector<bool> turned;     ///< per view: its order was turned
+  std::vector<bool> ambiguous;  ///< per view: neither orientation agrees clearly with the other views
+};
+std::vector<std::array<double, 2>> halfTurnDisagreements(const std::vector<HandEyeView>& views, const sim::Board& board,
+                                                        sim::HandEyeSetup setup);
+HalfTurnResolution resolveHalfTurns(std::vector<HandEyeView>& views, const sim::Board& board, sim::HandEyeSetup setup);
 
 /// Leave-one-configuration-out cross-validation of the corner fit, judged by the one judge of small
 /// sets (calib::crossValidatedVerdict, calib/heldout.hpp, as measured data): every configuration is

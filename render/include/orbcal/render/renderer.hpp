@@ -20,6 +20,9 @@
 //   A ChArUco board (sim::BoardType::kCharuco) adds its ArUco markers (sim::charucoMarkers, the bits of
 //   OpenCV's dictionary) in the white squares: a mipmapped texture of their black cells, 128 texels per
 //   square, added to the board filter's black fraction (render.board_filter must be on).
+//   A circle grid (sim::BoardType::kCircles) is white with its black circles where sim::cornerInBoard puts
+//   their centres, drawn analytically by the board filter (which must be on): each circle's edge a ramp
+//   one pixel's footprint wide, symmetric about it; the white area is sim::squaresOutline plus margin_m.
 //
 // Lighting (GLSL 330 core): L = albedo (ambient + sun max(0, n.l) shadow) + specular sun (n.h)^shininess shadow,
 // n facing the viewer, l toward the sun (given in the base frame), h the half vector; then times the

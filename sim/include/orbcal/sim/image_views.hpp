@@ -22,9 +22,12 @@
 //   board:
 //     charuco: {squares: [7, 5], square_mm: 30, marker_mm: 22, dictionary: DICT_4X4_50}
 //     # chessboard: {squares: [10, 7], square_mm: 25}
+//     # circles: {grid: [4, 11], spacing_mm: 20, diameter_mm: 15, asymmetric: true}   # cv::findCirclesGrid's
+//     #   patternSize (circles a row, rows); spacing s as in sim::cornerInBoard; frame: opencv only
 //     frame: opencv                        # the board frame the results are written in: opencv (OpenCV
 //                                          #   >= 4.6, default) or legacy (<= 4.5: (x, H - y, -z))
-//     margin_mm: 10                        # the sheet's white margin around the squares (optional)
+//     margin_mm: 10                        # the sheet's white margin around the squares or the circles'
+//                                          #   area (sim::squaresOutline; optional)
 //   setup: eye_in_hand                     # or eye_to_hand (a static camera, the board on the flange)
 //
 // `squares: [X, Y]` counts the squares along the board's x and y axes (OpenCV's CharucoBoard((X, Y))).

@@ -35,8 +35,14 @@ Eigen::Vector2d distortNormalized(const std::array<double, 5>& k, const Eigen::V
 
 /// The board's pattern. A ChArUco board (OpenCV's aruco module) has the chessboard's squares and
 /// colouring, plus an ArUco marker centred in every white square (charucoMarkers), so that each inner
-/// corner is known by its identity and a partly visible board still gives a pose.
-enum class BoardType { kChessboard, kCharuco };
+/// corner is known by its identity and a partly visible board still gives a pose. A circle grid
+/// (cv::findCirclesGrid's pattern) has dark circles on white; its "corners" are the circles' centres:
+/// corners_x circles a row, corners_y rows, spacing square_m. Symmetric: circle k = r * corners_x + c at
+/// (c s, r s, 0); asymmetric (CALIB_CB_ASYMMETRIC_GRID): at ((2 c + r % 2) s, r s, 0), as OpenCV's
+/// calibration sample (calcBoardCornerPositions) lays it out, so that neighbours in a row are 2 s apart
+/// and the rows s apart. Origin at the first circle's centre, x along a row, y to the next row, z = x × y
+/// away from the printed face, as for the other boards.
+enum class BoardType { kChessboard, kCharuco, kCircles };
 
 struct Board {
   BoardType type = BoardType::kChessboard;
@@ -45,9 +51,19 @@ struct Board {
   int corners_x = 9;       ///< inner corners along board x (squares along x = corners_x + 1)
   int corners_y = 6;       ///< inner corners along board y
   double square_m = 0.08;  ///< side of one square
-  double margin_m = 0.08;  ///< white border around the squares
+  double margin_m = 0.08;  ///< white border around the squares (a circle grid: around circleArea)
+  double diameter_m = 0.0;  ///< circle grid only: the circles' diameter
+  bool asymmetric = false;  ///< circle grid only: OpenCV's asymmetric layout (BoardType)
   int numCorners() const { return corners_x * corners_y; }
 };
+
+/// True when the board's pattern is the same after a half turn about its normal through its centre, so
+/// that an image cannot tell corner k from corner numCorners() - 1 - k: a symmetric circle grid, and an
+/// asymmetric one of an even number of rows. (Chessboards of same-parity square counts are refused where
+/// they are read.)
+bool halfTurnSymmetric(const Board& board);
+/// board_T_turned of that half turn: corner numCorners() - 1 - k of the turned frame is corner k.
+Eigen::Isometry3d halfTurn(const Board& board);
 
 /// OpenCV's predefined ArUco dictionaries DICT_NxN_M (N = 4..7, M = 50, 100, 250, 1000): the value of
 /// cv::aruco::PREDEFINED_DICTIONARY_NAME for `name`, its marker count M and bits per side N; false for
@@ -81,7 +97,9 @@ Eigen::Vector3d cornerInBoard(const Board& board, int k);
 bool isBlackSquare(int i, int j);
 /// All inner corners, in detection order.
 std::vector<Eigen::Vector3d> boardCorners(const Board& board);
-/// The four outer corners of the squared area, in the board frame (m).
+/// The four outer corners of the squared area, in the board frame (m); of a circle grid, its circles'
+/// area: the centres' bounding box grown by one spacing on every side (the circles' radius is less than
+/// half the nearest spacing, so a white ring surrounds the outer circles).
 std::array<Eigen::Vector3d, 4> squaresOutline(const Board& board);
 /// The four outer corners of the whole board: the squared area grown by margin_m on every side,
 /// in the board frame (m), in the same order as squaresOutline.
@@ -112,7 +130,7 @@ struct Scene {
   ViewConstraints views;
 };
 
-/// Centre of the board's squared area in the board frame (m).
+/// Centre of the board's corners (circle centres) in the board frame (m).
 Eigen::Vector3d boardCentre(const Board& board);
 
 /// Why a camera pose does not see the whole board, or kVisible.

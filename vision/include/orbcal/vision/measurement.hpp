@@ -39,6 +39,13 @@ struct MeasureSettings {
   double max_rms_px = 1.0;
   /// Reject images whose size differs from the scene camera's (another camera, a resized copy).
   bool require_camera_size = true;
+  /// A board that is the same after a half turn (sim::halfTurnSymmetric: circle grids) is measured in
+  /// the detector's order, its orientation left to the caller, who resolves it across views with the
+  /// flange poses (calib::resolveHalfTurns). Off: such a view is kRejected ("orientation undecidable").
+  bool half_turn_resolved_across_views = false;
+  /// Circle grids: subtract the ellipse-centre bias the view's pose predicts (circles.hpp); off only to
+  /// measure what it changes.
+  bool correct_ellipse_bias = true;
 };
 
 struct Measurement {
@@ -70,7 +77,10 @@ struct Measurement {
 /// solve and convert one grey image (CV_8UC1; throws std::invalid_argument otherwise).
 /// `nominal`/`q` give the pose error; pass q empty to skip it. index/image are left for the caller.
 /// A detection whose orientation is not known is never kFound (kRejected, "orientation undecidable"),
-/// whatever settings.detector.require_orientation says: a half-turned pose would be silently wrong.
+/// whatever settings.detector.require_orientation says: a half-turned pose would be silently wrong
+/// (unless settings.half_turn_resolved_across_views). A circle grid's centres are measured free of the
+/// ellipse-centre bias (vision/circles.hpp): the bias the first pose predicts is subtracted and the pose
+/// solved again.
 Measurement measureImage(const cv::Mat& gray, const sim::Scene& scene, const sim::Arm& nominal, const Eigen::VectorXd& q,
                          const MeasureSettings& settings = {});
 

@@ -33,6 +33,7 @@ struct ImageViewOutcome {
   Eigen::Isometry3d camera_T_board = Eigen::Isometry3d::Identity();  ///< the view's own PnP (used views), orbcal's board frame
   Eigen::Isometry3d base_T_flange = Eigen::Isometry3d::Identity();   ///< as read (m)
   std::vector<int> lost_markers;   ///< markers the pose puts in view that were not decoded
+  bool half_turned = false;        ///< a half-turn-symmetric board's order turned to agree with the others (calib::resolveHalfTurns)
   calib::ViewResidual fitted, heldout;  ///< under the full fit, and under the fit without its configuration
 };
 
