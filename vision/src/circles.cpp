@@ -13,14 +13,6 @@ namespace {
 constexpr double kMinBlobAreaPx = 10.0;  ///< a circle smaller than ~3.6 px across is not measured to a tenth of a pixel
 constexpr double kMinGreySpread = 16.0;  ///< as DetectorSettings::min_grey_spread: a blank image
 
-CornerDetection failure(ImageStatus status, std::string reason, std::string detail) {
-  CornerDetection d;
-  d.status = status;
-  d.reason = std::move(reason);
-  d.detail = std::move(detail);
-  return d;
-}
-
 /// z of (first row's direction) x (first column's direction) in the image: positive when the board's
 /// x and y keep the image's orientation (its printed face seen), negative for a mirrored order.
 double handedness(const std::vector<Eigen::Vector2d>& px, const sim::Board& board) {
@@ -51,7 +43,7 @@ CornerDetection detectCircles(const cv::Mat& gray, const sim::Board& board) {
                               (board.asymmetric ? " asymmetric" : " symmetric");
   double lo = 0.0, hi = 0.0;
   cv::minMaxLoc(gray, &lo, &hi);
-  if (hi - lo < kMinGreySpread) return failure(ImageStatus::kNotFound, "blank image", "grey levels span less than 16");
+  if (hi - lo < kMinGreySpread) return CornerDetection::failed(ImageStatus::kNotFound, "blank image", "grey levels span less than 16");
 
   cv::SimpleBlobDetector::Params params;
   params.filterByColor = true;
@@ -68,14 +60,14 @@ CornerDetection detectCircles(const cv::Mat& gray, const sim::Board& board) {
   const bool ok = cv::findCirclesGrid(gray, size, found, flags, blobs) ||
                   cv::findCirclesGrid(gray, size, found, flags | cv::CALIB_CB_CLUSTERING, blobs);
   if (!ok || static_cast<int>(found.size()) != board.numCorners()) {
-    return failure(ImageStatus::kNotFound, "no board found", "no " + pattern + " circle grid found (findCirclesGrid)");
+    return CornerDetection::failed(ImageStatus::kNotFound, "no board found", "no " + pattern + " circle grid found (findCirclesGrid)");
   }
   CornerDetection d;
   for (const cv::Point2f& p : found) d.corners_px.emplace_back(p.x, p.y);
   if (handedness(d.corners_px, board) < 0.0) {
     d.corners_px = mirrored(d.corners_px, board);
     if (handedness(d.corners_px, board) < 0.0) {
-      return failure(ImageStatus::kRejected, "mirrored order", "findCirclesGrid's order of the " + pattern + " grid is mirrored");
+      return CornerDetection::failed(ImageStatus::kRejected, "mirrored order", "findCirclesGrid's order of the " + pattern + " grid is mirrored");
     }
   }
   d.orientation_known = !sim::halfTurnSymmetric(board);

@@ -99,14 +99,6 @@ std::optional<double> endContrast(const cv::Mat& gray, const sim::Board& board,
 
 std::vector<Eigen::Vector2d> reversedOrder(const std::vector<Eigen::Vector2d>& v) { return {v.rbegin(), v.rend()}; }
 
-CornerDetection fail(ImageStatus status, std::string reason, std::string detail) {
-  CornerDetection d;
-  d.status = status;
-  d.reason = std::move(reason);
-  d.detail = std::move(detail);
-  return d;
-}
-
 }  // namespace
 
 const char* toString(Detector d) { return d == Detector::kClassic ? "classic" : "sb"; }
@@ -155,6 +147,14 @@ OrientationEvidence orientationEvidence(const cv::Mat& gray, const sim::Board& b
   return ev;
 }
 
+CornerDetection CornerDetection::failed(ImageStatus status, std::string reason, std::string detail) {
+  CornerDetection d;
+  d.status = status;
+  d.reason = std::move(reason);
+  d.detail = std::move(detail);
+  return d;
+}
+
 std::string subpixWindowText(const DetectorSettings& s) {
   const std::string opencv = "OpenCV's calibration tutorial: 11 px";
   if (s.fixed_subpix_half_window_px > 0) {
@@ -185,7 +185,7 @@ CornerDetection detectCorners(const cv::Mat& gray, const sim::Board& board, cons
   double lo = 0.0, hi = 0.0;
   cv::minMaxLoc(gray, &lo, &hi);
   if (hi - lo < settings.min_grey_spread) {
-    return fail(ImageStatus::kNotFound, "blank image",
+    return CornerDetection::failed(ImageStatus::kNotFound, "blank image",
                 "grey levels span " + fmt(lo, 0) + ".." + fmt(hi, 0) + " (< " + fmt(settings.min_grey_spread, 0) + ")");
   }
 
@@ -199,7 +199,7 @@ CornerDetection detectCorners(const cv::Mat& gray, const sim::Board& board, cons
     ok = cv::findChessboardCornersSB(gray, size, found, cv::CALIB_CB_NORMALIZE_IMAGE);
   }
   if (!ok || static_cast<int>(found.size()) != board.numCorners()) {
-    return fail(ImageStatus::kNotFound, "no board found",
+    return CornerDetection::failed(ImageStatus::kNotFound, "no board found",
                 std::string("no ") + pattern + " inner-corner chessboard found (" + toString(settings.detector) + ")");
   }
 
@@ -235,7 +235,7 @@ CornerDetection detectCorners(const cv::Mat& gray, const sim::Board& board, cons
 
   if (isHalfTurnSymmetric(board)) {
     if (settings.require_orientation) {
-      return fail(ImageStatus::kRejected, "orientation undecidable",
+      return CornerDetection::failed(ImageStatus::kRejected, "orientation undecidable",
                   "a " + pattern + " board looks the same after a half turn (use an even-by-odd square count)");
     }
     d.status = ImageStatus::kFound;
@@ -246,7 +246,7 @@ CornerDetection detectCorners(const cv::Mat& gray, const sim::Board& board, cons
   if (!ev.consistent) {
     const std::string why = "end-square contrast " + fmt(*ev.end_contrast[0]) + " at corner 0 but " +
                             fmt(*ev.end_contrast[1]) + " at the last corner (grey levels; the signs must agree)";
-    if (settings.require_orientation) return fail(ImageStatus::kRejected, "orientation evidence inconsistent", why);
+    if (settings.require_orientation) return CornerDetection::failed(ImageStatus::kRejected, "orientation evidence inconsistent", why);
     d.status = ImageStatus::kFound;
     d.detail = "orientation unknown: " + why;
     return d;
@@ -256,7 +256,7 @@ CornerDetection detectCorners(const cv::Mat& gray, const sim::Board& board, cons
     const std::string why = ev.ends_sampled == 0 ? "the squares next to both end corners are not wholly in the image"
                                                  : "end-square contrast " + fmt(std::abs(ev.signed_contrast)) +
                                                        " grey levels < " + fmt(settings.min_orientation_contrast);
-    if (settings.require_orientation) return fail(ImageStatus::kRejected, "orientation undecidable", why);
+    if (settings.require_orientation) return CornerDetection::failed(ImageStatus::kRejected, "orientation undecidable", why);
     d.status = ImageStatus::kFound;
     d.detail = "orientation unknown: " + why;
     return d;

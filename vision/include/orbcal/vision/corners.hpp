@@ -91,6 +91,8 @@ struct CornerDetection {
                                       ///< orientation is undecidable or inconsistent
   double orientation_contrast = 0.0;  ///< grey levels, white minus black squares, after any reversal
   bool found() const { return status == ImageStatus::kFound; }
+  /// A detection that failed with `status` (not kFound), its reason and detail: every detector's one way to say so.
+  static CornerDetection failed(ImageStatus status, std::string reason, std::string detail);
 };
 
 /// Detects the board's inner corners. Throws std::invalid_argument unless gray is a non-empty
