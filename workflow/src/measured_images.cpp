@@ -135,8 +135,7 @@ std::vector<calib::HandEyeView> handEyeViews(const sim::ImageViews& data, const 
 /// The lens check (ImageCalibrateResult::lens_*): k1, k2 fitted with the frames from the stated lens's
 /// fit, judged against it by cross-validation, taken into r.fit and r.cv (held-out residuals and refits;
 /// the closed form's stay) when it predicts the views held out significantly better.
-void lensCheck(const sim::ImageViews& data, const std::vector<calib::HandEyeView>& views, const std::vector<std::size_t>& used,
-               ImageCalibrateResult& r) {
+void lensCheck(const sim::ImageViews& data, const std::vector<calib::HandEyeView>& views, ImageCalibrateResult& r) {
   const calib::HandEyeFit lens = calib::fitHandEyeCorners(views, data.camera, data.board, data.setup, r.fit.frames, {}, true);
   if (!lens.converged) return;
   const calib::HandEyeCrossValidation cv = calib::crossValidateHandEye(views, data.camera, data.board, data.setup, lens, &r.cv);
@@ -147,10 +146,8 @@ void lensCheck(const sim::ImageViews& data, const std::vector<calib::HandEyeView
   r.lens_sigma = calib::jackknifeSigma(refits);
   r.lens_shift_px = render::lensShiftAtImageCorner(data.camera, {lens.lens_k[0], lens.lens_k[1]});
   r.lens_verdict = cv.verdict;
-  std::vector<calib::ViewResidual> stated;
-  for (std::size_t i = 0; i < used.size(); ++i) stated.push_back(r.cv.heldout[i]);
-  std::vector<double> px, mm;
-  for (const calib::ViewResidual& v : stated) px.push_back(v.rms_px), mm.push_back(v.rms_m * 1e3);
+  std::vector<double> px, mm;  // the stated lens's held-out residuals, before r.cv takes the lens's
+  for (const calib::ViewResidual& v : r.cv.heldout) px.push_back(v.rms_px), mm.push_back(v.rms_m * 1e3);
   r.lens_stated_heldout_rms_px = rms(px);
   r.lens_stated_heldout_rms_mm = rms(mm);
   r.lens_taken = cv.verdict.refusal.empty();
@@ -211,7 +208,7 @@ void fitAndJudge(const sim::ImageViews& data, const std::vector<calib::HandEyeVi
   const calib::HeldoutVerdict& verdict = r.cv.verdict;
   if (!verdict.refusal.empty() && (!verdict.gain.enough || verdict.worse)) r.refusals.push_back(verdict.refusal);
   r.cross_validated = !r.cv.refits.empty();
-  if (r.cross_validated && check_lens) lensCheck(data, views, used, r);
+  if (r.cross_validated && check_lens) lensCheck(data, views, r);
   const sim::Camera camera = calib::withLens(data.camera, r.fit.lens_k);
   std::vector<calib::ViewResidual> fitted;
   for (const calib::HandEyeView& v : views) fitted.push_back(calib::viewResidual(v, r.fit.frames, camera, data.board, data.setup));
