@@ -19,6 +19,8 @@ namespace {
 /// tr(N^-1 C_cd) = sum_k tr(V_c W V_d H_k) with H_k = W A_k N^-1 A_k^T W (3 or 6 square): no p x p
 /// matrix per pair. The samples go in chunks, stacked (one product per chunk, not one per sample), the
 /// two halves of the samples side by side, summed in a fixed order (the same sums on any machine).
+/// A^T W A itself is sum_c theta_c B_c (W R W = W), and B_1, B_2 are sums over the position and the
+/// rotation rows alone: two products of the stacked rows per pass where there were four.
 Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std::vector<std::array<Eigen::MatrixXd, 3>>& V,
                                 const Eigen::Vector3d& theta, const Eigen::VectorXd& prior) {
   const Eigen::Index p = prior.size();
@@ -26,40 +28,46 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
   const auto W = [&](std::size_t k) {
     return Eigen::LDLT<Eigen::MatrixXd>(theta[0] * V[k][0] + theta[1] * V[k][1] + theta[2] * V[k][2]);
   };
-  // The samples [k0, k1) stacked: A_k and W A_k.
-  const auto stack = [&](std::size_t k0, std::size_t k1, Eigen::MatrixXd& As, Eigen::MatrixXd& WA) {
+  // The samples [k0, k1) stacked: W A_k.
+  const auto stack = [&](std::size_t k0, std::size_t k1, Eigen::MatrixXd& WA) {
     Eigen::Index rows = 0;
     for (std::size_t k = k0; k < k1; ++k) rows += A[k].rows();
-    As.resize(rows, p);
     WA.resize(rows, p);
     for (std::size_t k = k0, row = 0; k < k1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
-      As.middleRows(static_cast<Eigen::Index>(row), A[k].rows()) = A[k];
       WA.middleRows(static_cast<Eigen::Index>(row), A[k].rows()) = W(k).solve(A[k]);
     }
   };
   struct Sums {
-    Eigen::MatrixXd N;  ///< lower triangles
-    std::array<Eigen::MatrixXd, 3> B;
+    std::array<Eigen::MatrixXd, 3> B;  ///< lower triangles
     Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
   };
-  // First pass over [k0, k1): A^T W A, B_c and sum_k tr(W V_c W V_d).
+  // First pass over [k0, k1): B_c and sum_k tr(W V_c W V_d). V_1 and V_2 select a sample's position and
+  // rotation rows, so B_1 and B_2 are the products of those rows of W A alone; A^T W A = sum_c theta_c B_c
+  // (W R W = W), no product of its own.
   const auto first = [&](std::size_t k0, std::size_t k1) {
     Sums s;
-    s.N = Eigen::MatrixXd::Zero(p, p);
     for (auto& b : s.B) b = Eigen::MatrixXd::Zero(p, p);
-    Eigen::MatrixXd As, WA, VWA;
+    Eigen::MatrixXd WA, part, VWA;
     for (std::size_t c0 = k0; c0 < k1; c0 += kChunk) {
       const std::size_t c1 = std::min(k1, c0 + kChunk);
-      stack(c0, c1, As, WA);
-      s.N.triangularView<Eigen::Lower>() += As.transpose() * WA;
-      VWA.resize(WA.rows(), p);
-      for (std::size_t c = 0; c < 3; ++c) {
-        for (std::size_t k = c0, row = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
-          const auto rows = Eigen::seqN(static_cast<Eigen::Index>(row), A[k].rows());
-          VWA(rows, Eigen::all).noalias() = V[k][c] * WA(rows, Eigen::all);
+      stack(c0, c1, WA);
+      for (std::size_t c = 0; c < 2; ++c) {  // the position rows, then the rotation rows
+        Eigen::Index rows = 0;
+        for (std::size_t k = c0; k < c1; ++k) rows += c == 0 || A[k].rows() == 6 ? 3 : 0;
+        part.resize(rows, p);
+        for (std::size_t k = c0, row = 0, out = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
+          if (c == 1 && A[k].rows() != 6) continue;
+          part.middleRows(static_cast<Eigen::Index>(out), 3) = WA.middleRows(static_cast<Eigen::Index>(row + 3 * c), 3);
+          out += 3;
         }
-        s.B[c].triangularView<Eigen::Lower>() += WA.transpose() * VWA;
+        s.B[c].selfadjointView<Eigen::Lower>().rankUpdate(part.transpose());
       }
+      VWA.resize(WA.rows(), p);
+      for (std::size_t k = c0, row = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
+        const auto rows = Eigen::seqN(static_cast<Eigen::Index>(row), A[k].rows());
+        VWA(rows, Eigen::all).noalias() = V[k][2] * WA(rows, Eigen::all);
+      }
+      s.B[2].triangularView<Eigen::Lower>() += WA.transpose() * VWA;
       for (std::size_t k = c0; k < c1; ++k) {
         const Eigen::LDLT<Eigen::MatrixXd> Wk = W(k);
         std::array<Eigen::MatrixXd, 3> WV;
@@ -75,21 +83,20 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
   auto upper = std::async(std::launch::async, first, half, A.size());
   Sums s = first(0, half);
   const Sums s2 = upper.get();
-  s.N += s2.N;
-  s.N.diagonal() += prior;
-  s.N = s.N.selfadjointView<Eigen::Lower>();
   for (std::size_t c = 0; c < 3; ++c) s.B[c] = (s.B[c] + s2.B[c]).selfadjointView<Eigen::Lower>();
+  Eigen::MatrixXd N = theta[0] * s.B[0] + theta[1] * s.B[1] + theta[2] * s.B[2];
+  N.diagonal() += prior;
   Eigen::Matrix3d F = s.F + s2.F;
   // Second pass: H_k = Y_k^T D^-1 Y_k with N = P^T L D L^T P and Y = L^-1 P A^T W.
-  const Eigen::LDLT<Eigen::MatrixXd> Ninv(s.N);
+  const Eigen::LDLT<Eigen::MatrixXd> Ninv(N);
   Eigen::VectorXd Dinv = Ninv.vectorD();
   for (Eigen::Index i = 0; i < p; ++i) Dinv[i] = std::abs(Dinv[i]) > std::numeric_limits<double>::min() ? 1.0 / Dinv[i] : 0.0;
   const auto second = [&](std::size_t k0, std::size_t k1) {
     Eigen::Matrix3d G = Eigen::Matrix3d::Zero();
-    Eigen::MatrixXd As, WA, Y;
+    Eigen::MatrixXd WA, Y;
     for (std::size_t c0 = k0; c0 < k1; c0 += kChunk) {
       const std::size_t c1 = std::min(k1, c0 + kChunk);
-      stack(c0, c1, As, WA);
+      stack(c0, c1, WA);
       Y = Ninv.transpositionsP() * WA.transpose();
       Ninv.matrixL().solveInPlace(Y);
       for (std::size_t k = c0, row = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
