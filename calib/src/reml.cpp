@@ -60,7 +60,7 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
           part.middleRows(static_cast<Eigen::Index>(out), 3) = WA.middleRows(static_cast<Eigen::Index>(row + 3 * c), 3);
           out += 3;
         }
-        s.B[c].selfadjointView<Eigen::Lower>().rankUpdate(part.transpose());
+        if (rows > 0) s.B[c].selfadjointView<Eigen::Lower>().rankUpdate(part.transpose());  // none: position-only samples
       }
       VWA.resize(WA.rows(), p);
       for (std::size_t k = c0, row = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
