@@ -55,6 +55,9 @@ Fit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerObservati
                 const FitOptions& options, int max_degree, int& degree) {
   FitOptions f = options;
   f.analyze = false;  // the noise components alone are wanted
+  // Its many smooth terms leave nearly flat directions: a wide prior (ten typical sizes) gives the fit one
+  // minimum, so the noise estimated from its residuals does not depend on where LM stops (FitOptions::effect_prior).
+  f.effect_prior = true;
   int rows = 0;
   for (const MarkerObservation& o : obs) rows += o.has_rotation ? 6 : 3;
   struct Level {

@@ -529,6 +529,7 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
     for (std::size_t c = 0; c < free.size(); ++c) e.y[free[c]] = s.x[static_cast<Eigen::Index>(c)];
     e.iterations = s.iterations;
     e.converged = s.converged;
+    e.effective_parameters = s.effective;
     return finishLm(m, o, t0, std::move(e));
   }
   for (int k = 0; k < m.numSamples() && !free.empty();) {

@@ -8,6 +8,7 @@
 #include <limits>
 #include <map>
 
+#include "reml.hpp"
 #include "stacked_system.hpp"
 #include "orbcal/calib/observability.hpp"
 #include "orbcal/calib/registration.hpp"
@@ -146,207 +147,6 @@ std::vector<Eigen::Isometry3d> framesFor(sim::FrameSharing sharing, int sessions
   return std::vector<Eigen::Isometry3d>(sharing == sim::FrameSharing::kPerSession ? static_cast<std::size_t>(sessions) : 1, T);
 }
 
-/// tr(P V_c P V_d) of REML's information (Koch 1999, ch. 3.6), P = W - W A N^-1 A^T W, with W = R^-1
-/// block diagonal per sample, A the free columns of the Jacobian and N = A^T W A + S (S the prior):
-/// sum_k tr(W V_c W V_d) - 2 tr(N^-1 C_cd) + tr(N^-1 B_c N^-1 B_d), B_c = sum_k A_k^T W V_c W A_k,
-/// C_cd = sum_k A_k^T W V_c W V_d W A_k: what the fitted parameters take of each component is not
-/// counted as its noise (joint noise above all: the joint corrections' columns lie along J_q).
-/// tr(N^-1 C_cd) = sum_k tr(V_c W V_d H_k) with H_k = W A_k N^-1 A_k^T W (3 or 6 square): no p x p
-/// matrix per pair. The samples go in chunks, stacked (one product per chunk, not one per sample), the
-/// two halves of the samples side by side, summed in a fixed order (the same sums on any machine).
-Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std::vector<std::array<Eigen::MatrixXd, 3>>& V,
-                                const Eigen::Vector3d& theta, const Eigen::VectorXd& prior) {
-  const Eigen::Index p = prior.size();
-  constexpr std::size_t kChunk = 128;
-  const auto W = [&](std::size_t k) {
-    return Eigen::LDLT<Eigen::MatrixXd>(theta[0] * V[k][0] + theta[1] * V[k][1] + theta[2] * V[k][2]);
-  };
-  // The samples [k0, k1) stacked: A_k and W A_k.
-  const auto stack = [&](std::size_t k0, std::size_t k1, Eigen::MatrixXd& As, Eigen::MatrixXd& WA) {
-    Eigen::Index rows = 0;
-    for (std::size_t k = k0; k < k1; ++k) rows += A[k].rows();
-    As.resize(rows, p);
-    WA.resize(rows, p);
-    for (std::size_t k = k0, row = 0; k < k1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
-      As.middleRows(static_cast<Eigen::Index>(row), A[k].rows()) = A[k];
-      WA.middleRows(static_cast<Eigen::Index>(row), A[k].rows()) = W(k).solve(A[k]);
-    }
-  };
-  struct Sums {
-    Eigen::MatrixXd N;  ///< lower triangles
-    std::array<Eigen::MatrixXd, 3> B;
-    Eigen::Matrix3d F = Eigen::Matrix3d::Zero();
-  };
-  // First pass over [k0, k1): A^T W A, B_c and sum_k tr(W V_c W V_d).
-  const auto first = [&](std::size_t k0, std::size_t k1) {
-    Sums s;
-    s.N = Eigen::MatrixXd::Zero(p, p);
-    for (auto& b : s.B) b = Eigen::MatrixXd::Zero(p, p);
-    Eigen::MatrixXd As, WA, VWA;
-    for (std::size_t c0 = k0; c0 < k1; c0 += kChunk) {
-      const std::size_t c1 = std::min(k1, c0 + kChunk);
-      stack(c0, c1, As, WA);
-      s.N.triangularView<Eigen::Lower>() += As.transpose() * WA;
-      VWA.resize(WA.rows(), p);
-      for (std::size_t c = 0; c < 3; ++c) {
-        for (std::size_t k = c0, row = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
-          const auto rows = Eigen::seqN(static_cast<Eigen::Index>(row), A[k].rows());
-          VWA(rows, Eigen::all).noalias() = V[k][c] * WA(rows, Eigen::all);
-        }
-        s.B[c].triangularView<Eigen::Lower>() += WA.transpose() * VWA;
-      }
-      for (std::size_t k = c0; k < c1; ++k) {
-        const Eigen::LDLT<Eigen::MatrixXd> Wk = W(k);
-        std::array<Eigen::MatrixXd, 3> WV;
-        for (std::size_t c = 0; c < 3; ++c) WV[c] = Wk.solve(V[k][c]);
-        for (int c = 0; c < 3; ++c) {
-          for (int d = c; d < 3; ++d) s.F(c, d) += (WV[static_cast<std::size_t>(c)] * WV[static_cast<std::size_t>(d)]).trace();
-        }
-      }
-    }
-    return s;
-  };
-  const std::size_t half = A.size() / 2;
-  auto upper = std::async(std::launch::async, first, half, A.size());
-  Sums s = first(0, half);
-  const Sums s2 = upper.get();
-  s.N += s2.N;
-  s.N.diagonal() += prior;
-  s.N = s.N.selfadjointView<Eigen::Lower>();
-  for (std::size_t c = 0; c < 3; ++c) s.B[c] = (s.B[c] + s2.B[c]).selfadjointView<Eigen::Lower>();
-  Eigen::Matrix3d F = s.F + s2.F;
-  // Second pass: H_k = Y_k^T D^-1 Y_k with N = P^T L D L^T P and Y = L^-1 P A^T W.
-  const Eigen::LDLT<Eigen::MatrixXd> Ninv(s.N);
-  Eigen::VectorXd Dinv = Ninv.vectorD();
-  for (Eigen::Index i = 0; i < p; ++i) Dinv[i] = std::abs(Dinv[i]) > std::numeric_limits<double>::min() ? 1.0 / Dinv[i] : 0.0;
-  const auto second = [&](std::size_t k0, std::size_t k1) {
-    Eigen::Matrix3d G = Eigen::Matrix3d::Zero();
-    Eigen::MatrixXd As, WA, Y;
-    for (std::size_t c0 = k0; c0 < k1; c0 += kChunk) {
-      const std::size_t c1 = std::min(k1, c0 + kChunk);
-      stack(c0, c1, As, WA);
-      Y = Ninv.transpositionsP() * WA.transpose();
-      Ninv.matrixL().solveInPlace(Y);
-      for (std::size_t k = c0, row = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
-        const auto Yk = Y.middleCols(static_cast<Eigen::Index>(row), A[k].rows());
-        const Eigen::MatrixXd H = Yk.transpose() * (Dinv.asDiagonal() * Yk);
-        const Eigen::LDLT<Eigen::MatrixXd> Wk = W(k);
-        for (int c = 0; c < 3; ++c) {
-          const Eigen::MatrixXd VcW = Wk.solve(V[k][static_cast<std::size_t>(c)]).transpose();  // V_c W (both symmetric)
-          for (int d = c; d < 3; ++d) G(c, d) -= 2.0 * (VcW * V[k][static_cast<std::size_t>(d)] * H).trace();
-        }
-      }
-    }
-    return G;
-  };
-  auto upper2 = std::async(std::launch::async, second, half, A.size());
-  F += second(0, half);
-  F += upper2.get();
-  std::array<Eigen::MatrixXd, 3> NB;
-  for (int c = 0; c < 3; ++c) NB[static_cast<std::size_t>(c)] = Ninv.solve(s.B[static_cast<std::size_t>(c)]);
-  for (int c = 0; c < 3; ++c) {
-    for (int d = c; d < 3; ++d) {
-      F(c, d) += (NB[static_cast<std::size_t>(c)] * NB[static_cast<std::size_t>(d)]).trace();
-      F(d, c) = F(c, d);
-    }
-  }
-  return F;
-}
-
-/// Variance components of the residuals r_k of `m` at y (REML Fisher scoring; Koch, Parameter
-/// Estimation and Hypothesis Testing in Linear Models, 1999, ch. 3.6): R_k = sum_c theta_c V_kc with
-/// V_k1 = the position rows, V_k2 = the rotation rows, V_k3 = Jq_k Jq_k^T (joint noise through the
-/// residual's joint Jacobian). The components `free` are estimated, the others kept at `noise`'s
-/// values; each step solves sum tr(P V_c P V_d) theta_d = sum_k r^T W V_c W r (remlInformation; the
-/// parameters not in `held` are the fitted ones, `prior` their prior's information), until the free
-/// variances change by less than 1e-6 of themselves. Variances are kept >= 0 (sigmas of position and
-/// rotation >= 1e-9).
-MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::VectorXd& y, const MarkerNoise& noise,
-                                    const std::array<bool, 3>& free, const std::vector<int>& held, const Eigen::VectorXd& prior_sigma,
-                                    NoiseComponents* components) {
-  const int n = m.numSamples();
-  std::vector<int> cols;
-  for (int i = 0; i < m.numParams(); ++i) {
-    if (!std::binary_search(held.begin(), held.end(), i)) cols.push_back(i);
-  }
-  Eigen::VectorXd prior = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(cols.size()));
-  for (std::size_t c = 0; c < cols.size(); ++c) {
-    const double s = prior_sigma.size() > cols[c] ? prior_sigma[cols[c]] : 0.0;
-    prior[static_cast<Eigen::Index>(c)] = s > 0.0 ? 1.0 / (s * s) : 0.0;
-  }
-  // Per sample: the residual, the free Jacobian columns and V_k1..3 (fixed over the iterations).
-  std::vector<Eigen::VectorXd> r(static_cast<std::size_t>(n));
-  std::vector<Eigen::MatrixXd> A(static_cast<std::size_t>(n));
-  std::vector<std::array<Eigen::MatrixXd, 3>> V(static_cast<std::size_t>(n));
-  for (int k = 0; k < n; ++k) {
-    const auto i = static_cast<std::size_t>(k);
-    const Eigen::MatrixXd Jq = m.jointJacobian(k, y, &r[i]);
-    const Eigen::MatrixXd H = m.linearize(k, y).H;
-    A[i].resize(H.rows(), static_cast<Eigen::Index>(cols.size()));
-    for (std::size_t c = 0; c < cols.size(); ++c) A[i].col(static_cast<Eigen::Index>(c)) = H.col(cols[c]);
-    const Eigen::Index rows = r[i].size();
-    V[i][0] = Eigen::MatrixXd::Zero(rows, rows);
-    V[i][0].topLeftCorner(3, 3).setIdentity();
-    V[i][1] = Eigen::MatrixXd::Zero(rows, rows);
-    if (rows == 6) V[i][1].bottomRightCorner(3, 3).setIdentity();
-    V[i][2] = Jq * Jq.transpose();
-  }
-  Eigen::Vector3d theta(noise.sigma_position_m * noise.sigma_position_m, noise.sigma_rotation_rad * noise.sigma_rotation_rad,
-                        noise.joint_noise_sigma_rad * noise.joint_noise_sigma_rad);
-  std::vector<int> f;
-  for (int c = 0; c < 3; ++c) {
-    if (free[static_cast<std::size_t>(c)]) f.push_back(c);
-  }
-  const auto nf = static_cast<Eigen::Index>(f.size());
-  Eigen::MatrixXd F_last;
-  for (int iteration = 0; iteration < 50 && nf > 0; ++iteration) {
-    const Eigen::Matrix3d I = remlInformation(A, V, theta, prior);
-    Eigen::MatrixXd F(nf, nf);
-    Eigen::VectorXd u = Eigen::VectorXd::Zero(nf);
-    for (int k = 0; k < n; ++k) {
-      const std::array<Eigen::MatrixXd, 3>& Vk = V[static_cast<std::size_t>(k)];
-      const Eigen::LDLT<Eigen::MatrixXd> W(theta[0] * Vk[0] + theta[1] * Vk[1] + theta[2] * Vk[2]);
-      const Eigen::VectorXd Wr = W.solve(r[static_cast<std::size_t>(k)]);
-      for (Eigen::Index a = 0; a < nf; ++a) u[a] += Wr.dot(Vk[static_cast<std::size_t>(f[static_cast<std::size_t>(a)])] * Wr);
-    }
-    for (Eigen::Index a = 0; a < nf; ++a) {
-      const int ca = f[static_cast<std::size_t>(a)];
-      for (int c = 0; c < 3; ++c) {  // the fixed components' share moved to the right-hand side
-        if (!free[static_cast<std::size_t>(c)]) u[a] -= theta[c] * I(ca, c);
-      }
-      for (Eigen::Index b = 0; b < nf; ++b) F(a, b) = I(ca, f[static_cast<std::size_t>(b)]);
-    }
-    F_last = F;
-    const Eigen::VectorXd next = F.completeOrthogonalDecomposition().solve(u);
-    double change = 0.0;
-    for (Eigen::Index a = 0; a < nf; ++a) {
-      const int c = f[static_cast<std::size_t>(a)];
-      const double floor = c == 2 ? 0.0 : 1e-18;
-      const double v = std::max(floor, next[a]);
-      change = std::max(change, std::abs(v - theta[c]) / std::max(v, 1e-300));
-      theta[c] = v;
-    }
-    if (change < 1e-6) break;
-  }
-  if (components && nf > 0) {
-    // The variances' covariance: 2 F^-1 (the information of a Gaussian's covariance parameters is
-    // tr(P V_c P V_d) / 2).
-    const Eigen::MatrixXd C = 2.0 * F_last.completeOrthogonalDecomposition().pseudoInverse();
-    *components = NoiseComponents{};
-    for (Eigen::Index a = 0; a < nf; ++a) {
-      const auto ca = static_cast<std::size_t>(f[static_cast<std::size_t>(a)]);
-      components->estimated[ca] = true;
-      for (Eigen::Index b = 0; b < nf; ++b) components->covariance(static_cast<Eigen::Index>(ca), f[static_cast<std::size_t>(b)]) = C(a, b);
-    }
-    components->variance = theta;
-  }
-  MarkerNoise out = noise;
-  if (free[0]) out.sigma_position_m = std::max(1e-9, std::sqrt(theta[0]));
-  if (free[1]) out.sigma_rotation_rad = std::max(1e-9, std::sqrt(theta[1]));
-  if (free[2]) out.joint_noise_sigma_rad = std::sqrt(theta[2]);
-  return out;
-}
-
 }  // namespace
 
 double NoiseComponents::sigmaSd(int c) const {
@@ -424,10 +224,8 @@ FitControls fitControls(const FitOptions& o, const sim::ParamLayout& layout, con
   controls.fix_unidentifiable = o.fix_unidentifiable;
   controls.covariance = o.analyze;
   controls.normal_equations = o.normal_equations;
-  if (o.geometry_prior || o.map) {
-    controls.prior_sigma = geometryPriorSigma(layout);
-    controls.prior_mean = -p0;  // centred on the starting model: p = p0 + y = 0
-  }
+  controls.prior_sigma = fitPriorSigma(o, layout);
+  if (controls.prior_sigma.size()) controls.prior_mean = -p0;  // centred on the starting model: p = p0 + y = 0
   if (o.map) {
     controls.scaled_prior = Eigen::VectorXd::Zero(layout.size());
     const int g = layout.find(sim::BlockKind::kGeometry);
@@ -446,6 +244,35 @@ Eigen::VectorXd geometryPriorSigma(const sim::ParamLayout& layout) {
   }
   return sigma;
 }
+
+namespace {
+/// FitOptions::effect_prior's 1-sigma in typical magnitudes: wide, so that a real effect of a few typical
+/// sizes (a stiffening compliance an empirical cubic of torque takes) is not shrunk into the noise.
+constexpr double kEffectPriorScale = 10.0;
+}  // namespace
+
+Eigen::VectorXd fitPriorSigma(const FitOptions& o, const sim::ParamLayout& layout) {
+  if (!o.geometry_prior && !o.map && !o.effect_prior) return {};
+  Eigen::VectorXd sigma = o.geometry_prior || o.map ? geometryPriorSigma(layout) : Eigen::VectorXd::Zero(layout.size());
+  if (!o.effect_prior) return sigma;
+  const Eigen::VectorXd typical = layout.typical();
+  const Eigen::VectorXd guarded = geometryPriorSigma(layout);  // the blocks that are not effects
+  for (int i = 0; i < layout.size(); ++i) {
+    if (guarded[i] == 0.0) sigma[i] = kEffectPriorScale * typical[i];
+  }
+  return sigma;
+}
+
+namespace {
+
+/// The free parameters an estimate effectively uses (its hat matrix's trace) under `options`' prior:
+/// from the LM's own normal equations where it has them, else shrinkage()'s.
+double effectiveParameters(const MeasurementModel& m, const Estimate& e, const FitOptions& o, const sim::ParamLayout& layout) {
+  if (e.effective_parameters > 0.0) return e.effective_parameters;
+  return shrinkage(m, e.y, e.held, fitPriorSigma(o, layout)).effective;
+}
+
+}  // namespace
 
 Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObservation>& obs, const FitOptions& o,
                    const Eigen::VectorXd& p0_in) {
@@ -469,14 +296,18 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
                                                  m.numSamples(), sim::kRankTolerance);
       fit.identifiability.num_rows = rows;
     }
-    // Without analyses the last round starts where the round before ended (not the 2nd: docs/benchmarks.md).
+    // Without analyses a round starts where the round before ended when that round converged (where
+    // it did not, its end point depends on where LM stopped: docs/benchmarks.md), the last round always.
+    const bool warm = !o.analyze && round > 0 && (round + 1 == rounds || fit.estimate.converged);
     FitControls controls = fitControls(o, start.layout, fit.p0);
-    if (!o.analyze && round > 0 && round + 1 == rounds) controls.start = fit.estimate.y;
+    if (warm) controls.start = fit.estimate.y;
     fit.estimate = runMethod(findMethod(comparisonMethods(o.joint_noise_sigma_rad), o.method, "method"), m, controls);
     fit.p = fit.p0 + fit.estimate.y;
     fit.chi2 = 2.0 * fit.estimate.cost;
     const int free = m.numParams() - static_cast<int>(fit.estimate.held.size());
-    fit.effective_parameters = o.map ? fit.estimate.effective_parameters : free;
+    fit.effective_parameters = o.map ? fit.estimate.effective_parameters
+                               : o.effect_prior ? effectiveParameters(m, fit.estimate, o, start.layout)
+                                                : free;
     fit.prior_scale = fit.estimate.prior_scale;
     fit.dof = std::max(1, rows - static_cast<int>(std::lround(fit.effective_parameters)));
     if (round + 1 == rounds) {
@@ -487,7 +318,7 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     if (o.estimate_joint_noise) {
       const bool rotations = std::any_of(obs.begin(), obs.end(), [](const MarkerObservation& x) { return x.has_rotation; });
       fit.noise = estimateNoiseComponents(m, fit.estimate.y, fit.noise, {!o.sigma_position_m, !o.sigma_rotation_rad && rotations, true},
-                                          fit.estimate.held, o.geometry_prior ? geometryPriorSigma(start.layout) : Eigen::VectorXd(),
+                                          fit.estimate.held, o.geometry_prior || o.effect_prior ? fitPriorSigma(o, start.layout) : Eigen::VectorXd(),
                                           &fit.noise_components);
       continue;
     }

@@ -114,6 +114,15 @@ class Accumulator {
   mutable std::array<Buffers, 2> buffers_;  ///< per half of the samples (each evaluated on its own thread)
 };
 
+/// tr((N)^-1 (N - S)) = nf - sum_i S_i (N^-1)_ii, N the lower triangle of the normal matrix with the prior.
+double hatTrace(const Eigen::MatrixXd& N_lower, const Eigen::VectorXd& prior_information) {
+  const Eigen::Index nf = N_lower.rows();
+  if (prior_information.size() == 0 || nf == 0) return static_cast<double>(nf);
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(Eigen::MatrixXd(N_lower.selfadjointView<Eigen::Lower>()));
+  const Eigen::MatrixXd inverse = ldlt.solve(Eigen::MatrixXd::Identity(nf, nf));
+  return static_cast<double>(nf) - prior_information.dot(inverse.diagonal());
+}
+
 }  // namespace
 
 StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::MatrixXd>& W, const std::vector<int>& free,
@@ -132,6 +141,7 @@ StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::
   const auto gradientSmall = [&] { return nf == 0 || now.g.lpNorm<Eigen::Infinity>() <= kGradientTolerance; };
   if (gradientSmall()) {
     r.converged = true;
+    r.effective = hatTrace(now.JtJ, opt.prior_information);
     return r;
   }
   const auto shrink = [&] {
@@ -182,6 +192,7 @@ StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::
       break;
     }
   }
+  if (now.finite && now.JtJ.size()) r.effective = hatTrace(now.JtJ, opt.prior_information);
   return r;
 }
 

@@ -21,6 +21,9 @@ struct StreamedLmResult {
   Eigen::VectorXd x;  ///< the free parameters
   int iterations = 0;
   bool converged = false;
+  /// The parameters the estimate effectively uses: tr((J^T J + S)^-1 J^T J) at x, S the prior's
+  /// information (the free count without a prior).
+  double effective = 0.0;
 };
 
 /// min 1/2 sum_k |W_k nu_k(y)|^2 + 1/2 |prior rows|^2 over the free parameters x (y = x on `free`, 0

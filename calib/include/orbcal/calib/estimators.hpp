@@ -27,7 +27,8 @@ struct Estimate {
   double cost = 0.0;           ///< 0.5 sum nu^T R^-1 nu at the estimate (all methods, for comparison)
   /// With a prior whose strength was estimated (FitControls::scaled_prior): its scale tau (the prior
   /// sigma over the given typical sizes) and the estimate's effective number of parameters
-  /// (shrinkage()); 0 otherwise.
+  /// (shrinkage()); LM on the normal equations (LmOptions::normal_equations) sets the effective number
+  /// from its own final normal matrix whatever the prior; 0 otherwise.
   double prior_scale = 0.0;
   double effective_parameters = 0.0;
 };

@@ -71,6 +71,15 @@ struct FitOptions {
   /// of the cost (on the real iiwa7 runs: hundreds of iterations toward a 0.2 m link error), stay at
   /// physical sizes and the fit converges.
   bool geometry_prior = true;
+  /// Every other parameter (the effects') gets a Gaussian prior too, centred on the start, 1-sigma ten
+  /// times its typical magnitude (wide: a real effect of a few typical sizes is not shrunk into the
+  /// noise): what diagnose's flexible fits use (calib/src/diagnose_noise.cpp). Their dozens of
+  /// smooth terms leave directions the data hardly determine, along which LM without a prior creeps
+  /// (100 iterations and more, each round stopping elsewhere); the prior gives the cost one minimum that
+  /// LM reaches, leaves what the data determine unchanged, and the noise estimate counts it: the REML's
+  /// projection includes the prior's information, and Fit::effective_parameters (so Fit::dof) is the hat
+  /// matrix's trace, not the free count.
+  bool effect_prior = false;
   /// The maximum a-posteriori level (calib/levels.hpp `map`): the geometry's prior is ridge regression
   /// toward the nominal arm, 1-sigma tau times the typical magnitudes (sim::ParamInfo::typical), with
   /// tau estimated from the data by the evidence (FitControls::scaled_prior); the frames keep the
@@ -116,8 +125,8 @@ struct Fit {
   /// joint whose torque never leaves the sensor's noise).
   std::vector<int> weak;
   double chi2 = 0.0;          ///< sum of whitened squared residuals at the fit
-  int dof = 0;                ///< rows - free parameters (FitOptions::map: rows - effective_parameters, rounded)
-  /// The free parameters, or with FitOptions::map the effective number of them (Estimate::
+  int dof = 0;                ///< rows - free parameters (FitOptions::map, effect_prior: rows - effective_parameters, rounded)
+  /// The free parameters, or with FitOptions::map or effect_prior the effective number of them (Estimate::
   /// effective_parameters: the hat matrix's trace), and the map prior's scale tau (0 without map).
   double effective_parameters = 0.0;
   double prior_scale = 0.0;
@@ -126,6 +135,9 @@ struct Fit {
 /// geometry and frame blocks, 0 (no prior) on the effects'. The prior is centred on the starting model
 /// (p = 0).
 Eigen::VectorXd geometryPriorSigma(const sim::ParamLayout& layout);
+/// The prior 1-sigma per parameter `options` ask for on `layout` (geometry_prior's, and with
+/// effect_prior every other parameter's typical magnitude); 0: no prior. Empty when there is none.
+Eigen::VectorXd fitPriorSigma(const FitOptions& options, const sim::ParamLayout& layout);
 /// The estimator's controls of `options` on a model of `layout` whose starting parameters are p0: the
 /// hold, the geometry prior (centred on p = 0) and map's scaled prior; any measurement model (marker
 /// poses, corners) is fitted with them.
