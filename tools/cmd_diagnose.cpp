@@ -39,6 +39,12 @@ void addDiagnoseCommand(CLI::App& app) {
                   "highest order searched: cyclic harmonics, the degree of empirical corrections")
       ->capture_default_str()
       ->check(CLI::Range(1, 8));
+  cmd->add_option("--noise-observations", o->diagnose.noise_observations,
+                  "where the noise is estimated (not stated): on a seeded random subset of this many observations "
+                  "(0: all; never fewer than its flexible model needs); its relative standard error is about "
+                  "sqrt(2 / rows)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100000000));
   cmd->add_flag("--no-empirical", [o](std::int64_t) { o->diagnose.empirical = false; },
                 "name physical causes only: no empirical correction where none fits");
   cmd->add_option_function<double>(

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <random>
+#include <set>
 
 #include "diagnose_candidates.hpp"
 #include "orbcal/calib/heldout.hpp"
@@ -49,10 +52,16 @@ std::vector<sim::Effect> flexibleTerms(const sim::MeasuredData& data, const std:
   return out;
 }
 
+std::set<int> sessionsOf(const std::vector<MarkerObservation>& obs) {
+  std::set<int> s;
+  for (const MarkerObservation& o : obs) s.insert(o.sample.session);
+  return s;
+}
+
 }  // namespace
 
-Fit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const std::vector<sim::Effect>& effects,
-                const FitOptions& options, int max_degree, int& degree) {
+FlexibleFit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const std::vector<sim::Effect>& effects,
+                        const FitOptions& options, int max_degree, int max_obs, std::uint64_t seed) {
   FitOptions f = options;
   f.analyze = false;  // the noise components alone are wanted
   // Its many smooth terms leave nearly flat directions: a wide prior (ten typical sizes) gives the fit one
@@ -65,16 +74,33 @@ Fit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerObservati
     bool couplings;
   };
   const int top = std::max(1, max_degree);
+  FlexibleFit out;
   for (const Level& l : {Level{top, std::min(3, top), true}, Level{std::min(4, top), std::min(3, top), true},
                          Level{std::min(2, top), std::min(2, top), true}, Level{std::min(2, top), std::min(2, top), false},
                          Level{1, 1, false}}) {
-    const sim::KinematicModel start = startingModel(data, obs, flexibleTerms(data, obs, effects, l.harmonics, l.degree, l.couplings));
-    if (4 * start.layout.size() > rows) continue;
-    degree = l.harmonics;
-    return fitMarkerModel(start, obs, f);
+    const std::vector<sim::Effect> terms = flexibleTerms(data, obs, effects, l.harmonics, l.degree, l.couplings);
+    const int params = startingModel(data, obs, terms).layout.size();
+    if (4 * params > rows) continue;
+    // The observations this level needs (a quarter of their rows for its parameters), rounded up.
+    const std::size_t needed = static_cast<std::size_t>((4.0 * params * obs.size() + rows - 1) / rows) + 1;
+    const std::size_t keep = std::max(needed, static_cast<std::size_t>(std::max(0, max_obs)));
+    if (max_obs > 0 && keep < obs.size()) {
+      std::mt19937_64 rng(seed);
+      out.obs.reserve(keep);
+      std::sample(obs.begin(), obs.end(), std::back_inserter(out.obs), keep, rng);  // in their order
+      out.subset = static_cast<int>(keep);
+    }
+    if (out.subset == 0 || sessionsOf(out.obs) != sessionsOf(obs)) {  // a session's frames need its samples
+      out.obs = obs;
+      out.subset = 0;
+    }
+    out.degree = l.harmonics;
+    out.fit = fitMarkerModel(startingModel(data, out.obs, terms), out.obs, f);
+    return out;
   }
-  degree = 0;
-  return fitMarkerModel(startingModel(data, obs, effects), obs, f);
+  out.obs = obs;
+  out.fit = fitMarkerModel(startingModel(data, obs, effects), obs, f);
+  return out;
 }
 
 bool leavesStructure(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const Fit& fit, double alpha) {
@@ -225,8 +251,11 @@ FitOptions whiteningFitOptions(const sim::MeasuredData& data, const std::vector<
     n.whitening.joint_noise_sigma_rad = stated.joint_noise_sigma_rad;
     return f;
   }
-  const Fit flexible = flexibleFit(data, obs, {}, stated, o.max_order, n.flexible_degree);
-  n.flexible_structured = n.joint_estimated && leavesStructure(data, obs, flexible, o.alpha);
+  const FlexibleFit ff = flexibleFit(data, obs, {}, stated, o.max_order, o.noise_observations, o.seed);
+  const Fit& flexible = ff.fit;
+  n.flexible_degree = ff.degree;
+  n.noise_observations = ff.subset;
+  n.flexible_structured = n.joint_estimated && leavesStructure(data, ff.obs, flexible, o.alpha);
   n.whitening = flexible.noise;
   n.components = n.survived = flexible.noise_components;
   n.joint_estimate_rad = flexible.noise.joint_noise_sigma_rad;
@@ -268,9 +297,9 @@ void judgeAgainstFloor(const sim::MeasuredData& data, const std::vector<MarkerOb
                        const FitOptions& stated_options, int replicated, int folds, Diagnosis& out) {
   // The joint noise that survives the selected model with empirical corrections beside it.
   if (out.noise.joint_estimated && !out.selected.empty()) {
-    int degree = 0;
-    const Fit f = flexibleFit(data, obs, out.selected, stated_options, o.max_order, degree);
-    out.noise.flexible_structured = leavesStructure(data, obs, f, o.alpha);
+    const FlexibleFit ff = flexibleFit(data, obs, out.selected, stated_options, o.max_order, o.noise_observations, o.seed);
+    const Fit& f = ff.fit;
+    out.noise.flexible_structured = leavesStructure(data, ff.obs, f, o.alpha);
     out.noise.survived = f.noise_components;
     out.noise.joint_estimate_rad = f.noise.joint_noise_sigma_rad;
     testEstimate(out.noise, out.fit, obs, out.residual_selected, folds, o.alpha);

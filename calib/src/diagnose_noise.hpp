@@ -13,9 +13,18 @@ namespace orbcal::calib {
 /// say: per moving joint its harmonics (cyclic, up to `max_degree`) and smooth functions of its own angle
 /// and torque (empirical, degree up to 3), and every joint's reading off by a multiple of every other's
 /// (coupling); the most flexible of a few levels whose free parameters stay within a quarter of the
-/// rows. `degree` gets its harmonics (0: none fits, the fit of `effects` alone).
-Fit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const std::vector<sim::Effect>& effects,
-                const FitOptions& options, int max_degree, int& degree);
+/// rows of `obs`.
+struct FlexibleFit {
+  Fit fit;
+  int degree = 0;                       ///< its harmonics (0: none fits, the fit of `effects` alone)
+  std::vector<MarkerObservation> obs;   ///< what it was fitted on
+  int subset = 0;                       ///< obs.size() where a seeded random subset of the input, else 0
+};
+/// Fitted on a seeded random `max_obs` of `obs` where there are more (0: all of them), but never on fewer
+/// than the most flexible level that all of `obs` allow needs: a subset estimates the noise less
+/// precisely, never with less structure taken.
+FlexibleFit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const std::vector<sim::Effect>& effects,
+                        const FitOptions& options, int max_degree, int max_obs, std::uint64_t seed);
 
 /// The fit's own residuals still structured against a variable of the extended family (lack_of_fit.hpp),
 /// whitened with its noise: what it estimated as noise may hold structure it could not take.

@@ -86,7 +86,7 @@ void bindDiagnose(py::module_& m) {
   m.def(
       "diagnose",
       [](const sim::MeasuredData& data, int folds, std::uint64_t seed, double alpha, double penalty, int max_effects,
-         int max_order, bool empirical, std::optional<double> joint_noise_rad) {
+         int max_order, bool empirical, std::optional<double> joint_noise_rad, int noise_observations) {
         calib::DiagnoseOptions o;
         o.folds = folds;
         o.seed = seed;
@@ -96,6 +96,8 @@ void bindDiagnose(py::module_& m) {
         o.max_order = max_order;
         o.empirical = empirical;
         o.joint_noise_sigma_rad = joint_noise_rad;
+        if (noise_observations < 0) throw py::value_error("diagnose: noise_observations must be >= 0 (0: all)");
+        o.noise_observations = noise_observations;
         PyDiagnosis p;
         {
           py::gil_scoped_release release;
@@ -109,10 +111,12 @@ void bindDiagnose(py::module_& m) {
       },
       py::arg("data"), py::kw_only(), py::arg("folds") = 5, py::arg("seed") = 1, py::arg("alpha") = 0.01, py::arg("penalty") = 2.0,
       py::arg("max_effects") = 4, py::arg("max_order") = 6, py::arg("empirical") = true, py::arg("joint_noise_rad") = py::none(),
+      py::arg("noise_observations") = calib::DiagnoseOptions{}.noise_observations,
       "Diagnoses measured data as `orbcal diagnose` does: folds-fold cross-validation by configuration (seeded), each "
       "catalog cause tested (Holm at family-wise error alpha) and added while its held-out gain exceeds `penalty` per "
       "parameter, at most max_effects; empirical corrections where no cause fits. Torques come from the data, else the "
-      "robot's masses. joint_noise_rad: joint readings vs true angles (1 sigma; default estimated). Returns a Diagnosis.");
+      "robot's masses. joint_noise_rad: joint readings vs true angles (1 sigma; default estimated). noise_observations: "
+      "the noise is estimated on a seeded random subset of at most this many observations (0: all). Returns a Diagnosis.");
 }
 
 }  // namespace orbcal::python

@@ -38,3 +38,17 @@ def test_diagnose_of_clean_data_is_clean(tracker):
     d = orbcal.diagnose(data, seed=1)
     assert d.verdict == "clean", d.sentence
     assert d.selected == [] and d.confounded == []
+
+
+def test_diagnose_estimates_the_noise_on_a_subset_as_asked(tracker):
+    # The tracker fixture does not state the joint readings' noise, so it is estimated: on every
+    # observation by default (fewer than 20,000 here); asked for 60, on a seeded random subset of them,
+    # enlarged to what the flexible model needs, which diagnosis.json's noise_floor says.
+    data, _ = tracker
+    whole = orbcal.diagnose(data, seed=1)
+    part = orbcal.diagnose(data, seed=1, noise_observations=60)
+    assert whole.as_dict()["noise_floor"]["noise_observations"] == 0
+    assert 60 < part.as_dict()["noise_floor"]["noise_observations"] < len(data)
+    assert part.verdict == whole.verdict == "clean", part.sentence
+    with pytest.raises(ValueError, match="noise_observations"):
+        orbcal.diagnose(data, noise_observations=-1)

@@ -124,7 +124,7 @@ std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& dist
     << ", \"floor_with_estimate_mm\": " << fl(nf.floor_with_estimate_rms_m * 1e3, "floor_with_estimate_mm")
     << ", \"joint_needed_rad\": " << fl(nf.joint_needed_rad, "joint_needed_rad")
     << ", \"depends_on_noise\": " << (nf.verdict_depends_on_noise ? "true" : "false")
-    << ", \"duplicates_dropped\": " << nf.duplicates_dropped << "}";
+    << ", \"duplicates_dropped\": " << nf.duplicates_dropped << ", \"noise_observations\": " << nf.noise_observations << "}";
   const calib::LackOfFit& l = d.lack_of_fit;
   j << ",\n \"unexplained\": [";
   for (std::size_t i = 0; i < l.unexplained.size(); ++i) {

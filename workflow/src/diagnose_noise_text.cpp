@@ -70,6 +70,13 @@ calib::MarkerNoise noiseWithEffects(const sim::MeasuredData& data, const std::ve
   return calib::fitMarkerModel(calib::startingModel(data, obs, effects), obs, fo).noise;
 }
 
+/// Where the noise was estimated on a subset: which one, of how many.
+std::string sampleWords(const calib::NoiseFloors& nf, const std::vector<calib::MarkerObservation>& obs) {
+  if (nf.noise_observations == 0) return "";
+  return "; on a seeded random " + std::to_string(nf.noise_observations) + " of the " +
+         std::to_string(obs.size() - static_cast<std::size_t>(nf.duplicates_dropped)) + " observations";
+}
+
 }  // namespace
 
 std::string noiseSentence(const calib::Diagnosis& dg, const calib::DiagnoseOptions& o, const sim::MeasuredData& data,
@@ -79,8 +86,8 @@ std::string noiseSentence(const calib::Diagnosis& dg, const calib::DiagnoseOptio
   const std::string estimated =
       nf.flexible_degree > 0
           ? " (estimated as variance components beside geometry + registration + empirical corrections of every joint, degree " +
-                std::to_string(nf.flexible_degree) + ", so that smooth structure is not counted as noise)"
-          : " (estimated from the residuals of geometry + registration)";
+                std::to_string(nf.flexible_degree) + ", so that smooth structure is not counted as noise" + sampleWords(nf, obs) + ")"
+          : " (estimated from the residuals of geometry + registration" + sampleWords(nf, obs) + ")";
   const auto source = [&estimated](bool given) { return given ? std::string(" (given)") : estimated; };
   const std::string joints = "joint readings " + sim::formatNumber("%.3g", n.joint_noise_sigma_rad * sim::kRadToDeg) + " deg" +
                              source(nf.joint_stated || !nf.joint_estimated);

@@ -55,6 +55,12 @@ struct DiagnoseOptions {
   /// the noise's share of one fold of the full fit, where one step reaches it to second order; its
   /// held-out residuals are then evaluated exactly. Off: every fold refitted to convergence.
   bool one_step_folds = true;
+  /// The noise's variance components, and the flexible fit they are estimated with, from a seeded random
+  /// subset of at most this many observations (0: all). A variance component's relative standard error
+  /// is about sqrt(2 / rows): 0.6 % from 20,000 observations of 3 rows each, where a verdict's floor moves
+  /// by tens of percent; the flexible fit's time grows with its observations (docs/benchmarks.md). Never
+  /// fewer than the most flexible level that every observation allows needs (diagnose_noise.hpp).
+  int noise_observations = 20000;
 };
 
 /// One candidate at one forward step.
@@ -106,6 +112,9 @@ struct NoiseFloors {
   /// Degree of the flexible model's empirical corrections the noise was estimated with (0: none, the
   /// geometry + registration fit's residuals: too few samples for them).
   int flexible_degree = 0;
+  /// The observations the noise was estimated on, where a seeded random subset of them
+  /// (DiagnoseOptions::noise_observations); 0: all.
+  int noise_observations = 0;
   NoiseComponents components;          ///< of the flexible fit that whitens (where estimated)
   /// The flexible fit's residuals are still structured (lack_of_fit's family): its joint-noise estimate
   /// may be structure it could not take, and stays out of the floor.
