@@ -1,5 +1,6 @@
 #include "orbcal/calib/registration.hpp"
 
+#include <algorithm>
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <Eigen/SVD>
@@ -143,6 +144,11 @@ cv::Mat toCv(const Eigen::Vector3d& t) {
   return out;
 }
 
+/// Shah's solve (cv::calibrateRobotWorldHandEye) on at most this many poses, evenly spread through the
+/// samples: its dense system grows with them (4 % of a diagnosis of 10^5 samples, one solve per model's
+/// start), and what it gives is a starting guess the fit refines; the input checks see every sample.
+constexpr std::size_t kRotationGuessPoses = 2000;
+
 /// R_wb and R_fm from OpenCV's robot-world / hand-eye solver (Shah 2013: the rotations are the
 /// leading singular vectors of sum_k kron(R_B_k, R_A_k), projected to SO(3)).
 ///
@@ -159,7 +165,8 @@ void robotWorldHandEyeRotations(const std::vector<Eigen::Isometry3d>& world_T_ma
                                 const std::vector<Eigen::Isometry3d>& base_T_flange, Eigen::Matrix3d& R_wb,
                                 Eigen::Matrix3d& R_fm) {
   std::vector<cv::Mat> R_world2cam, t_world2cam, R_base2gripper, t_base2gripper;
-  for (std::size_t k = 0; k < world_T_marker.size(); ++k) {
+  const std::size_t step = (world_T_marker.size() + kRotationGuessPoses - 1) / kRotationGuessPoses;
+  for (std::size_t k = 0; k < world_T_marker.size(); k += std::max<std::size_t>(1, step)) {
     const Eigen::Isometry3d marker_T_world = world_T_marker[k].inverse();
     const Eigen::Isometry3d flange_T_base = base_T_flange[k].inverse();
     R_world2cam.push_back(toCv(Eigen::Matrix3d(marker_T_world.linear())));

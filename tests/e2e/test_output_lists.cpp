@@ -163,3 +163,21 @@ TEST_CASE("reports read by a colleague: a URDF chain's parameters named by its j
     CHECK_FALSE(found);
   }
 }
+
+// The noise estimated on a subset (--noise-observations) is said where it is reported: the report's
+// noise sentence names the subset and the whole, diagnosis.json's noise_floor the subset's size, and the
+// subset is at least what was asked for and less than the whole.
+TEST_CASE("diagnose --noise-observations: the report and diagnosis.json say the noise came from a subset", "[e2e][diagnose][report]") {
+  const std::string dir = test::tempDir("noise-subset");
+  REQUIRE(test::runOrbcal(dir, "simulate -n 200 --seed 4 -o data").status == 0);
+  const test::OrbcalRun run = test::runOrbcal(dir, "diagnose data/measurements.yaml --quiet --no-plots --noise-observations 100 -o diag");
+  CAPTURE(run.out, run.err);
+  REQUIRE(run.status == 0);
+  const std::string report = test::slurp(dir + "/diag/report.md");
+  std::smatch m;
+  REQUIRE(std::regex_search(report, m, std::regex("on a seeded random ([0-9]+) of the 200 observations")));
+  const int subset = std::stoi(m[1].str());
+  CHECK(subset >= 100);
+  CHECK(subset < 200);
+  CHECK(test::slurp(dir + "/diag/diagnosis.json").find("\"noise_observations\": " + m[1].str()) != std::string::npos);
+}
