@@ -1,9 +1,9 @@
 #include "orbcal/calib/registration.hpp"
 
-#include <algorithm>
 #include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <opencv2/calib3d.hpp>

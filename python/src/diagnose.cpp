@@ -116,7 +116,8 @@ void bindDiagnose(py::module_& m) {
       "catalog cause tested (Holm at family-wise error alpha) and added while its held-out gain exceeds `penalty` per "
       "parameter, at most max_effects; empirical corrections where no cause fits. Torques come from the data, else the "
       "robot's masses. joint_noise_rad: joint readings vs true angles (1 sigma; default estimated). noise_observations: "
-      "the noise is estimated on a seeded random subset of at most this many observations (0: all). Returns a Diagnosis.");
+      "where the noise is estimated, on a seeded random subset of this many observations where there are more (0: all; "
+      "never fewer than the flexible model needs), as orbcal diagnose --noise-observations. Returns a Diagnosis.");
 }
 
 }  // namespace orbcal::python
