@@ -11,6 +11,9 @@ namespace orbcal::calib {
 
 namespace {
 
+/// Fisher scoring stops when every variance component moves by less than this share of its standard deviation.
+constexpr double kRemlTolerance = 1e-3;
+
 /// tr(P V_c P V_d) of REML's information (Koch 1999, ch. 3.6), P = W - W A N^-1 A^T W, with W = R^-1
 /// block diagonal per sample, A the free columns of the Jacobian and N = A^T W A + S (S the prior):
 /// sum_k tr(W V_c W V_d) - 2 tr(N^-1 C_cd) + tr(N^-1 B_c N^-1 B_d), B_c = sum_k A_k^T W V_c W A_k,
@@ -144,19 +147,24 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
   std::vector<Eigen::VectorXd> r(static_cast<std::size_t>(n));
   std::vector<Eigen::MatrixXd> A(static_cast<std::size_t>(n));
   std::vector<std::array<Eigen::MatrixXd, 3>> V(static_cast<std::size_t>(n));
-  for (int k = 0; k < n; ++k) {
-    const auto i = static_cast<std::size_t>(k);
-    const Eigen::MatrixXd Jq = m.jointJacobian(k, y, &r[i]);
-    const Eigen::MatrixXd H = m.linearize(k, y).H;
-    A[i].resize(H.rows(), static_cast<Eigen::Index>(cols.size()));
-    for (std::size_t c = 0; c < cols.size(); ++c) A[i].col(static_cast<Eigen::Index>(c)) = H.col(cols[c]);
-    const Eigen::Index rows = r[i].size();
-    V[i][0] = Eigen::MatrixXd::Zero(rows, rows);
-    V[i][0].topLeftCorner(3, 3).setIdentity();
-    V[i][1] = Eigen::MatrixXd::Zero(rows, rows);
-    if (rows == 6) V[i][1].bottomRightCorner(3, 3).setIdentity();
-    V[i][2] = Jq * Jq.transpose();
-  }
+  const auto setUp = [&](int k0, int k1) {  // each sample's own entries: the two halves side by side
+    for (int k = k0; k < k1; ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      const Eigen::MatrixXd Jq = m.jointJacobian(k, y, &r[i]);
+      const Eigen::MatrixXd H = m.linearize(k, y).H;
+      A[i].resize(H.rows(), static_cast<Eigen::Index>(cols.size()));
+      for (std::size_t c = 0; c < cols.size(); ++c) A[i].col(static_cast<Eigen::Index>(c)) = H.col(cols[c]);
+      const Eigen::Index rows = r[i].size();
+      V[i][0] = Eigen::MatrixXd::Zero(rows, rows);
+      V[i][0].topLeftCorner(3, 3).setIdentity();
+      V[i][1] = Eigen::MatrixXd::Zero(rows, rows);
+      if (rows == 6) V[i][1].bottomRightCorner(3, 3).setIdentity();
+      V[i][2] = Jq * Jq.transpose();
+    }
+  };
+  auto upper = std::async(std::launch::async, setUp, n / 2, n);
+  setUp(0, n / 2);
+  upper.get();
   Eigen::Vector3d theta(noise.sigma_position_m * noise.sigma_position_m, noise.sigma_rotation_rad * noise.sigma_rotation_rad,
                         noise.joint_noise_sigma_rad * noise.joint_noise_sigma_rad);
   std::vector<int> f;
@@ -184,15 +192,19 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
     }
     F_last = F;
     const Eigen::VectorXd next = F.completeOrthogonalDecomposition().solve(u);
+    // Converged when no component moves by more than kRemlTolerance of its own standard deviation
+    // (sqrt of 2 F^-1's diagonal; further digits lie far inside what the data determine) or by more than
+    // kRemlTolerance^2 of its value (the criterion before, which also holds where F gives no deviation).
+    const Eigen::VectorXd sd = (2.0 * F.completeOrthogonalDecomposition().pseudoInverse()).diagonal().cwiseMax(0.0).cwiseSqrt();
     double change = 0.0;
     for (Eigen::Index a = 0; a < nf; ++a) {
       const int c = f[static_cast<std::size_t>(a)];
       const double floor = c == 2 ? 0.0 : 1e-18;
       const double v = std::max(floor, next[a]);
-      change = std::max(change, std::abs(v - theta[c]) / std::max(v, 1e-300));
+      change = std::max(change, std::abs(v - theta[c]) / std::max({sd[a], kRemlTolerance * v, 1e-300}));
       theta[c] = v;
     }
-    if (change < 1e-6) break;
+    if (change < kRemlTolerance) break;
   }
   if (components && nf > 0) {
     // The variances' covariance: 2 F^-1 (the information of a Gaussian's covariance parameters is
