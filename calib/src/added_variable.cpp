@@ -4,6 +4,8 @@
 // be 1 GB).
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <functional>
+#include <future>
 
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/calib/lack_of_fit.hpp"
@@ -121,31 +123,58 @@ ModelColumns ModelColumns::of(const Eigen::MatrixXd& J, int components) {
   return c;
 }
 
+namespace {
+
+/// What the tests keep of rows [first0, last): J^T J (lower triangle), J^T y and each variable's S^T J.
+struct StreamedProducts {
+  Eigen::MatrixXd A;
+  Eigen::VectorXd Jy;
+  std::vector<Eigen::MatrixXd> SJ;
+};
+
+StreamedProducts streamProducts(const Eigen::VectorXd& y, const std::vector<EvidenceVariable>& vars, const ModelColumns& model,
+                                int first0, int last, int m) {
+  const Eigen::Index p = model.params + m;  // the model's columns and one intercept per component
+  StreamedProducts s{Eigen::MatrixXd::Zero(p, p), Eigen::VectorXd::Zero(p), std::vector<Eigen::MatrixXd>(vars.size())};
+  Eigen::MatrixXd Jm, Jb;
+  for (int first = first0; first < last; first += kBlockRows) {
+    const int count = std::min(kBlockRows, last - first);
+    model.fill(first, count, Jm);
+    Jb.setZero(static_cast<Eigen::Index>(count) * m, p);
+    Jb.leftCols(model.params) = Jm;
+    for (Eigen::Index r = 0; r < Jb.rows(); ++r) Jb(r, model.params + r % m) = 1.0;
+    s.A.selfadjointView<Eigen::Lower>().rankUpdate(Jb.transpose());
+    s.Jy += Jb.transpose() * y.segment(static_cast<Eigen::Index>(first) * m, Jb.rows());
+    for (std::size_t v = 0; v < vars.size(); ++v) {
+      if (vars[v].stacked.size() > 0 && vars[v].stacked.rows() != y.size()) continue;
+      const Eigen::MatrixXd block = crossBlock(vars[v], Jb, first, count, m);
+      if (s.SJ[v].size() == 0) s.SJ[v] = block;
+      else s.SJ[v] += block;
+    }
+  }
+  return s;
+}
+
+}  // namespace
+
 std::vector<VariableTest> addedVariableTests(const Eigen::MatrixXd& Y, const std::vector<EvidenceVariable>& vars,
                                              const ModelColumns& model) {
   const int n = static_cast<int>(Y.rows()), m = static_cast<int>(Y.cols());
   if (model.rows != n || model.components != m || !model.fill) return {};
   Eigen::VectorXd y(static_cast<Eigen::Index>(n) * m);
   for (int i = 0; i < n; ++i) y.segment(static_cast<Eigen::Index>(i) * m, m) = Y.row(i).transpose();
-  const Eigen::Index p = model.params + m;  // the model's columns and one intercept per component
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(p, p);
-  Eigen::VectorXd Jy = Eigen::VectorXd::Zero(p);
-  std::vector<Eigen::MatrixXd> SJ(vars.size());
-  Eigen::MatrixXd Jm, Jb;
-  for (int first = 0; first < n; first += kBlockRows) {
-    const int count = std::min(kBlockRows, n - first);
-    model.fill(first, count, Jm);
-    Jb.setZero(static_cast<Eigen::Index>(count) * m, p);
-    Jb.leftCols(model.params) = Jm;
-    for (Eigen::Index r = 0; r < Jb.rows(); ++r) Jb(r, model.params + r % m) = 1.0;
-    A.selfadjointView<Eigen::Lower>().rankUpdate(Jb.transpose());
-    Jy += Jb.transpose() * y.segment(static_cast<Eigen::Index>(first) * m, Jb.rows());
-    for (std::size_t v = 0; v < vars.size(); ++v) {
-      if (vars[v].stacked.size() > 0 && vars[v].stacked.rows() != y.size()) continue;
-      const Eigen::MatrixXd block = crossBlock(vars[v], Jb, first, count, m);
-      if (SJ[v].size() == 0) SJ[v] = block;
-      else SJ[v] += block;
-    }
+  // The two halves of the rows side by side (the columns' evaluation is most of the time), added in a
+  // fixed order: the same sums on any machine.
+  const int half = n >= 2 * kBlockRows ? (n / 2 / kBlockRows) * kBlockRows : n;
+  auto upper = std::async(std::launch::async, streamProducts, std::cref(y), std::cref(vars), std::cref(model), half, n, m);
+  StreamedProducts s = streamProducts(y, vars, model, 0, half, m);
+  const StreamedProducts u = upper.get();
+  Eigen::MatrixXd A = s.A + u.A;
+  const Eigen::VectorXd Jy = s.Jy + u.Jy;
+  std::vector<Eigen::MatrixXd>& SJ = s.SJ;
+  for (std::size_t v = 0; v < vars.size(); ++v) {
+    if (SJ[v].size() == 0) SJ[v] = u.SJ[v];
+    else if (u.SJ[v].size() > 0) SJ[v] += u.SJ[v];
   }
   A = A.selfadjointView<Eigen::Lower>();
   ModelSpan span;
