@@ -86,19 +86,15 @@ FlexibleFit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerO
     const std::size_t keep = std::max(needed, static_cast<std::size_t>(std::max(0, max_obs)));
     if (max_obs > 0 && keep < obs.size()) {
       std::mt19937_64 rng(seed);
-      out.obs.reserve(keep);
-      std::sample(obs.begin(), obs.end(), std::back_inserter(out.obs), keep, rng);  // in their order
-      out.subset = static_cast<int>(keep);
-    }
-    if (out.subset == 0 || sessionsOf(out.obs) != sessionsOf(obs)) {  // a session's frames need its samples
-      out.obs = obs;
-      out.subset = 0;
+      out.subset.reserve(keep);
+      std::sample(obs.begin(), obs.end(), std::back_inserter(out.subset), keep, rng);  // in their order
+      if (sessionsOf(out.subset) != sessionsOf(obs)) out.subset.clear();  // a session's frames need its samples
     }
     out.degree = l.harmonics;
-    out.fit = fitMarkerModel(startingModel(data, out.obs, terms), out.obs, f);
+    const std::vector<MarkerObservation>& fitted = out.fitted(obs);
+    out.fit = fitMarkerModel(startingModel(data, fitted, terms), fitted, f);
     return out;
   }
-  out.obs = obs;
   out.fit = fitMarkerModel(startingModel(data, obs, effects), obs, f);
   return out;
 }
@@ -254,8 +250,8 @@ FitOptions whiteningFitOptions(const sim::MeasuredData& data, const std::vector<
   const FlexibleFit ff = flexibleFit(data, obs, {}, stated, o.max_order, o.noise_observations, o.seed);
   const Fit& flexible = ff.fit;
   n.flexible_degree = ff.degree;
-  n.noise_observations = ff.subset;
-  n.flexible_structured = n.joint_estimated && leavesStructure(data, ff.obs, flexible, o.alpha);
+  n.noise_observations = static_cast<int>(ff.subset.size());
+  n.flexible_structured = n.joint_estimated && leavesStructure(data, ff.fitted(obs), flexible, o.alpha);
   n.whitening = flexible.noise;
   n.components = n.survived = flexible.noise_components;
   n.joint_estimate_rad = flexible.noise.joint_noise_sigma_rad;
@@ -299,7 +295,7 @@ void judgeAgainstFloor(const sim::MeasuredData& data, const std::vector<MarkerOb
   if (out.noise.joint_estimated && !out.selected.empty()) {
     const FlexibleFit ff = flexibleFit(data, obs, out.selected, stated_options, o.max_order, o.noise_observations, o.seed);
     const Fit& f = ff.fit;
-    out.noise.flexible_structured = leavesStructure(data, ff.obs, f, o.alpha);
+    out.noise.flexible_structured = leavesStructure(data, ff.fitted(obs), f, o.alpha);
     out.noise.survived = f.noise_components;
     out.noise.joint_estimate_rad = f.noise.joint_noise_sigma_rad;
     testEstimate(out.noise, out.fit, obs, out.residual_selected, folds, o.alpha);

@@ -16,9 +16,10 @@ namespace orbcal::calib {
 /// rows of `obs`.
 struct FlexibleFit {
   Fit fit;
-  int degree = 0;                       ///< its harmonics (0: none fits, the fit of `effects` alone)
-  std::vector<MarkerObservation> obs;   ///< what it was fitted on
-  int subset = 0;                       ///< obs.size() where a seeded random subset of the input, else 0
+  int degree = 0;                        ///< its harmonics (0: none fits, the fit of `effects` alone)
+  std::vector<MarkerObservation> subset;  ///< what it was fitted on where a seeded random subset of the input, else empty
+  /// What it was fitted on: the subset, else `all` (the input).
+  const std::vector<MarkerObservation>& fitted(const std::vector<MarkerObservation>& all) const { return subset.empty() ? all : subset; }
 };
 /// Fitted on a seeded random `max_obs` of `obs` where there are more (0: all of them), but never on fewer
 /// than the most flexible level that all of `obs` allow needs: a subset estimates the noise less

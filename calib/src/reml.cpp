@@ -191,11 +191,12 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
       for (Eigen::Index b = 0; b < nf; ++b) F(a, b) = I(ca, f[static_cast<std::size_t>(b)]);
     }
     F_last = F;
-    const Eigen::VectorXd next = F.completeOrthogonalDecomposition().solve(u);
+    const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(F);
+    const Eigen::VectorXd next = cod.solve(u);
     // Converged when no component moves by more than kRemlTolerance of its own standard deviation
     // (sqrt of 2 F^-1's diagonal; further digits lie far inside what the data determine) or by more than
     // kRemlTolerance^2 of its value (the criterion before, which also holds where F gives no deviation).
-    const Eigen::VectorXd sd = (2.0 * F.completeOrthogonalDecomposition().pseudoInverse()).diagonal().cwiseMax(0.0).cwiseSqrt();
+    const Eigen::VectorXd sd = (2.0 * cod.pseudoInverse()).diagonal().cwiseMax(0.0).cwiseSqrt();
     double change = 0.0;
     for (Eigen::Index a = 0; a < nf; ++a) {
       const int c = f[static_cast<std::size_t>(a)];
