@@ -123,8 +123,28 @@ struct Normals {
   std::vector<Eigen::VectorXd> g;
 };
 
+/// The groups (indices into `groups`) that hold every sample exactly once, taken from one fold vector
+/// (a k-fold split): their sums add up to all samples', which then need no sums of their own. Empty
+/// where no such set exists.
+std::vector<std::size_t> partitionOf(const std::vector<HeldOutGroup>& groups, int n) {
+  if (groups.empty() || !groups.front().fold) return {};
+  const std::vector<int>& fold = *groups.front().fold;
+  std::vector<std::size_t> parts;
+  std::vector<int> values;
+  for (std::size_t i = 0; i < groups.size(); ++i) {
+    if (groups[i].fold != &fold || std::count(values.begin(), values.end(), groups[i].value)) continue;
+    parts.push_back(i);
+    values.push_back(groups[i].value);
+  }
+  const bool covers = static_cast<int>(fold.size()) == n &&
+                      std::all_of(fold.begin(), fold.end(), [&](int v) { return std::count(values.begin(), values.end(), v) == 1; });
+  return covers ? parts : std::vector<std::size_t>{};
+}
+
+/// groupNormals' sums over samples k0..k1; over all samples as the last entry unless `partition` is
+/// given (partitionOf: the caller adds its groups' sums).
 Normals groupNormalsOf(const MeasurementModel& m, const std::vector<int>& cols, const Eigen::VectorXd& scale,
-                       const std::vector<HeldOutGroup>& groups, int k0, int k1) {
+                       const std::vector<HeldOutGroup>& groups, bool partition, int k0, int k1) {
   constexpr int kBlock = 128;
   const auto nc = static_cast<Eigen::Index>(cols.size());
   Normals s;
@@ -152,9 +172,11 @@ Normals groupNormalsOf(const MeasurementModel& m, const std::vector<int>& cols, 
       s.N[i].selfadjointView<Eigen::Lower>().rankUpdate(A(r, Eigen::all).transpose());
       s.g[i].noalias() += A(r, Eigen::all).transpose() * b(r);
     };
-    std::vector<Eigen::Index> all(static_cast<std::size_t>(rows));
-    std::iota(all.begin(), all.end(), Eigen::Index{0});
-    add(groups.size(), all);
+    if (!partition) {
+      std::vector<Eigen::Index> all(static_cast<std::size_t>(rows));
+      std::iota(all.begin(), all.end(), Eigen::Index{0});
+      add(groups.size(), all);
+    }
     for (std::size_t i = 0; i < groups.size(); ++i) {
       std::vector<Eigen::Index> r;
       for (int k = c0; k < c1; ++k) {
@@ -172,17 +194,23 @@ Normals groupNormalsOf(const MeasurementModel& m, const std::vector<int>& cols, 
 void groupNormals(const MeasurementModel& m, const std::vector<int>& cols, const Eigen::VectorXd& scale,
                   const std::vector<HeldOutGroup>& groups, std::vector<Eigen::MatrixXd>& N, std::vector<Eigen::VectorXd>& g) {
   const int n = m.numSamples();
+  const std::vector<std::size_t> parts = partitionOf(groups, n);
+  const bool partition = !parts.empty();
   Normals s;
   if (n < 64) {
-    s = groupNormalsOf(m, cols, scale, groups, 0, n);
+    s = groupNormalsOf(m, cols, scale, groups, partition, 0, n);
   } else {  // two halves side by side, added in a fixed order
-    auto upper = std::async(std::launch::async, [&] { return groupNormalsOf(m, cols, scale, groups, n / 2, n); });
-    s = groupNormalsOf(m, cols, scale, groups, 0, n / 2);
+    auto upper = std::async(std::launch::async, [&] { return groupNormalsOf(m, cols, scale, groups, partition, n / 2, n); });
+    s = groupNormalsOf(m, cols, scale, groups, partition, 0, n / 2);
     const Normals u = upper.get();
     for (std::size_t i = 0; i < s.N.size(); ++i) {
       s.N[i] += u.N[i];
       s.g[i] += u.g[i];
     }
+  }
+  for (const std::size_t i : parts) {  // all samples' sums: the partition's, in its order
+    s.N.back() += s.N[i];
+    s.g.back() += s.g[i];
   }
   N.clear();
   for (const Eigen::MatrixXd& x : s.N) N.push_back(x.selfadjointView<Eigen::Lower>());

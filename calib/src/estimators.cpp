@@ -507,13 +507,21 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   // One pass of linearizations at the start gives both the whiteners and the system the unidentifiable
   // parameters are found from (its R factor: no copy of the stacked Jacobian is kept).
   std::vector<Eigen::MatrixXd> W(static_cast<std::size_t>(m.numSamples()));
+  const auto pass = [&](int k0, int k1) {  // samples k0..k1: their whiteners, and their R factor
+    RFactor r(n);
+    for (int k = k0; k < k1; ++k) {
+      const Linearization lin = m.linearize(k, zero);
+      requireFinite(lin, k);
+      W[static_cast<std::size_t>(k)] = whitener(lin.R);
+      if (o.fix_unidentifiable) r.add(W[static_cast<std::size_t>(k)] * lin.H);
+    }
+    return r.matrix();
+  };
   RFactor r(n);
-  for (int k = 0; k < m.numSamples(); ++k) {
-    const Linearization lin = m.linearize(k, zero);
-    requireFinite(lin, k);
-    W[static_cast<std::size_t>(k)] = whitener(lin.R);
-    if (o.fix_unidentifiable) r.add(W[static_cast<std::size_t>(k)] * lin.H);
-  }
+  const int half = m.numSamples() < 64 ? m.numSamples() : m.numSamples() / 2;  // two halves side by side
+  auto upper = std::async(half < m.numSamples() ? std::launch::async : std::launch::deferred, pass, half, m.numSamples());
+  r.add(pass(0, half));
+  r.add(upper.get());
   e.held = o.fix_unidentifiable ? sim::numericalRank(r.matrix(), m.layout().typical(), o.hold).held : sortedUnique(o.hold);
   const std::vector<int>& fixed = e.held;
   std::vector<int> free;

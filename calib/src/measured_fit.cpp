@@ -286,14 +286,15 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
   const int rounds = fit.noise_estimated ? 3 : 1;
   int rows = 0;
   for (const MarkerObservation& x : obs) rows += x.has_rotation ? 6 : 3;
+  Eigen::MatrixXd R_start;  // the whitened Jacobian's R factor at the start (y = 0) of the first round
   for (int round = 0; round < rounds; ++round) {
     const MarkerPoseModel m(start, obs, fit.noise, fit.p0);
     if (round == 0 && o.analyze) {
       std::vector<std::string> names;
       for (int i = 0; i < m.numParams(); ++i) names.push_back(m.paramName(i));
       // From the whitened Jacobian's R factor (its column norms, singular values and right vectors).
-      fit.identifiability = sim::analyzeJacobian(whitenedRFactor(m, Eigen::VectorXd::Zero(m.numParams())), names,
-                                                 m.numSamples(), sim::kRankTolerance);
+      R_start = whitenedRFactor(m, Eigen::VectorXd::Zero(m.numParams()));
+      fit.identifiability = sim::analyzeJacobian(R_start, names, m.numSamples(), sim::kRankTolerance);
       fit.identifiability.num_rows = rows;
     }
     // Without analyses a round starts where the round before ended when that round converged (where
@@ -311,7 +312,11 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     fit.prior_scale = fit.estimate.prior_scale;
     fit.dof = std::max(1, rows - static_cast<int>(std::lround(fit.effective_parameters)));
     if (round + 1 == rounds) {
-      if (o.analyze) fit.observability = observability(m, Eigen::VectorXd::Zero(m.numParams()), fit.estimate.held);
+      // The first round's model is whitened as at the start: its R factor there is the one already taken.
+      if (o.analyze) {
+        fit.observability = round == 0 ? observability(R_start, m, fit.estimate.held)
+                                       : observability(m, Eigen::VectorXd::Zero(m.numParams()), fit.estimate.held);
+      }
       break;
     }
     const double correction = static_cast<double>(rows) / fit.dof;

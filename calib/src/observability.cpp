@@ -115,9 +115,13 @@ Eigen::MatrixXd stackBlocks(const std::vector<Eigen::MatrixXd>& blocks, const st
 
 ObservabilityIndices observability(const MeasurementModel& model, const Eigen::VectorXd& y, const std::vector<int>& held,
                                    double rank_tolerance) {
+  return observability(whitenedRFactor(model, y), model, held, rank_tolerance);
+}
+
+ObservabilityIndices observability(const Eigen::MatrixXd& R, const MeasurementModel& model, const std::vector<int>& held,
+                                   double rank_tolerance) {
   // The typical-scaled kept columns of the whitened Jacobian's R factor: the same singular values as the
   // stacked columns (observabilityBlocks), without them.
-  const Eigen::MatrixXd R = whitenedRFactor(model, y);
   const Eigen::VectorXd typical = model.layout().typical();
   std::vector<Eigen::Index> keep;
   for (int p = 0; p < model.numParams(); ++p) {

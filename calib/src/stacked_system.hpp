@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "orbcal/calib/model.hpp"
+#include "orbcal/calib/observability.hpp"
 
 namespace orbcal::calib {
 
@@ -18,6 +19,11 @@ void whitenedSystem(const MeasurementModel& model, const Eigen::VectorXd& y, con
 /// The R factor (n x n, n parameters) of the whitened Jacobian at y with the columns `zeroed` set to
 /// zero: its column norms, singular values and right singular vectors, a few samples at a time.
 Eigen::MatrixXd whitenedRFactor(const MeasurementModel& model, const Eigen::VectorXd& y, const std::vector<int>& zeroed = {});
+
+/// observability (observability.hpp) of `model` from R, its whitened Jacobian's R factor at the point
+/// wanted (whitenedRFactor's), where the caller already has it.
+ObservabilityIndices observability(const Eigen::MatrixXd& R, const MeasurementModel& model, const std::vector<int>& held,
+                                   double rank_tolerance = sim::kRankTolerance);
 
 /// Sample k's rows of the whitened system at y (whitenedSystem's): W H_k (every column) and W nu_k.
 void whitenedRows(const MeasurementModel& model, int k, const Eigen::VectorXd& y, Eigen::MatrixXd& H, Eigen::VectorXd& b);

@@ -28,11 +28,19 @@ void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame
 
 void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,
                             Eigen::Ref<Matrix6Xd> J_e_y, const LinkInserts& inserts) {
+  identificationJacobian(arm, q, frame, J_e_y, inserts, chainFrames(arm, q, inserts));
+}
+
+void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame, Eigen::Ref<Matrix6Xd> J_e_y,
+                            const LinkInserts& inserts, const std::vector<Eigen::Isometry3d>& frames) {
   if (J_e_y.cols() != arm.numParams()) {
     throw std::invalid_argument("identificationJacobian: expected " + std::to_string(arm.numParams()) +
                                 " columns, got " + std::to_string(J_e_y.cols()));
   }
-  const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, q, inserts);
+  if (frames.size() != arm.joints.size() + 2) {
+    throw std::invalid_argument("identificationJacobian: expected " + std::to_string(arm.joints.size() + 2) + " frames, got " +
+                                std::to_string(frames.size()));
+  }
   const Eigen::Isometry3d& base_T_flange = frames.back();
   const Eigen::Vector3d p_f = base_T_flange.translation();
   const Eigen::Matrix3d Rt = base_T_flange.linear().transpose();

@@ -493,7 +493,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   // to the marker frame.
   const Matrix6d Ad_marker_flange = adjoint((Xf * MY).inverse());
   Matrix6Xd J_flange(6, arm.numParams());
-  identificationJacobian(arm, q, ErrorFrame::kTool, J_flange, inserts.links);
+  identificationJacobian(arm, q, ErrorFrame::kTool, J_flange, inserts.links, frames);
   // Products of 6-row matrices, coefficient by coefficient: the blocked GEMM path costs more than the
   // arithmetic at these sizes (lazyProduct).
   const Matrix6Xd J_geo = Ad_marker_flange.lazyProduct(J_flange);
@@ -503,7 +503,15 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   if (!J_e_p) return world_T_marker;
 
   Eigen::MatrixXd& J = *J_e_p;
-  J = J_q.lazyProduct(J_dq_p);  // joint-angle effects
+  // Joint-angle effects: J_q J_dq_p. Each of their columns moves one joint or a few (J_dq_p is mostly
+  // zeros), so only its nonzero entries are multiplied: the dense 6 x n x P product was a tenth of a
+  // flexible fit's arithmetic.
+  J = Eigen::MatrixXd::Zero(6, J_dq_p.cols());
+  for (Eigen::Index c = 0; c < J_dq_p.cols(); ++c) {
+    for (int j = 0; j < n; ++j) {
+      if (J_dq_p(j, c) != 0.0) J.col(c) += J_dq_p(j, c) * J_q.col(j);
+    }
+  }
   if (b_blk >= 0) {
     J.middleCols(m.layout.block(b_blk).offset, 6) += adjoint((D * F * MY).inverse()) * frameDeltaJacobian(seg(b_blk));
   }

@@ -152,3 +152,25 @@ TEST_CASE("identification Jacobian matches central differences (URDF convention)
     checkAgainstNumeric(bent, q, ErrorFrame::kBase);
   }
 }
+
+TEST_CASE("identification Jacobian from the caller's chain frames equals the one that computes them", "[sim][jacobian]") {
+  // predictMarkerPose hands over the frames it already has; any frame other than chainFrames' own
+  // (a different link insert, an off-by-one) would move columns by O(0.1..1).
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/iiwa7.yaml"));
+  LinkInserts inserts(static_cast<std::size_t>(arm.numJoints()), Eigen::Isometry3d::Identity());
+  // A bent third link: 1-2 mm and 3.7 mrad.
+  inserts[2] = Eigen::Translation3d(1e-3, -2e-3, 5e-4) * Eigen::AngleAxisd(3.7e-3, Eigen::Vector3d(3.0, -1.0, 2.0).normalized());
+  for (const auto& q : testConfigurations(7, 29)) {
+    Matrix6Xd computed(6, arm.numParams()), given(6, arm.numParams());
+    identificationJacobian(arm, q, ErrorFrame::kTool, computed, inserts);
+    identificationJacobian(arm, q, ErrorFrame::kTool, given, inserts, chainFrames(arm, q, inserts));
+    REQUIRE(computed.norm() > 1.0);
+    REQUIRE(given == computed);
+  }
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(7);
+  std::vector<Eigen::Isometry3d> short_chain = chainFrames(arm, q, inserts);
+  short_chain.pop_back();
+  Matrix6Xd J(6, arm.numParams());
+  REQUIRE_THROWS_WITH(identificationJacobian(arm, q, ErrorFrame::kTool, J, inserts, short_chain),
+                      Catch::Contains("expected 9 frames, got 8"));
+}

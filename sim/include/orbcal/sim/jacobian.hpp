@@ -10,6 +10,7 @@
 // moves frame i about or along an axis through the origin's position (jacobian.cpp). Checked against central differences in
 // tests/sim/test_jacobian.cpp.
 #include <Eigen/Core>
+#include <vector>
 
 #include "orbcal/sim/arm.hpp"
 
@@ -33,6 +34,9 @@ void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame
 /// link j acts on the chain before X_j, and X_j moves with it.
 void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame,
                             Eigen::Ref<Matrix6Xd> J_e_y, const LinkInserts& inserts);
+/// Same, from the chain's frames at q the caller already has (chainFrames(arm, q, inserts)).
+void identificationJacobian(const Arm& arm, const Eigen::VectorXd& q, ErrorFrame frame, Eigen::Ref<Matrix6Xd> J_e_y,
+                            const LinkInserts& inserts, const std::vector<Eigen::Isometry3d>& frames);
 
 /// Geometric manipulator Jacobian J_twist_q (6 x n) in the base frame: [v of the flange origin; w].
 Matrix6Xd manipulatorJacobian(const Arm& arm, const Eigen::VectorXd& q);
