@@ -56,10 +56,11 @@ struct DiagnoseOptions {
   /// held-out residuals are then evaluated exactly. Off: every fold refitted to convergence.
   bool one_step_folds = true;
   /// The noise's variance components, and the flexible fit they are estimated with, from a seeded random
-  /// subset of at most this many observations (0: all). A variance component's relative standard error
-  /// is about sqrt(2 / rows): 0.6 % from 20,000 observations of 3 rows each, where a verdict's floor moves
-  /// by tens of percent; the flexible fit's time grows with its observations (docs/benchmarks.md). Never
-  /// fewer than the most flexible level that every observation allows needs (diagnose_noise.hpp).
+  /// subset of this many observations where there are more (0: every observation). A variance
+  /// component's relative standard error is about sqrt(2 / rows): 0.6 % from 20,000 observations of 3
+  /// rows each, where a verdict's floor moves by tens of percent; the flexible fit's time grows with its
+  /// observations (docs/benchmarks.md). The subset is enlarged to what the most flexible level that every
+  /// observation allows needs, and not used where it would leave out a session (diagnose_noise.hpp).
   int noise_observations = 20000;
 };
 
