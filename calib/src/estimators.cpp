@@ -121,6 +121,24 @@ void appendPriorRows(const Eigen::VectorXd& sigma, const Eigen::VectorXd& mean, 
   }
 }
 
+/// The R factor (RFactor) of the rows add(k, r) gives r for the samples k = 0..n-1, on `cols` columns:
+/// the two halves of the samples side by side (one thread below 64 samples), their factors combined in
+/// a fixed order (the same R on any machine).
+template <class AddRows>
+Eigen::MatrixXd rFactorOfSamples(int n, Eigen::Index cols, const AddRows& add) {
+  const auto part = [&](int k0, int k1) {
+    RFactor r(cols);
+    for (int k = k0; k < k1; ++k) add(k, r);
+    return r.matrix();
+  };
+  RFactor r(cols);
+  const int half = n < 64 ? n : n / 2;
+  auto upper = std::async(half < n ? std::launch::async : std::launch::deferred, part, half, n);
+  r.add(part(0, half));
+  r.add(upper.get());
+  return r.matrix();
+}
+
 }  // namespace
 
 Shrinkage shrinkage(const MeasurementModel& m, const Eigen::VectorXd& y, const std::vector<int>& held,
@@ -185,24 +203,14 @@ Eigen::MatrixXd whitenedRFactor(const MeasurementModel& m, const Eigen::VectorXd
   // 10^4 times one in millimetres; scaledSvd's rank decision then sees round-off as directions.
   Eigen::VectorXd t = m.layout().typical();
   for (Eigen::Index i = 0; i < t.size(); ++i) t[i] = t[i] > 0.0 ? t[i] : 1.0;
-  const auto part = [&](int k0, int k1) {
-    RFactor r(n);
+  const Eigen::MatrixXd top = rFactorOfSamples(m.numSamples(), n, [&](int k, RFactor& r) {
     Eigen::MatrixXd H;
     Eigen::VectorXd b;
-    for (int k = k0; k < k1; ++k) {
-      whitenedRows(m, k, y, H, b);
-      for (int p : zeroed) H.col(p).setZero();
-      r.add(H * t.asDiagonal());
-    }
-    return r.matrix();
-  };
-  RFactor r(n);
-  const int half = m.numSamples() < 64 ? m.numSamples() : m.numSamples() / 2;  // two halves side by side
-  auto upper = std::async(half < m.numSamples() ? std::launch::async : std::launch::deferred, part, half, m.numSamples());
-  r.add(part(0, half));
-  r.add(upper.get());
+    whitenedRows(m, k, y, H, b);
+    for (int p : zeroed) H.col(p).setZero();
+    r.add(H * t.asDiagonal());
+  });
   Eigen::MatrixXd R = Eigen::MatrixXd::Zero(n, n);
-  const Eigen::MatrixXd top = r.matrix();
   R.topRows(std::min<Eigen::Index>(n, top.rows())) = top.topRows(std::min<Eigen::Index>(n, top.rows()));
   return R * t.cwiseInverse().asDiagonal();
 }
@@ -507,22 +515,13 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   // One pass of linearizations at the start gives both the whiteners and the system the unidentifiable
   // parameters are found from (its R factor: no copy of the stacked Jacobian is kept).
   std::vector<Eigen::MatrixXd> W(static_cast<std::size_t>(m.numSamples()));
-  const auto pass = [&](int k0, int k1) {  // samples k0..k1: their whiteners, and their R factor
-    RFactor r(n);
-    for (int k = k0; k < k1; ++k) {
-      const Linearization lin = m.linearize(k, zero);
-      requireFinite(lin, k);
-      W[static_cast<std::size_t>(k)] = whitener(lin.R);
-      if (o.fix_unidentifiable) r.add(W[static_cast<std::size_t>(k)] * lin.H);
-    }
-    return r.matrix();
-  };
-  RFactor r(n);
-  const int half = m.numSamples() < 64 ? m.numSamples() : m.numSamples() / 2;  // two halves side by side
-  auto upper = std::async(half < m.numSamples() ? std::launch::async : std::launch::deferred, pass, half, m.numSamples());
-  r.add(pass(0, half));
-  r.add(upper.get());
-  e.held = o.fix_unidentifiable ? sim::numericalRank(r.matrix(), m.layout().typical(), o.hold).held : sortedUnique(o.hold);
+  const Eigen::MatrixXd R_start = rFactorOfSamples(m.numSamples(), n, [&](int k, RFactor& r) {
+    const Linearization lin = m.linearize(k, zero);
+    requireFinite(lin, k);
+    W[static_cast<std::size_t>(k)] = whitener(lin.R);
+    if (o.fix_unidentifiable) r.add(W[static_cast<std::size_t>(k)] * lin.H);
+  });
+  e.held = o.fix_unidentifiable ? sim::numericalRank(R_start, m.layout().typical(), o.hold).held : sortedUnique(o.hold);
   const std::vector<int>& fixed = e.held;
   std::vector<int> free;
   for (int p = 0; p < n; ++p) {
