@@ -12,6 +12,10 @@ namespace orbcal::calib {
 struct StreamedLmOptions {
   int max_iterations = 100;
   double function_tolerance = 1e-10;
+  /// Converged where the Gauss-Newton model's whole remaining decrease of the cost is below this, in
+  /// units of the noise (a step of one standard deviation along any parameter direction changes the
+  /// cost by 1/2): 1e-6 puts the estimate within about 0.0014 standard deviations of the model's minimum.
+  double decrease_tolerance = 1e-6;
   Eigen::VectorXd prior_information;  ///< per free parameter, 1/sigma^2 (0: no prior); empty: none
   Eigen::VectorXd prior_mean;         ///< per free parameter (with prior_information)
   Eigen::VectorXd start;              ///< per free parameter, the first iterate (empty: 0)
