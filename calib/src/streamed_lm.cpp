@@ -16,12 +16,16 @@ namespace {
 constexpr double kInitialRadius = 1e8, kMaxRadius = 1e16, kMinRadius = 1e-32;
 constexpr double kMinDiagonal = 1e-6, kMaxDiagonal = 1e32, kMinRelativeDecrease = 1e-3;
 constexpr double kGradientTolerance = 1e-14, kParameterTolerance = 1e-14;
+/// A full step whose parabola puts the cost's minimum along it below this fraction of it is shortened
+/// to that minimum; none shorter than kShortestStep (a step that bad is left to the trust region).
+constexpr double kShortenBelow = 0.75, kShortestStep = 1e-3;
 constexpr int kBlock = 128;      ///< samples per accumulated block
 constexpr int kParallel = 64;    ///< fewer samples: one thread
 
 /// The sums over samples at one point: 1/2 |f|^2 and, with the Jacobian, J^T J (lower triangle) and J^T f.
 struct Sums {
   double cost = 0.0;
+  Eigen::Index rows = 0;  ///< the samples' whitened rows (the prior's not counted)
   Eigen::MatrixXd JtJ;
   Eigen::VectorXd g;
   bool finite = true;
@@ -45,6 +49,7 @@ class Accumulator {
       s = part(y, 0, n / 2, jacobian, buffers_[0]);
       const Sums u = upper.get();
       s.cost += u.cost;
+      s.rows += u.rows;
       s.finite = s.finite && u.finite;
       if (jacobian && s.finite) {
         s.JtJ += u.JtJ;
@@ -82,8 +87,9 @@ class Accumulator {
       if (!jacobian) {
         for (int k = c0; k < c1; ++k) {
           const Eigen::VectorXd r = W_[static_cast<std::size_t>(k)] * m_.innovation(k, y);
-          if (!r.allFinite()) return Sums{0.0, {}, {}, false};
+          if (!r.allFinite()) return Sums{0.0, 0, {}, {}, false};
           s.cost += 0.5 * r.squaredNorm();
+          s.rows += r.size();
         }
         continue;
       }
@@ -93,13 +99,14 @@ class Accumulator {
       f.resize(rows);
       for (int k = c0, row = 0; k < c1; row += m_.rows(k), ++k) {
         const Linearization lin = m_.linearize(k, y);
-        if (!lin.innovation.allFinite() || !lin.H.allFinite()) return Sums{0.0, {}, {}, false};
+        if (!lin.innovation.allFinite() || !lin.H.allFinite()) return Sums{0.0, 0, {}, {}, false};
         const Eigen::MatrixXd& Wk = W_[static_cast<std::size_t>(k)];
         f.segment(row, m_.rows(k)) = Wk * lin.innovation;
         const Eigen::MatrixXd WH = Wk.lazyProduct(lin.H);
         for (Eigen::Index c = 0; c < nf_; ++c) J.col(c).segment(row, m_.rows(k)) = -WH.col(free_[static_cast<std::size_t>(c)]);
       }
       s.cost += 0.5 * f.squaredNorm();
+      s.rows += rows;
       s.g.noalias() += J.transpose() * f;
       s.JtJ.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
     }
@@ -123,6 +130,31 @@ double hatTrace(const Eigen::MatrixXd& N_lower, const Eigen::VectorXd& prior_inf
   return static_cast<double>(nf) - prior_information.dot(inverse.diagonal());
 }
 
+/// The cost's unit for the stopping rule: 1 where the whitened residuals are at the noise they are
+/// whitened with, their mean square 2 cost / (rows - parameters) where they are larger (a model that
+/// misses structure: its parameters' spread grows by that factor's square root too).
+double noiseUnit(const Sums& s, Eigen::Index nf) {
+  const double dof = static_cast<double>(std::max<Eigen::Index>(1, s.rows - nf));
+  return std::max(1.0, 2.0 * s.cost / dof);
+}
+
+/// The Gauss-Newton model's whole decrease of the cost from `now`, 1/2 g^T A^-1 g (A the scaled normal
+/// matrix with the prior, g the scaled gradient); infinity where A is not positive definite.
+double gaussNewtonDecrease(const Eigen::MatrixXd& A, const Eigen::VectorXd& g) {
+  const Eigen::LLT<Eigen::MatrixXd> llt(A);
+  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
+  return 0.5 * g.dot(llt.solve(g));
+}
+
+/// The step length t in (0, 1) at the minimum of the parabola through the cost at 0 (`now`, slope
+/// `slope` = g . step) and at 1 (`full`) where the full step overshoots that minimum; 1 where it does not.
+double parabolicStep(double now, double slope, double full) {
+  const double curvature = 2.0 * (full - now - slope);
+  if (!(curvature > 0.0) || !(slope < 0.0)) return 1.0;
+  const double t = -slope / curvature;
+  return t < kShortenBelow && t > kShortestStep ? t : 1.0;
+}
+
 }  // namespace
 
 StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::MatrixXd>& W, const std::vector<int>& free,
@@ -138,6 +170,7 @@ StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::
   // Ceres's Jacobi scaling: every column divided by 1 + its norm at the start.
   const Eigen::VectorXd scale = (1.0 + now.JtJ.diagonal().cwiseMax(0.0).array().sqrt()).inverse().matrix();
   double radius = kInitialRadius, decrease = 2.0;
+  bool fresh = true;  // the sums are of a point not yet tested for convergence
   const auto gradientSmall = [&] { return nf == 0 || now.g.lpNorm<Eigen::Infinity>() <= kGradientTolerance; };
   if (gradientSmall()) {
     r.converged = true;
@@ -153,6 +186,11 @@ StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::
     r.iterations = it + 1;
     const Eigen::MatrixXd A = scale.asDiagonal() * Eigen::MatrixXd(now.JtJ.selfadjointView<Eigen::Lower>()) * scale.asDiagonal();
     const Eigen::VectorXd gs = scale.cwiseProduct(now.g);
+    if (fresh && gaussNewtonDecrease(A, gs) <= o.decrease_tolerance * noiseUnit(now, nf)) {
+      r.converged = true;  // nothing left to gain that the noise would notice
+      break;
+    }
+    fresh = false;
     const Eigen::VectorXd damping = A.diagonal().cwiseMax(kMinDiagonal).cwiseMin(kMaxDiagonal) / radius;
     Eigen::MatrixXd Ad = A;
     Ad.diagonal() += damping;
@@ -169,14 +207,26 @@ StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::
       r.converged = true;
       break;
     }
-    const Eigen::VectorXd candidate = r.x + delta;
+    Eigen::VectorXd candidate = r.x + delta;
     const Sums trial = acc.at(candidate, false);
-    const double cost = trial.finite ? trial.cost : std::numeric_limits<double>::max();
+    double cost = trial.finite ? trial.cost : std::numeric_limits<double>::max();
+    double change = model_change;
+    // Where the cost's curvature along the step exceeds J^T J's (the terms f_i d2f_i it leaves out, large
+    // along directions only a wide prior holds), the full step overshoots; its parabola's minimum does not.
+    const double slope = gs.dot(z);
+    if (const double t = trial.finite ? parabolicStep(now.cost, slope, cost) : 1.0; t < 1.0) {
+      const Sums shorter = acc.at(r.x + t * delta, false);
+      if (shorter.finite && shorter.cost < cost) {
+        candidate = r.x + t * delta;
+        cost = shorter.cost;
+        change = -(t * slope + 0.5 * t * t * z.dot(A * z));
+      }
+    }
     if (std::abs(now.cost - cost) <= o.function_tolerance * now.cost) {
       r.converged = true;  // Ceres stops at the current point
       break;
     }
-    const double rho = (now.cost - cost) / model_change;
+    const double rho = (now.cost - cost) / change;
     if (!(rho > kMinRelativeDecrease)) {
       if (!shrink()) break;
       continue;
@@ -187,6 +237,7 @@ StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::
     now = std::move(next);
     radius = std::min(kMaxRadius, radius / std::max(1.0 / 3.0, 1.0 - std::pow(2.0 * rho - 1.0, 3)));
     decrease = 2.0;
+    fresh = true;
     if (gradientSmall()) {
       r.converged = true;
       break;

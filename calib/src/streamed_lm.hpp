@@ -12,6 +12,10 @@ namespace orbcal::calib {
 struct StreamedLmOptions {
   int max_iterations = 100;
   double function_tolerance = 1e-10;
+  /// Converged where the Gauss-Newton model's whole remaining decrease of the cost is below this, in
+  /// units of the noise (a step of one standard deviation along any parameter direction changes the
+  /// cost by 1/2): 1e-6 puts the estimate within about 0.0014 standard deviations of the model's minimum.
+  double decrease_tolerance = 1e-6;
   Eigen::VectorXd prior_information;  ///< per free parameter, 1/sigma^2 (0: no prior); empty: none
   Eigen::VectorXd prior_mean;         ///< per free parameter (with prior_information)
   Eigen::VectorXd start;              ///< per free parameter, the first iterate (empty: 0)
@@ -27,11 +31,18 @@ struct StreamedLmResult {
 };
 
 /// min 1/2 sum_k |W_k nu_k(y)|^2 + 1/2 |prior rows|^2 over the free parameters x (y = x on `free`, 0
-/// elsewhere), from x = 0 (or StreamedLmOptions::start), with the trust-region strategy of Ceres's Levenberg-Marquardt (Jacobi-scaled
-/// columns, the damping diag(J^T J) / radius, the radius grown or shrunk by the step's relative decrease,
-/// convergence when a step changes the cost by less than function_tolerance of it), so that it stops
-/// where Ceres's DENSE_NORMAL_CHOLESKY solve of the same problem stops. The samples are evaluated in two
-/// halves side by side, their sums added in a fixed order (the same result on any machine).
+/// elsewhere), from x = 0 (or StreamedLmOptions::start), with the trust-region strategy of Ceres's
+/// Levenberg-Marquardt (Jacobi-scaled columns, the damping diag(J^T J) / radius, the radius grown or
+/// shrunk by the step's relative decrease, convergence when a step changes the cost by less than
+/// function_tolerance of it), and two changes for costs whose curvature J^T J misses (a flexible
+/// model's directions that only a wide prior holds: there the Gauss-Newton step overshoots, the
+/// iterations converge linearly and a step that lands as far beyond the minimum as it started before
+/// it changes the cost by nothing, which Ceres's test takes for convergence):
+/// - a step whose parabola (the cost at both ends, the slope at the start) puts the minimum along it
+///   below 3/4 of it is shortened to that minimum, where this lowers the cost;
+/// - converged where the Gauss-Newton model's whole remaining decrease is below decrease_tolerance.
+/// The samples are evaluated in two halves side by side, their sums added in a fixed order (the same
+/// result on any machine).
 StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::MatrixXd>& W, const std::vector<int>& free,
                             const StreamedLmOptions& o);
 

@@ -221,3 +221,65 @@ TEST_CASE("every estimator of the comparison keeps a held parameter at zero", "[
     CHECK(e.rank <= 27);
   }
 }
+
+namespace {
+
+/// Dennis and Schnabel's (1983, example 10.2.4) slowly converging least-squares problem in u, residuals
+/// u + 1 and lambda u^2 + u - 1 (minimum at u = 0, the cost's curvature 2 - 2 lambda there against
+/// J^T J's 2: for lambda = -0.9 a Gauss-Newton step lands 0.9 times as far beyond the minimum as it
+/// started before it), beside a linear direction v, residual v - 1. The parameters are
+/// y = ((u + v), (u - v)) / sqrt(2), so that neither is one parameter's own direction.
+class SlowGaussNewton : public calib::MeasurementModel {
+ public:
+  static constexpr double kLambda = -0.9;
+  SlowGaussNewton() {
+    sim::ParamBlock b;
+    b.effect = "toy";
+    b.kind = sim::BlockKind::kOther;
+    for (const char* name : {"y0", "y1"}) b.params.push_back(sim::ParamInfo{name, "1", "1", 1.0, 1.0, sim::Quantity::kOther, -1});
+    layout_.add(b);
+  }
+  static double u(const Eigen::VectorXd& y) { return (y[0] + y[1]) / std::sqrt(2.0); }
+  static double v(const Eigen::VectorXd& y) { return (y[0] - y[1]) / std::sqrt(2.0); }
+  int numSamples() const override { return 3; }
+  int rows(int) const override { return 1; }
+  const sim::ParamLayout& layout() const override { return layout_; }
+  calib::Linearization linearize(int k, const Eigen::VectorXd& y) const override {
+    const double x = u(y), s = 1.0 / std::sqrt(2.0);
+    double r = 0.0, dr_du = 0.0, dr_dv = 0.0;
+    if (k == 0) r = x + 1.0, dr_du = 1.0;
+    if (k == 1) r = kLambda * x * x + x - 1.0, dr_du = 2.0 * kLambda * x + 1.0;
+    if (k == 2) r = v(y) - 1.0, dr_dv = 1.0;
+    calib::Linearization l;
+    l.innovation = Eigen::VectorXd::Constant(1, r);
+    l.H = Eigen::MatrixXd(1, 2);
+    l.H << -(dr_du + dr_dv) * s, -(dr_du - dr_dv) * s;  // nu = z - h: H = -d nu / dy
+    l.R = Eigen::MatrixXd::Identity(1, 1);
+    return l;
+  }
+
+ private:
+  sim::ParamLayout layout_;
+};
+
+}  // namespace
+
+TEST_CASE("the streamed LM stops within a hundredth of a standard deviation of a minimum its steps overshoot", "[estimators][lm]") {
+  // From u = 0.3 (0.6 standard deviations: 1 / sqrt(2 - 2 lambda) = 0.51) and v = 0. Its stopping rule
+  // (the Gauss-Newton model's remaining decrease below 1e-6 in the noise's units) is met only within
+  // about 0.0015 standard deviations of the minimum, whatever the steps' overshoot.
+  const SlowGaussNewton m;
+  calib::LmOptions o;
+  o.normal_equations = true;
+  o.fix_unidentifiable = false;
+  o.covariance = false;
+  o.start = Eigen::Vector2d(0.3, 0.3) / std::sqrt(2.0);
+  const calib::Estimate e = calib::runLm(m, o);
+  const double sigma_u = 1.0 / std::sqrt(2.0 - 2.0 * SlowGaussNewton::kLambda), sigma_v = 1.0;
+  CAPTURE(SlowGaussNewton::u(e.y), SlowGaussNewton::v(e.y), e.iterations);
+  CHECK(e.converged);
+  CHECK(std::abs(SlowGaussNewton::u(e.y)) < 0.01 * sigma_u);
+  CHECK(std::abs(SlowGaussNewton::v(e.y) - 1.0) < 0.01 * sigma_v);
+  CHECK(e.cost - 1.0 < 1e-4);  // 1/2 (1 + 1) at the minimum; 1e-4 is 0.014 standard deviations along u
+  CHECK(e.cost >= 1.0 - 1e-12);
+}

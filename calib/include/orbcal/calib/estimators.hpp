@@ -93,6 +93,9 @@ struct LmOptions {
   /// and the held unidentifiable parameters keep well below round-off for the marker fits. With the
   /// squared loss, J^T J and J^T f are summed a block of samples at a time (calib/src/streamed_lm.hpp,
   /// Ceres's Levenberg-Marquardt strategy), never the stacked J: a 10^5-sample log's is gigabytes.
+  /// That LM also shortens a step that overshoots the cost's minimum along it (where the cost curves
+  /// more than J^T J says), and stops once the Gauss-Newton model's whole remaining decrease is below
+  /// 1e-6 in the noise's units, where Ceres would go on with steps the noise cannot see.
   bool normal_equations = false;
   /// A Gaussian prior y_i ~ N(prior_mean_i, prior_sigma_i^2) on the parameters whose prior_sigma_i is
   /// positive (empty: none, the least-squares estimate): the maximum a-posteriori estimate, with the
