@@ -228,11 +228,17 @@ Eigen::Isometry3d forwardKinematics(const Arm& arm, const Eigen::VectorXd& q) {
 std::vector<Eigen::Isometry3d> chainFrames(const Arm& arm, const Eigen::VectorXd& q) { return chainFrames(arm, q, {}); }
 
 std::vector<Eigen::Isometry3d> chainFrames(const Arm& arm, const Eigen::VectorXd& q, const LinkInserts& inserts) {
+  std::vector<Eigen::Isometry3d> frames;
+  chainFrames(arm, q, inserts, frames);
+  return frames;
+}
+
+void chainFrames(const Arm& arm, const Eigen::VectorXd& q, const LinkInserts& inserts, std::vector<Eigen::Isometry3d>& frames) {
   checkJointVector(arm, q, "chainFrames");
   if (!inserts.empty() && static_cast<int>(inserts.size()) != arm.numJoints()) {
     throw std::invalid_argument("chainFrames: expected one insert per link");
   }
-  std::vector<Eigen::Isometry3d> frames;
+  frames.clear();
   frames.reserve(arm.joints.size() + 2);
   frames.push_back(arm.base_T_first);
   for (int j = 0; j < arm.numJoints(); ++j) {
@@ -240,7 +246,6 @@ std::vector<Eigen::Isometry3d> chainFrames(const Arm& arm, const Eigen::VectorXd
     if (!inserts.empty()) frames.back() = frames.back() * inserts[static_cast<std::size_t>(j)];
   }
   frames.push_back(frames.back() * arm.last_T_flange);
-  return frames;
 }
 
 Eigen::Isometry3d forwardKinematics(const Arm& arm, const Eigen::VectorXd& q, const LinkInserts& inserts) {

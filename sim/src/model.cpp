@@ -411,6 +411,7 @@ struct Inserts {
 };
 Inserts chainInserts(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s) {
   Inserts out;
+  out.all.reserve(8);  // one allocation, not one per growth (a flexible model inserts a few per sample)
   forEachEffectBlock(m, [&](const Effect& e, const ParamBlock& b) { e.kind().addChainInserts(e, b, p, s, m.arm, s.q_rad, out.all); });
   for (const ChainInsert& c : out.all) {
     if (c.place != ChainInsert::Place::kLink) continue;
@@ -468,7 +469,10 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
                                     Eigen::MatrixXd* J_e_p, Eigen::MatrixXd* J_e_q) {
   checkSizes(m, p, s);
   const int n = m.arm.numJoints();
-  Eigen::MatrixXd J_dq_p;
+  // The per-sample matrices of the Jacobian, kept per thread between calls: a fit evaluates this for
+  // every sample at every iteration, and allocating them afresh each time was a tenth of its CPU.
+  thread_local Eigen::MatrixXd J_dq_p;
+  thread_local Matrix6Xd J_flange, J_geo, J_q;
   const Eigen::VectorXd q = s.q_rad + jointCorrectionsImpl(m, p, s, J_e_p ? &J_dq_p : nullptr);
   const LengthScale lengths = lengthScaleOf(m, p, s);
   const Arm arm = scaledArm(m, p, lengths.scale);
@@ -480,7 +484,8 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   const auto seg = [&](int blk) { return p.segment(m.layout.block(blk).offset, 6); };
   const Eigen::Isometry3d W = b_blk >= 0 ? m.baseStart(s.session) * frameDelta(seg(b_blk)) : m.baseStart(s.session);
   const Eigen::Isometry3d D = insertsAt(inserts, ChainInsert::Place::kBase);
-  const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, q, inserts.links);
+  thread_local std::vector<Eigen::Isometry3d> frames;
+  chainFrames(arm, q, inserts.links, frames);
   const Eigen::Isometry3d Xf = insertsAt(inserts, ChainInsert::Place::kFlange);
   const Eigen::Isometry3d F = frames.back() * Xf;
   const Eigen::Isometry3d M = m_blk >= 0 ? m.markerStart(s.session) * frameDelta(seg(m_blk)) : m.markerStart(s.session);
@@ -492,12 +497,12 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   // Flange-frame columns of every DH parameter (the zero-offset columns double as the joints' columns), moved
   // to the marker frame.
   const Matrix6d Ad_marker_flange = adjoint((Xf * MY).inverse());
-  Matrix6Xd J_flange(6, arm.numParams());
+  J_flange.resize(6, arm.numParams());
   identificationJacobian(arm, q, ErrorFrame::kTool, J_flange, inserts.links, frames);
   // Products of 6-row matrices, coefficient by coefficient: the blocked GEMM path costs more than the
   // arithmetic at these sizes (lazyProduct).
-  const Matrix6Xd J_geo = Ad_marker_flange.lazyProduct(J_flange);
-  Matrix6Xd J_q(6, n);
+  J_geo.noalias() = Ad_marker_flange.lazyProduct(J_flange);
+  J_q.resize(6, n);
   for (int j = 0; j < n; ++j) J_q.col(j) = J_geo.col(jointParamIndex(arm, j));
   if (J_e_q) *J_e_q = J_q;
   if (!J_e_p) return world_T_marker;
@@ -522,7 +527,11 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   if (m.geometry) {
     const int g = m.layout.block(m.layout.find(BlockKind::kGeometry)).offset;
     for (int i = 0; i < m.arm.numParams(); ++i) {
-      J.col(g + i) += isAngleParam(m.arm, i) ? J_geo.col(i) : Matrix6Xd(lengths.scale * J_geo.col(i));
+      if (isAngleParam(m.arm, i)) {
+        J.col(g + i) += J_geo.col(i);
+      } else {
+        J.col(g + i) += lengths.scale * J_geo.col(i);  // no temporary column (a conditional expression made one per column)
+      }
     }
   }
   // d/dp of the scaled lengths L_eff = L scale: L_eff d log(scale)/dp along each length's own column.

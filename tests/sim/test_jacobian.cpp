@@ -174,3 +174,20 @@ TEST_CASE("identification Jacobian from the caller's chain frames equals the one
   REQUIRE_THROWS_WITH(identificationJacobian(arm, q, ErrorFrame::kTool, J, inserts, short_chain),
                       Catch::Contains("expected 9 frames, got 8"));
 }
+
+TEST_CASE("chain frames into a reused vector equal the frames chainFrames returns", "[sim][jacobian]") {
+  // predictMarkerPose keeps one vector per thread for the frames of every sample: whatever it held
+  // before (another configuration's frames, a longer chain's) must not show in the next.
+  const Arm arm = loadArm(orbcal::test::sourcePath("scenes/iiwa7.yaml"));
+  LinkInserts inserts(static_cast<std::size_t>(arm.numJoints()), Eigen::Isometry3d::Identity());
+  inserts[4] = Eigen::Translation3d(-2e-3, 1e-3, 3e-3) * Eigen::AngleAxisd(2.1e-3, Eigen::Vector3d(1.0, 2.0, -2.0).normalized());
+  std::vector<Eigen::Isometry3d> reused(20, Eigen::Isometry3d(Eigen::Translation3d(1.0, 2.0, 3.0)));
+  for (const auto& q : testConfigurations(7, 31)) {
+    for (const LinkInserts& in : {inserts, LinkInserts{}}) {
+      chainFrames(arm, q, in, reused);
+      const std::vector<Eigen::Isometry3d> fresh = chainFrames(arm, q, in);
+      REQUIRE(reused.size() == fresh.size());
+      for (std::size_t i = 0; i < fresh.size(); ++i) REQUIRE(reused[i].matrix() == fresh[i].matrix());
+    }
+  }
+}

@@ -18,9 +18,9 @@
 namespace orbcal::sim {
 namespace {
 
-/// P_1..P_K at s (Bonnet's recursion).
-Eigen::VectorXd legendre(double s, int K) {
-  Eigen::VectorXd P(K);
+/// P_1..P_K at s (Bonnet's recursion) into P (resized to K).
+void legendre(double s, int K, Eigen::VectorXd& P) {
+  P.resize(K);
   double p0 = 1.0, p1 = s;
   for (int k = 1; k <= K; ++k) {
     P[k - 1] = p1;
@@ -28,7 +28,6 @@ Eigen::VectorXd legendre(double s, int K) {
     p0 = p1;
     p1 = p2;
   }
-  return P;
 }
 
 /// joints = [i, j]: joint i corrected as a function of joint j's angle (or torque).
@@ -78,7 +77,8 @@ class EmpiricalKind : public EffectKind {
   void addJointCorrection(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
                           Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {
     const double x = variable(e, s);
-    const Eigen::VectorXd P = legendre((2.0 * x - e.lo() - e.hi()) / (e.hi() - e.lo()), e.order());
+    thread_local Eigen::VectorXd P;  // every sample at every iteration: no allocation each time
+    legendre((2.0 * x - e.lo() - e.hi()) / (e.hi() - e.lo()), e.order(), P);
     const int i = e.joints()[0];
     dq[i] += P.dot(p.segment(b.offset, e.order()));
     if (J) J->block(i, b.offset, 1, e.order()) += P.transpose();

@@ -191,6 +191,8 @@ using LinkInserts = std::vector<Eigen::Isometry3d>;
 /// forwardKinematics and chainFrames with inserts (empty `inserts`: the plain chain).
 Eigen::Isometry3d forwardKinematics(const Arm& arm, const Eigen::VectorXd& q, const LinkInserts& inserts);
 std::vector<Eigen::Isometry3d> chainFrames(const Arm& arm, const Eigen::VectorXd& q, const LinkInserts& inserts);
+/// The same into `frames` (its storage reused: a fit's every sample at every iteration).
+void chainFrames(const Arm& arm, const Eigen::VectorXd& q, const LinkInserts& inserts, std::vector<Eigen::Isometry3d>& frames);
 
 bool withinLimits(const Arm& arm, const Eigen::VectorXd& q);
 
