@@ -196,8 +196,10 @@ StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::
     Ad.diagonal() += damping;
     const Eigen::LLT<Eigen::MatrixXd> llt(Ad);
     const Eigen::VectorXd z = llt.info() == Eigen::Success ? Eigen::VectorXd(-llt.solve(gs)) : Eigen::VectorXd();
-    // The linearized model's decrease of the cost along the step.
-    const double model_change = z.size() && z.allFinite() ? -(gs.dot(z) + 0.5 * z.dot(A * z)) : 0.0;
+    // The linearized model's decrease of the cost along the step: -(slope + curvature / 2).
+    const bool solved = z.size() && z.allFinite();
+    const double slope = solved ? gs.dot(z) : 0.0, curvature = solved ? z.dot(A * z) : 0.0;
+    const double model_change = solved ? -(slope + 0.5 * curvature) : 0.0;
     if (!(model_change > 0.0)) {
       if (!shrink()) break;
       continue;
@@ -213,13 +215,12 @@ StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::
     double change = model_change;
     // Where the cost's curvature along the step exceeds J^T J's (the terms f_i d2f_i it leaves out, large
     // along directions only a wide prior holds), the full step overshoots; its parabola's minimum does not.
-    const double slope = gs.dot(z);
     if (const double t = trial.finite ? parabolicStep(now.cost, slope, cost) : 1.0; t < 1.0) {
       const Sums shorter = acc.at(r.x + t * delta, false);
       if (shorter.finite && shorter.cost < cost) {
         candidate = r.x + t * delta;
         cost = shorter.cost;
-        change = -(t * slope + 0.5 * t * t * z.dot(A * z));
+        change = -(t * slope + 0.5 * t * t * curvature);
       }
     }
     if (std::abs(now.cost - cost) <= o.function_tolerance * now.cost) {

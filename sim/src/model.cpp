@@ -470,7 +470,8 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   checkSizes(m, p, s);
   const int n = m.arm.numJoints();
   // The per-sample matrices of the Jacobian, kept per thread between calls: a fit evaluates this for
-  // every sample at every iteration, and allocating them afresh each time was a tenth of its CPU.
+  // every sample at every iteration, and these allocations (with the chain frames' below) were about
+  // half of a diagnosis's 10.6 million (the real iiwa7 0 kg run; 2.4 % of its instructions).
   thread_local Eigen::MatrixXd J_dq_p;
   thread_local Matrix6Xd J_flange, J_geo, J_q;
   const Eigen::VectorXd q = s.q_rad + jointCorrectionsImpl(m, p, s, J_e_p ? &J_dq_p : nullptr);
