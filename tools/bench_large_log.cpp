@@ -15,6 +15,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bench.hpp"
@@ -43,7 +44,8 @@ void printLargeLogHelp(std::ostream& os) {
         "  --inject SPEC  effect hidden in the log (default compliance:2; 'none': clean)\n"
         "  --seed N       the log's seed (default 1)\n"
         "  --noise-observations N  diagnose's (default 20000; 0: the noise estimated on every observation)\n"
-        "The diagnosis's own CPU time (the simulation excluded) is printed beside its wall time.\n"
+        "The diagnosis's own CPU time (the simulation excluded) is printed beside its wall time, and so is\n"
+        "each of its phases' (calib::kDiagnosePhases).\n"
         "The log: two sessions (0 and 1.25 kg payload), the tracker noise stated as the simulation's, the\n"
         "joint readings' noise not stated (diagnose estimates it).\n";
 }
@@ -80,11 +82,19 @@ int runSize(const LargeLogOptions& o, int largest, int n) {
   };
   const double c0 = cpu();
   const auto t0 = std::chrono::steady_clock::now();
+  const auto wall = [&t0] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  std::vector<std::pair<double, double>> starts;  // each phase's start: wall, CPU (s)
+  calib::DiagnoseOptions options = o.diagnose;
+  options.progress = [&](int, int) { starts.emplace_back(wall(), cpu() - c0); };
   const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(data, true);
-  const calib::Diagnosis d = calib::diagnose(data, obs, o.diagnose);
-  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const calib::Diagnosis d = calib::diagnose(data, obs, options);
+  const double s = wall();
   std::printf("  %7zu samples  %8.2f s (CPU %.1f s)", obs.size(), s, cpu() - c0);
   std::printf("  verdict: %s\n", verdictLine(d).c_str());
+  for (std::size_t k = 0; k + 1 < starts.size() && k < calib::kDiagnosePhases.size(); ++k) {
+    std::printf("           %-45s %7.2f s (CPU %.1f s)\n", calib::kDiagnosePhases[k], starts[k + 1].first - starts[k].first,
+                starts[k + 1].second - starts[k].second);
+  }
   std::fflush(stdout);
   return 0;
 }

@@ -207,6 +207,10 @@ namespace {
 
 Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
+  const auto phase = [&o](std::size_t k) {
+    if (o.progress) o.progress(static_cast<int>(k), static_cast<int>(kDiagnosePhases.size()));
+  };
+  phase(0);
   Diagnoser d(data, obs, o);
   Diagnosis out;
   const FitOptions stated_options = statedFitOptions(data, obs, o, out.noise);
@@ -216,6 +220,7 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
   registration.estimate_joint_noise = false;  // the frames alone: no joint noise to tell from the rest
   requirePlausibleResidual(data, fitRegistration(startingModel(data, obs, {}), obs, registration).residuals,
                            "the nominal arm's registration residual");
+  phase(1);
   // Not the geometry's bounds (calibrate's): the base model is the one that lacks the causes diagnose
   // looks for, and its lengths absorb what they can of them (a thermal expansion, a bending link). Its
   // noise: as stated, else estimated with empirical corrections beside it (diagnose_noise.hpp).
@@ -224,6 +229,7 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
   const int folds = std::max(2, o.folds);
   const int replicated = pureError(obs, std::vector<Eigen::VectorXd>(obs.size(), Eigen::VectorXd::Zero(3))).replicated;
 
+  phase(2);
   CvResult cv_base = d.crossValidate({});
   out.cv_base = cv_base.sse;
   out.residual_base = cv_base.residual;
@@ -233,12 +239,14 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
 
   // Forward selection: the catalog's causes; then, where their model still leaves significant structure
   // (the lack-of-fit test), empirical corrections, selected the same way.
+  phase(3);
   ModelSelection sel{{}, cv_base, out.base_fit, 0};
   forwardSelect(d, data, obs, o, d.catalog(), sel, out);
   if (o.empirical && sel.steps < o.max_effects &&
       lackOfFit(data, obs, sel.fit, floorNoise(out.noise), sel.cv.residual, out.noise.floorStated(), folds, o.alpha).left()) {
     forwardSelect(d, data, obs, o, empiricalCandidates(data, obs, o.max_order), sel, out);
   }
+  phase(4);
   backwardEliminate(d, o, out.base_fit, sel);
 
   out.selected = sel.effects;
@@ -258,8 +266,10 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
     }
   }
   out.confounded = kept;
+  phase(5);
   out.alternatives = alternativesOf(out, [&d](const std::vector<Effect>& effects) { return d.fitAll(effects); });
 
+  phase(6);
   judgeAgainstFloor(data, obs, o, stated_options, replicated, folds, out);
   out.heldout.noise_position_rms_m = out.lack_of_fit.noise_position_rms_m;
   out.unexplained = out.lack_of_fit.left();
@@ -267,6 +277,7 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
   if (out.unexplained && !out.selected.empty()) out.share_of_excess = sharesOfExcess(d, out);
   out.verdict = verdictText(out);
   out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  phase(kDiagnosePhases.size());
   return out;
 }
 

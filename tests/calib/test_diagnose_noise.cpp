@@ -7,6 +7,7 @@
 #include <catch2/catch.hpp>
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/sim/csv.hpp"
@@ -161,7 +162,15 @@ TEST_CASE("diagnose: rows repeated exactly do not change the verdict", "[calib][
   sim::MeasuredData tripled = ds.data;
   tripled.poses.clear();
   for (const sim::MeasuredPose& p : ds.data.poses) tripled.poses.insert(tripled.poses.end(), 3, p);
-  const calib::Diagnosis once = calib::diagnose(ds.data, calib::observationsFrom(ds.data, true), {});
+  // The run also tells its phases, in order, each once, then its end (DiagnoseOptions::progress).
+  calib::DiagnoseOptions told;
+  std::vector<int> phases;
+  told.progress = [&phases](int done, int total) {
+    CHECK(total == static_cast<int>(calib::kDiagnosePhases.size()));
+    phases.push_back(done);
+  };
+  const calib::Diagnosis once = calib::diagnose(ds.data, calib::observationsFrom(ds.data, true), told);
+  CHECK(phases == std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7});
   const calib::Diagnosis thrice = calib::diagnose(tripled, calib::observationsFrom(tripled, true), {});
   CAPTURE(selectedText(once), selectedText(thrice), once.verdict, thrice.verdict);
   CHECK(selectedText(once) == selectedText(thrice));

@@ -420,6 +420,14 @@ std::string distortionSection(const DistortionCheck& c, const calib::DiagnoseOpt
   return md.str();
 }
 
+/// calib::diagnose with its phases as a progress line (none with --quiet).
+calib::Diagnosis diagnoseShowingPhases(const sim::MeasuredData& data, const std::vector<calib::MarkerObservation>& obs,
+                                       calib::DiagnoseOptions options, const DiagnoseRunOptions& o) {
+  Progress bar(o.callbacks.progress, o.quiet ? "" : "diagnose", o.quiet ? 0 : static_cast<int>(calib::kDiagnosePhases.size()));
+  options.progress = [&bar](int done, int) { bar.update(done); };
+  return calib::diagnose(data, obs, options);
+}
+
 }  // namespace
 
 DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
@@ -457,7 +465,7 @@ DiagnoseRunResult runDiagnose(const DiagnoseRunOptions& o) {
   const std::string input_folder = measured ? std::filesystem::path(o.input).parent_path().string() : o.input;
   sim::OutputFolder folder(o.out.empty() ? (input_folder.empty() ? "." : input_folder) + "/diagnosis" : o.out, "orbcal diagnose");
   const std::string& out = folder.path();
-  r.diagnosis = calib::diagnose(data, obs, options);
+  r.diagnosis = diagnoseShowingPhases(data, obs, options, o);
   if (dataset) {
     r.distortion = checkDistortion(*dataset, meas, usable, options);
     if (r.distortion.selected) {

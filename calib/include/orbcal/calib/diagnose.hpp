@@ -17,6 +17,8 @@
 //  4. Confounding: candidates that predict held-out data about as well as the chosen one (their
 //     cross-validated gains within a margin), or a cause the geometry mostly absorbs, are named as a
 //     set, with the measurement that would separate them.
+#include <array>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -25,6 +27,11 @@
 #include "orbcal/calib/measured_fit.hpp"
 
 namespace orbcal::calib {
+
+/// The phases of a diagnosis, in the order it runs them (DiagnoseOptions::progress).
+inline constexpr std::array<const char*, 7> kDiagnosePhases{
+    "registration check", "noise and base model's fit", "base model's cross-validation and evidence", "forward selection",
+    "backward elimination", "confounded alternatives", "judgement against the noise floor"};
 
 struct DiagnoseOptions {
   int folds = 5;
@@ -62,6 +69,9 @@ struct DiagnoseOptions {
   /// observations (docs/benchmarks.md). The subset is enlarged to what the most flexible level that every
   /// observation allows needs, and not used where it would leave out a session (diagnose_noise.hpp).
   int noise_observations = 20000;
+  /// Told, on the calling thread, as each phase starts: (k, kDiagnosePhases.size()) before phase k,
+  /// then (size, size) when the diagnosis is done. Empty: silent.
+  std::function<void(int done, int total)> progress;
 };
 
 /// One candidate at one forward step.
