@@ -14,9 +14,9 @@ RuntimeError) carrying orbcal's one-line message, which names the file and the k
     print(calibration.accepted, calibration.heldout["after"]["position_rms_m"])
 """
 from ._orbcal import (Calibration, Diagnosis, Error, Measurements, Model, Refused, Robot, __version__,  # noqa: F401
-                      calibrate, calibrate_images, diagnose, evaluate, load_measurements, load_model, load_robot,
-                      measurements_from_arrays, render_dataset, run_study, simulate, twin, version)
+                      calibrate, calibrate_images, diagnose, diagnose_phases, evaluate, load_measurements, load_model,
+                      load_robot, measurements_from_arrays, render_dataset, run_study, simulate, twin, version)
 
 __all__ = ["Calibration", "Diagnosis", "Error", "Measurements", "Model", "Refused", "Robot", "__version__", "calibrate",
-           "calibrate_images", "diagnose", "evaluate", "load_measurements", "load_model", "load_robot",
-           "measurements_from_arrays", "render_dataset", "run_study", "simulate", "twin", "version"]
+           "calibrate_images", "diagnose", "diagnose_phases", "evaluate", "load_measurements", "load_model",
+           "load_robot", "measurements_from_arrays", "render_dataset", "run_study", "simulate", "twin", "version"]

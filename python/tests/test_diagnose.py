@@ -35,9 +35,25 @@ def test_diagnose_names_a_hidden_cyclic_error_on_its_joint(iiwa7):
 
 def test_diagnose_of_clean_data_is_clean(tracker):
     data, _ = tracker
-    d = orbcal.diagnose(data, seed=1)
+    calls = []
+    d = orbcal.diagnose(data, seed=1, progress=lambda done, total: calls.append((done, total)))
     assert d.verdict == "clean", d.sentence
     assert d.selected == [] and d.confounded == []
+    # Its phases, as orbcal diagnose's progress line shows them: each once, in order, then the end.
+    n = len(orbcal.diagnose_phases)
+    assert n == 7 and "forward selection" in orbcal.diagnose_phases
+    assert calls == [(k, n) for k in range(n + 1)]
+
+
+def test_an_exception_of_the_progress_callable_stops_the_diagnosis(tracker):
+    data, _ = tracker
+
+    def stop(done, total):
+        if done == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        orbcal.diagnose(data, seed=1, progress=stop)
 
 
 def test_diagnose_estimates_the_noise_on_a_subset_as_asked(tracker):
