@@ -7,13 +7,16 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <condition_variable>
 #include <cstdlib>
 #include <iostream>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <stdexcept>
+#include <vector>
 
 #include "orbcal/sim/config.hpp"
 #include "orbcal/workflow/experiment.hpp"
@@ -114,14 +117,36 @@ class PlotProcess {
   int fd_ = -1;
 };
 
-/// The drawer of one command: its plot process while it answers, else one process per figure.
+/// The drawer of one command: its plot processes while they answer, else one process per figure. Each
+/// call takes a process no other call is using (waiting for one), so as many calls as processes run
+/// side by side.
 struct BatchDrawer {
   std::mutex mutex;
+  std::condition_variable freed;
   std::string script = plotScript();
-  std::unique_ptr<PlotProcess> process;
+  std::vector<std::unique_ptr<PlotProcess>> processes;  ///< null: gone, drawn one process per figure
+  std::vector<bool> busy;
 
   std::string draw(const workflow::FigureRequest& f) {
-    const std::lock_guard<std::mutex> lock(mutex);
+    std::size_t slot = 0;
+    {
+      std::unique_lock<std::mutex> lock(mutex);
+      freed.wait(lock, [&] { return std::find(busy.begin(), busy.end(), false) != busy.end(); });
+      slot = static_cast<std::size_t>(std::find(busy.begin(), busy.end(), false) - busy.begin());
+      busy[slot] = true;
+    }
+    struct Release {
+      BatchDrawer& d;
+      std::size_t slot;
+      ~Release() {
+        {
+          const std::lock_guard<std::mutex> lock(d.mutex);
+          d.busy[slot] = false;
+        }
+        d.freed.notify_one();
+      }
+    } release{*this, slot};
+    std::unique_ptr<PlotProcess>& process = processes[slot];  // this call's alone until released
     const std::string request = f.args + " " + workflow::shellQuote(f.folder + "/" + f.png);
     if (process && request.find('\n') == std::string::npos) {
       if (const std::optional<std::string> answer = process->ask(request)) {
@@ -152,14 +177,16 @@ std::string plotReportFigure(const workflow::FigureRequest& f) {
   failed(f, last, script);
 }
 
-workflow::FigureFn batchFigureDrawer() {
+workflow::FigureFn batchFigureDrawer(int processes) {
   auto drawer = std::make_shared<BatchDrawer>();
-  drawer->process = std::make_unique<PlotProcess>(plotInterpreter(), drawer->script);
+  for (int k = 0; k < std::max(1, processes); ++k) drawer->processes.push_back(std::make_unique<PlotProcess>(plotInterpreter(), drawer->script));
+  drawer->busy.assign(drawer->processes.size(), false);
   return [drawer](const workflow::FigureRequest& f) { return drawer->draw(f); };
 }
 
-workflow::Callbacks terminalCallbacks(bool figures) {
-  return {terminalProgress(), figures ? batchFigureDrawer() : workflow::FigureFn(plotReportFigure)};
+workflow::Callbacks terminalCallbacks(bool figures, int plot_processes) {
+  const int at_once = figures ? std::max(1, plot_processes) : 1;
+  return {terminalProgress(), figures ? batchFigureDrawer(at_once) : workflow::FigureFn(plotReportFigure), at_once};
 }
 
 }  // namespace orbcal::tools

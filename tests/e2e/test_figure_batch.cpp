@@ -1,4 +1,4 @@
-// The program's figure drawer (tools/figures.hpp): one python3 process draws all the figures of a command,
+// The program's figure drawer (tools/figures.hpp): one python3 process (two for diagnose) draws all the figures of a command,
 // answering each (an image line; a failure named, and the next figure still drawn).
 #include <catch2/catch.hpp>
 
@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "figures.hpp"
 #include "orbcal/sim/fileio.hpp"
@@ -16,6 +17,12 @@ namespace fs = std::filesystem;
 using namespace orbcal;
 using Catch::Matchers::Contains;
 using Catch::Matchers::StartsWith;
+
+/// Skips the test case where Debian's python3 has no matplotlib.
+#define ORBCAL_NEED_MATPLOTLIB()                                                  \
+  if (system("/usr/bin/python3 -c 'import matplotlib' 2>/dev/null") != 0) {      \
+    ORBCAL_SKIP("python3 with matplotlib is not installed");                    \
+  }
 
 namespace {
 
@@ -33,20 +40,22 @@ struct ScopedEnv {
   ~ScopedEnv() { unsetenv(name.c_str()); }
 };
 
+/// The interpreter, wrapped: each start of a python3 adds a line to dir/started.txt. Returns its path.
+std::string countingPython(const std::string& dir) {
+  sim::writeFileAtomic(dir + "/python.sh", "#!/bin/sh\necho started >> '" + dir + "/started.txt'\nexec /usr/bin/python3 \"$@\"\n");
+  fs::permissions(dir + "/python.sh", fs::perms::owner_all);
+  return dir + "/python.sh";
+}
+
 }  // namespace
 
 TEST_CASE("figures: one plot process draws every figure of a command, a failed one is named and the next drawn",
           "[e2e][figures]") {
-  if (system("/usr/bin/python3 -c 'import matplotlib' 2>/dev/null") != 0) {
-    ORBCAL_SKIP("python3 with matplotlib is not installed");
-  }
+  ORBCAL_NEED_MATPLOTLIB();
   const std::string dir = test::tempDir("figure-batch");
   sim::writeFileAtomic(dir + "/estimates.csv", "parameter,effect,unit,estimate,sigma,truth,held,class\nd1,geometry,mm,0.1,0.01,,0,\n");
   sim::writeFileAtomic(dir + "/residuals.csv", "index,q2_deg,base_mm,selected_mm\n0,10,0.2,0.1\n1,20,0.3,0.1\n");
-  // The interpreter, wrapped: each start of a python3 adds a line to started.txt.
-  sim::writeFileAtomic(dir + "/python.sh", "#!/bin/sh\necho started >> '" + dir + "/started.txt'\nexec /usr/bin/python3 \"$@\"\n");
-  fs::permissions(dir + "/python.sh", fs::perms::owner_all);
-  const ScopedEnv python("ORBCAL_PYTHON", dir + "/python.sh");
+  const ScopedEnv python("ORBCAL_PYTHON", countingPython(dir));
   {
     const workflow::FigureFn draw = tools::batchFigureDrawer();
     const auto request = [&](const std::string& args, const std::string& png) {
@@ -82,4 +91,38 @@ TEST_CASE("figures: a replacement plot script that draws one figure per run stil
     CHECK(fs::exists(dir + "/" + png));
   }
   CHECK(lines(dir + "/started.txt") == 2);
+}
+
+TEST_CASE("figures: two plot processes draw a command's figures side by side, their lines in order, the first failure thrown",
+          "[e2e][figures]") {
+  ORBCAL_NEED_MATPLOTLIB();
+  const std::string dir = test::tempDir("figure-pair");
+  sim::writeFileAtomic(dir + "/residuals.csv", "index,q2_deg,base_mm,selected_mm\n0,10,0.2,0.1\n1,20,0.3,0.1\n");
+  const ScopedEnv python("ORBCAL_PYTHON", countingPython(dir));
+  const std::string table = "residuals " + workflow::shellQuote(dir + "/residuals.csv");
+  const auto figures = [&](const std::vector<std::string>& columns) {
+    std::vector<workflow::FigureRequest> out;
+    for (std::size_t i = 0; i < columns.size(); ++i) {
+      out.push_back({dir, "f" + std::to_string(i) + ".png", table + " " + columns[i] + " label", "caption " + std::to_string(i)});
+    }
+    return out;
+  };
+  {
+    const workflow::Callbacks callbacks = tools::terminalCallbacks(true, 2);
+    CHECK(callbacks.figures_at_once == 2);
+    std::string expected;
+    for (int i = 0; i < 5; ++i) expected += "![caption " + std::to_string(i) + "](f" + std::to_string(i) + ".png)\n";
+    CHECK(workflow::drawFigures(callbacks, true, figures({"q2_deg", "index", "q2_deg", "index", "q2_deg"})) == expected);
+    for (int i = 0; i < 5; ++i) fs::remove(dir + "/f" + std::to_string(i) + ".png");
+    // Figures 1 and 3 fail: 1's failure is thrown, once every figure has ended (4 is drawn).
+    try {
+      workflow::drawFigures(callbacks, true, figures({"q2_deg", "q8_deg", "index", "q9_deg", "q2_deg"}));
+      FAIL("figures of columns that are not there were drawn");
+    } catch (const std::runtime_error& e) {
+      CHECK_THAT(e.what(), Contains("figure f1.png not drawn") && Contains("no column 'q8_deg'"));
+    }
+    CHECK(fs::exists(dir + "/f4.png"));
+    CHECK_FALSE(fs::exists(dir + "/f3.png"));
+  }
+  CHECK(lines(dir + "/started.txt") == 2);  // ten figures, two processes
 }

@@ -1,5 +1,9 @@
 #include "orbcal/workflow/callbacks.hpp"
 
+#include <algorithm>
+#include <atomic>
+#include <exception>
+#include <future>
 #include <utility>
 
 namespace orbcal::workflow {
@@ -37,6 +41,33 @@ std::string drawFigure(const Callbacks& callbacks, bool plots, const std::string
   if (!plots) return "(figures not drawn: --no-plots)\n";
   if (!callbacks.figure) return "(figure " + png + " not drawn: no figure drawer given)\n";
   return callbacks.figure(FigureRequest{folder, png, args, caption});
+}
+
+std::string drawFigures(const Callbacks& callbacks, bool plots, const std::vector<FigureRequest>& figures) {
+  std::vector<std::string> lines(figures.size());
+  std::vector<std::exception_ptr> failures(figures.size());
+  std::atomic<std::size_t> next{0};
+  const auto work = [&] {  // takes the next figure not yet taken until none is left
+    for (std::size_t i = next++; i < figures.size(); i = next++) {
+      const FigureRequest& f = figures[i];
+      try {
+        lines[i] = drawFigure(callbacks, plots, f.folder, f.args, f.png, f.caption);
+      } catch (...) {
+        failures[i] = std::current_exception();
+      }
+    }
+  };
+  const std::size_t workers = std::min(figures.size(), static_cast<std::size_t>(std::max(1, callbacks.figures_at_once)));
+  std::vector<std::future<void>> others;
+  for (std::size_t w = 1; w < workers; ++w) others.push_back(std::async(std::launch::async, work));
+  work();
+  for (std::future<void>& o : others) o.get();
+  std::string out;
+  for (std::size_t i = 0; i < figures.size(); ++i) {
+    if (failures[i]) std::rethrow_exception(failures[i]);
+    out += lines[i];
+  }
+  return out;
 }
 
 }  // namespace orbcal::workflow

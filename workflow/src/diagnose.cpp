@@ -381,26 +381,22 @@ std::string writeResiduals(const calib::Diagnosis& dg, const sim::MeasuredData& 
   const std::string rms_floor = " --floor " + sim::formatNumber("%.6g", lof.noise_position_rms_m * 1e3);
   const std::string axis_floor = " --floor " + sim::formatNumber("%.6g", lof.noise_position_rms_m * 1e3 / std::sqrt(3.0));
   const std::string table = shellQuote(out + "/residuals.csv") + " ";
-  std::string figures = drawFigure(o.callbacks, o.plots, out, "residuals " + table + "index sample" + rms_floor, "samples.png",
-                                   "held-out position error per sample, before and after, with the noise floor");
+  std::vector<FigureRequest> figures{{out, "samples.png", "residuals " + table + "index sample" + rms_floor,
+                                      "held-out position error per sample, before and after, with the noise floor"}};
   for (const sim::Effect& e : dg.selected) {
     const auto [column, label] = e.kind().revealingVariable(e, data.arm);
     const std::string name = sim::effectName(e) + std::to_string(sim::effectJoints(e).empty() ? 0 : sim::effectJoints(e)[0] + 1);
     const std::string variable = shellQuote(column) + " " + shellQuote(label);
-    figures += drawFigure(o.callbacks, o.plots, out, "residuals " + table + variable + rms_floor, "residuals_" + name + ".png",
-                          "held-out position error against " + label);
-    figures += drawFigure(o.callbacks, o.plots, out, "components " + table + variable + " --of base" + axis_floor,
-                          "components_" + name + ".png",
-                          "held-out residual components (signed) of geometry + registration against " + label + ": what " +
-                              sim::formatEffect(e) + " explains");
+    figures.push_back({out, "residuals_" + name + ".png", "residuals " + table + variable + rms_floor, "held-out position error against " + label});
+    figures.push_back({out, "components_" + name + ".png", "components " + table + variable + " --of base" + axis_floor,
+                       "held-out residual components (signed) of geometry + registration against " + label + ": what " +
+                           sim::formatEffect(e) + " explains"});
   }
   if (!lof.unexplained.empty()) {
-    figures += drawFigure(o.callbacks, o.plots, out, "components " + table + "unexplained_axis " + shellQuote(lof.axis_label) + axis_floor,
-                          "unexplained.png",
-                          "held-out residual components of the selected model against " + lof.unexplained.front().variable);
+    figures.push_back({out, "unexplained.png", "components " + table + "unexplained_axis " + shellQuote(lof.axis_label) + axis_floor,
+                       "held-out residual components of the selected model against " + lof.unexplained.front().variable});
   }
-
-  return figures;
+  return drawFigures(o.callbacks, o.plots, figures);
 }
 
 /// The report's section on the camera's lens distortion (image datasets).

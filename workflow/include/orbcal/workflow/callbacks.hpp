@@ -5,6 +5,7 @@
 // a test or a Python caller passes its own, or none.
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace orbcal::workflow {
 
@@ -27,6 +28,8 @@ using FigureFn = std::function<std::string(const FigureRequest& figure)>;
 struct Callbacks {
   ProgressFn progress;
   FigureFn figure;
+  /// How many calls `figure` takes side by side, from as many threads (drawFigures): 1, one at a time.
+  int figures_at_once = 1;
 };
 
 /// One stage's progress for the length of a scope: start (done = 0) on construction, update(done),
@@ -55,5 +58,9 @@ std::string shellQuote(const std::string& s);
 /// `plots` is off; a "not drawn" line without a drawer. Throws what the drawer throws.
 std::string drawFigure(const Callbacks& callbacks, bool plots, const std::string& folder, const std::string& args,
                        const std::string& png, const std::string& caption);
+
+/// Several figures' lines, in their order, each as drawFigure gives it, Callbacks::figures_at_once of
+/// them drawn side by side; once all have ended, the first failure (in their order) is thrown.
+std::string drawFigures(const Callbacks& callbacks, bool plots, const std::vector<FigureRequest>& figures);
 
 }  // namespace orbcal::workflow
