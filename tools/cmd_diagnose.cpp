@@ -56,7 +56,7 @@ void addDiagnoseCommand(CLI::App& app) {
   cmd->add_flag("--quiet", o->quiet, "no progress output");
   cmd->callback([o] {
     workflow::DiagnoseRunOptions options = *o;
-    // Two plot processes: its figures (up to nine) are drawn two at a time once the analysis is done.
+    // Two plot processes: its figures are drawn two at a time once the analysis is done.
     options.callbacks = terminalCallbacks(options.plots, 2);
     const workflow::DiagnoseRunResult r = workflow::runDiagnose(options);
     std::printf("%s\n", r.diagnosis.verdict.c_str());
