@@ -7,6 +7,7 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -60,6 +61,10 @@ class RunFolder {
  private:
   std::string temporary_, path_;
 };
+
+/// A Python progress callable (done, total) as a C++ progress callback, called with the GIL held (from
+/// a thread that released it); its exception stops the run. Empty for None.
+std::function<void(int done, int total)> pythonProgress(const py::object& progress);
 
 /// A written file's text (a report).
 std::string readText(const std::string& path);

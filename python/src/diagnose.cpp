@@ -98,14 +98,7 @@ void bindDiagnose(py::module_& m) {
         o.joint_noise_sigma_rad = joint_noise_rad;
         if (noise_observations < 0) throw py::value_error("diagnose: noise_observations must be >= 0 (0: all)");
         o.noise_observations = noise_observations;
-        if (!progress.is_none()) {
-          // Called on this thread (DiagnoseOptions::progress), so the GIL is taken back for it; its
-          // exception stops the diagnosis.
-          o.progress = [callable = py::handle(progress)](int done, int total) {
-            py::gil_scoped_acquire gil;
-            callable(done, total);
-          };
-        }
+        o.progress = pythonProgress(progress);
         PyDiagnosis p;
         {
           py::gil_scoped_release release;

@@ -11,18 +11,17 @@
 
 namespace orbcal::python {
 
-namespace {
-
-/// Calls a Python progress callable (done, total) with the GIL held; its exception stops the run.
-render::DatasetProgress pythonProgress(const py::object& progress) {
+std::function<void(int done, int total)> pythonProgress(const py::object& progress) {
   if (progress.is_none()) return {};
-  // A handle (no reference counting): the renderer may copy the callback without the GIL, and the callable
-  // outlives the call (render_dataset's argument).
+  // A handle (no reference counting): the callee may copy the callback without the GIL, and the callable
+  // outlives the call (the caller's argument).
   return [callable = py::handle(progress)](int done, int total) {
     py::gil_scoped_acquire gil;
     callable(done, total);
   };
 }
+
+namespace {
 
 py::dict reportDict(const render::DatasetRunReport& r) {
   return py::dict(py::arg("rendered") = r.rendered, py::arg("skipped") = r.skipped, py::arg("first_sample") = r.first_sample,
