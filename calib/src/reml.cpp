@@ -6,6 +6,7 @@
 #include <cmath>
 #include <future>
 #include <limits>
+#include <optional>
 
 namespace orbcal::calib {
 
@@ -128,6 +129,16 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
   return F;
 }
 
+/// Fisher scoring here converges linearly: where the last two plain steps (in deviations) point the
+/// same way and shrink by one steady ratio lambda < 0.9, the fixed point lies about lambda / (1 -
+/// lambda) of the last step further on (Aitken's extrapolation). That multiple; none otherwise.
+std::optional<double> aitkenAhead(const Eigen::VectorXd& step, const Eigen::VectorXd& before) {
+  if (before.size() != step.size() || before.squaredNorm() == 0.0) return std::nullopt;
+  const double lambda = step.dot(before) / before.squaredNorm();
+  if (!(lambda > 0.0 && lambda < 0.9) || (step - lambda * before).norm() > 0.2 * step.norm()) return std::nullopt;
+  return lambda / (1.0 - lambda);
+}
+
 }  // namespace
 
 MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::VectorXd& y, const MarkerNoise& noise,
@@ -172,7 +183,9 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
     if (free[static_cast<std::size_t>(c)]) f.push_back(c);
   }
   const auto nf = static_cast<Eigen::Index>(f.size());
+  const auto floorOf = [](int c) { return c == 2 ? 0.0 : 1e-18; };  // variances >= 0 (sigmas of position and rotation >= 1e-9)
   Eigen::MatrixXd F_last;
+  Eigen::VectorXd before;  // the plain step before this one (empty after a jump)
   for (int iteration = 0; iteration < 50 && nf > 0; ++iteration) {
     const Eigen::Matrix3d I = remlInformation(A, V, theta, prior);
     Eigen::MatrixXd F(nf, nf);
@@ -198,14 +211,25 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
     // kRemlTolerance^2 of its value (the criterion before, which also holds where F gives no deviation).
     const Eigen::VectorXd sd = (2.0 * cod.pseudoInverse()).diagonal().cwiseMax(0.0).cwiseSqrt();
     double change = 0.0;
+    Eigen::VectorXd step(nf), unit(nf);  // this step, in each component's unit (its deviation)
     for (Eigen::Index a = 0; a < nf; ++a) {
       const int c = f[static_cast<std::size_t>(a)];
-      const double floor = c == 2 ? 0.0 : 1e-18;
-      const double v = std::max(floor, next[a]);
-      change = std::max(change, std::abs(v - theta[c]) / std::max({sd[a], kRemlTolerance * v, 1e-300}));
+      const double v = std::max(floorOf(c), next[a]);
+      unit[a] = std::max({sd[a], kRemlTolerance * v, 1e-300});
+      step[a] = (v - theta[c]) / unit[a];
+      change = std::max(change, std::abs(step[a]));
       theta[c] = v;
     }
     if (change < kRemlTolerance) break;
+    if (const std::optional<double> ahead = aitkenAhead(step, before)) {
+      for (Eigen::Index a = 0; a < nf; ++a) {
+        const int c = f[static_cast<std::size_t>(a)];
+        theta[c] = std::max(floorOf(c), theta[c] + *ahead * step[a] * unit[a]);
+      }
+      before.resize(0);  // the next step tests the point jumped to; two plain steps before another jump
+    } else {
+      before = step;
+    }
   }
   if (components && nf > 0) {
     // The variances' covariance: 2 F^-1 (the information of a Gaussian's covariance parameters is

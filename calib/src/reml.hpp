@@ -15,9 +15,10 @@ namespace orbcal::calib {
 /// V_k1 = the position rows, V_k2 = the rotation rows, V_k3 = Jq_k Jq_k^T (joint noise through the
 /// residual's joint Jacobian). The components `free` are estimated, the others kept at `noise`'s
 /// values; each step solves sum tr(P V_c P V_d) theta_d = sum_k r^T W V_c W r (remlInformation; the
-/// parameters not in `held` are the fitted ones, `prior` their prior's information), until the free
-/// variances change by less than 1e-6 of themselves. Variances are kept >= 0 (sigmas of position and
-/// rotation >= 1e-9).
+/// parameters not in `held` are the fitted ones, `prior` their prior's information), until a step moves
+/// no free variance by more than 1e-3 of its standard deviation (Aitken's extrapolation of the linearly
+/// converging steps on the way: fewer steps to the same point). Variances are kept >= 0 (sigmas of
+/// position and rotation >= 1e-9).
 MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::VectorXd& y, const MarkerNoise& noise,
                                     const std::array<bool, 3>& free, const std::vector<int>& held, const Eigen::VectorXd& prior_sigma,
                                     NoiseComponents* components);
