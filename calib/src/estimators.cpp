@@ -464,6 +464,7 @@ StreamedLmOptions streamedOptions(const LmOptions& o, const std::vector<int>& fr
   StreamedLmOptions s;
   s.max_iterations = o.max_iterations;
   s.function_tolerance = o.function_tolerance;
+  s.decrease_tolerance = o.decrease_tolerance;
   const auto nf = static_cast<Eigen::Index>(free.size());
   if (o.start.size() > 0) {
     s.start.resize(nf);

@@ -83,6 +83,7 @@ Estimate runOnce(MethodSpec method, const MeasurementModel& model, const FitCont
   method.lm.fix_unidentifiable = method.lm.fix_unidentifiable && controls.fix_unidentifiable;
   method.lm.covariance = method.lm.covariance && controls.covariance;
   method.lm.normal_equations = method.lm.normal_equations || controls.normal_equations;
+  method.lm.decrease_tolerance = controls.decrease_tolerance;
   method.lm.start = controls.start;
   if (controls.prior_sigma.size() > 0) {
     method.lm.prior_sigma = method.lse.prior_sigma = method.ekf.prior_sigma = controls.prior_sigma;

@@ -95,8 +95,11 @@ struct LmOptions {
   /// Ceres's Levenberg-Marquardt strategy), never the stacked J: a 10^5-sample log's is gigabytes.
   /// That LM also shortens a step that overshoots the cost's minimum along it (where the cost curves
   /// more than J^T J says), and stops once the Gauss-Newton model's whole remaining decrease is below
-  /// 1e-6 in the noise's units, where Ceres would go on with steps the noise cannot see.
+  /// decrease_tolerance in the noise's units, where Ceres would go on with steps the noise cannot see.
   bool normal_equations = false;
+  /// With normal_equations: StreamedLmOptions::decrease_tolerance (1e-6: within about 0.0014 standard
+  /// deviations of the minimum).
+  double decrease_tolerance = 1e-6;
   /// A Gaussian prior y_i ~ N(prior_mean_i, prior_sigma_i^2) on the parameters whose prior_sigma_i is
   /// positive (empty: none, the least-squares estimate): the maximum a-posteriori estimate, with the
   /// prior's residuals (y_i - prior_mean_i) / prior_sigma_i beside the whitened measurements.

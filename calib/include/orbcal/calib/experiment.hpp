@@ -44,6 +44,7 @@ struct FitControls {
   bool fix_unidentifiable = true;   ///< LSE, LM: also hold one parameter per unidentifiable group
   bool covariance = true;           ///< LM: the estimate's covariance (LmOptions::covariance)
   bool normal_equations = false;    ///< LM: LmOptions::normal_equations
+  double decrease_tolerance = 1e-6; ///< LM on the normal equations: LmOptions::decrease_tolerance
   /// A Gaussian prior (LmOptions::prior_sigma) for every estimator: LM's prior residuals, LSE's
   /// pseudo-observations, the EKF's P0; empty: none.
   Eigen::VectorXd prior_sigma, prior_mean;
