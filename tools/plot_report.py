@@ -19,9 +19,31 @@
 """
 import csv
 import io
+import os
 import shlex
 import sys
 from collections import OrderedDict
+
+
+def idle_while_warming(idle):
+    """--batch: importing matplotlib and the warm-up run at the idle priority (SCHED_IDLE: on a core
+    orbcal's analysis, started beside this process, leaves free) where the process may return to the
+    normal one for the figures, asked for once orbcal has finished (root, or RLIMIT_NICE allowing nice 0);
+    elsewhere at the normal priority throughout, so that figures never wait behind other work."""
+    if not hasattr(os, "SCHED_IDLE"):
+        return
+    try:
+        import resource
+
+        may_return = os.geteuid() == 0 or resource.getrlimit(resource.RLIMIT_NICE)[0] >= 20
+        if may_return or not idle:
+            os.sched_setscheduler(0, os.SCHED_IDLE if idle else os.SCHED_OTHER, os.sched_param(0))
+    except (OSError, ValueError, ImportError):
+        pass  # the priority is a speed-up only
+
+
+if sys.argv[1:2] == ["--batch"]:
+    idle_while_warming(True)
 
 try:
     import matplotlib
@@ -283,7 +305,11 @@ def batch(lines, answer):
     one line: ok, missing: WHY or error: WHY (the message a single run would end with)."""
     if not MISSING:
         warm_up()
+    first = True
     for line in lines:
+        if first:
+            idle_while_warming(False)  # a figure is asked for: orbcal has finished
+            first = False
         if not line.strip():
             continue
         if MISSING:

@@ -140,3 +140,27 @@ def test_batch_without_matplotlib_answers_missing_for_each_figure(tmp_path):
     single = subprocess.run([sys.executable, str(SOURCE_DIR / "tools" / "plot_report.py"), "parameters", "e.csv", "a.png"],
                             capture_output=True, text=True, cwd=tmp_path, env=env, timeout=120)
     assert single.returncode != 0 and single.stderr.strip().splitlines()[-1] == "ImportError: No module named 'matplotlib'"
+
+
+@pytest.mark.skipif(not hasattr(os, "SCHED_IDLE"), reason="no SCHED_IDLE on this system")
+def test_batch_warms_up_at_idle_priority_and_draws_at_the_normal_one(plot_report, tmp_path):
+    # --batch imports and warms up at SCHED_IDLE where it may return to the normal policy: the figures,
+    # asked for once orbcal has finished, are drawn at the normal one (never behind other work).
+    import resource
+
+    may_return = os.geteuid() == 0 or resource.getrlimit(resource.RLIMIT_NICE)[0] >= 20
+    write_csv(tmp_path / "residuals.csv", ["index", "q2_deg", "base_mm", "selected_mm"], [(0, 10.0, 0.2, 0.1), (1, 20.0, 0.3, 0.1)])
+    policies = []
+
+    def answer(text):
+        policies.append((text, os.sched_getscheduler(0)))
+
+    before = os.sched_getscheduler(0)
+    try:
+        plot_report.idle_while_warming(True)
+        assert os.sched_getscheduler(0) == (os.SCHED_IDLE if may_return else before)
+        plot_report.batch(["residuals %s q2_deg 'joint 2 (deg)' %s\n" % (tmp_path / "residuals.csv", tmp_path / "r.png")], answer)
+    finally:
+        if may_return:
+            os.sched_setscheduler(0, before, os.sched_param(0))
+    assert policies == [("ok", os.SCHED_OTHER if may_return else before)]
