@@ -307,7 +307,13 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     // it did not, its end point depends on where LM stopped: docs/benchmarks.md), the last round always.
     const bool warm = !o.analyze && round > 0 && (round + 1 == rounds || fit.estimate.converged);
     FitControls controls = fitControls(o, start.layout, fit.p0);
-    if (warm) controls.start = fit.estimate.y;
+    if (warm) {
+      controls.start = fit.estimate.y;
+      // The same start point, whitened with another noise: the data determine the same combinations of
+      // the parameters. The round before's held ones, without another R factor of every sample.
+      controls.hold = fit.estimate.held;
+      controls.fix_unidentifiable = false;
+    }
     if (round + 1 < rounds) controls.decrease_tolerance = kNoiseRoundDecrease;
     fit.estimate = runMethod(findMethod(comparisonMethods(o.joint_noise_sigma_rad), o.method, "method"), m, controls);
     fit.p = fit.p0 + fit.estimate.y;
