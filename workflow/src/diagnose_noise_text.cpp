@@ -60,13 +60,16 @@ std::string floorSentence(const calib::Diagnosis& dg) {
 
 /// The tracker noise of a calibration of `effects` on all of `obs`, estimated as `orbcal calibrate`
 /// estimates it (the same fit: position and rotation variance components where the noise is not
-/// given; joint readings as stated, else not modelled).
+/// given; joint readings as stated, else not modelled), its steps solved as diagnose's own fits solve
+/// them (DiagnoseOptions::lean_fits: the normal equations summed per block of samples, where
+/// calibrate takes a QR of the stacked Jacobian): the same minimum.
 calib::MarkerNoise noiseWithEffects(const sim::MeasuredData& data, const std::vector<calib::MarkerObservation>& obs,
                                     const std::vector<sim::Effect>& effects, const calib::DiagnoseOptions& o) {
   calib::FitOptions fo;
   fo.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
   fo.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
   fo.joint_noise_sigma_rad = o.joint_noise_sigma_rad ? *o.joint_noise_sigma_rad : data.noise_joint_rad.value_or(0.0);
+  fo.normal_equations = o.lean_fits;
   return calib::fitMarkerModel(calib::startingModel(data, obs, effects), obs, fo).noise;
 }
 
