@@ -8,7 +8,6 @@
 #include <cmath>
 #include <future>
 #include <map>
-#include <mutex>
 #include <numeric>
 #include <optional>
 #include <string>
@@ -43,11 +42,7 @@ class Diagnoser {
     return f;
   }
 
-  /// The fit of `effects` to all the data, with its analyses. From fitLean's fit of the same effects
-  /// where there is one (a candidate's cross-validation made it): the same optimum, reached in an
-  /// iteration or two instead of from the closed-form start.
   Fit fitAll(const std::vector<sim::Effect>& effects) const {
-    if (const std::optional<Fit> lean = leanFitOf(effects)) return fitMarkerModel(lean->model, obs_, fitOptions(), lean->p);
     return fitMarkerModel(startingModel(data_, obs_, effects), obs_, fitOptions());
   }
 
@@ -61,7 +56,8 @@ class Diagnoser {
                          const std::vector<std::string>& extremes = {}) const {
     // A cold start depends on the effects alone: backward elimination and the shares of the excess
     // ask again for models already cross-validated (the base model, a prefix of the selection).
-    std::string key = keyOf(effects);
+    std::string key;
+    for (const sim::Effect& e : effects) key += sim::formatEffect(e) + " ";
     for (const std::string& c : extremes) key += "|" + c;
     if (!warm) {
       const auto hit = cold_cvs_.find(key);
@@ -108,38 +104,17 @@ class Diagnoser {
   }
 
   /// The fit of `effects` to all the data, from `warm` (its frames and parameters, the added effects
-  /// at zero) where given, else from the closed-form start; for its parameters alone. Kept (leanFitOf):
-  /// fitAll starts from it.
+  /// at zero) where given, else from the closed-form start; for its parameters alone.
   Fit fitLean(const std::vector<sim::Effect>& effects, const Fit* warm) const {
     FitOptions f = fitOptions();
     f.analyze = false;
-    Fit fit;
-    if (!warm) {
-      fit = fitMarkerModel(startingModel(data_, obs_, effects), obs_, f);
-    } else {
-      const sim::KinematicModel& w = warm->model;
-      const sim::KinematicModel start = sim::makeKinematicModel(w.arm, w.sessions, w.base, w.marker, w.world_T_base, w.flange_T_marker, effects,
-                                                                true, w.marker_points);
-      Eigen::VectorXd p0 = Eigen::VectorXd::Zero(start.layout.size());
-      p0.head(warm->p.size()) = warm->p;
-      fit = fitMarkerModel(start, obs_, f, p0);
-    }
-    const std::lock_guard<std::mutex> lock(lean_mutex_);
-    lean_fits_.emplace(keyOf(effects), fit);  // the first of equal fits (each within the LM's tolerance of the optimum)
-    return fit;
-  }
-
-  /// fitLean's fit of `effects` with the current noise, if it made one.
-  std::optional<Fit> leanFitOf(const std::vector<sim::Effect>& effects) const {
-    const std::lock_guard<std::mutex> lock(lean_mutex_);
-    const auto hit = lean_fits_.find(keyOf(effects));
-    return hit == lean_fits_.end() ? std::nullopt : std::optional<Fit>(hit->second);
-  }
-
-  static std::string keyOf(const std::vector<sim::Effect>& effects) {
-    std::string key;
-    for (const sim::Effect& e : effects) key += sim::formatEffect(e) + " ";
-    return key;
+    if (!warm) return fitMarkerModel(startingModel(data_, obs_, effects), obs_, f);
+    const sim::KinematicModel& w = warm->model;
+    const sim::KinematicModel start = sim::makeKinematicModel(w.arm, w.sessions, w.base, w.marker, w.world_T_base, w.flange_T_marker, effects, true,
+                                                w.marker_points);
+    Eigen::VectorXd p0 = Eigen::VectorXd::Zero(start.layout.size());
+    p0.head(warm->p.size()) = warm->p;
+    return fitMarkerModel(start, obs_, f, p0);
   }
 
   /// DiagnoseOptions::one_step_folds: the whitened system A, b of all the samples at the full fit p
@@ -366,8 +341,6 @@ class Diagnoser {
   void setNoise(const MarkerNoise& n) {
     noise_ = n;
     cold_cvs_.clear();  // the folds' fits whiten with the noise
-    const std::lock_guard<std::mutex> lock(lean_mutex_);
-    lean_fits_.clear();
   }
 
  private:
@@ -378,8 +351,6 @@ class Diagnoser {
   MarkerNoise noise_;
   mutable std::map<std::string, CvResult> cold_cvs_;  ///< cross-validations from the closed-form start, by effects
   mutable std::map<std::string, std::vector<int>> extreme_folds_;  ///< extremesFold by driving variable's column
-  mutable std::mutex lean_mutex_;
-  mutable std::map<std::string, Fit> lean_fits_;  ///< fitLean's fits with the current noise, by effects
 };
 
 }  // namespace orbcal::calib
