@@ -50,10 +50,10 @@ std::string notDrawnLine(const workflow::FigureRequest& f, const std::string& wh
 }
 
 /// One `python3 plot_report.py --batch` for the length of a command: it imports matplotlib once, while
-/// the command computes (at the idle priority where it may return to the normal one: plot_report.py), then draws each figure asked on its stdin (one line: plot_report.py's
-/// arguments, shell-quoted) and answers on its stdout, one line each: "ok", "missing: WHY" (no
-/// matplotlib) or "error: WHY". A socket pair, not pipes: a write to a process that is gone fails
-/// (MSG_NOSIGNAL) instead of raising SIGPIPE.
+/// the command computes (at the idle priority where it may return to the normal one: plot_report.py),
+/// then draws each figure asked on its stdin (one line: plot_report.py's arguments, shell-quoted) and
+/// answers on its stdout, one line each: "ok", "missing: WHY" (no matplotlib) or "error: WHY". A socket
+/// pair, not pipes: a write to a process that is gone fails (MSG_NOSIGNAL) instead of raising SIGPIPE.
 class PlotProcess {
  public:
   PlotProcess(const std::string& interpreter, const std::string& script) {
