@@ -24,9 +24,10 @@ constexpr double kRemlTolerance = 1e-3;
 /// matrix per pair. The samples go in chunks, stacked (one product per chunk, not one per sample), the
 /// two halves of the samples side by side, summed in a fixed order (the same sums on any machine).
 /// A^T W A itself is sum_c theta_c B_c (W R W = W), and B_1, B_2 are sums over the position and the
-/// rotation rows alone: two products of the stacked rows per pass where there were four.
+/// rotation rows alone: two products of the stacked rows per pass where there were four. `n_out`: N's
+/// factorization.
 Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std::vector<std::array<Eigen::MatrixXd, 3>>& V,
-                                const Eigen::Vector3d& theta, const Eigen::VectorXd& prior) {
+                                const Eigen::Vector3d& theta, const Eigen::VectorXd& prior, Eigen::LDLT<Eigen::MatrixXd>* n_out = nullptr) {
   const Eigen::Index p = prior.size();
   constexpr std::size_t kChunk = 128;
   const auto W = [&](std::size_t k) {
@@ -93,6 +94,7 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
   Eigen::Matrix3d F = s.F + s2.F;
   // Second pass: H_k = Y_k^T D^-1 Y_k with N = P^T L D L^T P and Y = L^-1 P A^T W.
   const Eigen::LDLT<Eigen::MatrixXd> Ninv(N);
+  if (n_out) *n_out = Ninv;
   Eigen::VectorXd Dinv = Ninv.vectorD();
   for (Eigen::Index i = 0; i < p; ++i) Dinv[i] = std::abs(Dinv[i]) > std::numeric_limits<double>::min() ? 1.0 / Dinv[i] : 0.0;
   const auto second = [&](std::size_t k0, std::size_t k1) {
@@ -139,6 +141,17 @@ std::optional<double> aitkenAhead(const Eigen::VectorXd& step, const Eigen::Vect
   return lambda / (1.0 - lambda);
 }
 
+/// g = sum_k A_k^T W_k r_k (p entries), W_k = (sum_c theta_c V_kc)^-1.
+Eigen::VectorXd whitenedGradient(const std::vector<Eigen::MatrixXd>& A, const std::vector<std::array<Eigen::MatrixXd, 3>>& V,
+                                 const std::vector<Eigen::VectorXd>& r, const Eigen::Vector3d& theta, Eigen::Index p) {
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
+  for (std::size_t k = 0; k < A.size(); ++k) {
+    const Eigen::LDLT<Eigen::MatrixXd> W(theta[0] * V[k][0] + theta[1] * V[k][1] + theta[2] * V[k][2]);
+    g += A[k].transpose() * W.solve(r[k]);
+  }
+  return g;
+}
+
 }  // namespace
 
 MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::VectorXd& y, const MarkerNoise& noise,
@@ -176,6 +189,10 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
   auto upper = std::async(std::launch::async, setUp, n / 2, n);
   setUp(0, n / 2);
   upper.get();
+  // P y at a trial noise: the residuals refitted to it by one Gauss-Newton step from the fit's point,
+  // delta = N^-1 (g(theta) - g(theta_fit)): the fit stopped where its gradient (g and the prior's share)
+  // vanished at its own noise, theta_fit, where the iterations start.
+  Eigen::VectorXd g_fit;
   Eigen::Vector3d theta(noise.sigma_position_m * noise.sigma_position_m, noise.sigma_rotation_rad * noise.sigma_rotation_rad,
                         noise.joint_noise_sigma_rad * noise.joint_noise_sigma_rad);
   std::vector<int> f;
@@ -187,13 +204,17 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
   Eigen::MatrixXd F_last;
   Eigen::VectorXd before;  // the plain step before this one (empty after a jump)
   for (int iteration = 0; iteration < 50 && nf > 0; ++iteration) {
-    const Eigen::Matrix3d I = remlInformation(A, V, theta, prior);
+    Eigen::LDLT<Eigen::MatrixXd> Nl;
+    const Eigen::Matrix3d I = remlInformation(A, V, theta, prior, &Nl);
+    const Eigen::VectorXd g = whitenedGradient(A, V, r, theta, prior.size());
+    if (g_fit.size() == 0) g_fit = g;
+    const Eigen::VectorXd delta = Nl.solve(g - g_fit);
     Eigen::MatrixXd F(nf, nf);
     Eigen::VectorXd u = Eigen::VectorXd::Zero(nf);
     for (int k = 0; k < n; ++k) {
       const std::array<Eigen::MatrixXd, 3>& Vk = V[static_cast<std::size_t>(k)];
       const Eigen::LDLT<Eigen::MatrixXd> W(theta[0] * Vk[0] + theta[1] * Vk[1] + theta[2] * Vk[2]);
-      const Eigen::VectorXd Wr = W.solve(r[static_cast<std::size_t>(k)]);
+      const Eigen::VectorXd Wr = W.solve(r[static_cast<std::size_t>(k)] - A[static_cast<std::size_t>(k)] * delta);
       for (Eigen::Index a = 0; a < nf; ++a) u[a] += Wr.dot(Vk[static_cast<std::size_t>(f[static_cast<std::size_t>(a)])] * Wr);
     }
     for (Eigen::Index a = 0; a < nf; ++a) {

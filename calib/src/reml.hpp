@@ -14,8 +14,10 @@ namespace orbcal::calib {
 /// Estimation and Hypothesis Testing in Linear Models, 1999, ch. 3.6): R_k = sum_c theta_c V_kc with
 /// V_k1 = the position rows, V_k2 = the rotation rows, V_k3 = Jq_k Jq_k^T (joint noise through the
 /// residual's joint Jacobian). The components `free` are estimated, the others kept at `noise`'s
-/// values; each step solves sum tr(P V_c P V_d) theta_d = sum_k r^T W V_c W r (remlInformation; the
-/// parameters not in `held` are the fitted ones, `prior` their prior's information), until a step moves
+/// values; each step solves sum tr(P V_c P V_d) theta_d = y^T P V_c P y (remlInformation; the
+/// parameters not in `held` are the fitted ones, `prior` their prior's information; P y = W (r - A
+/// delta), the residuals r at y refitted to the step's noise by one Gauss-Newton step delta, so that the
+/// estimate does not lean on the noise the fit at y was whitened with), until a step moves
 /// no free variance by more than 1e-3 of its standard deviation (Aitken's extrapolation of the linearly
 /// converging steps on the way: fewer steps to the same point). Variances are kept >= 0 (sigmas of
 /// position and rotation >= 1e-9).
