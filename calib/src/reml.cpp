@@ -15,6 +15,11 @@ namespace {
 /// Fisher scoring stops when every variance component moves by less than this share of its standard deviation.
 constexpr double kRemlTolerance = 1e-3;
 
+/// A sample's covariance R_k = sum_c theta_c V_kc, factored (its solves apply W_k = R_k^-1).
+Eigen::LDLT<Eigen::MatrixXd> sampleCovariance(const std::array<Eigen::MatrixXd, 3>& Vk, const Eigen::Vector3d& theta) {
+  return Eigen::LDLT<Eigen::MatrixXd>(theta[0] * Vk[0] + theta[1] * Vk[1] + theta[2] * Vk[2]);
+}
+
 /// tr(P V_c P V_d) of REML's information (Koch 1999, ch. 3.6), P = W - W A N^-1 A^T W, with W = R^-1
 /// block diagonal per sample, A the free columns of the Jacobian and N = A^T W A + S (S the prior):
 /// sum_k tr(W V_c W V_d) - 2 tr(N^-1 C_cd) + tr(N^-1 B_c N^-1 B_d), B_c = sum_k A_k^T W V_c W A_k,
@@ -31,7 +36,7 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
   const Eigen::Index p = prior.size();
   constexpr std::size_t kChunk = 128;
   const auto W = [&](std::size_t k) {
-    return Eigen::LDLT<Eigen::MatrixXd>(theta[0] * V[k][0] + theta[1] * V[k][1] + theta[2] * V[k][2]);
+    return sampleCovariance(V[k], theta);
   };
   // The samples [k0, k1) stacked: W A_k.
   const auto stack = [&](std::size_t k0, std::size_t k1, Eigen::MatrixXd& WA) {
@@ -146,8 +151,7 @@ Eigen::VectorXd whitenedGradient(const std::vector<Eigen::MatrixXd>& A, const st
                                  const std::vector<Eigen::VectorXd>& r, const Eigen::Vector3d& theta, Eigen::Index p) {
   Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
   for (std::size_t k = 0; k < A.size(); ++k) {
-    const Eigen::LDLT<Eigen::MatrixXd> W(theta[0] * V[k][0] + theta[1] * V[k][1] + theta[2] * V[k][2]);
-    g += A[k].transpose() * W.solve(r[k]);
+    g += A[k].transpose() * sampleCovariance(V[k], theta).solve(r[k]);
   }
   return g;
 }
@@ -213,7 +217,7 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
     Eigen::VectorXd u = Eigen::VectorXd::Zero(nf);
     for (int k = 0; k < n; ++k) {
       const std::array<Eigen::MatrixXd, 3>& Vk = V[static_cast<std::size_t>(k)];
-      const Eigen::LDLT<Eigen::MatrixXd> W(theta[0] * Vk[0] + theta[1] * Vk[1] + theta[2] * Vk[2]);
+      const Eigen::LDLT<Eigen::MatrixXd> W = sampleCovariance(Vk, theta);
       const Eigen::VectorXd Wr = W.solve(r[static_cast<std::size_t>(k)] - A[static_cast<std::size_t>(k)] * delta);
       for (Eigen::Index a = 0; a < nf; ++a) u[a] += Wr.dot(Vk[static_cast<std::size_t>(f[static_cast<std::size_t>(a)])] * Wr);
     }
