@@ -102,8 +102,8 @@ class Accumulator {
         if (!lin.innovation.allFinite() || !lin.H.allFinite()) return Sums{0.0, 0, {}, {}, false};
         const Eigen::MatrixXd& Wk = W_[static_cast<std::size_t>(k)];
         f.segment(row, m_.rows(k)) = Wk * lin.innovation;
-        const Eigen::MatrixXd WH = Wk.lazyProduct(lin.H);
-        for (Eigen::Index c = 0; c < nf_; ++c) J.col(c).segment(row, m_.rows(k)) = -WH.col(free_[static_cast<std::size_t>(c)]);
+        // The free columns of -W H, coefficient by coefficient into J's rows: no temporary per sample.
+        J.middleRows(row, m_.rows(k)).noalias() = -Wk.lazyProduct(lin.H(Eigen::all, free_));
       }
       s.cost += 0.5 * f.squaredNorm();
       s.rows += rows;

@@ -412,7 +412,8 @@ struct Inserts {
 Inserts chainInserts(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s) {
   Inserts out;
   out.all.reserve(8);  // one allocation, not one per growth (a flexible model inserts a few per sample)
-  forEachEffectBlock(m, [&](const Effect& e, const ParamBlock& b) { e.kind().addChainInserts(e, b, p, s, m.arm, s.q_rad, out.all); });
+  const NominalChain chain(m.arm, s.q_rad);
+  forEachEffectBlock(m, [&](const Effect& e, const ParamBlock& b) { e.kind().addChainInserts(e, b, p, s, chain, out.all); });
   for (const ChainInsert& c : out.all) {
     if (c.place != ChainInsert::Place::kLink) continue;
     if (out.links.empty()) out.links.assign(static_cast<std::size_t>(m.arm.numJoints()), Eigen::Isometry3d::Identity());

@@ -43,8 +43,8 @@ class DriftKind final : public EffectKind {
     }
     return {b};
   }
-  void addChainInserts(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
-                       const Eigen::VectorXd&, std::vector<ChainInsert>& out) const override {
+  void addChainInserts(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const NominalChain&,
+                       std::vector<ChainInsert>& out) const override {
     const double dt = s.time_s - e.reference();
     ChainInsert c;
     c.place = ChainInsert::Place::kBase;

@@ -188,8 +188,13 @@ std::vector<std::string> EffectKind::keys(const Effect& e) const {
 void EffectKind::addJointCorrection(const Effect&, const ParamBlock&, const Eigen::VectorXd&, const JointSample&, const Arm&,
                                     Eigen::VectorXd&, Eigen::MatrixXd*) const {}
 
-void EffectKind::addChainInserts(const Effect&, const ParamBlock&, const Eigen::VectorXd&, const JointSample&, const Arm&,
-                                 const Eigen::VectorXd&, std::vector<ChainInsert>&) const {}
+void EffectKind::addChainInserts(const Effect&, const ParamBlock&, const Eigen::VectorXd&, const JointSample&, const NominalChain&,
+                                 std::vector<ChainInsert>&) const {}
+
+const std::vector<Eigen::Isometry3d>& NominalChain::frames() const {
+  if (frames_.empty()) frames_ = chainFrames(arm_, q_);
+  return frames_;
+}
 
 std::pair<double, double> EffectKind::lengthScale(const Effect&, const ParamBlock&, const Eigen::VectorXd&,
                                                   const JointSample&) const {

@@ -74,9 +74,10 @@ class LinkBendingKind final : public EffectKind {
     }
     return {b};
   }
-  void addChainInserts(const Effect&, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample&, const Arm& arm,
-                       const Eigen::VectorXd& q, std::vector<ChainInsert>& out) const override {
-    const std::vector<Eigen::Isometry3d> frames = chainFrames(arm, q);
+  void addChainInserts(const Effect&, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample&, const NominalChain& chain,
+                       std::vector<ChainInsert>& out) const override {
+    const Arm& arm = chain.arm();
+    const std::vector<Eigen::Isometry3d>& frames = chain.frames();
     for (std::size_t i = 0; i < b.joints.size(); ++i) {
       const int l = b.joints[i];
       ChainInsert c;

@@ -24,8 +24,8 @@ class MountKind final : public EffectKind {
     for (int s = 1; s < num_sessions; ++s) out.push_back(frameBlock(BlockKind::kMount, s));
     return out;
   }
-  void addChainInserts(const Effect&, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
-                       const Eigen::VectorXd&, std::vector<ChainInsert>& out) const override {
+  void addChainInserts(const Effect&, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const NominalChain&,
+                       std::vector<ChainInsert>& out) const override {
     if (b.session != s.session) return;
     ChainInsert c;
     c.place = ChainInsert::Place::kMarker;

@@ -118,6 +118,22 @@ struct ChainInsert {
   int offset = 0;          ///< the block's first parameter in p
 };
 
+/// The model's nominal arm at a sample's joint readings, where chain inserts are evaluated: its frames
+/// (chainFrames) computed when an effect first asks and shared by the sample's other effects (a
+/// flexible model bends every link: one chain, not one per link, at each evaluation).
+class NominalChain {
+ public:
+  NominalChain(const Arm& arm, const Eigen::VectorXd& q) : arm_(arm), q_(q) {}
+  const Arm& arm() const { return arm_; }
+  const Eigen::VectorXd& q() const { return q_; }
+  const std::vector<Eigen::Isometry3d>& frames() const;
+
+ private:
+  const Arm& arm_;
+  const Eigen::VectorXd& q_;
+  mutable std::vector<Eigen::Isometry3d> frames_;  ///< empty until asked
+};
+
 /// The catalog's interface. Kinds are stateless singletons (catalog()).
 class EffectKind {
  public:
@@ -167,11 +183,11 @@ class EffectKind {
   /// torque, N m; force, N) and dirN (its approach direction, +1/-1/0), joints from 1, and the constant pi;
   /// one formula per joint, "; " between them. "" for a kind that is no joint-angle correction.
   virtual std::string correctionFormula(const Effect& /*e*/, const ParamBlock& /*b*/, const Arm& /*arm*/) const { return ""; }
-  /// Rigid inserts (appended to `out`), evaluated on the model's nominal `arm` at the joint readings `q`
-  /// (what the fitted geometry and joint corrections would change in them is second order), so that
-  /// their Jacobian columns are exact.
+  /// Rigid inserts (appended to `out`), evaluated on the model's nominal arm at the joint readings
+  /// (`chain`: what the fitted geometry and joint corrections would change in them is second order), so
+  /// that their Jacobian columns are exact.
   virtual void addChainInserts(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s,
-                               const Arm& arm, const Eigen::VectorXd& q, std::vector<ChainInsert>& out) const;
+                               const NominalChain& chain, std::vector<ChainInsert>& out) const;
   /// Length scale (1 + ...) and its derivative over the block's first parameter; {1, 0} by default.
   virtual std::pair<double, double> lengthScale(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p,
                                                 const JointSample& s) const;
