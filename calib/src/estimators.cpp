@@ -141,44 +141,6 @@ Eigen::MatrixXd rFactorOfSamples(int n, Eigen::Index cols, const AddRows& add) {
 
 }  // namespace
 
-Shrinkage shrinkage(const MeasurementModel& m, const Eigen::VectorXd& y, const std::vector<int>& held,
-                    const Eigen::VectorXd& prior_sigma, const std::vector<int>& subset) {
-  const int n = m.numParams();
-  std::vector<int> free;
-  for (int p = 0; p < n; ++p) {
-    if (!std::binary_search(held.begin(), held.end(), p)) free.push_back(p);
-  }
-  Shrinkage out;
-  out.posterior_diagonal = Eigen::VectorXd::Zero(n);
-  if (free.empty()) return out;
-  const Eigen::MatrixXd J = whitenedJacobian(m, y);
-  const auto nf = static_cast<Eigen::Index>(free.size());
-  // In typical-magnitude units (Jacobi scaling), so that the decomposition's tolerance means the same
-  // for every column: D A D and D P D, with D = diag(typical).
-  const Eigen::VectorXd typical = m.layout().typical();
-  Eigen::MatrixXd Jf(J.rows(), nf);
-  Eigen::VectorXd Pf = Eigen::VectorXd::Zero(nf), d(nf);
-  for (Eigen::Index c = 0; c < nf; ++c) {
-    const int i = free[static_cast<std::size_t>(c)];
-    d[c] = typical[i];
-    Jf.col(c) = J.col(i) * d[c];
-    if (prior_sigma.size() && prior_sigma[i] > 0.0) Pf[c] = d[c] * d[c] / (prior_sigma[i] * prior_sigma[i]);
-  }
-  const Eigen::MatrixXd A = Jf.transpose() * Jf;
-  Eigen::MatrixXd N = A;
-  N.diagonal() += Pf;
-  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(N);
-  const Eigen::MatrixXd S = cod.pseudoInverse();  // (A + P)^-1 in scaled units; the pseudo-inverse where P leaves A singular
-  const Eigen::MatrixXd SA = S * A;
-  for (Eigen::Index c = 0; c < nf; ++c) {
-    const int i = free[static_cast<std::size_t>(c)];
-    out.effective += SA(c, c);
-    out.posterior_diagonal[i] = S(c, c) * d[c] * d[c];
-    if (std::find(subset.begin(), subset.end(), i) != subset.end()) out.gamma += SA(c, c);
-  }
-  return out;
-}
-
 EkfOptions EkfOptions::paperLiteral() {
   EkfOptions o;
   o.prior_sigma_angle_rad = 0.01 * sim::kDegToRad;
@@ -231,14 +193,22 @@ Eigen::MatrixXd whitenedJacobian(const MeasurementModel& m, const Eigen::VectorX
 }
 
 double weightedCost(const MeasurementModel& m, const Eigen::VectorXd& y, std::vector<Eigen::VectorXd>* innovations) {
-  double c = 0.0;
-  if (innovations) innovations->clear();
-  for (int k = 0; k < m.numSamples(); ++k) {
-    Linearization lin = m.innovationAndCovariance(k, y);
-    c += 0.5 * lin.innovation.dot(lin.R.ldlt().solve(lin.innovation));
-    if (innovations) innovations->push_back(std::move(lin.innovation));
-  }
-  return c;
+  const int n = m.numSamples();
+  if (innovations) innovations->assign(static_cast<std::size_t>(n), Eigen::VectorXd());
+  const auto part = [&](int k0, int k1) {
+    double c = 0.0;
+    for (int k = k0; k < k1; ++k) {
+      Linearization lin = m.innovationAndCovariance(k, y);
+      c += 0.5 * lin.innovation.dot(lin.R.ldlt().solve(lin.innovation));
+      if (innovations) (*innovations)[static_cast<std::size_t>(k)] = std::move(lin.innovation);
+    }
+    return c;
+  };
+  // The two halves side by side (one thread below 64 samples), added in a fixed order.
+  const int half = n < 64 ? n : n / 2;
+  auto upper = std::async(half < n ? std::launch::async : std::launch::deferred, part, half, n);
+  const double lower = part(0, half);
+  return lower + upper.get();
 }
 
 Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
@@ -514,14 +484,29 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   ceres::Problem problem(po);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
   // One pass of linearizations at the start gives both the whiteners and the system the unidentifiable
-  // parameters are found from (its R factor: no copy of the stacked Jacobian is kept).
+  // parameters are found from (its R factor: no copy of the stacked Jacobian is kept). Where the
+  // normal equations' LM starts there too, the R factor is of [W H, W f]: its first columns' R is the
+  // Jacobian's, and R^T R holds the LM's first sums (streamedStart), so that it makes no pass of its own.
   std::vector<Eigen::MatrixXd> W(static_cast<std::size_t>(m.numSamples()));
-  const Eigen::MatrixXd R_start = rFactorOfSamples(m.numSamples(), n, [&](int k, RFactor& r) {
-    const Linearization lin = m.linearize(k, zero);
+  const bool streamed = o.normal_equations && o.loss == LmOptions::Loss::kNone;
+  const bool with_f = streamed && o.fix_unidentifiable && o.start.size() == 0;
+  const Eigen::MatrixXd R_aug = rFactorOfSamples(m.numSamples(), with_f ? n + 1 : n, [&](int k, RFactor& r) {
+    const auto s = static_cast<std::size_t>(k);
+    // The whiteners alone where nothing is held for the data: no Jacobian.
+    const Linearization lin = o.fix_unidentifiable ? m.linearize(k, zero) : m.innovationAndCovariance(k, zero);
     requireFinite(lin, k);
-    W[static_cast<std::size_t>(k)] = whitener(lin.R);
-    if (o.fix_unidentifiable) r.add(W[static_cast<std::size_t>(k)] * lin.H);
+    W[s] = whitener(lin.R);
+    if (!o.fix_unidentifiable) return;
+    if (!with_f) {
+      r.add(W[s] * lin.H);
+      return;
+    }
+    Eigen::MatrixXd rows(lin.H.rows(), n + 1);
+    rows.leftCols(n).noalias() = W[s] * lin.H;
+    rows.col(n).noalias() = W[s] * lin.innovation;
+    r.add(rows);
   });
+  const Eigen::MatrixXd R_start = R_aug.topLeftCorner(std::min<Eigen::Index>(R_aug.rows(), n), n);
   e.held = o.fix_unidentifiable ? sim::numericalRank(R_start, m.layout().typical(), o.hold).held : sortedUnique(o.hold);
   const std::vector<int>& fixed = e.held;
   std::vector<int> free;
@@ -531,9 +516,14 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   // Ceres works on the free parameters alone (x; y = x on them, 0 elsewhere).
   Eigen::VectorXd x = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(free.size()));
   for (std::size_t c = 0; c < free.size() && o.start.size() > 0; ++c) x[static_cast<Eigen::Index>(c)] = o.start[free[c]];
-  if (o.normal_equations && o.loss == LmOptions::Loss::kNone) {
+  if (streamed) {
     // The same iterations on the normal equations accumulated per block of samples: no stacked Jacobian.
-    const StreamedLmResult s = streamedLm(m, W, free, streamedOptions(o, free));
+    StreamedLmOptions so = streamedOptions(o, free);
+    int rows = 0;
+    for (int k = 0; with_f && k < m.numSamples(); ++k) rows += m.rows(k);
+    const StreamedStart first = streamedStart(with_f ? R_aug : Eigen::MatrixXd(), free, rows);
+    so.start_sums = with_f ? &first : nullptr;
+    const StreamedLmResult s = streamedLm(m, W, free, so);
     for (std::size_t c = 0; c < free.size(); ++c) e.y[free[c]] = s.x[static_cast<Eigen::Index>(c)];
     e.iterations = s.iterations;
     e.converged = s.converged;

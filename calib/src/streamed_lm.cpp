@@ -56,6 +56,11 @@ class Accumulator {
         s.g += u.g;
       }
     }
+    return withPrior(std::move(s), x, jacobian);
+  }
+
+  /// The samples' sums `s` at x with the prior's rows added.
+  Sums withPrior(Sums s, const Eigen::VectorXd& x, bool jacobian) const {
     if (o_.prior_information.size() == 0) return s;
     const Eigen::VectorXd d = x - o_.prior_mean;
     s.cost += 0.5 * d.cwiseProduct(d).dot(o_.prior_information);
@@ -157,6 +162,18 @@ double parabolicStep(double now, double slope, double full) {
 
 }  // namespace
 
+StreamedStart streamedStart(const Eigen::MatrixXd& R, const std::vector<int>& free, Eigen::Index rows) {
+  StreamedStart s;
+  s.rows = rows;
+  if (R.cols() == 0) return s;
+  const Eigen::Index n = R.cols() - 1;
+  const Eigen::MatrixXd Rf = R.leftCols(n)(Eigen::all, free);
+  s.JtJ = Rf.transpose() * Rf;
+  s.g = -(Rf.transpose() * R.col(n));
+  s.cost = 0.5 * R.col(n).squaredNorm();
+  return s;
+}
+
 StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::MatrixXd>& W, const std::vector<int>& free,
                             const StreamedLmOptions& o) {
   const auto nf = static_cast<Eigen::Index>(free.size());
@@ -165,7 +182,8 @@ StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::
   const Accumulator acc(m, W, free, opt);
   StreamedLmResult r;
   r.x = o.start.size() == nf ? o.start : Eigen::VectorXd::Zero(nf);
-  Sums now = acc.at(r.x, true);
+  Sums now = o.start_sums ? acc.withPrior(Sums{o.start_sums->cost, o.start_sums->rows, o.start_sums->JtJ, o.start_sums->g, true}, r.x, true)
+                          : acc.at(r.x, true);
   if (!now.finite) return r;
   // Ceres's Jacobi scaling: every column divided by 1 + its norm at the start.
   const Eigen::VectorXd scale = (1.0 + now.JtJ.diagonal().cwiseMax(0.0).array().sqrt()).inverse().matrix();

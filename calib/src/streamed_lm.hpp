@@ -9,6 +9,21 @@
 
 namespace orbcal::calib {
 
+/// The samples' sums at the first iterate, where the caller has them already (runLm's R factor of the
+/// whitened rows there): 1/2 |f|^2, the whitened rows, J^T J on the free parameters and J^T f (J = d f /
+/// d x); the prior's terms not included.
+struct StreamedStart {
+  double cost = 0.0;
+  Eigen::Index rows = 0;
+  Eigen::MatrixXd JtJ;
+  Eigen::VectorXd g;
+};
+
+/// The sums at y = 0 from the R factor R of the whitened rows [A, b] there (A = W H on every parameter,
+/// b = W nu; n + 1 columns): A^T A = R11^T R11, A^T b = R11^T r12, |b|^2 = |[r12; r22]|^2; the LM's
+/// J = -A on the `free` columns, f = b; `rows` the whitened rows.
+StreamedStart streamedStart(const Eigen::MatrixXd& R, const std::vector<int>& free, Eigen::Index rows);
+
 struct StreamedLmOptions {
   int max_iterations = 100;
   double function_tolerance = 1e-10;
@@ -19,6 +34,7 @@ struct StreamedLmOptions {
   Eigen::VectorXd prior_information;  ///< per free parameter, 1/sigma^2 (0: no prior); empty: none
   Eigen::VectorXd prior_mean;         ///< per free parameter (with prior_information)
   Eigen::VectorXd start;              ///< per free parameter, the first iterate (empty: 0)
+  const StreamedStart* start_sums = nullptr;  ///< the sums at the first iterate, where known: no pass over the samples for them
 };
 
 struct StreamedLmResult {
