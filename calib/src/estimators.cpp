@@ -492,7 +492,7 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   const bool with_f = streamed && o.fix_unidentifiable && o.start.size() == 0;
   const Eigen::MatrixXd R_aug = rFactorOfSamples(m.numSamples(), with_f ? n + 1 : n, [&](int k, RFactor& r) {
     const auto s = static_cast<std::size_t>(k);
-    // The whiteners alone where nothing is held for the data: no Jacobian.
+    // Where no rank decision is asked for (a warm round holds the round before's), the whiteners alone: no Jacobian.
     const Linearization lin = o.fix_unidentifiable ? m.linearize(k, zero) : m.innovationAndCovariance(k, zero);
     requireFinite(lin, k);
     W[s] = whitener(lin.R);
