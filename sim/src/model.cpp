@@ -333,9 +333,9 @@ void forEachEffectBlock(const KinematicModel& m, F&& f) {
 }
 
 Eigen::VectorXd jointCorrectionsImpl(const KinematicModel& m, const Eigen::VectorXd& p, const JointSample& s,
-                                     Eigen::MatrixXd* J_dq_p) {
+                                     JointCorrectionJacobian* J_dq_p) {
   Eigen::VectorXd dq = Eigen::VectorXd::Zero(m.arm.numJoints());
-  if (J_dq_p) *J_dq_p = Eigen::MatrixXd::Zero(m.arm.numJoints(), m.layout.size());
+  if (J_dq_p) J_dq_p->clear();
   forEachEffectBlock(m, [&](const Effect& e, const ParamBlock& b) {
     e.kind().requireCovariates(s, m.arm.numJoints());
     e.kind().addJointCorrection(e, b, p, s, m.arm, dq, J_dq_p);
@@ -473,7 +473,7 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   // The per-sample matrices of the Jacobian, kept per thread between calls: a fit evaluates this for
   // every sample at every iteration, and these allocations (with the chain frames' below) were about
   // half of a diagnosis's 10.6 million (the real iiwa7 0 kg run; 2.4 % of its instructions).
-  thread_local Eigen::MatrixXd J_dq_p;
+  thread_local JointCorrectionJacobian J_dq_p;
   thread_local Matrix6Xd J_flange, J_geo, J_q;
   const Eigen::VectorXd q = s.q_rad + jointCorrectionsImpl(m, p, s, J_e_p ? &J_dq_p : nullptr);
   const LengthScale lengths = lengthScaleOf(m, p, s);
@@ -510,14 +510,11 @@ Eigen::Isometry3d predictMarkerPose(const KinematicModel& m, const Eigen::Vector
   if (!J_e_p) return world_T_marker;
 
   Eigen::MatrixXd& J = *J_e_p;
-  // Joint-angle effects: J_q J_dq_p. Each of their columns moves one joint or a few (J_dq_p is mostly
-  // zeros), so only its nonzero entries are multiplied: the dense 6 x n x P product was a tenth of a
-  // flexible fit's arithmetic.
-  J = Eigen::MatrixXd::Zero(6, J_dq_p.cols());
-  for (Eigen::Index c = 0; c < J_dq_p.cols(); ++c) {
-    for (int j = 0; j < n; ++j) {
-      if (J_dq_p(j, c) != 0.0) J.col(c) += J_dq_p(j, c) * J_q.col(j);
-    }
+  // Joint-angle effects: J_q J_dq_p. Each of their columns moves one joint or a few, so only J_dq_p's
+  // entries are multiplied: the dense 6 x n x P product was a tenth of a flexible fit's arithmetic.
+  J = Eigen::MatrixXd::Zero(6, m.layout.size());
+  for (const JointCorrectionJacobian::Entry& e : J_dq_p.entries()) {
+    if (e.value != 0.0) J.col(e.param) += e.value * J_q.col(e.joint);
   }
   if (b_blk >= 0) {
     J.middleCols(m.layout.block(b_blk).offset, 6) += adjoint((D * F * MY).inverse()) * frameDeltaJacobian(seg(b_blk));

@@ -31,11 +31,11 @@ class BacklashKind final : public EffectKind {
     })};
   }
   void addJointCorrection(const Effect&, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
-                          Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {
+                          Eigen::VectorXd& dq, JointCorrectionJacobian* J) const override {
     for (std::size_t i = 0; i < b.joints.size(); ++i) {
       const int j = b.joints[i], col = b.offset + static_cast<int>(i);
       dq[j] += p[col] * s.direction[j];
-      if (J) (*J)(j, col) += s.direction[j];
+      if (J) J->add(j, col, s.direction[j]);
     }
   }
   std::string correctionFormula(const Effect&, const ParamBlock& b, const Arm&) const override { return perJointLinearFormula(b, "dir"); }

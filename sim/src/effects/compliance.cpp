@@ -96,16 +96,16 @@ class ComplianceKind final : public EffectKind {
     })};
   }
   void addJointCorrection(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
-                          Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {
+                          Eigen::VectorXd& dq, JointCorrectionJacobian* J) const override {
     const int per = e.order() == 3 ? 2 : 1;
     for (std::size_t i = 0; i < b.joints.size(); ++i) {
       const int j = b.joints[i], col = b.offset + per * static_cast<int>(i);
       const double tau = s.tau_Nm[j];  // the actuator's; the joint yields against it (see the top)
       dq[j] -= p[col] * tau;
-      if (J) (*J)(j, col) -= tau;
+      if (J) J->add(j, col, -tau);
       if (per == 2) {
         dq[j] -= p[col + 1] * tau * tau * tau;
-        if (J) (*J)(j, col + 1) -= tau * tau * tau;
+        if (J) J->add(j, col + 1, -(tau * tau * tau));
       }
     }
   }

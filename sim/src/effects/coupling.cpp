@@ -55,11 +55,11 @@ class CouplingKind final : public EffectKind {
     return {b};
   }
   void addJointCorrection(const Effect&, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
-                          Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {
+                          Eigen::VectorXd& dq, JointCorrectionJacobian* J) const override {
     for (std::size_t k = 0; k + 1 < b.joints.size(); k += 2) {
       const int i = b.joints[k], j = b.joints[k + 1], col = b.offset + static_cast<int>(k / 2);
       dq[i] += p[col] * s.q_rad[j];
-      if (J) (*J)(i, col) += s.q_rad[j];
+      if (J) J->add(i, col, s.q_rad[j]);
     }
   }
   std::string correctionFormula(const Effect&, const ParamBlock& b, const Arm&) const override {

@@ -51,7 +51,7 @@ class CyclicKind final : public EffectKind {
     })};
   }
   void addJointCorrection(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm& arm,
-                          Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {
+                          Eigen::VectorXd& dq, JointCorrectionJacobian* J) const override {
     int col = b.offset;
     for (const int j : b.joints) {
       const double phase = cyclicPhase(arm, j, s.q_rad[j]);
@@ -59,8 +59,8 @@ class CyclicKind final : public EffectKind {
         const double sn = std::sin(k * phase), cs = std::cos(k * phase);
         dq[j] += p[col] * sn + p[col + 1] * cs;
         if (J) {
-          (*J)(j, col) += sn;
-          (*J)(j, col + 1) += cs;
+          J->add(j, col, sn);
+          J->add(j, col + 1, cs);
         }
       }
     }

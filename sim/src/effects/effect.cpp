@@ -186,7 +186,7 @@ std::vector<std::string> EffectKind::keys(const Effect& e) const {
 }
 
 void EffectKind::addJointCorrection(const Effect&, const ParamBlock&, const Eigen::VectorXd&, const JointSample&, const Arm&,
-                                    Eigen::VectorXd&, Eigen::MatrixXd*) const {}
+                                    Eigen::VectorXd&, JointCorrectionJacobian*) const {}
 
 void EffectKind::addChainInserts(const Effect&, const ParamBlock&, const Eigen::VectorXd&, const JointSample&, const NominalChain&,
                                  std::vector<ChainInsert>&) const {}

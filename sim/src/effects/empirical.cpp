@@ -75,13 +75,13 @@ class EmpiricalKind : public EffectKind {
     return {b};
   }
   void addJointCorrection(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s, const Arm&,
-                          Eigen::VectorXd& dq, Eigen::MatrixXd* J) const override {
+                          Eigen::VectorXd& dq, JointCorrectionJacobian* J) const override {
     const double x = variable(e, s);
     thread_local Eigen::VectorXd P;  // every sample at every iteration: no allocation each time
     legendre((2.0 * x - e.lo() - e.hi()) / (e.hi() - e.lo()), e.order(), P);
     const int i = e.joints()[0];
     dq[i] += P.dot(p.segment(b.offset, e.order()));
-    if (J) J->block(i, b.offset, 1, e.order()) += P.transpose();
+    for (int k = 0; J && k < e.order(); ++k) J->add(i, b.offset + k, P[k]);
   }
   std::string correctionFormula(const Effect& e, const ParamBlock& b, const Arm&) const override {
     std::string f = "dq" + std::to_string(e.joints()[0] + 1) + " =";

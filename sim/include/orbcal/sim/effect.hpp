@@ -118,6 +118,25 @@ struct ChainInsert {
   int offset = 0;          ///< the block's first parameter in p
 };
 
+/// d dq / d p of one sample's joint corrections, kept as its entries: each correction's parameter moves
+/// one joint, so the dense n x P matrix a flexible model had per sample was almost all zeros, cleared
+/// and scanned at every evaluation.
+class JointCorrectionJacobian {
+ public:
+  struct Entry {
+    int joint = 0;
+    int param = 0;
+    double value = 0.0;
+  };
+  void clear() { entries_.clear(); }
+  /// d dq[joint] / d p[param] += value.
+  void add(int joint, int param, double value) { entries_.push_back({joint, param, value}); }
+  const std::vector<Entry>& entries() const { return entries_; }
+
+ private:
+  std::vector<Entry> entries_;
+};
+
 /// The model's nominal arm at a sample's joint readings, where chain inserts are evaluated: its frames
 /// (chainFrames) computed when an effect first asks and shared by the sample's other effects (a
 /// flexible model bends every link: one chain, not one per link, at each evaluation).
@@ -176,7 +195,7 @@ class EffectKind {
 
   // The forward model (zero by default) and its Jacobian, per block.
   virtual void addJointCorrection(const Effect& e, const ParamBlock& b, const Eigen::VectorXd& p, const JointSample& s,
-                                  const Arm& arm, Eigen::VectorXd& dq, Eigen::MatrixXd* J_dq_p) const;
+                                  const Arm& arm, Eigen::VectorXd& dq, JointCorrectionJacobian* J_dq_p) const;
   /// The joint-angle correction of addJointCorrection written out for programs outside orbcal (the
   /// effects export, sim/export.hpp): "dq2 = -(c2 * tau2)", in the names of block `b`'s parameters (SI)
   /// and the variables qN (joint N's reading, rad; m for a prismatic joint of `arm`), tauN (its actuator's
