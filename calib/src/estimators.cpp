@@ -121,21 +121,29 @@ void appendPriorRows(const Eigen::VectorXd& sigma, const Eigen::VectorXd& mean, 
   }
 }
 
+/// part(k0, k1) on the two halves of the samples 0..n-1 side by side, the lower on this thread (one
+/// thread below 64 samples: the upper half is then empty): {lower, upper}, for the caller to combine in
+/// that fixed order (the same result on any machine).
+template <class Part>
+auto onHalves(int n, const Part& part) {
+  const int half = n < 64 ? n : n / 2;
+  auto upper = std::async(half < n ? std::launch::async : std::launch::deferred, part, half, n);
+  auto lower = part(0, half);
+  return std::make_pair(std::move(lower), upper.get());
+}
+
 /// The R factor (RFactor) of the rows add(k, r) gives r for the samples k = 0..n-1, on `cols` columns:
-/// the two halves of the samples side by side (one thread below 64 samples), their factors combined in
-/// a fixed order (the same R on any machine).
+/// the two halves' factors (onHalves) combined.
 template <class AddRows>
 Eigen::MatrixXd rFactorOfSamples(int n, Eigen::Index cols, const AddRows& add) {
-  const auto part = [&](int k0, int k1) {
+  const auto [lower, upper] = onHalves(n, [&](int k0, int k1) {
     RFactor r(cols);
     for (int k = k0; k < k1; ++k) add(k, r);
     return r.matrix();
-  };
+  });
   RFactor r(cols);
-  const int half = n < 64 ? n : n / 2;
-  auto upper = std::async(half < n ? std::launch::async : std::launch::deferred, part, half, n);
-  r.add(part(0, half));
-  r.add(upper.get());
+  r.add(lower);
+  r.add(upper);
   return r.matrix();
 }
 
@@ -204,11 +212,8 @@ double weightedCost(const MeasurementModel& m, const Eigen::VectorXd& y, std::ve
     }
     return c;
   };
-  // The two halves side by side (one thread below 64 samples), added in a fixed order.
-  const int half = n < 64 ? n : n / 2;
-  auto upper = std::async(half < n ? std::launch::async : std::launch::deferred, part, half, n);
-  const double lower = part(0, half);
-  return lower + upper.get();
+  const auto [lower, upper] = onHalves(n, part);
+  return lower + upper;
 }
 
 Estimate runEkf(const MeasurementModel& m, const EkfOptions& o) {
@@ -519,10 +524,13 @@ Estimate runLm(const MeasurementModel& m, const LmOptions& o) {
   if (streamed) {
     // The same iterations on the normal equations accumulated per block of samples: no stacked Jacobian.
     StreamedLmOptions so = streamedOptions(o, free);
-    int rows = 0;
-    for (int k = 0; with_f && k < m.numSamples(); ++k) rows += m.rows(k);
-    const StreamedStart first = streamedStart(with_f ? R_aug : Eigen::MatrixXd(), free, rows);
-    so.start_sums = with_f ? &first : nullptr;
+    StreamedStart first;
+    if (with_f) {
+      int rows = 0;
+      for (int k = 0; k < m.numSamples(); ++k) rows += m.rows(k);
+      first = streamedStart(R_aug, free, rows);
+      so.start_sums = &first;
+    }
     const StreamedLmResult s = streamedLm(m, W, free, so);
     for (std::size_t c = 0; c < free.size(); ++c) e.y[free[c]] = s.x[static_cast<Eigen::Index>(c)];
     e.iterations = s.iterations;

@@ -163,10 +163,9 @@ double parabolicStep(double now, double slope, double full) {
 }  // namespace
 
 StreamedStart streamedStart(const Eigen::MatrixXd& R, const std::vector<int>& free, Eigen::Index rows) {
+  const Eigen::Index n = R.cols() - 1;
   StreamedStart s;
   s.rows = rows;
-  if (R.cols() == 0) return s;
-  const Eigen::Index n = R.cols() - 1;
   const Eigen::MatrixXd Rf = R.leftCols(n)(Eigen::all, free);
   s.JtJ = Rf.transpose() * Rf;
   s.g = -(Rf.transpose() * R.col(n));
