@@ -33,7 +33,7 @@ struct LargeLogOptions {
   std::vector<int> sizes{1000, 10000, 100000};
   std::string inject = "compliance:2";  ///< hidden in the simulated log ("none": clean)
   std::uint64_t seed = 1;
-  calib::DiagnoseOptions diagnose;  ///< as orbcal diagnose's defaults, but for --noise-observations
+  calib::DiagnoseOptions diagnose;  ///< as orbcal diagnose's defaults, but for --noise-observations and --selection-observations
 };
 
 void printLargeLogHelp(std::ostream& os) {
@@ -44,6 +44,7 @@ void printLargeLogHelp(std::ostream& os) {
         "  --inject SPEC  effect hidden in the log (default compliance:2; 'none': clean)\n"
         "  --seed N       the log's seed (default 1)\n"
         "  --noise-observations N  diagnose's (default 20000; 0: the noise estimated on every observation)\n"
+        "  --selection-observations N  diagnose's (default 20000; 0: the effects selected on every observation)\n"
         "The diagnosis's own CPU time (the simulation excluded) is printed beside its wall time, and so is\n"
         "each of its phases' (calib::kDiagnosePhases).\n"
         "The log: two sessions (0 and 1.25 kg payload), the tracker noise stated as the simulation's, the\n"
@@ -129,6 +130,9 @@ int benchLargeLog(int argc, char** argv) {
     } else if (a == "--noise-observations") {
       o.diagnose.noise_observations = std::stoi(value());
       if (o.diagnose.noise_observations < 0) throw std::invalid_argument("large-log: --noise-observations: negative");
+    } else if (a == "--selection-observations") {
+      o.diagnose.selection_observations = std::stoi(value());
+      if (o.diagnose.selection_observations < 0) throw std::invalid_argument("large-log: --selection-observations: negative");
     } else if (a == "--seed") {
       o.seed = static_cast<std::uint64_t>(std::stoull(value()));
     } else {

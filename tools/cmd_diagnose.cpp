@@ -45,6 +45,11 @@ void addDiagnoseCommand(CLI::App& app) {
                   "sqrt(2 / rows)")
       ->capture_default_str()
       ->check(CLI::Range(0, 100000000));
+  cmd->add_option("--selection-observations", o->diagnose.selection_observations,
+                  "the effects are selected (score tests, cross-validated gains) on a seeded random subset of this many "
+                  "observations (0: all); the selected model is fitted and judged on all")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 100000000));
   cmd->add_flag("--no-empirical", [o](std::int64_t) { o->diagnose.empirical = false; },
                 "name physical causes only: no empirical correction where none fits");
   cmd->add_option_function<double>(

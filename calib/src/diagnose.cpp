@@ -239,15 +239,34 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
 
   // Forward selection: the catalog's causes; then, where their model still leaves significant structure
   // (the lack-of-fit test), empirical corrections, selected the same way.
+  // A long log's selection on a seeded random subset (DiagnoseOptions::selection_observations).
   phase(3);
-  ModelSelection sel{{}, cv_base, out.base_fit, 0};
-  forwardSelect(d, data, obs, o, d.catalog(), sel, out);
+  const std::vector<MarkerObservation> subset =
+      o.selection_observations > 0 ? seededSubset(obs, static_cast<std::size_t>(o.selection_observations), o.seed) : std::vector<MarkerObservation>{};
+  const std::vector<MarkerObservation>& chosen = subset.empty() ? obs : subset;
+  std::optional<Diagnoser> on_subset;
+  if (!subset.empty()) {
+    on_subset.emplace(data, subset, o);
+    on_subset->setNoise(out.base_fit.noise);
+    out.selection_observations = static_cast<int>(subset.size());
+  }
+  const Diagnoser& ds = on_subset ? *on_subset : d;
+  const Fit base_chosen = on_subset ? ds.fitAll({}) : out.base_fit;
+  ModelSelection sel{{}, on_subset ? ds.crossValidate({}) : cv_base, base_chosen, 0};
+  forwardSelect(ds, data, chosen, o, ds.catalog(), sel, out);
   if (o.empirical && sel.steps < o.max_effects &&
-      lackOfFit(data, obs, sel.fit, floorNoise(out.noise), sel.cv.residual, out.noise.floorStated(), folds, o.alpha).left()) {
-    forwardSelect(d, data, obs, o, empiricalCandidates(data, obs, o.max_order), sel, out);
+      lackOfFit(data, chosen, sel.fit, floorNoise(out.noise), sel.cv.residual, out.noise.floorStated(), folds, o.alpha).left()) {
+    forwardSelect(ds, data, chosen, o, empiricalCandidates(data, chosen, o.max_order), sel, out);
   }
   phase(4);
-  backwardEliminate(d, o, out.base_fit, sel);
+  backwardEliminate(ds, o, base_chosen, sel);
+  if (on_subset && !sel.effects.empty()) {  // the selected model on every observation
+    sel.fit = d.fitAll(sel.effects);
+    sel.cv = d.crossValidate(sel.effects, &sel.fit);
+  } else if (on_subset) {
+    sel.fit = out.base_fit;
+    sel.cv = cv_base;
+  }
 
   out.selected = sel.effects;
   // The fit of `selected` on all the data (kept current by both passes). Its geometry is not held to

@@ -60,6 +60,16 @@ std::set<int> sessionsOf(const std::vector<MarkerObservation>& obs) {
 
 }  // namespace
 
+std::vector<MarkerObservation> seededSubset(const std::vector<MarkerObservation>& obs, std::size_t keep, std::uint64_t seed) {
+  std::vector<MarkerObservation> subset;
+  if (keep >= obs.size()) return subset;
+  std::mt19937_64 rng(seed);
+  subset.reserve(keep);
+  std::sample(obs.begin(), obs.end(), std::back_inserter(subset), keep, rng);  // in their order
+  if (sessionsOf(subset) != sessionsOf(obs)) subset.clear();  // a session's frames need its samples
+  return subset;
+}
+
 FlexibleFit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const std::vector<sim::Effect>& effects,
                         const FitOptions& options, int max_degree, int max_obs, std::uint64_t seed) {
   FitOptions f = options;
@@ -84,12 +94,7 @@ FlexibleFit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerO
     // The observations this level needs (a quarter of their rows for its parameters), rounded up.
     const std::size_t needed = static_cast<std::size_t>((4.0 * params * obs.size() + rows - 1) / rows) + 1;
     const std::size_t keep = std::max(needed, static_cast<std::size_t>(std::max(0, max_obs)));
-    if (max_obs > 0 && keep < obs.size()) {
-      std::mt19937_64 rng(seed);
-      out.subset.reserve(keep);
-      std::sample(obs.begin(), obs.end(), std::back_inserter(out.subset), keep, rng);  // in their order
-      if (sessionsOf(out.subset) != sessionsOf(obs)) out.subset.clear();  // a session's frames need its samples
-    }
+    if (max_obs > 0) out.subset = seededSubset(obs, keep, seed);
     out.degree = l.harmonics;
     const std::vector<MarkerObservation>& fitted = out.fitted(obs);
     out.fit = fitMarkerModel(startingModel(data, fitted, terms), fitted, f);
@@ -100,8 +105,7 @@ FlexibleFit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerO
 }
 
 bool leavesStructure(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const Fit& fit, double alpha) {
-  std::vector<Eigen::VectorXd> residual;
-  for (const MarkerObservation& o : obs) residual.push_back(markerResidual(fit.model, fit.p, o));
+  const std::vector<Eigen::VectorXd> residual = markerResiduals(fit.model, fit.p, obs);
   return !lackOfFit(data, obs, fit, fit.noise, residual, false, 2, alpha).unexplained.empty();
 }
 
@@ -151,16 +155,16 @@ void measureFloors(NoiseFloors& n, const Fit& fit, const std::vector<MarkerObser
                    const std::vector<Eigen::VectorXd>& residual, int folds) {
   MarkerNoise independent = n.whitening;
   if (!n.joint_stated && n.joint_estimated) independent.joint_noise_sigma_rad = 0.0;
-  const HeldoutNoise h0 = heldoutNoise(fit, obs, independent, residual, folds);
-  const HeldoutNoise hw = heldoutNoise(fit, obs, n.whitening, residual, folds);
-  n.floor_independent_rms_m = std::sqrt(h0.position_ms_m2);
-  n.floor_with_estimate_rms_m = std::sqrt(hw.position_ms_m2);
   // The position mean square one unit of joint variance adds (sigma_q^2 |J_pos|_F^2 averaged): from a
   // probe of 1e-4 rad on top of the independent joint noise.
   constexpr double kProbe = 1e-4;
   MarkerNoise probe = independent;
   probe.joint_noise_sigma_rad = std::sqrt(std::pow(independent.joint_noise_sigma_rad, 2) + kProbe * kProbe);
-  const double per_variance = (heldoutNoise(fit, obs, probe, residual, folds).position_ms_m2 - h0.position_ms_m2) / (kProbe * kProbe);
+  const std::vector<HeldoutNoise> h = heldoutNoises(fit, obs, {independent, n.whitening, probe}, residual, folds);
+  const HeldoutNoise& h0 = h[0];
+  n.floor_independent_rms_m = std::sqrt(h0.position_ms_m2);
+  n.floor_with_estimate_rms_m = std::sqrt(h[1].position_ms_m2);
+  const double per_variance = (h[2].position_ms_m2 - h0.position_ms_m2) / (kProbe * kProbe);
   double ms = 0.0;
   for (const Eigen::VectorXd& r : residual) ms += r.head<3>().squaredNorm();
   ms /= std::max<std::size_t>(1, residual.size());

@@ -2,6 +2,8 @@
 // The noise of a diagnosis (calib/src/diagnose_noise.cpp): the variance components estimated with a
 // model flexible enough to take smooth structure, the floor a verdict is judged against and where its
 // joint-reading noise comes from (diagnose.hpp's NoiseFloors), and rows that repeat another exactly.
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -14,6 +16,11 @@ namespace orbcal::calib {
 /// and torque (empirical, degree up to 3), and every joint's reading off by a multiple of every other's
 /// (coupling); the most flexible of a few levels whose free parameters stay within a quarter of the
 /// rows of `obs`.
+/// A seeded random `keep` of `obs` (std::sample with std::mt19937_64(seed), in their order); empty where
+/// that is all of them or would leave out a session (its frames need its samples). The same seed and
+/// size give the same subset: the noise's flexible fits and the selection share it.
+std::vector<MarkerObservation> seededSubset(const std::vector<MarkerObservation>& obs, std::size_t keep, std::uint64_t seed);
+
 struct FlexibleFit {
   Fit fit;
   int degree = 0;                        ///< its harmonics (0: none fits, the fit of `effects` alone)

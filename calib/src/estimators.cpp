@@ -13,6 +13,7 @@
 #include <memory>
 #include <set>
 
+#include "halves.hpp"
 #include "orbcal/sim/identifiability.hpp"
 #include "stacked_system.hpp"
 #include "streamed_lm.hpp"
@@ -119,17 +120,6 @@ void appendPriorRows(const Eigen::VectorXd& sigma, const Eigen::VectorXd& mean, 
     A(r0 + r, i) = 1.0 / sigma[i];
     b[r0 + r] = ((mean.size() ? mean[i] : 0.0) - y[i]) / sigma[i];
   }
-}
-
-/// part(k0, k1) on the two halves of the samples 0..n-1 side by side, the lower on this thread (one
-/// thread below 64 samples: the upper half is then empty): {lower, upper}, for the caller to combine in
-/// that fixed order (the same result on any machine).
-template <class Part>
-auto onHalves(int n, const Part& part) {
-  const int half = n < 64 ? n : n / 2;
-  auto upper = std::async(half < n ? std::launch::async : std::launch::deferred, part, half, n);
-  auto lower = part(0, half);
-  return std::make_pair(std::move(lower), upper.get());
 }
 
 /// The R factor (RFactor) of the rows add(k, r) gives r for the samples k = 0..n-1, on `cols` columns:

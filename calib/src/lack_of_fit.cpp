@@ -5,6 +5,7 @@
 #include <cmath>
 #include <memory>
 
+#include "halves.hpp"
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/se3.hpp"
@@ -211,15 +212,20 @@ Eigen::MatrixXd whitenedResiduals(const Fit& fit, const std::vector<MarkerObserv
                                   const std::vector<Eigen::VectorXd>& residual, std::vector<Eigen::MatrixXd>* whitened_jq) {
   const MarkerPoseModel model(fit.model, obs, noise, fit.p);
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(model.numParams());
-  const Eigen::Index n = static_cast<Eigen::Index>(obs.size()), m = n ? residual.front().size() : 0;
+  const int n = static_cast<int>(obs.size());
+  const Eigen::Index m = n ? residual.front().size() : 0;
   Eigen::MatrixXd Y(n, m);
-  if (whitened_jq) whitened_jq->clear();
-  for (Eigen::Index k = 0; k < n; ++k) {
-    const Eigen::LLT<Eigen::MatrixXd> llt(model.linearize(static_cast<int>(k), zero).R);
-    const Eigen::MatrixXd& r = residual[static_cast<std::size_t>(k)];
-    Y.row(k) = llt.matrixL().solve(r).transpose();
-    if (whitened_jq) whitened_jq->push_back(llt.matrixL().solve(model.jointJacobian(static_cast<int>(k), zero)));
-  }
+  if (whitened_jq) whitened_jq->assign(obs.size(), Eigen::MatrixXd());
+  // Each sample's row (and W_k J_q) written in place: the two halves side by side.
+  onHalves(n, [&](int k0, int k1) {
+    for (int k = k0; k < k1; ++k) {
+      const Eigen::LLT<Eigen::MatrixXd> llt(model.innovationAndCovariance(k, zero).R);
+      const Eigen::MatrixXd& r = residual[static_cast<std::size_t>(k)];
+      Y.row(k) = llt.matrixL().solve(r).transpose();
+      if (whitened_jq) (*whitened_jq)[static_cast<std::size_t>(k)] = llt.matrixL().solve(model.jointJacobian(k, zero));
+    }
+    return 0;
+  });
   return Y;
 }
 
@@ -271,43 +277,85 @@ PureError pureError(const std::vector<MarkerObservation>& obs, const std::vector
   return pe;
 }
 
-HeldoutNoise heldoutNoise(const Fit& fit, const std::vector<MarkerObservation>& obs, const MarkerNoise& noise,
-                          const std::vector<Eigen::VectorXd>& residual, int folds) {
-  HeldoutNoise h;
-  if (obs.empty()) return h;
+namespace {
+
+/// One sample's terms of a HeldoutNoise: Rp its noise's position covariance, V its prediction's
+/// covariance (zero without the parameters' covariance), r its held-out position residual.
+void addHeldoutTerms(HeldoutNoise& h, const Eigen::Matrix3d& Rp, const Eigen::Matrix3d* V, const Eigen::Vector3d& r) {
+  const Eigen::LDLT<Eigen::Matrix3d> Rinv(Rp);
+  h.position_ms_m2 += Rp.trace();
+  Eigen::Matrix3d S = Rp;
+  if (V) {
+    h.estimation_ms_m2 += V->trace();
+    h.whitened_estimation += Rinv.solve(*V).trace();
+    S += *V;
+  }
+  h.chi2 += r.dot(Rinv.solve(r));
+  h.residual_ms_m2 += r.squaredNorm();
+  h.residual_ms_var_m4 += 2.0 * S.squaredNorm();  // Var(r^T r) = 2 tr(S^2) for r ~ N(0, S)
+}
+
+void addHeldout(HeldoutNoise& to, const HeldoutNoise& h) {
+  to.position_ms_m2 += h.position_ms_m2;
+  to.estimation_ms_m2 += h.estimation_ms_m2;
+  to.whitened_estimation += h.whitened_estimation;
+  to.chi2 += h.chi2;
+  to.residual_ms_m2 += h.residual_ms_m2;
+  to.residual_ms_var_m4 += h.residual_ms_var_m4;
+}
+
+}  // namespace
+
+std::vector<HeldoutNoise> heldoutNoises(const Fit& fit, const std::vector<MarkerObservation>& obs, const std::vector<MarkerNoise>& noises,
+                                        const std::vector<Eigen::VectorXd>& residual, int folds) {
+  std::vector<HeldoutNoise> out(noises.size());
+  if (obs.empty() || noises.empty()) return out;
   // At the fit (y = 0 about p): R_k as every fit whitens with it (tracker or the sample's own
-  // covariance, plus the joint noise through J_e_q), H_k for the parameters' covariance.
-  const MarkerPoseModel m(fit.model, obs, noise, fit.p);
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(m.numParams());
+  // covariance, plus the joint noise through J_e_q), H_k for the parameters' covariance: one H per
+  // sample, whatever the noise.
+  std::vector<MarkerPoseModel> models;
+  models.reserve(noises.size());
+  for (const MarkerNoise& noise : noises) models.emplace_back(fit.model, obs, noise, fit.p);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(models.front().numParams());
   const Eigen::MatrixXd& cov = fit.estimate.covariance;
-  const bool have_cov = cov.rows() == m.numParams() && cov.cols() == m.numParams();
+  const bool have_cov = cov.rows() == zero.size() && cov.cols() == zero.size();
   // A prediction from the other K-1 folds: their information is about (K-1)/K of all the data's, so
   // the variance of its parameters, and of the prediction, is K/(K-1) times the all-data one.
   const double k = folds > 1 ? static_cast<double>(folds) / (folds - 1) : 1.0;
-  for (int s = 0; s < m.numSamples(); ++s) {
-    const Linearization lin = m.linearize(s, zero);
-    const Eigen::Matrix3d Rp = lin.R.topLeftCorner(3, 3);
-    const Eigen::LDLT<Eigen::Matrix3d> Rinv(Rp);
-    h.position_ms_m2 += Rp.trace();
-    Eigen::Matrix3d S = Rp;
-    if (have_cov) {
-      const Eigen::MatrixXd Hp = lin.H.topRows(3);
-      const Eigen::Matrix3d V = k * Hp * cov * Hp.transpose();
-      h.estimation_ms_m2 += V.trace();
-      h.whitened_estimation += Rinv.solve(V).trace();
-      S += V;
+  const auto part = [&](int s0, int s1) {
+    std::vector<HeldoutNoise> h(noises.size());
+    for (int s = s0; s < s1; ++s) {
+      const Linearization first = have_cov ? models.front().linearize(s, zero) : models.front().innovationAndCovariance(s, zero);
+      Eigen::Matrix3d V = Eigen::Matrix3d::Zero();
+      if (have_cov) {
+        const Eigen::MatrixXd Hp = first.H.topRows(3);
+        V = k * Hp * cov * Hp.transpose();
+      }
+      const Eigen::Vector3d r = residual[static_cast<std::size_t>(s)].head<3>();
+      for (std::size_t i = 0; i < models.size(); ++i) {
+        const Eigen::MatrixXd R = i == 0 ? first.R : models[i].innovationAndCovariance(s, zero).R;
+        addHeldoutTerms(h[i], R.topLeftCorner<3, 3>(), have_cov ? &V : nullptr, r);
+      }
     }
-    const Eigen::Vector3d r = residual[static_cast<std::size_t>(s)].head<3>();
-    h.chi2 += r.dot(Rinv.solve(r));
-    h.residual_ms_m2 += r.squaredNorm();
-    h.residual_ms_var_m4 += 2.0 * S.squaredNorm();  // Var(r^T r) = 2 tr(S^2) for r ~ N(0, S)
+    return h;
+  };
+  const int n = models.front().numSamples();
+  const auto [lower, upper] = onHalves(n, part);
+  const double samples = n;
+  for (std::size_t i = 0; i < out.size(); ++i) {
+    addHeldout(out[i], lower[i]);
+    addHeldout(out[i], upper[i]);
+    out[i].position_ms_m2 /= samples;
+    out[i].estimation_ms_m2 /= samples;
+    out[i].residual_ms_m2 /= samples;
+    out[i].residual_ms_var_m4 /= samples * samples;
   }
-  const double n = m.numSamples();
-  h.position_ms_m2 /= n;
-  h.estimation_ms_m2 /= n;
-  h.residual_ms_m2 /= n;
-  h.residual_ms_var_m4 /= n * n;
-  return h;
+  return out;
+}
+
+HeldoutNoise heldoutNoise(const Fit& fit, const std::vector<MarkerObservation>& obs, const MarkerNoise& noise,
+                          const std::vector<Eigen::VectorXd>& residual, int folds) {
+  return heldoutNoises(fit, obs, {noise}, residual, folds).front();
 }
 
 const char* noiseSourceName(NoiseSource s) {
@@ -379,9 +427,7 @@ LackOfFit lackOfFit(const sim::MeasuredData& data, const std::vector<MarkerObser
   lof.significant = lof.tested && lof.p_value < lof.level;
 
   // The variable family: score tests on the fit's own residuals beside its columns (variableTests).
-  std::vector<Eigen::VectorXd> own;
-  own.reserve(obs.size());
-  for (const MarkerObservation& o : obs) own.push_back(markerResidual(fit.model, fit.p, o));
+  const std::vector<Eigen::VectorXd> own = markerResiduals(fit.model, fit.p, obs);
   std::vector<Eigen::MatrixXd> whitened_jq;
   const Eigen::MatrixXd Y = whitenedResiduals(fit, obs, noise, own, &whitened_jq);
   const std::vector<EvidenceVariable> vars = evidenceVariables(data, obs, fit.model, fit.p, true, &whitened_jq);

@@ -2,6 +2,7 @@
 
 #include <stdexcept>
 
+#include "halves.hpp"
 #include "orbcal/sim/marker_points.hpp"
 
 namespace orbcal::calib {
@@ -72,6 +73,16 @@ MarkerPoseModel poseModel(const sim::Arm& nominal, const std::vector<PoseObserva
 
 Eigen::VectorXd markerResidual(const sim::KinematicModel& model, const Eigen::VectorXd& p, const MarkerObservation& o) {
   return predictObservation(model, p, o, false, false).residual;
+}
+
+std::vector<Eigen::VectorXd> markerResiduals(const sim::KinematicModel& model, const Eigen::VectorXd& p,
+                                             const std::vector<MarkerObservation>& obs) {
+  std::vector<Eigen::VectorXd> r(obs.size());
+  onHalves(static_cast<int>(obs.size()), [&](int k0, int k1) {
+    for (int k = k0; k < k1; ++k) r[static_cast<std::size_t>(k)] = markerResidual(model, p, obs[static_cast<std::size_t>(k)]);
+    return 0;
+  });
+  return r;
 }
 
 Linearization MarkerPoseModel::linearize(int k, const Eigen::VectorXd& y) const { return linearized(k, y, true); }

@@ -212,10 +212,7 @@ ResidualStats residualStats(const std::vector<Eigen::VectorXd>& residuals) {
 
 ResidualStats residualStats(const sim::KinematicModel& model, const Eigen::VectorXd& p,
                             const std::vector<MarkerObservation>& observations) {
-  std::vector<Eigen::VectorXd> residuals;
-  residuals.reserve(observations.size());
-  for (const MarkerObservation& o : observations) residuals.push_back(markerResidual(model, p, o));
-  return residualStats(residuals);
+  return residualStats(markerResiduals(model, p, observations));
 }
 
 FitControls fitControls(const FitOptions& o, const sim::ParamLayout& layout, const Eigen::VectorXd& p0) {

@@ -86,7 +86,8 @@ void bindDiagnose(py::module_& m) {
   m.def(
       "diagnose",
       [](const sim::MeasuredData& data, int folds, std::uint64_t seed, double alpha, double penalty, int max_effects,
-         int max_order, bool empirical, std::optional<double> joint_noise_rad, int noise_observations, const py::object& progress) {
+         int max_order, bool empirical, std::optional<double> joint_noise_rad, int noise_observations, int selection_observations,
+         const py::object& progress) {
         calib::DiagnoseOptions o;
         o.folds = folds;
         o.seed = seed;
@@ -98,6 +99,8 @@ void bindDiagnose(py::module_& m) {
         o.joint_noise_sigma_rad = joint_noise_rad;
         if (noise_observations < 0) throw py::value_error("diagnose: noise_observations must be >= 0 (0: all)");
         o.noise_observations = noise_observations;
+        if (selection_observations < 0) throw py::value_error("diagnose: selection_observations must be >= 0 (0: all)");
+        o.selection_observations = selection_observations;
         o.progress = pythonProgress(progress);
         PyDiagnosis p;
         {
@@ -112,13 +115,16 @@ void bindDiagnose(py::module_& m) {
       },
       py::arg("data"), py::kw_only(), py::arg("folds") = 5, py::arg("seed") = 1, py::arg("alpha") = 0.01, py::arg("penalty") = 2.0,
       py::arg("max_effects") = 4, py::arg("max_order") = 6, py::arg("empirical") = true, py::arg("joint_noise_rad") = py::none(),
-      py::arg("noise_observations") = calib::DiagnoseOptions{}.noise_observations, py::arg("progress") = py::none(),
+      py::arg("noise_observations") = calib::DiagnoseOptions{}.noise_observations,
+      py::arg("selection_observations") = calib::DiagnoseOptions{}.selection_observations, py::arg("progress") = py::none(),
       "Diagnoses measured data as `orbcal diagnose` does: folds-fold cross-validation by configuration (seeded), each "
       "catalog cause tested (Holm at family-wise error alpha) and added while its held-out gain exceeds `penalty` per "
       "parameter, at most max_effects; empirical corrections where no cause fits. Torques come from the data, else the "
       "robot's masses. joint_noise_rad: joint readings vs true angles (1 sigma; default estimated). noise_observations: "
       "where the noise is estimated, on a seeded random subset of this many observations where there are more (0: all; "
-      "never fewer than the flexible model needs), as orbcal diagnose --noise-observations. progress: called (done, "
+      "never fewer than the flexible model needs), as orbcal diagnose --noise-observations. selection_observations: the "
+      "effects selected on a seeded random subset of this many observations where there are more (0: all), the selected "
+      "model then fitted and judged on all, as orbcal diagnose --selection-observations. progress: called (done, "
       "total) as each phase starts, before phase done of orbcal.diagnose_phases, then (total, total) at the end. Returns a "
       "Diagnosis.");
   py::list phases;

@@ -68,3 +68,17 @@ def test_diagnose_estimates_the_noise_on_a_subset_as_asked(tracker):
     assert part.verdict == whole.verdict == "clean", part.sentence
     with pytest.raises(ValueError, match="noise_observations"):
         orbcal.diagnose(data, noise_observations=-1)
+
+
+def test_diagnose_selects_on_a_subset_as_asked(tracker):
+    # Asked for a selection on 80 observations, diagnose selects on a seeded random 80 of them and says
+    # so in diagnosis.json; the selected model's held-out residuals are still every observation's.
+    data, _ = tracker
+    whole = orbcal.diagnose(data, seed=1)
+    part = orbcal.diagnose(data, seed=1, selection_observations=80)
+    assert whole.as_dict()["selection_observations"] == 0
+    assert part.as_dict()["selection_observations"] == 80
+    assert part.residual_selected.shape == (len(data), 3)
+    assert part.verdict == whole.verdict == "clean", part.sentence
+    with pytest.raises(ValueError, match="selection_observations"):
+        orbcal.diagnose(data, selection_observations=-1)

@@ -156,6 +156,30 @@ TEST_CASE("diagnose: the noise estimated on a random subset of a long log", "[ca
   CHECK(small.noise.joint_estimate_rad * sim::kRadToDeg < 2.0 * truth_deg);
 }
 
+// A long log's selection on a seeded random subset (DiagnoseOptions::selection_observations): a hidden
+// stiffening drawn with a seed is selected from 250 of 600 observations as from all of them, the selected
+// model is then fitted and cross-validated on all 600 (its held-out residuals are every observation's,
+// and its held-out SSE is the one the selection on every observation reaches: the same model, the same
+// folds), and the verdict is the same.
+TEST_CASE("diagnose: the effects selected on a random subset of a long log", "[calib][diagnose][noise]") {
+  const sim::OpenWorldDataset ds = unstatedJointNoise(sim::OpenCauseKind::kStiffening, 20.0, 0.005, 41, 600);
+  const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(ds.data, true);
+  calib::DiagnoseOptions all, subset;
+  all.selection_observations = 0;
+  subset.selection_observations = 250;
+  const calib::Diagnosis full = calib::diagnose(ds.data, obs, all);
+  const calib::Diagnosis part = calib::diagnose(ds.data, obs, subset);
+  CAPTURE(selectedText(full), selectedText(part), full.verdict, part.verdict, full.cv_selected, part.cv_selected);
+  CHECK(full.selection_observations == 0);
+  CHECK(part.selection_observations == 250);
+  CHECK_FALSE(full.selected.empty());
+  CHECK(selectedText(part) == selectedText(full));
+  CHECK(part.unexplained == full.unexplained);
+  CHECK(part.residual_selected.size() == obs.size());
+  CHECK(std::abs(part.cv_selected - full.cv_selected) < 1e-3 * full.cv_selected);
+  CHECK(part.fit.residuals.position_rms_m == Approx(full.fit.residuals.position_rms_m).epsilon(1e-6));
+}
+
 // Every row three times, exactly: a copy is no new measurement, and the verdict stays what it was.
 TEST_CASE("diagnose: rows repeated exactly do not change the verdict", "[calib][diagnose][noise]") {
   const sim::OpenWorldDataset ds = unstatedJointNoise(sim::OpenCauseKind::kStiffening, 20.0, 0.003, 31, 100);

@@ -2,6 +2,7 @@
 // writes"): calibrate (accepted and refused), diagnose and evaluate run on simulated tracker data, and
 // what each wrote is compared with its row of that table.
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <filesystem>
 #include <regex>
 #include <set>
@@ -180,4 +181,20 @@ TEST_CASE("diagnose --noise-observations: the report and diagnosis.json say the 
   CHECK(subset >= 100);
   CHECK(subset < 200);
   CHECK(test::slurp(dir + "/diag/diagnosis.json").find("\"noise_observations\": " + m[1].str()) != std::string::npos);
+}
+
+// The selection on a subset (--selection-observations) is said where its numbers are reported: the
+// candidates' table names the subset and the whole, diagnosis.json gives the subset's size, and the
+// held-out residuals (residuals.csv) are the selected model's on every observation.
+TEST_CASE("diagnose --selection-observations: the report and diagnosis.json say the selection ran on a subset", "[e2e][diagnose][report]") {
+  const std::string dir = test::tempDir("selection-subset");
+  REQUIRE(test::runOrbcal(dir, "simulate -n 200 --seed 4 -o data").status == 0);
+  const test::OrbcalRun run = test::runOrbcal(dir, "diagnose data/measurements.yaml --quiet --no-plots --selection-observations 120 -o diag");
+  CAPTURE(run.out, run.err);
+  REQUIRE(run.status == 0);
+  const std::string report = test::slurp(dir + "/diag/report.md");
+  CHECK(report.find("a seeded random 120 of the 200 observations (`--selection-observations`)") != std::string::npos);
+  CHECK(test::slurp(dir + "/diag/diagnosis.json").find("\"selection_observations\": 120,") != std::string::npos);
+  const std::string csv = test::slurp(dir + "/diag/residuals.csv");
+  CHECK(std::count(csv.begin(), csv.end(), '\n') == 201);  // a header and every observation
 }

@@ -96,7 +96,7 @@ std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& dist
     }
     j << "]}";
   }
-  j << "],\n \"confounded\": [";
+  j << "],\n \"selection_observations\": " << d.selection_observations << ",\n \"confounded\": [";
   for (std::size_t c = 0; c < d.confounded.size(); ++c) {
     j << (c ? ", " : "") << "[";
     for (std::size_t i = 0; i < d.confounded[c].effects.size(); ++i) j << (i ? ", " : "") << effectJson(d.confounded[c].effects[i]) << "}";
@@ -312,14 +312,22 @@ std::string unexplainedSection(const calib::Diagnosis& d, double alpha) {
   return md.str();
 }
 
+/// Where the selection ran on a subset (DiagnoseOptions::selection_observations): which one, of how many.
+std::string selectionSubsetWords(const calib::Diagnosis& dg) {
+  if (dg.selection_observations == 0) return "";
+  return " The tests and gains are those of a seeded random " + std::to_string(dg.selection_observations) + " of the " +
+         std::to_string(dg.residual_base.size() - static_cast<std::size_t>(dg.noise.duplicates_dropped)) +
+         " observations (`--selection-observations`); the selected model was fitted, cross-validated and judged on all of them.";
+}
+
 /// The candidates' score tests and the variables' F tests, each table with what it tests: the verdict
 /// follows the candidates; the evidence table is the base model's residuals against one variable at a time.
 std::string testsSection(const calib::Diagnosis& dg, const calib::DiagnoseOptions& o) {
   std::ostringstream md;
   md << "\n## Candidates: what selected the effects\n\nRao's score test (Rao 1948) of each candidate's own columns (the "
         "derivatives of the predicted pose by its parameters, at every sample) beyond the current model (rank: what the model "
-        "cannot absorb); the significant ones fitted and cross-validated. The verdict names the candidates this selects.\n\n"
-        "| step | candidate | params | rank | score | p (Holm) | CV gain |\n|---|---|---|---|---|---|---|\n";
+        "cannot absorb); the significant ones fitted and cross-validated. The verdict names the candidates this selects."
+     << selectionSubsetWords(dg) << "\n\n| step | candidate | params | rank | score | p (Holm) | CV gain |\n|---|---|---|---|---|---|---|\n";
   for (const calib::CandidateResult& c : dg.candidates) {
     if (!c.significant && c.p_adjusted > 0.5) continue;  // the long tail of nothing
     md << "| " << c.step << " | " << sim::formatEffect(c.effect) << " | " << c.params << " | " << c.rank << " | "

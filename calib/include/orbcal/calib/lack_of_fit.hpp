@@ -131,6 +131,9 @@ struct HeldoutNoise {
 };
 HeldoutNoise heldoutNoise(const Fit& fit, const std::vector<MarkerObservation>& obs, const MarkerNoise& noise,
                           const std::vector<Eigen::VectorXd>& residual, int folds);
+/// heldoutNoise for each of `noises`, in their order: one pass over the samples (each sample's H once).
+std::vector<HeldoutNoise> heldoutNoises(const Fit& fit, const std::vector<MarkerObservation>& obs, const std::vector<MarkerNoise>& noises,
+                                        const std::vector<Eigen::VectorXd>& residual, int folds);
 
 enum class NoiseSource { kStated, kPureError, kResiduals };
 const char* noiseSourceName(NoiseSource s);  ///< "stated", "pure_error", "residuals"

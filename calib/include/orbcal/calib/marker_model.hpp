@@ -80,5 +80,8 @@ MarkerPoseModel poseModel(const sim::Arm& nominal, const std::vector<PoseObserva
 /// Residual of one observation at parameters p (not y): [position (m); rotation (rad)] as the model
 /// defines nu (the rotation part empty for position-only observations).
 Eigen::VectorXd markerResidual(const sim::KinematicModel& model, const Eigen::VectorXd& p, const MarkerObservation& o);
+/// markerResidual of each observation, in their order (the two halves side by side).
+std::vector<Eigen::VectorXd> markerResiduals(const sim::KinematicModel& model, const Eigen::VectorXd& p,
+                                             const std::vector<MarkerObservation>& obs);
 
 }  // namespace orbcal::calib
