@@ -35,16 +35,16 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
                                 const Eigen::Vector3d& theta, const Eigen::VectorXd& prior, Eigen::LDLT<Eigen::MatrixXd>* n_out = nullptr) {
   const Eigen::Index p = prior.size();
   constexpr std::size_t kChunk = 128;
-  const auto W = [&](std::size_t k) {
-    return sampleCovariance(V[k], theta);
-  };
+  // Each sample's W_k = R_k^-1 (3 or 6 square) as a matrix: the first pass forms it, both passes
+  // multiply by it (a product of 6 columns, where a factor's solve takes four sweeps).
+  std::vector<Eigen::MatrixXd> W(A.size());
   // The samples [k0, k1) stacked: W A_k.
   const auto stack = [&](std::size_t k0, std::size_t k1, Eigen::MatrixXd& WA) {
     Eigen::Index rows = 0;
     for (std::size_t k = k0; k < k1; ++k) rows += A[k].rows();
     WA.resize(rows, p);
     for (std::size_t k = k0, row = 0; k < k1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
-      WA.middleRows(static_cast<Eigen::Index>(row), A[k].rows()) = W(k).solve(A[k]);
+      WA.middleRows(static_cast<Eigen::Index>(row), A[k].rows()).noalias() = W[k] * A[k];
     }
   };
   struct Sums {
@@ -60,6 +60,9 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
     Eigen::MatrixXd WA, part, VWA;
     for (std::size_t c0 = k0; c0 < k1; c0 += kChunk) {
       const std::size_t c1 = std::min(k1, c0 + kChunk);
+      for (std::size_t k = c0; k < c1; ++k) {
+        W[k] = sampleCovariance(V[k], theta).solve(Eigen::MatrixXd::Identity(A[k].rows(), A[k].rows()));
+      }
       stack(c0, c1, WA);
       for (std::size_t c = 0; c < 2; ++c) {  // the position rows, then the rotation rows
         Eigen::Index rows = 0;
@@ -79,9 +82,8 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
       }
       s.B[2].triangularView<Eigen::Lower>() += WA.transpose() * VWA;
       for (std::size_t k = c0; k < c1; ++k) {
-        const Eigen::LDLT<Eigen::MatrixXd> Wk = W(k);
         std::array<Eigen::MatrixXd, 3> WV;
-        for (std::size_t c = 0; c < 3; ++c) WV[c] = Wk.solve(V[k][c]);
+        for (std::size_t c = 0; c < 3; ++c) WV[c].noalias() = W[k] * V[k][c];
         for (int c = 0; c < 3; ++c) {
           for (int d = c; d < 3; ++d) s.F(c, d) += (WV[static_cast<std::size_t>(c)] * WV[static_cast<std::size_t>(d)]).trace();
         }
@@ -113,9 +115,8 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
       for (std::size_t k = c0, row = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
         const auto Yk = Y.middleCols(static_cast<Eigen::Index>(row), A[k].rows());
         const Eigen::MatrixXd H = Yk.transpose() * (Dinv.asDiagonal() * Yk);
-        const Eigen::LDLT<Eigen::MatrixXd> Wk = W(k);
         for (int c = 0; c < 3; ++c) {
-          const Eigen::MatrixXd VcW = Wk.solve(V[k][static_cast<std::size_t>(c)]).transpose();  // V_c W (both symmetric)
+          const Eigen::MatrixXd VcW = V[k][static_cast<std::size_t>(c)] * W[k];
           for (int d = c; d < 3; ++d) G(c, d) -= 2.0 * (VcW * V[k][static_cast<std::size_t>(d)] * H).trace();
         }
       }
