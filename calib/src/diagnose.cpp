@@ -245,13 +245,15 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
       o.selection_observations > 0 ? seededSubset(obs, static_cast<std::size_t>(o.selection_observations), o.seed) : std::vector<MarkerObservation>{};
   const std::vector<MarkerObservation>& chosen = subset.empty() ? obs : subset;
   std::optional<Diagnoser> on_subset;
+  std::optional<Fit> subset_base;
   if (!subset.empty()) {
     on_subset.emplace(data, subset, o);
     on_subset->setNoise(out.base_fit.noise);
+    subset_base = on_subset->fitAll({});
     out.selection_observations = static_cast<int>(subset.size());
   }
   const Diagnoser& ds = on_subset ? *on_subset : d;
-  const Fit base_chosen = on_subset ? ds.fitAll({}) : out.base_fit;
+  const Fit& base_chosen = subset_base ? *subset_base : out.base_fit;
   ModelSelection sel{{}, on_subset ? ds.crossValidate({}) : cv_base, base_chosen, 0};
   forwardSelect(ds, data, chosen, o, ds.catalog(), sel, out);
   if (o.empirical && sel.steps < o.max_effects &&

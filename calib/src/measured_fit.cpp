@@ -341,8 +341,7 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
     // parameters fitted (rows / dof).
     double pos2 = 0.0, rot2 = 0.0;
     int npos = 0, nrot = 0;
-    for (const MarkerObservation& x : obs) {
-      const Eigen::VectorXd r = markerResidual(start, fit.p, x);
+    for (const Eigen::VectorXd& r : markerResiduals(start, fit.p, obs)) {
       pos2 += r.head<3>().squaredNorm();
       npos += 3;
       if (r.size() == 6) {

@@ -29,15 +29,16 @@ Eigen::LDLT<Eigen::MatrixXd> sampleCovariance(const std::array<Eigen::MatrixXd, 
 /// matrix per pair. The samples go in chunks, stacked (one product per chunk, not one per sample), the
 /// two halves of the samples side by side, summed in a fixed order (the same sums on any machine).
 /// A^T W A itself is sum_c theta_c B_c (W R W = W), and B_1, B_2 are sums over the position and the
-/// rotation rows alone: two products of the stacked rows per pass where there were four. `n_out`: N's
-/// factorization.
+/// rotation rows alone: two products of the stacked rows per pass where there were four. `W` gets each
+/// sample's W_k = R_k^-1 (3 or 6 square) as a matrix, formed in the first pass: both passes, and the
+/// caller's gradient and score, multiply by it (a product of 6 columns, where a factor's solve takes four
+/// sweeps). `n_out`: N's factorization.
 Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std::vector<std::array<Eigen::MatrixXd, 3>>& V,
-                                const Eigen::Vector3d& theta, const Eigen::VectorXd& prior, Eigen::LDLT<Eigen::MatrixXd>* n_out = nullptr) {
+                                const Eigen::Vector3d& theta, const Eigen::VectorXd& prior, std::vector<Eigen::MatrixXd>& W,
+                                Eigen::LDLT<Eigen::MatrixXd>* n_out = nullptr) {
   const Eigen::Index p = prior.size();
   constexpr std::size_t kChunk = 128;
-  // Each sample's W_k = R_k^-1 (3 or 6 square) as a matrix: the first pass forms it, both passes
-  // multiply by it (a product of 6 columns, where a factor's solve takes four sweeps).
-  std::vector<Eigen::MatrixXd> W(A.size());
+  W.assign(A.size(), Eigen::MatrixXd());
   // The samples [k0, k1) stacked: W A_k.
   const auto stack = [&](std::size_t k0, std::size_t k1, Eigen::MatrixXd& WA) {
     Eigen::Index rows = 0;
@@ -147,12 +148,12 @@ std::optional<double> aitkenAhead(const Eigen::VectorXd& step, const Eigen::Vect
   return lambda / (1.0 - lambda);
 }
 
-/// g = sum_k A_k^T W_k r_k (p entries), W_k = (sum_c theta_c V_kc)^-1.
-Eigen::VectorXd whitenedGradient(const std::vector<Eigen::MatrixXd>& A, const std::vector<std::array<Eigen::MatrixXd, 3>>& V,
-                                 const std::vector<Eigen::VectorXd>& r, const Eigen::Vector3d& theta, Eigen::Index p) {
+/// g = sum_k A_k^T W_k r_k (p entries), W_k = (sum_c theta_c V_kc)^-1 (remlInformation's).
+Eigen::VectorXd whitenedGradient(const std::vector<Eigen::MatrixXd>& A, const std::vector<Eigen::MatrixXd>& W,
+                                 const std::vector<Eigen::VectorXd>& r, Eigen::Index p) {
   Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
   for (std::size_t k = 0; k < A.size(); ++k) {
-    g += A[k].transpose() * sampleCovariance(V[k], theta).solve(r[k]);
+    g += A[k].transpose() * (W[k] * r[k]);
   }
   return g;
 }
@@ -207,19 +208,19 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
   const auto nf = static_cast<Eigen::Index>(f.size());
   const auto floorOf = [](int c) { return c == 2 ? 0.0 : 1e-18; };  // variances >= 0 (sigmas of position and rotation >= 1e-9)
   Eigen::MatrixXd F_last;
+  std::vector<Eigen::MatrixXd> W;  // each sample's R_k^-1 at the current theta (remlInformation)
   Eigen::VectorXd before;  // the plain step before this one (empty after a jump)
   for (int iteration = 0; iteration < 50 && nf > 0; ++iteration) {
     Eigen::LDLT<Eigen::MatrixXd> Nl;
-    const Eigen::Matrix3d I = remlInformation(A, V, theta, prior, &Nl);
-    const Eigen::VectorXd g = whitenedGradient(A, V, r, theta, prior.size());
+    const Eigen::Matrix3d I = remlInformation(A, V, theta, prior, W, &Nl);
+    const Eigen::VectorXd g = whitenedGradient(A, W, r, prior.size());
     if (g_fit.size() == 0) g_fit = g;
     const Eigen::VectorXd delta = Nl.solve(g - g_fit);
     Eigen::MatrixXd F(nf, nf);
     Eigen::VectorXd u = Eigen::VectorXd::Zero(nf);
     for (int k = 0; k < n; ++k) {
       const std::array<Eigen::MatrixXd, 3>& Vk = V[static_cast<std::size_t>(k)];
-      const Eigen::LDLT<Eigen::MatrixXd> W = sampleCovariance(Vk, theta);
-      const Eigen::VectorXd Wr = W.solve(r[static_cast<std::size_t>(k)] - A[static_cast<std::size_t>(k)] * delta);
+      const Eigen::VectorXd Wr = W[static_cast<std::size_t>(k)] * (r[static_cast<std::size_t>(k)] - A[static_cast<std::size_t>(k)] * delta);
       for (Eigen::Index a = 0; a < nf; ++a) u[a] += Wr.dot(Vk[static_cast<std::size_t>(f[static_cast<std::size_t>(a)])] * Wr);
     }
     for (Eigen::Index a = 0; a < nf; ++a) {

@@ -208,14 +208,6 @@ void splitHeldOut(const std::vector<calib::MarkerObservation>& all, const Measur
   for (std::size_t k = 0; k < all.size(); ++k) (part[k] == 1 ? held : ident).push_back(all[k]);
 }
 
-/// Each observation's residual under the model `start` at parameters p.
-std::vector<Eigen::VectorXd> residualsOf(const sim::KinematicModel& start, const Eigen::VectorXd& p,
-                                         const std::vector<calib::MarkerObservation>& observations) {
-  std::vector<Eigen::VectorXd> out;
-  for (const calib::MarkerObservation& x : observations) out.push_back(calib::markerResidual(start, p, x));
-  return out;
-}
-
 /// The estimator and the noise: the options' where given, else the description's.
 calib::FitOptions fitOptionsOf(const MeasuredCalibrateOptions& o, const sim::MeasuredData& data) {
   calib::FitOptions fo;
@@ -246,7 +238,7 @@ Judgement crossValidatedJudgement(const sim::MeasuredData& data, const std::vect
     const sim::KinematicModel start = calib::startingModel(data, train, effects);
     const calib::Fit reference = calib::fitRegistration(start, train, fo);
     const calib::Fit fit = calib::fitMarkerModel(start, train, calib::levelOptions(fo, start, level, "--level"));
-    return calib::FoldPrediction{residualsOf(start, reference.p, test), residualsOf(start, fit.p, test)};
+    return calib::FoldPrediction{calib::markerResiduals(start, reference.p, test), calib::markerResiduals(start, fit.p, test)};
   };
   Judgement j;
   j.obs = all;
@@ -356,7 +348,7 @@ MeasuredCalibrateResult runMeasuredCalibrate(const sim::MeasuredData& data, cons
   if (r.cross_validated) {
     judged = crossValidatedJudgement(data, all, effects, r.level.chosen, unleveled);
   } else {
-    judged = {held, residualsOf(start, reference.p, held), residualsOf(start, r.fit.p, held), {}};
+    judged = {held, calib::markerResiduals(start, reference.p, held), calib::markerResiduals(start, r.fit.p, held), {}};
     judged.verdict = calib::heldoutVerdict(held, judged.before, judged.after, o.holdout, configurations);
   }
   const calib::HeldoutVerdict& verdict = judged.verdict;
