@@ -6,6 +6,7 @@ set -euo pipefail
 pkgs=(build-essential cmake pkg-config libeigen3-dev libboost-dev libopencv-dev libosmesa6-dev libassimp-dev
       catch2 libceres-dev libcli11-dev libyaml-cpp-dev liburdfdom-dev python3-matplotlib
       libopencv-contrib-dev   # cv::aruco: ChArUco boards
+      libopenblas-dev         # BLAS and LAPACK for a long log's large dense products (orbcal/calib/dense_kernels.hpp)
       pybind11-dev python3-dev python3-numpy)   # the Python module (python/)
 if [[ "${1:-}" == "--tests" ]]; then
   pkgs+=(opencv-doc)   # OpenCV's sample chessboard photographs (left01..14.jpg) for the real-image tests

@@ -7,6 +7,7 @@
 #include <limits>
 #include <numeric>
 
+#include "orbcal/calib/dense_kernels.hpp"
 #include "stacked_system.hpp"
 #include "orbcal/calib/heldout.hpp"
 #include "orbcal/sim/csv.hpp"
@@ -167,10 +168,12 @@ Normals groupNormalsOf(const MeasurementModel& m, const std::vector<int>& cols, 
       b.segment(row, m.rows(k)) = bk;
     }
     first[static_cast<std::size_t>(c1 - c0)] = rows;
+    Eigen::MatrixXd Ar;
     const auto add = [&](std::size_t i, const std::vector<Eigen::Index>& r) {
       if (r.empty()) return;
-      s.N[i].selfadjointView<Eigen::Lower>().rankUpdate(A(r, Eigen::all).transpose());
-      s.g[i].noalias() += A(r, Eigen::all).transpose() * b(r);
+      Ar = A(r, Eigen::all);
+      addGram(s.N[i], Ar);
+      s.g[i].noalias() += Ar.transpose() * b(r);
     };
     if (!partition) {
       std::vector<Eigen::Index> all(static_cast<std::size_t>(rows));

@@ -312,6 +312,7 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
       controls.fix_unidentifiable = false;
     }
     if (round + 1 < rounds) controls.decrease_tolerance = kNoiseRoundDecrease;
+    const Eigen::VectorXd round_start = fit.estimate.y;
     fit.estimate = runMethod(findMethod(comparisonMethods(o.joint_noise_sigma_rad), o.method, "method"), m, controls);
     fit.p = fit.p0 + fit.estimate.y;
     fit.chi2 = 2.0 * fit.estimate.cost;
@@ -329,6 +330,9 @@ Fit fitMarkerModel(const sim::KinematicModel& start, const std::vector<MarkerObs
       }
       break;
     }
+    // A warm round whose LM took no step ends where the round before did: the noise estimated there, from
+    // these residuals, stands (estimated again, it moves by less than its own stopping tolerance).
+    if (warm && fit.estimate.y == round_start) continue;
     const double correction = static_cast<double>(rows) / fit.dof;
     if (o.estimate_joint_noise) {
       const bool rotations = std::any_of(obs.begin(), obs.end(), [](const MarkerObservation& x) { return x.has_rotation; });

@@ -8,6 +8,8 @@
 #include <limits>
 #include <optional>
 
+#include "orbcal/calib/dense_kernels.hpp"
+
 namespace orbcal::calib {
 
 namespace {
@@ -15,10 +17,17 @@ namespace {
 /// Fisher scoring stops when every variance component moves by less than this share of its standard deviation.
 constexpr double kRemlTolerance = 1e-3;
 
-/// A sample's covariance R_k = sum_c theta_c V_kc, factored (its solves apply W_k = R_k^-1).
-Eigen::LDLT<Eigen::MatrixXd> sampleCovariance(const std::array<Eigen::MatrixXd, 3>& Vk, const Eigen::Vector3d& theta) {
-  return Eigen::LDLT<Eigen::MatrixXd>(theta[0] * Vk[0] + theta[1] * Vk[1] + theta[2] * Vk[2]);
+/// A sample's 3 or 6 square matrices (its covariance's components, W_k): no heap, no product kernel's blocking.
+using SampleMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 6, 6>;
+
+/// W_k = R_k^-1 of a sample's covariance R_k = sum_c theta_c V_kc.
+SampleMatrix sampleWeight(const std::array<SampleMatrix, 3>& Vk, const Eigen::Vector3d& theta) {
+  const SampleMatrix R = theta[0] * Vk[0] + theta[1] * Vk[1] + theta[2] * Vk[2];
+  return Eigen::LDLT<SampleMatrix>(R).solve(SampleMatrix::Identity(R.rows(), R.cols()));
 }
+
+/// tr(X Y) of two small square matrices, without their product.
+double traceOfProduct(const SampleMatrix& X, const SampleMatrix& Y) { return X.cwiseProduct(Y.transpose()).sum(); }
 
 /// tr(P V_c P V_d) of REML's information (Koch 1999, ch. 3.6), P = W - W A N^-1 A^T W, with W = R^-1
 /// block diagonal per sample, A the free columns of the Jacobian and N = A^T W A + S (S the prior):
@@ -26,26 +35,29 @@ Eigen::LDLT<Eigen::MatrixXd> sampleCovariance(const std::array<Eigen::MatrixXd, 
 /// C_cd = sum_k A_k^T W V_c W V_d W A_k: what the fitted parameters take of each component is not
 /// counted as its noise (joint noise above all: the joint corrections' columns lie along J_q).
 /// tr(N^-1 C_cd) = sum_k tr(V_c W V_d H_k) with H_k = W A_k N^-1 A_k^T W (3 or 6 square): no p x p
-/// matrix per pair. The samples go in chunks, stacked (one product per chunk, not one per sample), the
-/// two halves of the samples side by side, summed in a fixed order (the same sums on any machine).
+/// matrix per pair. The samples go in chunks, stacked (one BLAS product per chunk, not one per sample;
+/// B_3's whole, not its lower triangle: BLAS's general product is faster than Eigen's triangular one),
+/// the two halves of the samples side by side, summed in a fixed order (the same sums on one machine;
+/// OpenBLAS picks its kernels for the processor, so another may round them differently).
 /// A^T W A itself is sum_c theta_c B_c (W R W = W), and B_1, B_2 are sums over the position and the
 /// rotation rows alone: two products of the stacked rows per pass where there were four. `W` gets each
 /// sample's W_k = R_k^-1 (3 or 6 square) as a matrix, formed in the first pass: both passes, and the
 /// caller's gradient and score, multiply by it (a product of 6 columns, where a factor's solve takes four
-/// sweeps). `n_out`: N's factorization.
-Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std::vector<std::array<Eigen::MatrixXd, 3>>& V,
-                                const Eigen::Vector3d& theta, const Eigen::VectorXd& prior, std::vector<Eigen::MatrixXd>& W,
+/// sweeps). A sample's own products (3 or 6 rows) are lazy, on matrices of fixed capacity (no heap
+/// allocation per sample). `n_out`: N's factorization.
+Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std::vector<std::array<SampleMatrix, 3>>& V,
+                                const Eigen::Vector3d& theta, const Eigen::VectorXd& prior, std::vector<SampleMatrix>& W,
                                 Eigen::LDLT<Eigen::MatrixXd>* n_out = nullptr) {
   const Eigen::Index p = prior.size();
   constexpr std::size_t kChunk = 128;
-  W.assign(A.size(), Eigen::MatrixXd());
+  W.resize(A.size());
   // The samples [k0, k1) stacked: W A_k.
   const auto stack = [&](std::size_t k0, std::size_t k1, Eigen::MatrixXd& WA) {
     Eigen::Index rows = 0;
     for (std::size_t k = k0; k < k1; ++k) rows += A[k].rows();
     WA.resize(rows, p);
     for (std::size_t k = k0, row = 0; k < k1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
-      WA.middleRows(static_cast<Eigen::Index>(row), A[k].rows()).noalias() = W[k] * A[k];
+      WA.middleRows(static_cast<Eigen::Index>(row), A[k].rows()).noalias() = W[k].lazyProduct(A[k]);
     }
   };
   struct Sums {
@@ -61,32 +73,38 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
     Eigen::MatrixXd WA, part, VWA;
     for (std::size_t c0 = k0; c0 < k1; c0 += kChunk) {
       const std::size_t c1 = std::min(k1, c0 + kChunk);
+      bool poses = false;
       for (std::size_t k = c0; k < c1; ++k) {
-        W[k] = sampleCovariance(V[k], theta).solve(Eigen::MatrixXd::Identity(A[k].rows(), A[k].rows()));
+        W[k] = sampleWeight(V[k], theta);
+        poses = poses || A[k].rows() == 6;
       }
       stack(c0, c1, WA);
-      for (std::size_t c = 0; c < 2; ++c) {  // the position rows, then the rotation rows
-        Eigen::Index rows = 0;
-        for (std::size_t k = c0; k < c1; ++k) rows += c == 0 || A[k].rows() == 6 ? 3 : 0;
-        part.resize(rows, p);
-        for (std::size_t k = c0, row = 0, out = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
-          if (c == 1 && A[k].rows() != 6) continue;
-          part.middleRows(static_cast<Eigen::Index>(out), 3) = WA.middleRows(static_cast<Eigen::Index>(row + 3 * c), 3);
-          out += 3;
+      if (!poses) {
+        addGram(s.B[0], WA);  // position rows alone
+      } else {
+        for (std::size_t c = 0; c < 2; ++c) {  // the position rows, then the rotation rows
+          Eigen::Index rows = 0;
+          for (std::size_t k = c0; k < c1; ++k) rows += c == 0 || A[k].rows() == 6 ? 3 : 0;
+          part.resize(rows, p);
+          for (std::size_t k = c0, row = 0, out = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
+            if (c == 1 && A[k].rows() != 6) continue;
+            part.middleRows(static_cast<Eigen::Index>(out), 3) = WA.middleRows(static_cast<Eigen::Index>(row + 3 * c), 3);
+            out += 3;
+          }
+          addGram(s.B[c], part);
         }
-        if (rows > 0) s.B[c].selfadjointView<Eigen::Lower>().rankUpdate(part.transpose());  // none: position-only samples
       }
       VWA.resize(WA.rows(), p);
       for (std::size_t k = c0, row = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
-        const auto rows = Eigen::seqN(static_cast<Eigen::Index>(row), A[k].rows());
-        VWA(rows, Eigen::all).noalias() = V[k][2] * WA(rows, Eigen::all);
+        const auto r = static_cast<Eigen::Index>(row);
+        VWA.middleRows(r, A[k].rows()).noalias() = V[k][2].lazyProduct(WA.middleRows(r, A[k].rows()));
       }
-      s.B[2].triangularView<Eigen::Lower>() += WA.transpose() * VWA;
+      addCrossProduct(s.B[2], WA, VWA);
       for (std::size_t k = c0; k < c1; ++k) {
-        std::array<Eigen::MatrixXd, 3> WV;
-        for (std::size_t c = 0; c < 3; ++c) WV[c].noalias() = W[k] * V[k][c];
-        for (int c = 0; c < 3; ++c) {
-          for (int d = c; d < 3; ++d) s.F(c, d) += (WV[static_cast<std::size_t>(c)] * WV[static_cast<std::size_t>(d)]).trace();
+        std::array<SampleMatrix, 3> WV;
+        for (std::size_t c = 0; c < 3; ++c) WV[c].noalias() = W[k].lazyProduct(V[k][c]);
+        for (std::size_t c = 0; c < 3; ++c) {
+          for (std::size_t d = c; d < 3; ++d) s.F(static_cast<Eigen::Index>(c), static_cast<Eigen::Index>(d)) += traceOfProduct(WV[c], WV[d]);
         }
       }
     }
@@ -107,18 +125,22 @@ Eigen::Matrix3d remlInformation(const std::vector<Eigen::MatrixXd>& A, const std
   for (Eigen::Index i = 0; i < p; ++i) Dinv[i] = std::abs(Dinv[i]) > std::numeric_limits<double>::min() ? 1.0 / Dinv[i] : 0.0;
   const auto second = [&](std::size_t k0, std::size_t k1) {
     Eigen::Matrix3d G = Eigen::Matrix3d::Zero();
-    Eigen::MatrixXd WA, Y;
+    Eigen::MatrixXd WA, Y, DY;
     for (std::size_t c0 = k0; c0 < k1; c0 += kChunk) {
       const std::size_t c1 = std::min(k1, c0 + kChunk);
       stack(c0, c1, WA);
       Y = Ninv.transpositionsP() * WA.transpose();
-      Ninv.matrixL().solveInPlace(Y);
+      solveUnitLowerInPlace(Ninv.matrixLDLT(), Y);
+      DY.noalias() = Dinv.asDiagonal() * Y;
       for (std::size_t k = c0, row = 0; k < c1; row += static_cast<std::size_t>(A[k].rows()), ++k) {
-        const auto Yk = Y.middleCols(static_cast<Eigen::Index>(row), A[k].rows());
-        const Eigen::MatrixXd H = Yk.transpose() * (Dinv.asDiagonal() * Yk);
-        for (int c = 0; c < 3; ++c) {
-          const Eigen::MatrixXd VcW = V[k][static_cast<std::size_t>(c)] * W[k];
-          for (int d = c; d < 3; ++d) G(c, d) -= 2.0 * (VcW * V[k][static_cast<std::size_t>(d)] * H).trace();
+        const auto cols = Eigen::seqN(static_cast<Eigen::Index>(row), A[k].rows());
+        const SampleMatrix H = Y(Eigen::all, cols).transpose().lazyProduct(DY(Eigen::all, cols));
+        for (std::size_t c = 0; c < 3; ++c) {
+          const SampleMatrix VcW = V[k][c].lazyProduct(W[k]);
+          for (std::size_t d = c; d < 3; ++d) {
+            const SampleMatrix VcWVd = VcW.lazyProduct(V[k][d]);
+            G(static_cast<Eigen::Index>(c), static_cast<Eigen::Index>(d)) -= 2.0 * traceOfProduct(VcWVd, H);
+          }
         }
       }
     }
@@ -149,11 +171,11 @@ std::optional<double> aitkenAhead(const Eigen::VectorXd& step, const Eigen::Vect
 }
 
 /// g = sum_k A_k^T W_k r_k (p entries), W_k = (sum_c theta_c V_kc)^-1 (remlInformation's).
-Eigen::VectorXd whitenedGradient(const std::vector<Eigen::MatrixXd>& A, const std::vector<Eigen::MatrixXd>& W,
+Eigen::VectorXd whitenedGradient(const std::vector<Eigen::MatrixXd>& A, const std::vector<SampleMatrix>& W,
                                  const std::vector<Eigen::VectorXd>& r, Eigen::Index p) {
   Eigen::VectorXd g = Eigen::VectorXd::Zero(p);
   for (std::size_t k = 0; k < A.size(); ++k) {
-    g += A[k].transpose() * (W[k] * r[k]);
+    g.noalias() += A[k].transpose() * W[k].lazyProduct(r[k]);
   }
   return g;
 }
@@ -176,7 +198,7 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
   // Per sample: the residual, the free Jacobian columns and V_k1..3 (fixed over the iterations).
   std::vector<Eigen::VectorXd> r(static_cast<std::size_t>(n));
   std::vector<Eigen::MatrixXd> A(static_cast<std::size_t>(n));
-  std::vector<std::array<Eigen::MatrixXd, 3>> V(static_cast<std::size_t>(n));
+  std::vector<std::array<SampleMatrix, 3>> V(static_cast<std::size_t>(n));
   const auto setUp = [&](int k0, int k1) {  // each sample's own entries: the two halves side by side
     for (int k = k0; k < k1; ++k) {
       const auto i = static_cast<std::size_t>(k);
@@ -185,11 +207,11 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
       A[i].resize(H.rows(), static_cast<Eigen::Index>(cols.size()));
       for (std::size_t c = 0; c < cols.size(); ++c) A[i].col(static_cast<Eigen::Index>(c)) = H.col(cols[c]);
       const Eigen::Index rows = r[i].size();
-      V[i][0] = Eigen::MatrixXd::Zero(rows, rows);
+      V[i][0] = SampleMatrix::Zero(rows, rows);
       V[i][0].topLeftCorner(3, 3).setIdentity();
-      V[i][1] = Eigen::MatrixXd::Zero(rows, rows);
+      V[i][1] = SampleMatrix::Zero(rows, rows);
       if (rows == 6) V[i][1].bottomRightCorner(3, 3).setIdentity();
-      V[i][2] = Jq * Jq.transpose();
+      V[i][2].noalias() = Jq.lazyProduct(Jq.transpose());
     }
   };
   auto upper = std::async(std::launch::async, setUp, n / 2, n);
@@ -208,7 +230,7 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
   const auto nf = static_cast<Eigen::Index>(f.size());
   const auto floorOf = [](int c) { return c == 2 ? 0.0 : 1e-18; };  // variances >= 0 (sigmas of position and rotation >= 1e-9)
   Eigen::MatrixXd F_last;
-  std::vector<Eigen::MatrixXd> W;  // each sample's R_k^-1 at the current theta (remlInformation)
+  std::vector<SampleMatrix> W;  // each sample's R_k^-1 at the current theta (remlInformation)
   Eigen::VectorXd before;  // the plain step before this one (empty after a jump)
   for (int iteration = 0; iteration < 50 && nf > 0; ++iteration) {
     Eigen::LDLT<Eigen::MatrixXd> Nl;
@@ -219,8 +241,8 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
     Eigen::MatrixXd F(nf, nf);
     Eigen::VectorXd u = Eigen::VectorXd::Zero(nf);
     for (int k = 0; k < n; ++k) {
-      const std::array<Eigen::MatrixXd, 3>& Vk = V[static_cast<std::size_t>(k)];
-      const Eigen::VectorXd Wr = W[static_cast<std::size_t>(k)] * (r[static_cast<std::size_t>(k)] - A[static_cast<std::size_t>(k)] * delta);
+      const std::array<SampleMatrix, 3>& Vk = V[static_cast<std::size_t>(k)];
+      const Eigen::VectorXd Wr = W[static_cast<std::size_t>(k)].lazyProduct(r[static_cast<std::size_t>(k)] - A[static_cast<std::size_t>(k)] * delta);
       for (Eigen::Index a = 0; a < nf; ++a) u[a] += Wr.dot(Vk[static_cast<std::size_t>(f[static_cast<std::size_t>(a)])] * Wr);
     }
     for (Eigen::Index a = 0; a < nf; ++a) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <vector>
 
+#include "orbcal/calib/dense_kernels.hpp"
 #include "orbcal/calib/model.hpp"
 #include "orbcal/calib/observability.hpp"
 
@@ -49,9 +50,8 @@ class RFactor {
  private:
   void reduce() {
     if (used_ == kept_) return;  // nothing added since the last reduction
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(stacked_.topRows(used_));
+    householderRInPlace(stacked_, used_);
     kept_ = std::min(used_, n_);
-    stacked_.topRows(kept_) = qr.matrixQR().topRows(kept_).triangularView<Eigen::Upper>();
     used_ = kept_;
   }
   Eigen::Index n_, block_;

@@ -7,6 +7,8 @@
 #include <future>
 #include <limits>
 
+#include "orbcal/calib/dense_kernels.hpp"
+
 namespace orbcal::calib {
 
 namespace {
@@ -113,7 +115,7 @@ class Accumulator {
       s.cost += 0.5 * f.squaredNorm();
       s.rows += rows;
       s.g.noalias() += J.transpose() * f;
-      s.JtJ.selfadjointView<Eigen::Lower>().rankUpdate(J.transpose());
+      addGram(s.JtJ, J);
     }
     return s;
   }
