@@ -1,6 +1,6 @@
 #pragma once
 // The samples of a pass in two halves side by side (this machine's two cores and CI's), combined by the
-// caller in a fixed order: the same result on any machine.
+// caller in a fixed order: the same result whatever the machine's number of cores.
 #include <future>
 #include <utility>
 

@@ -58,7 +58,7 @@ struct StreamedLmResult {
 ///   below 3/4 of it is shortened to that minimum, where this lowers the cost;
 /// - converged where the Gauss-Newton model's whole remaining decrease is below decrease_tolerance.
 /// The samples are evaluated in two halves side by side, their sums added in a fixed order (the same
-/// result on any machine).
+/// result whatever the machine's number of cores; J^T J rounds as OpenBLAS's kernels for its processor do).
 StreamedLmResult streamedLm(const MeasurementModel& m, const std::vector<Eigen::MatrixXd>& W, const std::vector<int>& free,
                             const StreamedLmOptions& o);
 
