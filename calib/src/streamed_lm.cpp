@@ -77,7 +77,7 @@ class Accumulator {
   /// One half's block of whitened rows, kept between evaluations: a block of a flexible model is a
   /// megabyte, which allocated afresh at every evaluation costs fresh pages (page faults) each time.
   struct Buffers {
-    Eigen::MatrixXd J;
+    Eigen::MatrixXd J, WH;
     Eigen::VectorXd f;
   };
 
@@ -109,8 +109,10 @@ class Accumulator {
         if (!lin.innovation.allFinite() || !lin.H.allFinite()) return Sums{0.0, 0, {}, {}, false};
         const Eigen::MatrixXd& Wk = W_[static_cast<std::size_t>(k)];
         f.segment(row, m_.rows(k)) = Wk * lin.innovation;
-        // The free columns of -W H, coefficient by coefficient into J's rows: no temporary per sample.
-        J.middleRows(row, m_.rows(k)).noalias() = -Wk.lazyProduct(lin.H(Eigen::all, free_));
+        // W H on all of H's columns (contiguous: a vectorized product), then its free columns into J's rows;
+        // the product through the list of free columns had been a tenth of a small log's diagnosis.
+        b.WH.noalias() = Wk.lazyProduct(lin.H);
+        J.middleRows(row, m_.rows(k)) = -b.WH(Eigen::all, free_);
       }
       s.cost += 0.5 * f.squaredNorm();
       s.rows += rows;
