@@ -3,13 +3,14 @@
 // [J y] and each variable's S^T J, never the (n m) x p columns (10^5 samples of a 200-parameter
 // flexible model would be 1 GB).
 #include <Eigen/Eigenvalues>
-#include <Eigen/SVD>
 #include <algorithm>
 #include <functional>
 #include <future>
 
+#include "orbcal/calib/dense_kernels.hpp"
 #include "orbcal/calib/diagnose.hpp"
 #include "orbcal/calib/lack_of_fit.hpp"
+#include "orbcal/sim/identifiability.hpp"
 #include "stacked_system.hpp"
 
 namespace orbcal::calib {
@@ -21,10 +22,10 @@ constexpr int kBlockRows = 256;
 /// What the tests need of the model's columns J (one intercept per residual component appended), from
 /// the R factor of [J y] (QR, never J^T J: a flexible model's columns leave directions whose squared
 /// singular values lie near the rank tolerance, where the normal equations' rounding moved a test's
-/// statistic by a fifth): J scaled to unit columns, D^-1, and its thin SVD U S V^T kept on the singular
-/// values above sqrt(1e-12) of the largest (at least 1); `M` = D^-1 V S^-1, so that a variable's S^T J M
-/// is its part along the model's span, and `Uz` = U^T Q^T y, the data's. The residual sum of squares
-/// y^T (I - P_J) y, the rank, the rows.
+/// statistic by a fifth): the thin SVD U S V^T of R D (D scales its columns to unit norm; sim::scaledSvd),
+/// kept on the singular values above kRankTolerance of the largest; `M` = D V S^-1, so that a variable's
+/// S^T J M is its part along the model's span, and `Uz` = U^T Q^T y, the data's. The residual sum of
+/// squares y^T (I - P_J) y, the rank, the rows.
 struct ModelSpan {
   Eigen::MatrixXd M;
   Eigen::VectorXd Uz;
@@ -37,37 +38,18 @@ struct ModelSpan {
     const Eigen::MatrixXd R = R_aug.topLeftCorner(k, p);
     const Eigen::VectorXd z = R_aug.col(p).head(k);
     const double tail = R_aug.rows() > p ? R_aug(p, p) : 0.0;
-    const Eigen::VectorXd d = R.colwise().norm().transpose();
-    const Eigen::VectorXd s = (d.array() > 0).select(d.cwiseInverse(), 0.0);
-    const Eigen::BDCSVD<Eigen::MatrixXd> svd(R * s.asDiagonal(), Eigen::ComputeThinU | Eigen::ComputeThinV);
-    const Eigen::VectorXd& sv = svd.singularValues();
-    const double top = sv.size() ? std::max(1.0, sv[0] * sv[0]) : 1.0;
+    // Divide and conquer: the span's directions and their singular values are read relative to the largest.
+    const sim::ScaledSvd svd = sim::scaledSvd(R, sim::kRankTolerance, true, sim::SvdMethod::kDivideAndConquer);
     ModelSpan span;
-    while (span.rank < sv.size() && sv[span.rank] * sv[span.rank] > 1e-12 * top) ++span.rank;
-    const Eigen::MatrixXd U = svd.matrixU().leftCols(span.rank);
-    span.M = s.asDiagonal() * svd.matrixV().leftCols(span.rank) * sv.head(span.rank).cwiseInverse().asDiagonal();
+    span.rank = svd.rank;
+    const Eigen::MatrixXd U = svd.U.leftCols(span.rank);
+    span.M = svd.scale.asDiagonal() * svd.V.leftCols(span.rank) * svd.singular_values.head(span.rank).cwiseInverse().asDiagonal();
     span.Uz = U.transpose() * z;
     span.rows = rows;
     span.residual_ss = tail * tail + (z - U * span.Uz).squaredNorm();
     return span;
   }
 };
-
-/// The rows first .. first + count - 1 of the variable's regressors against a block of the model's
-/// columns: S_block^T J_block, for stacked regressors ((n m) x d) or pooled ones (X n x d as X kron I_m:
-/// column a m + c is X's column a in component c's rows).
-Eigen::MatrixXd crossBlock(const EvidenceVariable& v, const Eigen::Ref<const Eigen::MatrixXd>& Jb, int first, int count, int m) {
-  if (v.stacked.size() > 0) return v.stacked.middleRows(static_cast<Eigen::Index>(first) * m, static_cast<Eigen::Index>(count) * m).transpose() * Jb;
-  const Eigen::Index d = v.X.cols(), p = Jb.cols();
-  Eigen::MatrixXd SJ(d * m, p);
-  using Strided = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>>;
-  for (Eigen::Index c = 0; c < m; ++c) {
-    const Strided Jc(Jb.data() + c, count, p, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>(Jb.outerStride(), m));
-    const Eigen::MatrixXd XJ = v.X.middleRows(first, count).transpose() * Jc;
-    for (Eigen::Index a = 0; a < d; ++a) SJ.row(a * m + c) = XJ.row(a);
-  }
-  return SJ;
-}
 
 /// S^T S and S^T y of the variable (whole: S is small beside J).
 void ownProducts(const EvidenceVariable& v, const Eigen::MatrixXd& Y, const Eigen::VectorXd& y, Eigen::MatrixXd& SS,
@@ -138,28 +120,77 @@ struct StreamedProducts {
   std::vector<Eigen::MatrixXd> SJ;
 };
 
+/// Where each variable's regressors sit among all the variables' side by side: the pooled ones (X, n
+/// rows) and the stacked ones ((n m) rows) each form one matrix, so that a block of rows meets the
+/// model's columns in one BLAS product per kind (per component for the pooled), not one small product
+/// per variable (those were most of a long log's lack-of-fit test).
+struct GatheredColumns {
+  std::vector<Eigen::Index> offset;  ///< per variable, its first column among its kind's; -1: not tested
+  Eigen::Index pooled = 0, stacked = 0;
+
+  GatheredColumns(const std::vector<EvidenceVariable>& vars, Eigen::Index stacked_rows) : offset(vars.size(), -1) {
+    for (std::size_t v = 0; v < vars.size(); ++v) {
+      if (vars[v].stacked.size() > 0) {
+        if (vars[v].stacked.rows() != stacked_rows) continue;
+        offset[v] = stacked;
+        stacked += vars[v].stacked.cols();
+      } else {
+        offset[v] = pooled;
+        pooled += vars[v].X.cols();
+      }
+    }
+  }
+};
+
 StreamedProducts streamProducts(const Eigen::VectorXd& y, const std::vector<EvidenceVariable>& vars, const ModelColumns& model,
                                 int first0, int last, int m) {
   const Eigen::Index p = model.params + m;  // the model's columns and one intercept per component
-  StreamedProducts s{Eigen::MatrixXd(), std::vector<Eigen::MatrixXd>(vars.size())};
+  const GatheredColumns g(vars, y.size());
   RFactor r(p + 1);
-  Eigen::MatrixXd Jm, Jb;
+  Eigen::MatrixXd Jm, Jb, Jc, Xb, Sb;
+  // X^T J_c per component c (pooled) and S^T J (stacked), over [J y] (the last column unused).
+  std::vector<Eigen::MatrixXd> XJ(static_cast<std::size_t>(m), Eigen::MatrixXd::Zero(g.pooled, p + 1));
+  Eigen::MatrixXd SJ = Eigen::MatrixXd::Zero(g.stacked, p + 1);
   for (int first = first0; first < last; first += kBlockRows) {
     const int count = std::min(kBlockRows, last - first);
+    const Eigen::Index rows = static_cast<Eigen::Index>(count) * m;
     model.fill(first, count, Jm);
-    Jb.setZero(static_cast<Eigen::Index>(count) * m, p + 1);
+    Jb.setZero(rows, p + 1);
     Jb.leftCols(model.params) = Jm;
-    for (Eigen::Index row = 0; row < Jb.rows(); ++row) Jb(row, model.params + row % m) = 1.0;
-    Jb.col(p) = y.segment(static_cast<Eigen::Index>(first) * m, Jb.rows());
+    for (Eigen::Index row = 0; row < rows; ++row) Jb(row, model.params + row % m) = 1.0;
+    Jb.col(p) = y.segment(static_cast<Eigen::Index>(first) * m, rows);
     r.add(Jb);
+    Xb.resize(count, g.pooled);
+    Sb.resize(rows, g.stacked);
     for (std::size_t v = 0; v < vars.size(); ++v) {
-      if (vars[v].stacked.size() > 0 && vars[v].stacked.rows() != y.size()) continue;
-      const Eigen::MatrixXd block = crossBlock(vars[v], Jb.leftCols(p), first, count, m);
-      if (s.SJ[v].size() == 0) s.SJ[v] = block;
-      else s.SJ[v] += block;
+      if (g.offset[v] < 0) continue;
+      if (vars[v].stacked.size() > 0) {
+        Sb.middleCols(g.offset[v], vars[v].stacked.cols()) = vars[v].stacked.middleRows(static_cast<Eigen::Index>(first) * m, rows);
+      } else {
+        Xb.middleCols(g.offset[v], vars[v].X.cols()) = vars[v].X.middleRows(first, count);
+      }
+    }
+    if (g.stacked > 0) addCrossProduct(SJ, Sb, Jb);
+    for (Eigen::Index c = 0; c < m && g.pooled > 0; ++c) {
+      Jc = Eigen::Map<const Eigen::MatrixXd, 0, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>>(
+          Jb.data() + c, count, p + 1, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>(Jb.outerStride(), m));
+      addCrossProduct(XJ[static_cast<std::size_t>(c)], Xb, Jc);
     }
   }
-  s.R = r.matrix();
+  // Each variable's S^T J: a pooled one's row a m + c is X's column a against component c's rows.
+  StreamedProducts s{r.matrix(), std::vector<Eigen::MatrixXd>(vars.size())};
+  for (std::size_t v = 0; v < vars.size(); ++v) {
+    if (g.offset[v] < 0 || first0 >= last) continue;
+    if (vars[v].stacked.size() > 0) {
+      s.SJ[v] = SJ.block(g.offset[v], 0, vars[v].stacked.cols(), p);
+      continue;
+    }
+    const Eigen::Index d = vars[v].X.cols();
+    s.SJ[v].resize(d * m, p);
+    for (Eigen::Index a = 0; a < d; ++a) {
+      for (Eigen::Index c = 0; c < m; ++c) s.SJ[v].row(a * m + c) = XJ[static_cast<std::size_t>(c)].block(g.offset[v] + a, 0, 1, p);
+    }
+  }
   return s;
 }
 

@@ -214,11 +214,16 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
   Diagnoser d(data, obs, o);
   Diagnosis out;
   const FitOptions stated_options = statedFitOptions(data, obs, o, out.noise);
-  // Data no real arm and instrument can give (a wrong unit or convention) are refused, not diagnosed.
+  // A long log's selection on a seeded random subset (DiagnoseOptions::selection_observations).
+  const std::vector<MarkerObservation> subset =
+      o.selection_observations > 0 ? seededSubset(obs, static_cast<std::size_t>(o.selection_observations), o.seed) : std::vector<MarkerObservation>{};
+  const std::vector<MarkerObservation>& chosen = subset.empty() ? obs : subset;
+  // Data no real arm and instrument can give (a wrong unit or convention) are refused, not diagnosed. The
+  // bound is on an RMS, which the selection's random subset gives as well as every observation does.
   FitOptions registration = stated_options;
   registration.analyze = false;
   registration.estimate_joint_noise = false;  // the frames alone: no joint noise to tell from the rest
-  requirePlausibleResidual(data, fitRegistration(startingModel(data, obs, {}), obs, registration).residuals,
+  requirePlausibleResidual(data, fitRegistration(startingModel(data, chosen, {}), chosen, registration).residuals,
                            "the nominal arm's registration residual");
   phase(1);
   // Not the geometry's bounds (calibrate's): the base model is the one that lacks the causes diagnose
@@ -239,11 +244,7 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
 
   // Forward selection: the catalog's causes; then, where their model still leaves significant structure
   // (the lack-of-fit test), empirical corrections, selected the same way.
-  // A long log's selection on a seeded random subset (DiagnoseOptions::selection_observations).
   phase(3);
-  const std::vector<MarkerObservation> subset =
-      o.selection_observations > 0 ? seededSubset(obs, static_cast<std::size_t>(o.selection_observations), o.seed) : std::vector<MarkerObservation>{};
-  const std::vector<MarkerObservation>& chosen = subset.empty() ? obs : subset;
   std::optional<Diagnoser> on_subset;
   std::optional<Fit> subset_base;
   if (!subset.empty()) {

@@ -66,9 +66,12 @@ std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, c
       const Eigen::MatrixXd H = harmonics(q, 3, 6);
       add(value + " (harmonics 3-6)", H, label, q_edge);
       if (stack) {
-        Eigen::MatrixXd S(n * m, H.cols());
-        for (int i = 0; i < n; ++i) S.middleRows(i * m, m) = (*whitened_jq)[static_cast<std::size_t>(i)].col(j) * H.row(i);
-        vars.back().stacked = S;
+        Eigen::MatrixXd& S = vars.back().stacked;
+        S.resize(static_cast<Eigen::Index>(n) * m, H.cols());
+        onHalves(n, [&](int k0, int k1) {
+          for (int i = k0; i < k1; ++i) S.middleRows(static_cast<Eigen::Index>(i) * m, m) = (*whitened_jq)[static_cast<std::size_t>(i)].col(j) * H.row(i);
+          return 0;
+        });
       }
     }
     if (obs.front().sample.hasTorque()) {
@@ -99,7 +102,10 @@ std::vector<EvidenceVariable> evidenceVariables(const sim::MeasuredData& data, c
   const Eigen::VectorXd order = column([](const MarkerObservation&, int i) { return static_cast<double>(i); });
   add("sample order", order, "sample", order);
   Eigen::MatrixXd W(n, 3);
-  for (int i = 0; i < n; ++i) W.row(i) = sim::predictMarkerPose(model, p, obs[static_cast<std::size_t>(i)].sample).translation().transpose();
+  onHalves(n, [&](int k0, int k1) {
+    for (int i = k0; i < k1; ++i) W.row(i) = sim::predictMarkerPose(model, p, obs[static_cast<std::size_t>(i)].sample).translation().transpose();
+    return 0;
+  });
   add("workspace position", W, "marker x (m)", W.col(0));
   if (extended) {
     // Quadratic: the linear terms, the squares and the cross products (a bowl or a saddle in space).

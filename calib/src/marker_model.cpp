@@ -113,9 +113,10 @@ Eigen::VectorXd MarkerPoseModel::innovation(int k, const Eigen::VectorXd& y) con
   return markerResidual(model_, p0_ + y, observations_.at(static_cast<std::size_t>(k)));
 }
 
-Eigen::MatrixXd MarkerPoseModel::jointJacobian(int k, const Eigen::VectorXd& y, Eigen::VectorXd* residual) const {
-  Predicted pr = predictObservation(model_, p0_ + y, observations_.at(static_cast<std::size_t>(k)), false, true);
+Eigen::MatrixXd MarkerPoseModel::jointJacobian(int k, const Eigen::VectorXd& y, Eigen::VectorXd* residual, Eigen::MatrixXd* H) const {
+  Predicted pr = predictObservation(model_, p0_ + y, observations_.at(static_cast<std::size_t>(k)), H != nullptr, true);
   if (residual) *residual = std::move(pr.residual);
+  if (H) *H = std::move(pr.H);
   return pr.Jq;
 }
 

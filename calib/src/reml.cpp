@@ -202,8 +202,8 @@ MarkerNoise estimateNoiseComponents(const MarkerPoseModel& m, const Eigen::Vecto
   const auto setUp = [&](int k0, int k1) {  // each sample's own entries: the two halves side by side
     for (int k = k0; k < k1; ++k) {
       const auto i = static_cast<std::size_t>(k);
-      const Eigen::MatrixXd Jq = m.jointJacobian(k, y, &r[i]);
-      const Eigen::MatrixXd H = m.linearize(k, y).H;
+      Eigen::MatrixXd H;
+      const Eigen::MatrixXd Jq = m.jointJacobian(k, y, &r[i], &H);  // one prediction for r, H and J_q
       A[i].resize(H.rows(), static_cast<Eigen::Index>(cols.size()));
       for (std::size_t c = 0; c < cols.size(); ++c) A[i].col(static_cast<Eigen::Index>(c)) = H.col(cols[c]);
       const Eigen::Index rows = r[i].size();

@@ -37,53 +37,34 @@ int rankOf(const Eigen::VectorXd& singular_values, double rank_tolerance) {
   return rank;
 }
 
+/// The thin U (where asked for), the singular values and the full V of A.
+template <typename Svd>
+void decompose(const Eigen::MatrixXd& A, bool with_u, ScaledSvd& out) {
+  const Svd svd(A, (with_u ? Eigen::ComputeThinU : 0) | Eigen::ComputeFullV);
+  out.singular_values = svd.singularValues();
+  if (with_u) out.U = svd.matrixU();
+  out.V = svd.matrixV();
+}
+
 }  // namespace
 
-ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance, bool with_u) {
+ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance, bool with_u, SvdMethod method) {
   ScaledSvd out;
   out.scale = unitColumnScale(J);
   if (J.cols() == 0) return out;  // nothing to decompose: rank 0, no directions
-  const Eigen::MatrixXd JD = J * out.scale.asDiagonal();
-  if (with_u || J.rows() <= J.cols()) {
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(JD, (with_u ? Eigen::ComputeThinU : 0) | Eigen::ComputeFullV);
-    out.singular_values = svd.singularValues();
-    if (with_u) out.U = svd.matrixU();
-    out.V = svd.matrixV();
-  } else {
+  Eigen::MatrixXd JD = J * out.scale.asDiagonal();
+  if (!with_u && J.rows() > J.cols()) {
     const Eigen::HouseholderQR<Eigen::MatrixXd> qr(JD);  // JD = Q R: R has JD's singular values and V
-    const Eigen::MatrixXd R = qr.matrixQR().topRows(J.cols()).triangularView<Eigen::Upper>();
-    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(R, Eigen::ComputeFullV);
-    out.singular_values = svd.singularValues();
-    out.V = svd.matrixV();
+    JD = qr.matrixQR().topRows(J.cols()).triangularView<Eigen::Upper>();
+  }
+  if (method == SvdMethod::kJacobi) {
+    decompose<Eigen::JacobiSVD<Eigen::MatrixXd>>(JD, with_u, out);
+  } else {
+    decompose<Eigen::BDCSVD<Eigen::MatrixXd>>(JD, with_u, out);
   }
   out.rank = rankOf(out.singular_values, rank_tolerance);
   return out;
 }
-
-namespace {
-
-/// The rank and the right singular vectors of A D (D: unit-norm columns, as scaledSvd), by the
-/// divide-and-conquer SVD: numericalRank's decisions are discrete (a rank at kRankTolerance, far above
-/// round-off, and which parameters span the null space, compared with a margin of 1e-9), so the faster
-/// SVD gives the same ones, while Jacobi's on the R factor of a flexible model's 200 columns took a
-/// tenth of a diagnosis.
-ScaledSvd rankSvd(const Eigen::MatrixXd& J) {
-  ScaledSvd out;
-  out.scale = unitColumnScale(J);
-  if (J.cols() == 0) return out;
-  Eigen::MatrixXd JD = J * out.scale.asDiagonal();
-  if (JD.rows() > JD.cols()) {
-    const Eigen::HouseholderQR<Eigen::MatrixXd> qr(JD);
-    JD = qr.matrixQR().topRows(J.cols()).triangularView<Eigen::Upper>();
-  }
-  const Eigen::BDCSVD<Eigen::MatrixXd> svd(JD, Eigen::ComputeFullV);
-  out.singular_values = svd.singularValues();
-  out.V = svd.matrixV();
-  out.rank = rankOf(out.singular_values, kRankTolerance);
-  return out;
-}
-
-}  // namespace
 
 std::vector<int> ineffectiveColumns(const Eigen::MatrixXd& A, const Eigen::VectorXd& typical, double zero_tolerance) {
   Eigen::VectorXd effect(A.cols());
@@ -111,7 +92,10 @@ NumericalRank numericalRank(const Eigen::MatrixXd& A_all, const Eigen::VectorXd&
   }
   Eigen::MatrixXd A(A_all.rows(), static_cast<Eigen::Index>(free.size()));
   for (std::size_t c = 0; c < free.size(); ++c) A.col(static_cast<Eigen::Index>(c)) = A_all.col(free[c]);
-  const ScaledSvd svd = rankSvd(A);
+  // Divide and conquer: the decisions are discrete (a rank at kRankTolerance, far above round-off, and
+  // which parameters span the null space, compared with a margin of 1e-9), and Jacobi's SVD of a flexible
+  // model's 200 columns took a tenth of a diagnosis.
+  const ScaledSvd svd = scaledSvd(A, kRankTolerance, false, SvdMethod::kDivideAndConquer);
   out.rank = svd.rank;
   const int lost = static_cast<int>(A.cols()) - svd.rank;
   // Greedily hold the parameter most involved in the remaining null space (scaled coordinates), last

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "orbcal/calib/diagnose.hpp"
+#include "orbcal/sim/config.hpp"
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/sim/open_world.hpp"
@@ -178,6 +179,21 @@ TEST_CASE("diagnose: the effects selected on a random subset of a long log", "[c
   CHECK(part.residual_selected.size() == obs.size());
   CHECK(std::abs(part.cv_selected - full.cv_selected) < 1e-3 * full.cv_selected);
   CHECK(part.fit.residuals.position_rms_m == Approx(full.fit.residuals.position_rms_m).epsilon(1e-6));
+}
+
+// The registration check that refuses data no real arm gives runs on the selection's random subset of a
+// long log: millimetres read as metres (every measured position 1000x too far) are refused as before, with
+// the check's one-line message, whatever the subset.
+TEST_CASE("diagnose: a long log in the wrong length unit is refused on the selection's subset", "[calib][diagnose][noise]") {
+  const sim::OpenWorldDataset ds = unstatedJointNoise(sim::OpenCauseKind::kStiffening, 20.0, 0.005, 41, 600);
+  sim::MeasuredData millimetres = ds.data;
+  for (sim::MeasuredPose& p : millimetres.poses) p.world_T_marker.translation() *= 1000.0;
+  calib::DiagnoseOptions subset;
+  subset.selection_observations = 250;
+  const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(millimetres, true);
+  REQUIRE(obs.size() > 250);
+  CHECK_THROWS_AS(calib::diagnose(millimetres, obs, subset), sim::InputError);
+  CHECK_THROWS_WITH(calib::diagnose(millimetres, obs, subset), Catch::Contains("the nominal arm's registration residual is"));
 }
 
 // Every row three times, exactly: a copy is no new measurement, and the verdict stays what it was.

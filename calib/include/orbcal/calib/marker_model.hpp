@@ -51,9 +51,10 @@ class MarkerPoseModel : public MeasurementModel {
   Eigen::VectorXd innovation(int k, const Eigen::VectorXd& y) const override;
   Linearization innovationAndCovariance(int k, const Eigen::VectorXd& y) const override;
   /// d(residual k)/d(joint readings) at y (rows(k) x joints): how joint noise enters the residual,
-  /// R_k's term joint_noise_sigma^2 Jq Jq^T. `residual` (if given) gets the residual at y, from the
-  /// same pose prediction.
-  Eigen::MatrixXd jointJacobian(int k, const Eigen::VectorXd& y, Eigen::VectorXd* residual = nullptr) const;
+  /// R_k's term joint_noise_sigma^2 Jq Jq^T. `residual` and `H` (if given) get the residual at y and
+  /// linearize()'s H, from the same pose prediction.
+  Eigen::MatrixXd jointJacobian(int k, const Eigen::VectorXd& y, Eigen::VectorXd* residual = nullptr,
+                                Eigen::MatrixXd* H = nullptr) const;
 
   const sim::KinematicModel& model() const { return model_; }
   const std::vector<MarkerObservation>& observations() const { return observations_; }

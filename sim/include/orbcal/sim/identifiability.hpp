@@ -47,10 +47,16 @@ struct ScaledSvd {
   /// Physical null-space directions D V_null (J n = 0), one per column.
   Eigen::MatrixXd nullSpace() const;
 };
+/// The algorithm of scaledSvd: Jacobi's (the most accurate small singular values and vectors), or
+/// divide and conquer (Eigen's BDCSVD: ten times as fast on a flexible model's 200 columns, its singular
+/// values as accurate relative to the largest, which is all a rank decision at kRankTolerance and a
+/// projection onto the kept directions read).
+enum class SvdMethod { kJacobi, kDivideAndConquer };
+
 /// The SVD of J D (D scales J's columns to unit norm). Without `with_u` (the rank, singular values and V
 /// alone) a tall J is first reduced to the R factor of its QR decomposition, whose singular values and
 /// right vectors are J's: several times cheaper for the stacked Jacobians of hundreds of samples.
-ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance, bool with_u = true);
+ScaledSvd scaledSvd(const Eigen::MatrixXd& J, double rank_tolerance, bool with_u = true, SvdMethod method = SvdMethod::kJacobi);
 
 /// Columns of A that are zero up to round-off: |A_c| typical_c <= zero_tolerance max_c' |A_c'| typical_c'
 /// (typical empty: 1). With A whitened and `typical` the layout's, |A_c| typical_c is the measurement
