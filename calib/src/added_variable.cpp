@@ -51,31 +51,25 @@ struct ModelSpan {
   }
 };
 
-/// S^T S and S^T y of the variable (whole: S is small beside J).
-void ownProducts(const EvidenceVariable& v, const Eigen::MatrixXd& Y, const Eigen::VectorXd& y, Eigen::MatrixXd& SS,
-                 Eigen::VectorXd& Sy) {
-  if (v.stacked.size() > 0) {
-    SS = v.stacked.transpose() * v.stacked;
-    Sy = v.stacked.transpose() * y;
-    return;
-  }
-  const Eigen::Index d = v.X.cols(), m = Y.cols();
-  const Eigen::MatrixXd XX = v.X.transpose() * v.X, XY = v.X.transpose() * Y;
-  SS.setZero(d * m, d * m);
-  Sy.resize(d * m);
+/// S^T S of the variable (whole: S is small beside J), for `m` residual components.
+Eigen::MatrixXd ownGram(const EvidenceVariable& v, Eigen::Index m) {
+  if (v.stacked.size() > 0) return v.stacked.transpose() * v.stacked;
+  const Eigen::Index d = v.X.cols();
+  const Eigen::MatrixXd XX = v.X.transpose() * v.X;
+  Eigen::MatrixXd SS = Eigen::MatrixXd::Zero(d * m, d * m);
   for (Eigen::Index c = 0; c < m; ++c) {
     for (Eigen::Index a = 0; a < d; ++a) {
-      Sy[a * m + c] = XY(a, c);
       for (Eigen::Index b = 0; b < d; ++b) SS(a * m + c, b * m + c) = XX(a, b);
     }
   }
+  return SS;
 }
 
 /// The added-variable F test of regressors S (S^T S, S^T J, S^T y given) on y beside the model's columns:
 /// the part of S the model cannot take, S~ = (I - P_J) S, against (I - P_J) y: the classical score test
 /// of the variable, exact for the fit's own residuals under a linear model that holds.
-bool addedVariableTest(const Eigen::MatrixXd& SS, const Eigen::MatrixXd& SJ, const Eigen::VectorXd& Sy, const ModelSpan& span,
-                       VariableTest* t) {
+bool addedVariableTest(const Eigen::MatrixXd& SS, const Eigen::Ref<const Eigen::MatrixXd>& SJ, const Eigen::Ref<const Eigen::VectorXd>& Sy,
+                       const ModelSpan& span, VariableTest* t) {
   const Eigen::MatrixXd W = SJ * span.M;
   const Eigen::MatrixXd G = SS - W * W.transpose();
   const Eigen::VectorXd b = Sy - W * span.Uz;
@@ -114,7 +108,7 @@ ModelColumns ModelColumns::of(const Eigen::MatrixXd& J, int components) {
 
 namespace {
 
-/// What the tests keep of rows [first0, last): the R factor of [J y] and each variable's S^T J.
+/// What the tests keep of rows [first0, last): the R factor of [J y] and each variable's S^T [J y].
 struct StreamedProducts {
   Eigen::MatrixXd R;
   std::vector<Eigen::MatrixXd> SJ;
@@ -148,7 +142,7 @@ StreamedProducts streamProducts(const Eigen::VectorXd& y, const std::vector<Evid
   const GatheredColumns g(vars, y.size());
   RFactor r(p + 1);
   Eigen::MatrixXd Jm, Jb, Jc, Xb, Sb;
-  // X^T J_c per component c (pooled) and S^T J (stacked), over [J y] (the last column unused).
+  // X^T [J y]_c per component c (pooled) and S^T [J y] (stacked).
   std::vector<Eigen::MatrixXd> XJ(static_cast<std::size_t>(m), Eigen::MatrixXd::Zero(g.pooled, p + 1));
   Eigen::MatrixXd SJ = Eigen::MatrixXd::Zero(g.stacked, p + 1);
   for (int first = first0; first < last; first += kBlockRows) {
@@ -177,18 +171,18 @@ StreamedProducts streamProducts(const Eigen::VectorXd& y, const std::vector<Evid
       addCrossProduct(XJ[static_cast<std::size_t>(c)], Xb, Jc);
     }
   }
-  // Each variable's S^T J: a pooled one's row a m + c is X's column a against component c's rows.
+  // Each variable's S^T [J y]: a pooled one's row a m + c is X's column a against component c's rows.
   StreamedProducts s{r.matrix(), std::vector<Eigen::MatrixXd>(vars.size())};
   for (std::size_t v = 0; v < vars.size(); ++v) {
     if (g.offset[v] < 0 || first0 >= last) continue;
     if (vars[v].stacked.size() > 0) {
-      s.SJ[v] = SJ.block(g.offset[v], 0, vars[v].stacked.cols(), p);
+      s.SJ[v] = SJ.middleRows(g.offset[v], vars[v].stacked.cols());
       continue;
     }
     const Eigen::Index d = vars[v].X.cols();
-    s.SJ[v].resize(d * m, p);
+    s.SJ[v].resize(d * m, p + 1);
     for (Eigen::Index a = 0; a < d; ++a) {
-      for (Eigen::Index c = 0; c < m; ++c) s.SJ[v].row(a * m + c) = XJ[static_cast<std::size_t>(c)].block(g.offset[v] + a, 0, 1, p);
+      for (Eigen::Index c = 0; c < m; ++c) s.SJ[v].row(a * m + c) = XJ[static_cast<std::size_t>(c)].row(g.offset[v] + a);
     }
   }
   return s;
@@ -220,12 +214,10 @@ std::vector<VariableTest> addedVariableTests(const Eigen::MatrixXd& Y, const std
   std::vector<VariableTest> out;
   for (std::size_t v = 0; v < vars.size(); ++v) {
     if (SJ[v].size() == 0) continue;
-    Eigen::MatrixXd SS;
-    Eigen::VectorXd Sy;
-    ownProducts(vars[v], Y, y, SS, Sy);
+    const Eigen::Index p = SJ[v].cols() - 1;  // S^T [J y]: S^T J, then S^T y
     VariableTest t;
     t.variable = vars[v].name;
-    if (addedVariableTest(SS, SJ[v], Sy, span, &t)) out.push_back(t);
+    if (addedVariableTest(ownGram(vars[v], m), SJ[v].leftCols(p), SJ[v].col(p), span, &t)) out.push_back(t);
   }
   return out;
 }
