@@ -61,7 +61,7 @@ void addDiagnoseCommand(CLI::App& app) {
   cmd->add_flag("--quiet", o->quiet, "no progress output");
   cmd->callback([o] {
     workflow::DiagnoseRunOptions options = *o;
-    // Two plot processes: its figures are drawn two at a time once the analysis is done.
+    // Two drawers (one matplotlib import): its figures are drawn two at a time once the analysis is done.
     options.callbacks = terminalCallbacks(options.plots, 2);
     const workflow::DiagnoseRunResult r = workflow::runDiagnose(options);
     std::printf("%s\n", r.diagnosis.verdict.c_str());

@@ -49,52 +49,51 @@ std::string notDrawnLine(const workflow::FigureRequest& f, const std::string& wh
   throw std::runtime_error("figure " + f.png + " not drawn: " + (why.empty() ? "the plot script failed" : why) + " (" + script + ")");
 }
 
-/// One `python3 plot_report.py --batch` for the length of a command: it imports matplotlib once, while
-/// the command computes (at the idle priority where it may return to the normal one: plot_report.py),
-/// then draws each figure asked on its stdin (one line: plot_report.py's arguments, shell-quoted) and
-/// answers on its stdout, one line each: "ok", "missing: WHY" (no matplotlib) or "error: WHY". A socket
-/// pair, not pipes: a write to a process that is gone fails (MSG_NOSIGNAL) instead of raising SIGPIPE.
+/// A socket's end moved to a descriptor of at least 100 (close-on-exec): no target of the spawn's dup2
+/// (0, 1, 3, 4, ...) is then also a source.
+int highDescriptor(int fd) {
+  const int high = fcntl(fd, F_DUPFD_CLOEXEC, 100);
+  close(fd);
+  return high;
+}
+
+/// One `python3 plot_report.py --batch` for the length of a command, with `drawers` sockets: it imports
+/// matplotlib once, while the command computes (at the idle priority where it may return to the normal
+/// one: plot_report.py), then forks one drawer per further socket (`--fds 3,4,...`), so that the
+/// import's time is paid once. Each drawer draws each figure asked on its socket (one line:
+/// plot_report.py's arguments, shell-quoted) and answers, one line each: "ok", "missing: WHY" (no
+/// matplotlib) or "error: WHY". Sockets, not pipes: a write to a process that is gone fails
+/// (MSG_NOSIGNAL) instead of raising SIGPIPE. The drawers form their own process group, stopped
+/// together.
 class PlotProcess {
  public:
-  PlotProcess(const std::string& interpreter, const std::string& script) {
-    int sv[2];
-    if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0) return;
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_adddup2(&actions, sv[1], 0);
-    posix_spawn_file_actions_adddup2(&actions, sv[1], 1);
-    posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);  // its errors come as answers
-    std::string a0 = interpreter, a1 = script, a2 = "--batch";
-    char* argv[] = {a0.data(), a1.data(), a2.data(), nullptr};
-    const int spawned = posix_spawnp(&pid_, interpreter.c_str(), &actions, nullptr, argv, environ);
-    posix_spawn_file_actions_destroy(&actions);
-    close(sv[1]);
-    if (spawned != 0) {
-      close(sv[0]);
-      pid_ = -1;
-      return;
+  PlotProcess(const std::string& interpreter, const std::string& script, int drawers) {
+    std::vector<int> theirs;
+    for (int k = 0; k < drawers; ++k) {
+      int sv[2];
+      if (socketpair(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0, sv) != 0) break;
+      fds_.push_back(sv[0]);
+      theirs.push_back(highDescriptor(sv[1]));
     }
-    fd_ = sv[0];
-  }
-  ~PlotProcess() {
-    if (fd_ >= 0) close(fd_);
-    if (pid_ > 0) {
-      kill(pid_, SIGTERM);  // idle (every request is answered) or still importing: nothing to lose
-      int status = 0;
-      while (waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
-      }
+    const bool ready = !fds_.empty() && std::find(theirs.begin(), theirs.end(), -1) == theirs.end();
+    if (ready) spawn(interpreter, script, theirs);
+    for (int fd : theirs) {
+      if (fd >= 0) close(fd);
     }
+    if (pid_ < 0) stop();  // every drawer gone: each figure drawn one process each
   }
+  ~PlotProcess() { stop(); }
   PlotProcess(const PlotProcess&) = delete;
   PlotProcess& operator=(const PlotProcess&) = delete;
 
-  /// The answer to one request; nullopt when the process is gone or does not speak the protocol (a
+  /// Drawer k's answer to one request; nullopt when it is gone or does not speak the protocol (a
   /// replacement script): the caller then draws this and every later figure one process each.
-  std::optional<std::string> ask(const std::string& request) {
-    if (fd_ < 0) return std::nullopt;
+  std::optional<std::string> ask(std::size_t k, const std::string& request) {
+    const int fd = k < fds_.size() ? fds_[k] : -1;
+    if (fd < 0) return std::nullopt;
     const std::string line = request + "\n";
     for (std::size_t sent = 0; sent < line.size();) {
-      const ssize_t n = send(fd_, line.data() + sent, line.size() - sent, MSG_NOSIGNAL);
+      const ssize_t n = send(fd, line.data() + sent, line.size() - sent, MSG_NOSIGNAL);
       if (n < 0 && errno == EINTR) continue;
       if (n <= 0) return std::nullopt;
       sent += static_cast<std::size_t>(n);
@@ -102,7 +101,7 @@ class PlotProcess {
     std::string answer;
     char c = 0;
     for (;;) {
-      const ssize_t n = recv(fd_, &c, 1, 0);
+      const ssize_t n = recv(fd, &c, 1, 0);
       if (n < 0 && errno == EINTR) continue;
       if (n <= 0) return std::nullopt;
       if (c == '\n') break;
@@ -113,19 +112,62 @@ class PlotProcess {
   }
 
  private:
+  /// Starts the interpreter: drawer 0 on its stdin and stdout, drawer k on descriptor k + 2.
+  void spawn(const std::string& interpreter, const std::string& script, const std::vector<int>& theirs) {
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, theirs[0], 0);
+    posix_spawn_file_actions_adddup2(&actions, theirs[0], 1);
+    posix_spawn_file_actions_addopen(&actions, 2, "/dev/null", O_WRONLY, 0);  // its errors come as answers
+    std::vector<std::string> args{interpreter, script, "--batch"};
+    std::string more;
+    for (std::size_t k = 1; k < theirs.size(); ++k) {
+      posix_spawn_file_actions_adddup2(&actions, theirs[k], static_cast<int>(k) + 2);
+      more += (k > 1 ? "," : "") + std::to_string(k + 2);
+    }
+    if (!more.empty()) args.insert(args.end(), {"--fds", more});
+    std::vector<char*> argv;
+    for (std::string& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawnattr_t attributes;
+    posix_spawnattr_init(&attributes);
+    posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
+    posix_spawnattr_setpgroup(&attributes, 0);
+    if (posix_spawnp(&pid_, interpreter.c_str(), &actions, &attributes, argv.data(), environ) != 0) pid_ = -1;
+    posix_spawnattr_destroy(&attributes);
+    posix_spawn_file_actions_destroy(&actions);
+  }
+
+  /// Closes the sockets and stops the process group (idle, every request answered, or still importing:
+  /// nothing to lose); waits for the process started.
+  void stop() {
+    for (int& fd : fds_) {
+      if (fd >= 0) close(fd);
+      fd = -1;
+    }
+    if (pid_ > 0) {
+      kill(-pid_, SIGTERM);
+      int status = 0;
+      while (waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
+      }
+      pid_ = -1;
+    }
+  }
+
   pid_t pid_ = -1;
-  int fd_ = -1;
+  std::vector<int> fds_;  ///< this side's end of each drawer's socket; -1: closed
 };
 
-/// The drawer of one command: its plot processes while they answer, else one process per figure. Each
-/// call takes a process no other call is using (waiting for one), so as many calls as processes run
-/// side by side.
+/// The drawer of one command: the plot process's drawers while they answer, else one process per
+/// figure. Each call takes a drawer no other call is using (waiting for one), so as many calls as
+/// drawers run side by side.
 struct BatchDrawer {
   std::mutex mutex;
   std::condition_variable freed;
   std::string script = plotScript();
-  std::vector<std::unique_ptr<PlotProcess>> processes;  ///< null: gone, drawn one process per figure
+  std::unique_ptr<PlotProcess> process;
   std::vector<bool> busy;
+  std::vector<char> gone;  ///< (not vector<bool>: drawers write their own entries side by side) drawer k ended or did not answer: its figures drawn one process each
 
   std::string draw(const workflow::FigureRequest& f) {
     std::size_t slot = 0;
@@ -146,15 +188,14 @@ struct BatchDrawer {
         d.freed.notify_one();
       }
     } release{*this, slot};
-    std::unique_ptr<PlotProcess>& process = processes[slot];  // this call's alone until released
     const std::string request = f.args + " " + workflow::shellQuote(f.folder + "/" + f.png);
-    if (process && request.find('\n') == std::string::npos) {
-      if (const std::optional<std::string> answer = process->ask(request)) {
+    if (!gone[slot] && request.find('\n') == std::string::npos) {  // gone[slot]: this call's alone until released
+      if (const std::optional<std::string> answer = process->ask(slot, request)) {
         if (*answer == "ok") return "![" + f.caption + "](" + f.png + ")\n";
         if (answer->rfind("missing: ", 0) == 0) return notDrawnLine(f, sim::printable(answer->substr(9), 300));
         failed(f, sim::printable(answer->substr(7), 300), script);
       }
-      process.reset();  // gone, or not a batch drawer: one process per figure from here on
+      gone[slot] = true;  // gone, or not a batch drawer: one process per figure from here on
     }
     return plotReportFigure(f);
   }
@@ -177,15 +218,17 @@ std::string plotReportFigure(const workflow::FigureRequest& f) {
   failed(f, last, script);
 }
 
-workflow::FigureFn batchFigureDrawer(int processes) {
+workflow::FigureFn batchFigureDrawer(int at_once) {
   auto drawer = std::make_shared<BatchDrawer>();
-  for (int k = 0; k < std::max(1, processes); ++k) drawer->processes.push_back(std::make_unique<PlotProcess>(plotInterpreter(), drawer->script));
-  drawer->busy.assign(drawer->processes.size(), false);
+  const int drawers = std::max(1, at_once);
+  drawer->process = std::make_unique<PlotProcess>(plotInterpreter(), drawer->script, drawers);
+  drawer->busy.assign(static_cast<std::size_t>(drawers), false);
+  drawer->gone.assign(static_cast<std::size_t>(drawers), false);
   return [drawer](const workflow::FigureRequest& f) { return drawer->draw(f); };
 }
 
-workflow::Callbacks terminalCallbacks(bool figures, int plot_processes) {
-  const int at_once = figures ? std::max(1, plot_processes) : 1;
+workflow::Callbacks terminalCallbacks(bool figures, int plot_drawers) {
+  const int at_once = figures ? std::max(1, plot_drawers) : 1;
   return {terminalProgress(), figures ? batchFigureDrawer(at_once) : workflow::FigureFn(plotReportFigure), at_once};
 }
 

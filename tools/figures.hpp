@@ -13,19 +13,19 @@ namespace orbcal::tools {
 /// replace the script and the interpreter.
 std::string plotReportFigure(const workflow::FigureRequest& figure);
 
-/// The figure drawer of one command: `processes` runs of `python3 plot_report.py --batch` started now
-/// (each imports matplotlib while the command computes) draw every figure the command asks for, as many
-/// side by side as there are processes (workflow::drawFigures), with the
+/// The figure drawer of one command: one `python3 plot_report.py --batch` started now (it imports
+/// matplotlib while the command computes, then forks into `drawers` processes) draws every figure the
+/// command asks for, as many side by side as there are drawers (workflow::drawFigures), with the
 /// outcomes of plotReportFigure (an image line; a "not drawn" line and a warning without matplotlib;
 /// std::runtime_error naming the figure for any other failure). Where that process cannot start, ends,
 /// or does not answer as plot_report.py does (an ORBCAL_PLOT_SCRIPT without --batch), each figure from
-/// then on is drawn by plotReportFigure. The process is stopped when the last copy of the drawer goes.
-workflow::FigureFn batchFigureDrawer(int processes = 1);
+/// then on is drawn by plotReportFigure. The processes are stopped when the last copy of the drawer goes.
+workflow::FigureFn batchFigureDrawer(int drawers = 1);
 
 /// The program's callbacks: the progress bar on stderr (progress.hpp) and, with `figures`, a
-/// batchFigureDrawer of `plot_processes` processes, the figures drawn that many at once (without:
-/// plotReportFigure, which a workflow told not to draw never calls). More than one process pays off
+/// batchFigureDrawer of `plot_drawers` drawers, the figures drawn that many at once (without:
+/// plotReportFigure, which a workflow told not to draw never calls). More than one drawer pays off
 /// only for a command that draws its figures with workflow::drawFigures.
-workflow::Callbacks terminalCallbacks(bool figures = true, int plot_processes = 1);
+workflow::Callbacks terminalCallbacks(bool figures = true, int plot_drawers = 1);
 
 }  // namespace orbcal::tools

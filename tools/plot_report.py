@@ -12,10 +12,12 @@
   plot_report.py samples samples.csv out.png          # orbcal calibrate: per-image errors before/after, outliers named
   plot_report.py parameters estimates.csv out.png     # orbcal calibrate: each parameter with its 1-sigma (and truth)
   plot_report.py heldout heldout.csv out.png          # orbcal calibrate (measured data): held-out errors, noise floor
-  plot_report.py --batch < figures.txt                # several figures in one process (orbcal draws a command's
+  plot_report.py --batch [--fds 3,4] < figures.txt   # several figures in one process (orbcal draws a command's
                                                    # figures so): one figure per line of stdin, its arguments as
                                                    # above, shell-quoted; one answer line each on stdout, at once:
-                                                   # "ok", "missing: WHY" (no matplotlib) or "error: WHY"
+                                                   # "ok", "missing: WHY" (no matplotlib) or "error: WHY";
+                                                   # --fds: further sockets, each served alike by a process
+                                                   # forked after matplotlib's import
 """
 import csv
 import io
@@ -55,12 +57,47 @@ try:
     import matplotlib
 
     matplotlib.use("Agg")
+    import matplotlib.image
     import matplotlib.pyplot as plt
+    import numpy as np
     MISSING = None
 except ImportError as missing:  # one figure: the error as before; a batch answers each figure with it
     if sys.argv[1:2] != ["--batch"]:
         raise
     MISSING = "%s: %s" % (type(missing).__name__, missing)
+
+# Single-panel figures: fixed margins (inches) with room for the usual tick and axis labels.
+# tight_layout measures every tick label before the figure is drawn (a fifth of a figure's time);
+# save() measures them once drawn and falls back to it only where a label would be cut.
+MARGINS_IN = {"left": 0.9, "right": 0.2, "bottom": 0.65, "top": 0.25, "title": 0.3}
+DPI = 110
+
+
+def cut_off(fig, renderer):
+    """Whether any axes' tick labels, axis labels, title or texts reach outside the drawn figure:
+    what tight_layout makes room for (the data are clipped to the axes, a legend placed inside them)."""
+    width, height = fig.bbox.width, fig.bbox.height
+    for ax in fig.axes:
+        box = ax.get_tightbbox(renderer, bbox_extra_artists=list(ax.texts), for_layout_only=True)
+        if box is not None and (box.x0 < 0 or box.y0 < 0 or box.x1 > width or box.y1 > height):
+            return True
+    return False
+
+
+def save(fig, png_path, fixed_margins=True):
+    """The figure as a PNG at DPI, drawn once: fixed margins (single panels) or tight_layout (several
+    panels, and any figure whose labels the fixed margins would cut, drawn again)."""
+    fig.set_dpi(DPI)
+    if fixed_margins:
+        w, h = fig.get_size_inches()
+        top = MARGINS_IN["top"] + (MARGINS_IN["title"] if any(ax.get_title() for ax in fig.axes) else 0.0)
+        fig.subplots_adjust(left=MARGINS_IN["left"] / w, right=1 - MARGINS_IN["right"] / w,
+                            bottom=MARGINS_IN["bottom"] / h, top=1 - top / h)
+        fig.canvas.draw()
+    if not fixed_margins or cut_off(fig, fig.canvas.get_renderer()):
+        fig.tight_layout()
+        fig.canvas.draw()
+    matplotlib.image.imsave(png_path, np.asarray(fig.canvas.buffer_rgba()), format="png", origin="upper", dpi=fig.dpi)
 
 
 def read_rows(path):
@@ -87,8 +124,7 @@ def boxplot(csv_path, png_path, models):
         ax.set_yscale("log")
         ax.grid(True, axis="y", alpha=0.3)
     fig.suptitle("Validation pose errors (log scale)")
-    fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    save(fig, png_path, fixed_margins=False)
 
 
 def curve(csv_path, png_path, xcol="n", xlabel="identification configurations", ycol="avg_position_mm",
@@ -113,8 +149,7 @@ def curve(csv_path, png_path, xcol="n", xlabel="identification configurations", 
     ax.set_yscale("log")
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    save(fig, png_path)
 
 
 def column_values(rows, csv_path, column):
@@ -138,8 +173,7 @@ def residuals(csv_path, column, label, png_path, floor=None):
     ax.set_ylabel("held-out position error (mm)")
     ax.grid(True, alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    save(fig, png_path)
 
 
 def components(csv_path, column, label, png_path, of="selected", floor=None):
@@ -158,8 +192,7 @@ def components(csv_path, column, label, png_path, of="selected", floor=None):
     ax.set_ylabel("held-out residual of %s (mm)" % model)
     ax.grid(True, alpha=0.3)
     ax.legend(title="component")
-    fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    save(fig, png_path)
 
 
 def samples(csv_path, png_path):
@@ -192,8 +225,7 @@ def samples(csv_path, png_path):
     ax.grid(True, alpha=0.3)
     ax.legend(fontsize=8)
     ax.set_title("Per-image errors before (blue) and after (green) calibration; inconsistent images in red")
-    fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    save(fig, png_path)
 
 
 def parameters(csv_path, png_path):
@@ -228,8 +260,7 @@ def parameters(csv_path, png_path):
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
     axes[0, 0].set_title(parameters_title({parameter_kind(r) for r in rows}))
-    fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    save(fig, png_path, fixed_margins=False)
     return fig
 
 
@@ -283,8 +314,7 @@ def heldout(csv_path, png_path):
         ax.legend(fontsize=8)
     axes[-1, 0].set_xlabel("held-out sample")
     axes[0, 0].set_title("Held-out errors before and after calibration")
-    fig.tight_layout()
-    fig.savefig(png_path, dpi=110)
+    save(fig, png_path, fixed_margins=len(panels) == 1)
 
 
 def one_line(text):
@@ -301,16 +331,32 @@ def warm_up():
     ax.set_yscale("log")
     ax.grid(True, alpha=0.3)
     ax.legend(title="t", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(io.BytesIO(), format="png", dpi=110)
+    save(fig, io.BytesIO())
     plt.close(fig)
 
 
-def batch(lines, answer):
+def batch(lines, answer, more_fds=()):
     """Draws the figure of each line (plot_report.py's arguments, shell-quoted) and answers each with
-    one line: ok, missing: WHY or error: WHY (the message a single run would end with)."""
+    one line: ok, missing: WHY or error: WHY (the message a single run would end with). Each descriptor
+    of `more_fds` is a further socket with its own requests, served by a process forked once matplotlib
+    is imported and warmed up (the import's time is paid once, the figures drawn side by side)."""
     if not MISSING:
         warm_up()
+    for fd in more_fds:
+        if os.fork() == 0:
+            for other in [0, 1] + [f for f in more_fds if f != fd]:
+                os.close(other)  # the caller sees a drawer gone only when no process holds its socket
+            try:
+                with os.fdopen(fd, "r") as requests, os.fdopen(os.dup(fd), "w") as answers:
+                    answer_each(requests, lambda text: (answers.write(text + "\n"), answers.flush()))
+            finally:
+                os._exit(0)
+    for fd in more_fds:
+        os.close(fd)
+    answer_each(lines, answer)
+
+
+def answer_each(lines, answer):
     first = True
     for line in lines:
         if first:
@@ -337,9 +383,18 @@ def answer_on_stdout(text):
     sys.stdout.flush()
 
 
+def batch_fds(args):
+    """--batch's further sockets: [] or ["--fds", "3,4"] -> (3, 4); None for anything else."""
+    if not args:
+        return ()
+    if len(args) == 2 and args[0] == "--fds" and all(f.isdigit() and int(f) > 2 for f in args[1].split(",")):
+        return tuple(int(f) for f in args[1].split(","))
+    return None
+
+
 def main(argv):
-    if argv[1:] == ["--batch"]:
-        batch(sys.stdin, answer_on_stdout)
+    if argv[1:2] == ["--batch"] and batch_fds(argv[2:]) is not None:
+        batch(sys.stdin, answer_on_stdout, batch_fds(argv[2:]))
         return
     if len(argv) >= 4 and argv[1] in ("samples", "parameters", "heldout"):
         {"samples": samples, "parameters": parameters, "heldout": heldout}[argv[1]](argv[2], argv[3])

@@ -164,3 +164,40 @@ def test_batch_warms_up_at_idle_priority_and_draws_at_the_normal_one(plot_report
         if may_return:
             os.sched_setscheduler(0, before, os.sched_param(0))
     assert policies == [("ok", os.SCHED_OTHER if may_return else before)]
+
+
+def test_batch_serves_further_sockets_from_forked_drawers(tmp_path):
+    # --batch --fds N: the socket at descriptor N is served by a process forked after the import, side by
+    # side with the one reading stdin; each drawer's figures are its own, and both end when their input does.
+    import socket
+
+    write_csv(tmp_path / "residuals.csv", ["index", "q2_deg", "base_mm", "selected_mm"], [(0, 10.0, 0.2, 0.1), (1, 20.0, 0.3, 0.1)])
+    ours, theirs = socket.socketpair()
+    script = str(SOURCE_DIR / "tools" / "plot_report.py")
+    batch = subprocess.Popen([sys.executable, script, "--batch", "--fds", str(theirs.fileno())], stdin=subprocess.PIPE,
+                             stdout=subprocess.PIPE, text=True, cwd=tmp_path, pass_fds=(theirs.fileno(),))
+    theirs.close()
+    with ours.makefile("rw") as second:
+        second.write("residuals residuals.csv q2_deg 'joint 2 (deg)' second.png\nbogus\n")
+        second.flush()
+        assert [second.readline(), second.readline()] == ["ok\n", "error: plot_report.py: bad arguments: bogus\n"]
+    ours.close()
+    out, _ = batch.communicate("residuals residuals.csv index sample first.png\n", timeout=120)
+    assert out.splitlines() == ["ok"]
+    assert batch.returncode == 0
+    assert (tmp_path / "first.png").stat().st_size > 1000 and (tmp_path / "second.png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize("label, fits", [("q2 (deg)", True), ("joint 2\nangle\nas logged\n(deg)", False)])
+def test_single_panel_figures_keep_fixed_margins_unless_a_label_would_be_cut(plot_report, tmp_path, label, fits):
+    # The fixed margins hold where the labels fit; an axis label of four lines would be cut at the bottom,
+    # and tight_layout makes room for it. Either way nothing reaches outside the drawn figure.
+    rows = [(i, 0.3 * (1 + i), 0.08, 10.0 * i) for i in range(10)]
+    csv = write_csv(tmp_path / "residuals.csv", ["index", "base_mm", "selected_mm", "q2_deg"], rows)
+    plt.close("all")
+    plot_report.residuals(csv, "q2_deg", label, str(tmp_path / "r.png"))
+    fig = plt.gcf()
+    fixed_bottom = plot_report.MARGINS_IN["bottom"] / fig.get_size_inches()[1]
+    assert (fig.subplotpars.bottom == pytest.approx(fixed_bottom)) == fits
+    assert not plot_report.cut_off(fig, fig.canvas.get_renderer())
+    assert (tmp_path / "r.png").stat().st_size > 1000

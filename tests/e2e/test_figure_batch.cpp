@@ -1,4 +1,4 @@
-// The program's figure drawer (tools/figures.hpp): one python3 process (two for diagnose) draws all the figures of a command,
+// The program's figure drawer (tools/figures.hpp): one python3 process (two drawers for diagnose) draws all the figures of a command,
 // answering each (an image line; a failure named, and the next figure still drawn).
 #include <catch2/catch.hpp>
 
@@ -93,7 +93,8 @@ TEST_CASE("figures: a replacement plot script that draws one figure per run stil
   CHECK(lines(dir + "/started.txt") == 2);
 }
 
-TEST_CASE("figures: two plot processes draw a command's figures side by side, their lines in order, the first failure thrown",
+TEST_CASE("figures: two drawers of one plot process draw a command's figures side by side, their lines in order, the first "
+          "failure thrown",
           "[e2e][figures]") {
   ORBCAL_NEED_MATPLOTLIB();
   const std::string dir = test::tempDir("figure-pair");
@@ -124,5 +125,5 @@ TEST_CASE("figures: two plot processes draw a command's figures side by side, th
     CHECK(fs::exists(dir + "/f4.png"));
     CHECK_FALSE(fs::exists(dir + "/f3.png"));
   }
-  CHECK(lines(dir + "/started.txt") == 2);  // ten figures, two processes
+  CHECK(lines(dir + "/started.txt") == 1);  // ten figures, one interpreter started (the second drawer forked from it)
 }
