@@ -13,6 +13,7 @@
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/errors.hpp"
 #include "orbcal/sim/fileio.hpp"
+#include "orbcal/sim/image_files.hpp"
 #include "orbcal/sim/io.hpp"
 #include "orbcal/vision/corners.hpp"
 
@@ -79,7 +80,7 @@ CornerError cornerError(const std::string& folder) {
   long n = 0;
   for (const sim::DatasetSample& s : d.samples) {
     ++e.images;
-    const cv::Mat img = cv::imread(d.path(s.image), cv::IMREAD_UNCHANGED);
+    const cv::Mat img = sim::readImage(d.path(s.image), cv::IMREAD_UNCHANGED);
     const vision::CornerDetection det = vision::detectCorners(img, d.scene.board);
     if (!det.found()) continue;
     ++e.found;

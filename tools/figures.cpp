@@ -20,6 +20,7 @@
 
 #include "orbcal/sim/config.hpp"
 #include "orbcal/workflow/experiment.hpp"
+#include "interrupt.hpp"
 #include "progress.hpp"
 
 extern char** environ;
@@ -134,6 +135,7 @@ class PlotProcess {
     posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETPGROUP);
     posix_spawnattr_setpgroup(&attributes, 0);
     if (posix_spawnp(&pid_, interpreter.c_str(), &actions, &attributes, argv.data(), environ) != 0) pid_ = -1;
+    if (pid_ > 0) noteChildGroup(pid_, true);  // out of the terminal's group: Ctrl-C's handler stops it
     posix_spawnattr_destroy(&attributes);
     posix_spawn_file_actions_destroy(&actions);
   }
@@ -150,6 +152,7 @@ class PlotProcess {
       int status = 0;
       while (waitpid(pid_, &status, 0) < 0 && errno == EINTR) {
       }
+      noteChildGroup(pid_, false);
       pid_ = -1;
     }
   }

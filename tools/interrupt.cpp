@@ -4,6 +4,7 @@
 
 #include <atomic>
 #include <csignal>
+#include <signal.h>
 #include <cstring>
 
 namespace orbcal::tools {
@@ -19,6 +20,7 @@ char g_stage[2][128] = {"", ""};
 std::atomic<int> g_stage_slot{0};
 std::atomic<int> g_done{-1}, g_total{0};
 std::atomic<bool> g_bar_shown{false};
+std::atomic<int> g_groups[4] = {0, 0, 0, 0};  ///< noteChildGroup's process groups; 0: free
 
 void copy(char* dst, std::size_t size, const std::string& src) {
   const std::size_t n = std::min(size - 1, src.size());
@@ -65,6 +67,9 @@ extern "C" void onInterrupt(int sig) {
   l.add(g_note);
   l.add("\n");
   [[maybe_unused]] const ssize_t w = ::write(2, l.buf, l.n);
+  for (std::atomic<int>& g : g_groups) {
+    if (const int pgid = g.load(); pgid > 0) ::kill(-pgid, SIGTERM);
+  }
   ::_exit(128 + sig);
 }
 
@@ -94,5 +99,12 @@ void noteInterruptProgress(const std::string& stage, int done, int total) {
 }
 
 void noteProgressShown(bool shown) { g_bar_shown.store(shown); }
+
+void noteChildGroup(int pgid, bool running) {
+  for (std::atomic<int>& g : g_groups) {
+    int expected = running ? 0 : pgid;
+    if (g.compare_exchange_strong(expected, running ? pgid : 0)) return;  // more than four at once: not stopped
+  }
+}
 
 }  // namespace orbcal::tools

@@ -17,5 +17,8 @@ void setInterruptNote(const std::string& note);
 void noteInterruptProgress(const std::string& stage, int done, int total);
 /// Whether a progress line is on the terminal (the interrupt line then starts on a new line).
 void noteProgressShown(bool shown);
+/// A process group of the command's own (the figure drawers, tools/figures.hpp), which the terminal's
+/// Ctrl-C does not reach: the handler stops it (SIGTERM) before exiting. `running` false forgets it.
+void noteChildGroup(int pgid, bool running);
 
 }  // namespace orbcal::tools

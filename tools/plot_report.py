@@ -344,8 +344,13 @@ def batch(lines, answer, more_fds=()):
         warm_up()
     for fd in more_fds:
         if os.fork() == 0:
-            for other in [0, 1] + [f for f in more_fds if f != fd]:
-                os.close(other)  # the caller sees a drawer gone only when no process holds its socket
+            # The caller sees a drawer gone only when no process holds its socket: this one lets go of
+            # the others' (stdin and stdout become /dev/null).
+            devnull = os.open(os.devnull, os.O_RDWR)
+            for std in (0, 1):
+                os.dup2(devnull, std)
+            for other in [devnull] + [f for f in more_fds if f != fd]:
+                os.close(other)
             try:
                 with os.fdopen(fd, "r") as requests, os.fdopen(os.dup(fd), "w") as answers:
                     answer_each(requests, lambda text: (answers.write(text + "\n"), answers.flush()))

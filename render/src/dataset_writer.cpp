@@ -27,6 +27,7 @@
 #include "orbcal/sim/dataset.hpp"
 #include "orbcal/sim/fileio.hpp"
 #include "orbcal/sim/flange_poses.hpp"
+#include "orbcal/sim/image_files.hpp"
 #include "orbcal/sim/camera_io.hpp"
 #include "orbcal/sim/truth.hpp"
 #include "dataset_copies.hpp"
@@ -95,7 +96,7 @@ class AsyncPngWriter {
         // row, RLE strategy); naming any level makes libpng try every filter on every row (3x slower here).
         const std::vector<int> params =
             compression_ < 0 ? std::vector<int>{} : std::vector<int>{cv::IMWRITE_PNG_COMPRESSION, compression_};
-        if (!cv::imencode(".png", job.second(), png, params)) {
+        if (!sim::encodeImage(".png", job.second(), png, params)) {
           throw sim::InputError(job.first + ": cannot encode the PNG");
         }
         sim::writeFileAtomic(job.first, std::string(png.begin(), png.end()), false);  // synced once, before samples.csv
@@ -137,7 +138,7 @@ bool fileEquals(const std::string& path, const std::string& text) {
 bool usableImage(const std::string& path, const sim::Camera& camera) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec)) return false;
-  const cv::Mat img = cv::imread(path, cv::IMREAD_UNCHANGED);
+  const cv::Mat img = sim::readImage(path, cv::IMREAD_UNCHANGED);
   return !img.empty() && img.type() == CV_8UC1 && img.cols == camera.width_px && img.rows == camera.height_px;
 }
 

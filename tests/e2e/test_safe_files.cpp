@@ -11,6 +11,7 @@
 #include <chrono>
 #include <csignal>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <thread>
@@ -487,6 +488,38 @@ TEST_CASE("safe files: Ctrl-C stops a render with one line saying where it stand
 
 TEST_CASE("safe files: SIGTERM stops a render with one line saying where it stands, a rerun completes it", "[e2e][safe]") {
   interruptAndResume(SIGTERM, "safe-sigterm", "stopped (SIGTERM)");
+}
+
+TEST_CASE("safe files: Ctrl-C during diagnose stops its figure drawers too, which run in a process group of their own",
+          "[e2e][safe]") {
+  const std::string dir = test::tempDir("safe-sigint-drawers");
+  REQUIRE(std::system((std::string(ORBCAL_BINARY) + " simulate -o '" + dir + "/data' -n 80 --sessions 1 --seed 7 --quiet >/dev/null").c_str()) == 0);
+  // A drawer that never answers and would outlive orbcal by ten minutes unless it is stopped.
+  sim::writeFileAtomic(dir + "/python.sh", "#!/bin/sh\necho $$ > '" + dir + "/drawer.pid.tmp'\nmv '" + dir + "/drawer.pid.tmp' '" + dir +
+                                               "/drawer.pid'\nexec sleep 600\n");
+  fs::permissions(dir + "/python.sh", fs::perms::owner_all);
+  ::setenv("ORBCAL_PYTHON", (dir + "/python.sh").c_str(), 1);
+  const Child c = startOrbcal(dir, {"diagnose", dir + "/data/measurements.yaml", "-o", dir + "/out"});
+  ::unsetenv("ORBCAL_PYTHON");
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!fs::exists(dir + "/drawer.pid") && std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  REQUIRE(fs::exists(dir + "/drawer.pid"));
+  const pid_t drawer = std::stoi(slurp(dir + "/drawer.pid"));
+  REQUIRE(::kill(drawer, 0) == 0);
+  REQUIRE(::kill(c.pid, SIGINT) == 0);
+  CHECK(waitExit(c.pid) == 128 + SIGINT);
+  // Gone (or a zombie left to init) within seconds, not the ten minutes its sleep would last.
+  const auto running = [&] {
+    std::ifstream stat("/proc/" + std::to_string(drawer) + "/stat");
+    std::string pid, name, state;
+    return stat >> pid >> name >> state && state != "Z";
+  };
+  const auto gone_by = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (running() && std::chrono::steady_clock::now() < gone_by) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  CHECK_FALSE(running());
+  if (running()) ::kill(drawer, SIGKILL);
 }
 
 TEST_CASE("orbcal intrinsics -o into a folder that does not exist yet creates it", "[safe]") {

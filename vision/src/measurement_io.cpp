@@ -6,6 +6,7 @@
 #include <system_error>
 
 #include "orbcal/sim/config.hpp"
+#include "orbcal/sim/image_files.hpp"
 #include "orbcal/vision/measurement.hpp"
 
 namespace orbcal::vision {
@@ -40,7 +41,7 @@ cv::Mat readGrayImage(const std::string& path, std::string* reason, std::string*
   }
   cv::Mat gray;
   try {
-    gray = cv::imread(path, cv::IMREAD_GRAYSCALE);
+    gray = sim::readImage(path, cv::IMREAD_GRAYSCALE);
   } catch (const cv::Exception& e) {
     gray.release();
   }

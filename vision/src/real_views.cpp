@@ -12,6 +12,7 @@
 #include <set>
 #include <stdexcept>
 
+#include "orbcal/sim/image_files.hpp"
 #include "orbcal/vision/charuco.hpp"
 
 namespace orbcal::vision {
@@ -30,7 +31,7 @@ bool anyRule(const sim::ImageMask& mask, const std::string& view_mask) {
 }
 
 void addMaskFile(cv::Mat& ignored, const std::string& path) {
-  const cv::Mat m = cv::imread(path, cv::IMREAD_GRAYSCALE);
+  const cv::Mat m = sim::readImage(path, cv::IMREAD_GRAYSCALE);
   if (m.empty()) throw std::invalid_argument(path + ": cannot read the mask image");
   if (m.size() != ignored.size()) {
     throw std::invalid_argument(path + ": the mask is " + std::to_string(m.cols) + "x" + std::to_string(m.rows) + " px, the image " +
@@ -235,7 +236,7 @@ ViewMeasurement measureView(const std::string& path, const sim::Camera& camera, 
     return v;
   }
   if (anyRule(mask, view_mask)) {
-    const cv::Mat colour = cv::imread(path, cv::IMREAD_COLOR);
+    const cv::Mat colour = sim::readImage(path, cv::IMREAD_COLOR);
     const cv::Mat ignored = ignoredPixels(colour, mask, view_mask);
     v.ignored_px = cv::countNonZero(ignored);
     if (v.ignored_px > 0) cv::cvtColor(fillIgnored(colour, ignored), gray, cv::COLOR_BGR2GRAY);

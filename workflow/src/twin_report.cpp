@@ -5,10 +5,12 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 
 #include "orbcal/sim/csv.hpp"
 #include "orbcal/sim/config.hpp"
 #include "orbcal/sim/fileio.hpp"
+#include "orbcal/sim/image_files.hpp"
 #include "orbcal/workflow/measured_images.hpp"
 #include "orbcal/workflow/report_html.hpp"
 #include "orbcal/workflow/twin.hpp"
@@ -139,7 +141,7 @@ TwinResult runTwin(const TwinOptions& o) {
       views.push_back(std::move(v));
       continue;
     }
-    const cv::Mat colour = cv::imread(data.views[k].image, cv::IMREAD_COLOR);
+    const cv::Mat colour = sim::readImage(data.views[k].image, cv::IMREAD_COLOR);
     if (colour.empty()) throw sim::InputError(data.views[k].where + ": " + data.views[k].image + ": cannot be read");
     cv::cvtColor(colour, v.gray, cv::COLOR_BGR2GRAY);
     v.ignored = vision::ignoredPixels(colour, data.mask, data.views[k].mask);
@@ -151,7 +153,8 @@ TwinResult runTwin(const TwinOptions& o) {
   const std::string& out = folder.path();
   std::filesystem::create_directories(out + "/crops");
   for (std::size_t k = 0; k < std::min(kCropsShown, r.comparison.crops.size()); ++k) {
-    cv::imwrite(out + "/crops/view" + std::to_string(k) + ".png", r.comparison.crops[k]);
+    const std::string crop = out + "/crops/view" + std::to_string(k) + ".png";
+    if (!sim::writeImage(crop, r.comparison.crops[k])) throw std::runtime_error(crop + ": cannot write the image");
   }
   sim::writeFileAtomic(out + "/twin.json", twinJson(r));
   render::saveCameraProfile(r.comparison.fitted, out + "/camera_profile.yaml");
