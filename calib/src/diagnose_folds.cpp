@@ -97,13 +97,14 @@ bool sharesCause(const sim::Effect& a, const sim::Effect& b) {
 
 /// The alternatives of the selection (Diagnosis::alternatives): each other member of a kept confounded
 /// set in place of the selected effect it is confounded with, where it shares no cause with the rest.
-std::vector<Alternative> alternativesOf(const Diagnosis& out, const std::function<Fit(const std::vector<sim::Effect>&)>& fit) {
+std::vector<Alternative> alternativesOf(const std::vector<sim::Effect>& selected, const std::vector<ConfoundedSet>& confounded,
+                                        const std::function<Fit(const std::vector<sim::Effect>&)>& fit) {
   std::vector<Alternative> alts;
-  for (const ConfoundedSet& c : out.confounded) {
+  for (const ConfoundedSet& c : confounded) {
     for (std::size_t m = 1; m < c.effects.size(); ++m) {
       std::vector<sim::Effect> effects;
       bool clash = false;
-      for (const sim::Effect& s : out.selected) {
+      for (const sim::Effect& s : selected) {
         const bool replaced = sharesCause(s, c.effects.front());
         clash |= !replaced && sharesCause(s, c.effects[m]);
         effects.push_back(replaced ? c.effects[m] : s);

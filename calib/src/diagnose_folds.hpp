@@ -59,7 +59,9 @@ struct HeldOutGroup {
 void groupNormals(const MeasurementModel& m, const std::vector<int>& cols, const Eigen::VectorXd& scale,
                   const std::vector<HeldOutGroup>& groups, std::vector<Eigen::MatrixXd>& N, std::vector<Eigen::VectorXd>& g);
 
-/// The alternatives of the selection (Diagnosis::alternatives), each fitted by `fit`.
-std::vector<Alternative> alternativesOf(const Diagnosis& out, const std::function<Fit(const std::vector<sim::Effect>&)>& fit);
+/// The alternatives of the selection `selected` (Diagnosis::alternatives) from its kept confounded sets,
+/// each fitted by `fit` (side by side).
+std::vector<Alternative> alternativesOf(const std::vector<sim::Effect>& selected, const std::vector<ConfoundedSet>& confounded,
+                                        const std::function<Fit(const std::vector<sim::Effect>&)>& fit);
 
 }  // namespace orbcal::calib
