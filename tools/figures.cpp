@@ -170,7 +170,9 @@ struct BatchDrawer {
   std::string script = plotScript();
   std::unique_ptr<PlotProcess> process;
   std::vector<bool> busy;
-  std::vector<char> gone;  ///< (not vector<bool>: drawers write their own entries side by side) drawer k ended or did not answer: its figures drawn one process each
+  /// Drawer k ended or did not answer: its figures drawn one process each (char, not bool: the
+  /// drawers write their own entries side by side).
+  std::vector<char> gone;
 
   std::string draw(const workflow::FigureRequest& f) {
     std::size_t slot = 0;
@@ -221,12 +223,12 @@ std::string plotReportFigure(const workflow::FigureRequest& f) {
   failed(f, last, script);
 }
 
-workflow::FigureFn batchFigureDrawer(int at_once) {
+workflow::FigureFn batchFigureDrawer(int drawers) {
   auto drawer = std::make_shared<BatchDrawer>();
-  const int drawers = std::max(1, at_once);
-  drawer->process = std::make_unique<PlotProcess>(plotInterpreter(), drawer->script, drawers);
-  drawer->busy.assign(static_cast<std::size_t>(drawers), false);
-  drawer->gone.assign(static_cast<std::size_t>(drawers), false);
+  const int n = std::max(1, drawers);
+  drawer->process = std::make_unique<PlotProcess>(plotInterpreter(), drawer->script, n);
+  drawer->busy.assign(static_cast<std::size_t>(n), false);
+  drawer->gone.assign(static_cast<std::size_t>(n), false);
   return [drawer](const workflow::FigureRequest& f) { return drawer->draw(f); };
 }
 

@@ -290,13 +290,11 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
   out.confounded = kept;
   phase(5);
   // The alternatives' fits run beside the judgement: they read the selection and its confounded sets
-  // (copied), the judgement neither; each phase alone leaves part of the cores idle.
+  // (copied), the judgement neither; each alone leaves part of the cores idle.
   std::future<std::vector<Alternative>> alternatives =
       std::async(std::launch::async, [&d, selected = out.selected, confounded = out.confounded] {
         return alternativesOf(selected, confounded, [&d](const std::vector<Effect>& effects) { return d.fitAll(effects); });
       });
-
-  phase(6);
   judgeAgainstFloor(data, obs, o, stated_options, replicated, folds, out);
   out.alternatives = alternatives.get();
   out.heldout.noise_position_rms_m = out.lack_of_fit.noise_position_rms_m;

@@ -41,7 +41,7 @@ def test_diagnose_of_clean_data_is_clean(tracker):
     assert d.selected == [] and d.confounded == []
     # Its phases, as orbcal diagnose's progress line shows them: each once, in order, then the end.
     n = len(orbcal.diagnose_phases)
-    assert n == 7 and "forward selection" in orbcal.diagnose_phases
+    assert n == 6 and "forward selection" in orbcal.diagnose_phases
     assert calls == [(k, n) for k in range(n + 1)]
 
 

@@ -29,9 +29,9 @@
 namespace orbcal::calib {
 
 /// The phases of a diagnosis, in the order it runs them (DiagnoseOptions::progress).
-inline constexpr std::array<const char*, 7> kDiagnosePhases{
+inline constexpr std::array<const char*, 6> kDiagnosePhases{
     "registration check", "noise and base model's fit", "base model's cross-validation and evidence", "forward selection",
-    "backward elimination", "confounded alternatives", "judgement against the noise floor"};
+    "backward elimination", "confounded alternatives and judgement against the noise floor (side by side)"};
 
 struct DiagnoseOptions {
   int folds = 5;
