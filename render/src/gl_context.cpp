@@ -1,6 +1,6 @@
 #include "orbcal/render/gl_context.hpp"
 
-#include <GL/osmesa.h>
+#include "gl_api.hpp"
 
 #include <stdexcept>
 
@@ -11,6 +11,7 @@ constexpr int kDefaultBufferPx = 16;
 }
 
 OsMesaContext::OsMesaContext(int major, int minor) {
+  loadGl();  // OSMesa is opened by the first context (gl_api.hpp)
   const int attribs[] = {OSMESA_FORMAT,      OSMESA_RGBA, OSMESA_DEPTH_BITS,          0,     OSMESA_STENCIL_BITS, 0,
                          OSMESA_ACCUM_BITS,  0,           OSMESA_PROFILE,             OSMESA_CORE_PROFILE,
                          OSMESA_CONTEXT_MAJOR_VERSION, major, OSMESA_CONTEXT_MINOR_VERSION, minor, 0};

@@ -2,7 +2,7 @@
 // What the board renderer's parts share (renderer.cpp draws; shaders.cpp, gl_objects.cpp and
 // board_geometry.cpp make what it draws with); not part of the library's interface. The functions of
 // shaders.cpp and gl_objects.cpp need the renderer's OpenGL context current.
-#include <GL/osmesa.h>
+#include "gl_api.hpp"
 
 #include <Eigen/Geometry>
 #include <array>

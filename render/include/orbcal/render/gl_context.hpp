@@ -1,7 +1,8 @@
 #pragma once
 // An off-screen OpenGL context with no display and no GPU: OSMesa (Mesa's llvmpipe), core profile.
-// Link only OSMesa (pkg-config osmesa), never libGL/libOpenGL: with those first, every gl* call goes to
-// glvnd's no-op dispatch and images come out black with no error.
+// OSMesa is opened by the first context and every gl* call goes through the pointers taken from it
+// (src/gl_api.hpp); never link libGL/libOpenGL as well: with those first, gl* calls linked directly
+// went to glvnd's no-op dispatch and images came out black with no error.
 #include <string>
 #include <vector>
 
