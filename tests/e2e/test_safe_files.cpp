@@ -26,6 +26,7 @@
 #include "orbcal/sim/model_io.hpp"
 #include "orbcal/vision/measurement.hpp"
 #include "dataset_fixture.hpp"
+#include "run_orbcal.hpp"
 #include "test_util.hpp"
 
 using namespace orbcal;
@@ -493,7 +494,7 @@ TEST_CASE("safe files: SIGTERM stops a render with one line saying where it stan
 TEST_CASE("safe files: Ctrl-C during diagnose stops its figure drawers too, which run in a process group of their own",
           "[e2e][safe]") {
   const std::string dir = test::tempDir("safe-sigint-drawers");
-  REQUIRE(std::system((std::string(ORBCAL_BINARY) + " simulate -o '" + dir + "/data' -n 80 --sessions 1 --seed 7 --quiet >/dev/null").c_str()) == 0);
+  REQUIRE(test::runOrbcal(dir, "simulate -o data -n 80 --sessions 1 --seed 7 --quiet").status == 0);
   // A drawer that never answers and would outlive orbcal by ten minutes unless it is stopped.
   sim::writeFileAtomic(dir + "/python.sh", "#!/bin/sh\necho $$ > '" + dir + "/drawer.pid.tmp'\nmv '" + dir + "/drawer.pid.tmp' '" + dir +
                                                "/drawer.pid'\nexec sleep 600\n");
