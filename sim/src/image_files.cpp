@@ -1,11 +1,9 @@
 #include "orbcal/sim/image_files.hpp"
 
-#include <dlfcn.h>
-
 #include <cstdlib>
-#include <stdexcept>
 
 #include "image_codecs.hpp"
+#include "orbcal/sim/shared_library.hpp"
 
 namespace orbcal::sim {
 
@@ -15,16 +13,9 @@ namespace {
 const ImageCodecs& codecs() {
   static const ImageCodecs* const table = [] {
     const char* env = std::getenv("ORBCAL_IMAGE_CODECS");
-    const std::string path = env && *env ? env : ORBCAL_IMAGE_CODECS_PLUGIN;
-    void* plugin = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
-    if (!plugin) {
-      const char* why = dlerror();
-      throw std::runtime_error("cannot load OpenCV's image codecs (" + path + "): " + (why ? why : "dlopen failed") +
-                               "; build the target orbcal_image_codecs, or set ORBCAL_IMAGE_CODECS to the plugin's path");
-    }
-    const auto entry = reinterpret_cast<const ImageCodecs* (*)()>(dlsym(plugin, "orbcal_image_codecs"));
-    if (!entry) throw std::runtime_error(path + ": not orbcal's image codecs plugin (no symbol orbcal_image_codecs)");
-    return entry();
+    const SharedLibrary plugin(env && *env ? env : ORBCAL_IMAGE_CODECS_PLUGIN, "OpenCV's image codecs",
+                               "build the target orbcal_image_codecs, or set ORBCAL_IMAGE_CODECS to the plugin's path");
+    return plugin.function<const ImageCodecs* (*)()>("orbcal_image_codecs", "not orbcal's image codecs plugin")();
   }();
   return *table;
 }

@@ -1,6 +1,7 @@
 // Image files through OpenCV's codecs loaded on first use (sim/image_files.hpp): no program links them
 // (they bring GDAL and ~140 libraries to every start), nor OSMesa (LLVM; render/src/gl_api.hpp), images
-// still round-trip, and a plugin that cannot be loaded is named in one line with what to do.
+// still round-trip, and a plugin that cannot be loaded is named in one line with what to do; the opener
+// both go through (sim/shared_library.hpp) names what it could not open or find.
 #include <catch2/catch.hpp>
 
 #include <algorithm>
@@ -11,6 +12,7 @@
 #include <string>
 
 #include "orbcal/sim/image_files.hpp"
+#include "orbcal/sim/shared_library.hpp"
 #include "run_orbcal.hpp"
 #include "test_util.hpp"
 
@@ -48,4 +50,15 @@ TEST_CASE("image files: a plugin that cannot be loaded is named, with what to do
                       Contains("set ORBCAL_IMAGE_CODECS to the plugin's path"));
   CHECK(std::count(out.begin(), out.end(), '\n') == 1);
   CHECK_FALSE(std::filesystem::exists(dir + "/dataset/images/000000.png"));
+}
+
+TEST_CASE("shared library: a function is taken by name; a library or symbol that is not there is named", "[e2e][images]") {
+  const sim::SharedLibrary libm("libm.so.6", "the C maths library");
+  CHECK(libm.function<double (*)(double)>("cos")(0.0) == 1.0);
+  CHECK_THROWS_WITH(libm.symbol("orbcal_no_such_function", "not the library asked for"),
+                    "libm.so.6: no symbol orbcal_no_such_function (not the library asked for)");
+  CHECK_THROWS_WITH(libm.symbol("orbcal_no_such_function"), "libm.so.6: no symbol orbcal_no_such_function");
+  CHECK_THROWS_WITH(sim::SharedLibrary("/nonexistent/libx.so", "a plugin", "build it first"),
+                    StartsWith("cannot load a plugin (/nonexistent/libx.so): ") && Contains("; build it first"));
+  CHECK_THROWS_WITH(sim::SharedLibrary("/nonexistent/libx.so", "a plugin"), !Contains(";"));
 }
