@@ -205,7 +205,10 @@ std::vector<double> sharesOfExcess(const Diagnoser& d, const Diagnosis& out) {
 
 namespace {
 
-Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o) {
+/// The diagnosis of `obs` (the input without exact repeats); `input`: every input row, which the noise
+/// a calibration would estimate is computed on (`orbcal calibrate` keeps them all).
+Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o,
+                       const std::vector<MarkerObservation>& input) {
   const auto t0 = std::chrono::steady_clock::now();
   const auto phase = [&o](std::size_t k) {
     if (o.progress) o.progress(static_cast<int>(k), static_cast<int>(kDiagnosePhases.size()));
@@ -295,8 +298,14 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
       std::async(std::launch::async, [&d, selected = out.selected, confounded = out.confounded] {
         return alternativesOf(selected, confounded, [&d](const std::vector<Effect>& effects) { return d.fitAll(effects); });
       });
+  // The noise `orbcal calibrate --effects <selected>` would estimate (the report's), beside them too.
+  std::future<std::optional<MarkerNoise>> with_selected =
+      std::async(std::launch::async, [&data, &input, &o, selected = out.selected, noise = out.noise] {
+        return noiseWithSelected(data, input, selected, o, noise);
+      });
   judgeAgainstFloor(data, obs, o, stated_options, replicated, folds, out);
   out.alternatives = alternatives.get();
+  out.noise.with_selected = with_selected.get();
   out.heldout.noise_position_rms_m = out.lack_of_fit.noise_position_rms_m;
   out.unexplained = out.lack_of_fit.left();
   out.clean = out.selected.empty() && !out.unexplained;
@@ -312,7 +321,7 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
 Diagnosis diagnose(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o) {
   std::vector<int> source;
   const std::vector<MarkerObservation> rows = dropExactDuplicates(obs, source);
-  Diagnosis out = diagnoseRows(data, rows, o);
+  Diagnosis out = diagnoseRows(data, rows, o, obs);
   expandRows(out, source, obs.size());
   return out;
 }

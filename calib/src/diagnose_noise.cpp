@@ -85,11 +85,13 @@ FlexibleFit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerO
   };
   const int top = std::max(1, max_degree);
   FlexibleFit out;
+  const sim::KinematicModel start = startingModel(data, obs, {});  // its frames for every level's model on `obs`
   for (const Level& l : {Level{top, std::min(3, top), true}, Level{std::min(4, top), std::min(3, top), true},
                          Level{std::min(2, top), std::min(2, top), true}, Level{std::min(2, top), std::min(2, top), false},
                          Level{1, 1, false}}) {
     const std::vector<sim::Effect> terms = flexibleTerms(data, obs, effects, l.harmonics, l.degree, l.couplings);
-    const int params = startingModel(data, obs, terms).layout.size();
+    const sim::KinematicModel model = startingModelFrom(start, obs, terms);
+    const int params = model.layout.size();
     if (4 * params > rows) continue;
     // The observations this level needs (a quarter of their rows for its parameters), rounded up.
     const std::size_t needed = static_cast<std::size_t>((4.0 * params * obs.size() + rows - 1) / rows) + 1;
@@ -97,10 +99,10 @@ FlexibleFit flexibleFit(const sim::MeasuredData& data, const std::vector<MarkerO
     if (max_obs > 0) out.subset = seededSubset(obs, keep, seed);
     out.degree = l.harmonics;
     const std::vector<MarkerObservation>& fitted = out.fitted(obs);
-    out.fit = fitMarkerModel(startingModel(data, fitted, terms), fitted, f);
+    out.fit = fitMarkerModel(out.subset.empty() ? model : startingModel(data, fitted, terms), fitted, f);
     return out;
   }
-  out.fit = fitMarkerModel(startingModel(data, obs, effects), obs, f);
+  out.fit = fitMarkerModel(startingModelFrom(start, obs, effects), obs, f);
   return out;
 }
 
@@ -238,6 +240,17 @@ FitOptions statedFitOptions(const sim::MeasuredData& data, const std::vector<Mar
   n.joint_stated = joint.has_value();
   n.joint_estimated = f.estimate_joint_noise;
   return f;
+}
+
+std::optional<MarkerNoise> noiseWithSelected(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
+                                            const std::vector<sim::Effect>& selected, const DiagnoseOptions& o, const NoiseFloors& n) {
+  if ((n.tracker_stated && !n.joint_estimated) || selected.empty() || anyOwnCovariance(obs)) return std::nullopt;
+  FitOptions f;
+  f.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
+  f.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
+  f.joint_noise_sigma_rad = o.joint_noise_sigma_rad ? *o.joint_noise_sigma_rad : data.noise_joint_rad.value_or(0.0);
+  f.normal_equations = o.lean_fits;
+  return fitMarkerModel(startingModel(data, obs, selected), obs, f).noise;
 }
 
 FitOptions whiteningFitOptions(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o,

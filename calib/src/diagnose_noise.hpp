@@ -4,6 +4,7 @@
 // joint-reading noise comes from (diagnose.hpp's NoiseFloors), and rows that repeat another exactly.
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -75,6 +76,15 @@ FitOptions statedFitOptions(const sim::MeasuredData& data, const std::vector<Mar
 /// flexible_degree and (as a first survived estimate) joint_estimate_rad.
 FitOptions whiteningFitOptions(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o,
                                const FitOptions& stated, NoiseFloors& n);
+
+/// NoiseFloors::with_selected: the tracker noise of a calibration of `selected` on all of `obs`, as
+/// `orbcal calibrate` estimates it (the same fit: position and rotation variance components where the
+/// noise is not given; joint readings as stated, else not modelled), its steps solved as diagnose's own
+/// fits solve them (DiagnoseOptions::lean_fits: the normal equations summed per block of samples, where
+/// calibrate takes a QR of the stacked Jacobian): the same minimum. Empty where nothing is selected,
+/// the noise is all stated (n's flags, statedFitOptions) or samples carry their own covariance.
+std::optional<MarkerNoise> noiseWithSelected(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
+                                            const std::vector<sim::Effect>& selected, const DiagnoseOptions& o, const NoiseFloors& n);
 
 /// The noise paragraph of the verdict where it depends on the noise: both floors, the joint noise the
 /// residuals would need, and the plan that decides it. Empty where the verdict does not depend on it.

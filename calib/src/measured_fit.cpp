@@ -167,12 +167,21 @@ double NoiseComponents::correlation(int a, int b) const {
   return d > 0.0 ? covariance(a, b) / d : 0.0;
 }
 
-sim::KinematicModel startingModel(const sim::MeasuredData& data, const std::vector<MarkerObservation>& observations,
-                                  std::vector<sim::Effect> effects) {
-  const int S = data.numSessions();
+namespace {
+
+/// Each effect adapted to the samples it is fitted on (Effect kinds' adaptTo: a range, a default order).
+void adaptEffects(const std::vector<MarkerObservation>& observations, std::vector<sim::Effect>& effects) {
   std::vector<sim::JointSample> samples;
   for (const MarkerObservation& o : observations) samples.push_back(o.sample);
   for (sim::Effect& e : effects) e = e.kind().adaptTo(e, samples);
+}
+
+}  // namespace
+
+sim::KinematicModel startingModel(const sim::MeasuredData& data, const std::vector<MarkerObservation>& observations,
+                                  std::vector<sim::Effect> effects) {
+  const int S = data.numSessions();
+  adaptEffects(observations, effects);
   sim::KinematicModel shape = sim::makeKinematicModel(data.arm, S, data.base, data.marker, framesFor(data.base, S, data.world_T_base),
                                                       framesFor(data.marker, S, data.flange_T_marker), std::move(effects));
   std::vector<Eigen::Isometry3d> F;
@@ -184,6 +193,13 @@ sim::KinematicModel startingModel(const sim::MeasuredData& data, const std::vect
     throw sim::InputError(data.description + ": registration: the samples cannot fix the unknown frames (" + e.what() + ")");
   }
   return shape;
+}
+
+sim::KinematicModel startingModelFrom(const sim::KinematicModel& start, const std::vector<MarkerObservation>& observations,
+                                      std::vector<sim::Effect> effects) {
+  adaptEffects(observations, effects);
+  return sim::makeKinematicModel(start.arm, start.sessions, start.base, start.marker, start.world_T_base, start.flange_T_marker,
+                                 std::move(effects), start.geometry, start.marker_points);
 }
 
 ResidualStats residualStats(const std::vector<Eigen::VectorXd>& residuals) {

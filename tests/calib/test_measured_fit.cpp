@@ -146,6 +146,52 @@ TEST_CASE("position-only tracker data: frames from the point-set start, complian
   CHECK(r.prediction_rms_m < kNoisePosition);
 }
 
+TEST_CASE("a starting model made from another's frames is the one startingModel makes", "[measured]") {
+  // startingModelFrom keeps the closed-form frames of a start with other effects (diagnose guesses them
+  // once); the effects adapted to the observations as startingModel adapts them (a compliance's torque
+  // scale: its joints' RMS torque). Two sessions with a marker each; position-only data; three marker points.
+  const sim::Arm arm = sim::loadArm(test::sourcePath("scenes/iiwa7.yaml"));
+  const std::vector<sim::Effect> effects = {sim::Compliance{{2, 4}}, sim::Thermal{}};
+  struct Case {
+    int sessions, markers;
+    bool rotation;
+  };
+  for (const Case c : {Case{2, 0, true}, Case{1, 0, false}, Case{1, 3, false}}) {
+    sim::SimulationSpec spec;
+    spec.samples = 60;
+    spec.sessions = c.sessions;
+    spec.payload_kg = {0.0};
+    spec.marker = c.sessions > 1 ? sim::FrameSharing::kPerSession : sim::FrameSharing::kShared;
+    spec.rotation = c.rotation;
+    spec.markers = c.markers;
+    spec.seed = 8;
+    spec.effects = effects;
+    const sim::SimulatedData s = sim::simulateMeasured(arm, spec);
+    const std::vector<calib::MarkerObservation> obs = calib::observationsFrom(s.data, true);
+    const sim::KinematicModel direct = calib::startingModel(s.data, obs, effects);
+    const sim::KinematicModel from = calib::startingModelFrom(calib::startingModel(s.data, obs, {sim::Scale{{1}}}), obs, effects);
+    CAPTURE(c.sessions, c.markers, c.rotation);
+    REQUIRE(from.layout.size() == direct.layout.size());
+    for (int i = 0; i < direct.layout.size(); ++i) CHECK(from.layout.param(i).name == direct.layout.param(i).name);
+    REQUIRE(from.effects.size() == effects.size());
+    for (std::size_t k = 0; k < effects.size(); ++k) {
+      CHECK(from.effects[k].spec() == direct.effects[k].spec());
+      CHECK(from.effects[k].reference() == direct.effects[k].reference());
+    }
+    CHECK(direct.effects[0].reference() != sim::Effect(sim::Compliance{{2, 4}}).reference());  // adapted: not the catalog's 50 N m
+    REQUIRE(from.world_T_base.size() == direct.world_T_base.size());
+    REQUIRE(from.flange_T_marker.size() == direct.flange_T_marker.size());
+    REQUIRE(from.marker_points.size() == static_cast<std::size_t>(c.markers));
+    for (std::size_t k = 0; k < direct.world_T_base.size(); ++k) CHECK(from.world_T_base[k].matrix() == direct.world_T_base[k].matrix());
+    for (std::size_t k = 0; k < direct.flange_T_marker.size(); ++k) {
+      CHECK(from.flange_T_marker[k].matrix() == direct.flange_T_marker[k].matrix());
+    }
+    for (std::size_t k = 0; k < direct.marker_points.size(); ++k) CHECK(from.marker_points[k] == direct.marker_points[k]);
+    // The guess is a real one (not the data's identity frames): the tracker stands metres from the base.
+    CHECK(direct.world_T_base[0].translation().norm() > 1.0);
+  }
+}
+
 TEST_CASE("a model with all-joint compliance says which compliances this data cannot identify", "[measured]") {
   // Joint 1 is vertical: tau_1 is the torque sensor's noise alone, so c1 is numerically identifiable
   // but determined no better than its typical magnitude.

@@ -113,7 +113,16 @@ std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& dist
   }
   const calib::MarkerNoise& n = d.base_fit.noise;  // SI: m, rad
   j << "],\n \"noise\": {\"position_m\": " << num(n.sigma_position_m, "noise.position_m") << ", \"rotation_rad\": "
-    << num(n.sigma_rotation_rad, "noise.rotation_rad") << ", \"joint_rad\": " << num(n.joint_noise_sigma_rad, "noise.joint_rad") << "}";
+    << num(n.sigma_rotation_rad, "noise.rotation_rad") << ", \"joint_rad\": " << num(n.joint_noise_sigma_rad, "noise.joint_rad")
+    << ", \"with_selected\": ";
+  // The tracker noise a calibration of the selected effects estimates (NoiseFloors::with_selected).
+  if (const std::optional<calib::MarkerNoise>& w = d.noise.with_selected) {
+    j << "{\"position_m\": " << num(w->sigma_position_m, "noise.with_selected.position_m") << ", \"rotation_rad\": "
+      << num(w->sigma_rotation_rad, "noise.with_selected.rotation_rad") << ", \"joint_rad\": "
+      << num(w->joint_noise_sigma_rad, "noise.with_selected.joint_rad") << "}}";
+  } else {
+    j << "null}";
+  }
   // The floor the verdict is judged against, and the estimated joint noise beside it (NoiseFloors).
   const calib::NoiseFloors& nf = d.noise;
   const auto fl = [&num](double v, const char* key) { return num(v, std::string("noise_floor.") + key); };

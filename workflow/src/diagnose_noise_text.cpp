@@ -58,21 +58,6 @@ std::string floorSentence(const calib::Diagnosis& dg) {
   return floor + ": the stated noise.";
 }
 
-/// The tracker noise of a calibration of `effects` on all of `obs`, estimated as `orbcal calibrate`
-/// estimates it (the same fit: position and rotation variance components where the noise is not
-/// given; joint readings as stated, else not modelled), its steps solved as diagnose's own fits solve
-/// them (DiagnoseOptions::lean_fits: the normal equations summed per block of samples, where
-/// calibrate takes a QR of the stacked Jacobian): the same minimum.
-calib::MarkerNoise noiseWithEffects(const sim::MeasuredData& data, const std::vector<calib::MarkerObservation>& obs,
-                                    const std::vector<sim::Effect>& effects, const calib::DiagnoseOptions& o) {
-  calib::FitOptions fo;
-  fo.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
-  fo.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
-  fo.joint_noise_sigma_rad = o.joint_noise_sigma_rad ? *o.joint_noise_sigma_rad : data.noise_joint_rad.value_or(0.0);
-  fo.normal_equations = o.lean_fits;
-  return calib::fitMarkerModel(calib::startingModel(data, obs, effects), obs, fo).noise;
-}
-
 /// Where the noise was estimated on a subset: which one, of how many.
 std::string sampleWords(const calib::NoiseFloors& nf, const std::vector<calib::MarkerObservation>& obs) {
   if (nf.noise_observations == 0) return "";
@@ -106,11 +91,11 @@ std::string noiseSentence(const calib::Diagnosis& dg, const calib::DiagnoseOptio
            ", " + joints + ".";
   }
   text += componentsSentence(dg) + " " + floorSentence(dg);
-  if ((nf.tracker_stated && !nf.joint_estimated) || dg.selected.empty() || calib::anyOwnCovariance(obs)) return text;
+  if (!nf.with_selected) return text;
   std::string effects;
   for (const sim::Effect& e : dg.selected) effects += (effects.empty() ? "" : " ") + sim::formatEffect(e);
   return text + " With the selected effects fitted, as `orbcal calibrate --effects " + effects + "` fits them (joint readings as the "
-                "description states), the noise is " + noiseText(noiseWithEffects(data, obs, dg.selected, o), measuresRotation(data)) + ".";
+                "description states), the noise is " + noiseText(*nf.with_selected, measuresRotation(data)) + ".";
 }
 
 }  // namespace orbcal::workflow

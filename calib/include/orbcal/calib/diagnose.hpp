@@ -162,6 +162,11 @@ struct NoiseFloors {
   /// the residuals measures the noise (no stated noise, no repeats): the verdict says so, with the plan.
   bool verdict_depends_on_noise = false;
   int duplicates_dropped = 0;  ///< rows that repeat another row exactly (readings and measurement): counted once
+  /// The tracker noise `orbcal calibrate --effects <selected>` estimates on every input row (its fit:
+  /// position and rotation variance components where not stated; the joint readings as stated, else not
+  /// modelled), which the report gives beside the whitening noise. Filled where that can differ from
+  /// it: something selected, some noise estimated, no sample with its own covariance.
+  std::optional<MarkerNoise> with_selected;
   /// The verdict's floor is stated, not estimated from the residuals it judges: the tracker's noise (or
   /// each sample's covariance) is given, and the joint readings' part is too or, beside repeated
   /// configurations, not needed (then their scatter, pure error, judges instead).

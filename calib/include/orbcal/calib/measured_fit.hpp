@@ -32,6 +32,12 @@ bool needsTorque(const std::vector<sim::Effect>& effects);
 sim::KinematicModel startingModel(const sim::MeasuredData& data, const std::vector<MarkerObservation>& observations,
                                   std::vector<sim::Effect> effects);
 
+/// startingModel(data, observations, effects) from `start`, a starting model of the same data and
+/// observations with other effects (or none): its frames and marker points kept, the closed-form guess
+/// (a hand-eye solve) not made again.
+sim::KinematicModel startingModelFrom(const sim::KinematicModel& start, const std::vector<MarkerObservation>& observations,
+                                      std::vector<sim::Effect> effects);
+
 struct ResidualStats {
   int samples = 0;
   double position_mean_m = 0, position_rms_m = 0, position_max_m = 0;  ///< of |position residual|
