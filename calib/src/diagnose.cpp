@@ -13,6 +13,7 @@
 #include <random>
 #include <sstream>
 #include <thread>
+#include <tuple>
 
 #include "diagnose_candidates.hpp"
 #include "diagnose_folds.hpp"
@@ -299,13 +300,13 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
         return alternativesOf(selected, confounded, [&d](const std::vector<Effect>& effects) { return d.fitAll(effects); });
       });
   // The noise `orbcal calibrate --effects <selected>` would estimate (the report's), beside them too.
-  std::future<std::optional<MarkerNoise>> with_selected =
+  std::future<std::pair<std::optional<MarkerNoise>, int>> with_selected =
       std::async(std::launch::async, [&data, &input, &o, selected = out.selected, noise = out.noise] {
         return noiseWithSelected(data, input, selected, o, noise);
       });
   judgeAgainstFloor(data, obs, o, stated_options, replicated, folds, out);
   out.alternatives = alternatives.get();
-  out.noise.with_selected = with_selected.get();
+  std::tie(out.noise.with_selected, out.noise.with_selected_observations) = with_selected.get();
   out.heldout.noise_position_rms_m = out.lack_of_fit.noise_position_rms_m;
   out.unexplained = out.lack_of_fit.left();
   out.clean = out.selected.empty() && !out.unexplained;

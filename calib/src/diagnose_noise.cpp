@@ -242,15 +242,19 @@ FitOptions statedFitOptions(const sim::MeasuredData& data, const std::vector<Mar
   return f;
 }
 
-std::optional<MarkerNoise> noiseWithSelected(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
-                                            const std::vector<sim::Effect>& selected, const DiagnoseOptions& o, const NoiseFloors& n) {
-  if ((n.tracker_stated && !n.joint_estimated) || selected.empty() || anyOwnCovariance(obs)) return std::nullopt;
+std::pair<std::optional<MarkerNoise>, int> noiseWithSelected(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
+                                                             const std::vector<sim::Effect>& selected, const DiagnoseOptions& o,
+                                                             const NoiseFloors& n) {
+  if ((n.tracker_stated && !n.joint_estimated) || selected.empty() || anyOwnCovariance(obs)) return {std::nullopt, 0};
   FitOptions f;
   f.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
   f.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
   f.joint_noise_sigma_rad = o.joint_noise_sigma_rad ? *o.joint_noise_sigma_rad : data.noise_joint_rad.value_or(0.0);
   f.normal_equations = o.lean_fits;
-  return fitMarkerModel(startingModel(data, obs, selected), obs, f).noise;
+  const std::vector<MarkerObservation> subset =
+      o.noise_observations > 0 ? seededSubset(obs, static_cast<std::size_t>(o.noise_observations), o.seed) : std::vector<MarkerObservation>{};
+  const std::vector<MarkerObservation>& fitted = subset.empty() ? obs : subset;
+  return {fitMarkerModel(startingModel(data, fitted, selected), fitted, f).noise, static_cast<int>(subset.size())};
 }
 
 FitOptions whiteningFitOptions(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs, const DiagnoseOptions& o,

@@ -126,7 +126,8 @@ TEST_CASE("diagnose: an unstated joint noise that is there is recovered and coun
 // at most that), and the selection and verdict are the same. A subset too small for the flexible model
 // that every observation allows is enlarged to what it needs: fitted on 50 observations its most flexible
 // level would not fit, and a less flexible one took the hidden stiffening for joint noise (0.028 deg
-// against the true 0.005 deg).
+// against the true 0.005 deg). The noise a calibration of the selected effects would estimate is
+// estimated on a subset of the same size.
 TEST_CASE("diagnose: the noise estimated on a random subset of a long log", "[calib][diagnose][noise]") {
   const double truth_deg = 0.005;
   const sim::OpenWorldDataset ds = unstatedJointNoise(sim::OpenCauseKind::kStiffening, 20.0, truth_deg, 41, 600);
@@ -148,6 +149,12 @@ TEST_CASE("diagnose: the noise estimated on a random subset of a long log", "[ca
   CHECK(selectedText(part) == selectedText(full));
   CHECK(part.unexplained == full.unexplained);
   CHECK(part.noise.flexible_degree == full.noise.flexible_degree);
+  // The noise a calibration of the selection would estimate (the report's), on the same subset's size.
+  REQUIRE(full.noise.with_selected.has_value());
+  REQUIRE(part.noise.with_selected.has_value());
+  CHECK(full.noise.with_selected_observations == 0);
+  CHECK(part.noise.with_selected_observations == 200);
+  CHECK(part.noise.with_selected->sigma_position_m == Approx(full.noise.with_selected->sigma_position_m).epsilon(0.2));
   calib::DiagnoseOptions tiny;
   tiny.noise_observations = 50;
   const calib::Diagnosis small = calib::diagnose(ds.data, obs, tiny);

@@ -119,7 +119,7 @@ std::string diagnosisJson(const calib::Diagnosis& d, const DistortionCheck& dist
   if (const std::optional<calib::MarkerNoise>& w = d.noise.with_selected) {
     j << "{\"position_m\": " << num(w->sigma_position_m, "noise.with_selected.position_m") << ", \"rotation_rad\": "
       << num(w->sigma_rotation_rad, "noise.with_selected.rotation_rad") << ", \"joint_rad\": "
-      << num(w->joint_noise_sigma_rad, "noise.with_selected.joint_rad") << "}}";
+      << num(w->joint_noise_sigma_rad, "noise.with_selected.joint_rad") << ", \"observations\": " << d.noise.with_selected_observations << "}}";
   } else {
     j << "null}";
   }

@@ -95,7 +95,11 @@ std::string noiseSentence(const calib::Diagnosis& dg, const calib::DiagnoseOptio
   std::string effects;
   for (const sim::Effect& e : dg.selected) effects += (effects.empty() ? "" : " ") + sim::formatEffect(e);
   return text + " With the selected effects fitted, as `orbcal calibrate --effects " + effects + "` fits them (joint readings as the "
-                "description states), the noise is " + noiseText(*nf.with_selected, measuresRotation(data)) + ".";
+                "description states), the noise is " + noiseText(*nf.with_selected, measuresRotation(data)) +
+                (nf.with_selected_observations > 0 ? " (on a seeded random " + std::to_string(nf.with_selected_observations) + " of the " +
+                                                         std::to_string(obs.size()) + " observations)"
+                                                   : "") +
+                ".";
 }
 
 }  // namespace orbcal::workflow

@@ -165,8 +165,10 @@ struct NoiseFloors {
   /// The tracker noise `orbcal calibrate --effects <selected>` estimates on every input row (its fit:
   /// position and rotation variance components where not stated; the joint readings as stated, else not
   /// modelled), which the report gives beside the whitening noise. Filled where that can differ from
-  /// it: something selected, some noise estimated, no sample with its own covariance.
+  /// it: something selected, some noise estimated, no sample with its own covariance. On a long log,
+  /// estimated on a seeded random subset as the noise is (DiagnoseOptions::noise_observations).
   std::optional<MarkerNoise> with_selected;
+  int with_selected_observations = 0;  ///< the size of that subset; 0: every input row
   /// The verdict's floor is stated, not estimated from the residuals it judges: the tracker's noise (or
   /// each sample's covariance) is given, and the joint readings' part is too or, beside repeated
   /// configurations, not needed (then their scatter, pure error, judges instead).
