@@ -301,8 +301,8 @@ Diagnosis diagnoseRows(const sim::MeasuredData& data, const std::vector<MarkerOb
       });
   // The noise `orbcal calibrate --effects <selected>` would estimate (the report's), beside them too.
   std::future<std::pair<std::optional<MarkerNoise>, int>> with_selected =
-      std::async(std::launch::async, [&data, &input, &o, selected = out.selected, noise = out.noise] {
-        return noiseWithSelected(data, input, selected, o, noise);
+      std::async(std::launch::async, [&data, &input, &o, &stated_options, selected = out.selected, noise = out.noise] {
+        return noiseWithSelected(data, input, selected, o, stated_options, noise);
       });
   judgeAgainstFloor(data, obs, o, stated_options, replicated, folds, out);
   out.alternatives = alternatives.get();

@@ -244,13 +244,10 @@ FitOptions statedFitOptions(const sim::MeasuredData& data, const std::vector<Mar
 
 std::pair<std::optional<MarkerNoise>, int> noiseWithSelected(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
                                                              const std::vector<sim::Effect>& selected, const DiagnoseOptions& o,
-                                                             const NoiseFloors& n) {
+                                                             const FitOptions& stated, const NoiseFloors& n) {
   if ((n.tracker_stated && !n.joint_estimated) || selected.empty() || anyOwnCovariance(obs)) return {std::nullopt, 0};
-  FitOptions f;
-  f.sigma_position_m = o.sigma_position_m ? o.sigma_position_m : data.noise_position_m;
-  f.sigma_rotation_rad = o.sigma_rotation_rad ? o.sigma_rotation_rad : data.noise_rotation_rad;
-  f.joint_noise_sigma_rad = o.joint_noise_sigma_rad ? *o.joint_noise_sigma_rad : data.noise_joint_rad.value_or(0.0);
-  f.normal_equations = o.lean_fits;
+  FitOptions f = stated;
+  f.estimate_joint_noise = false;  // as calibrate: the joint readings' noise as stated, else not modelled
   const std::vector<MarkerObservation> subset =
       o.noise_observations > 0 ? seededSubset(obs, static_cast<std::size_t>(o.noise_observations), o.seed) : std::vector<MarkerObservation>{};
   const std::vector<MarkerObservation>& fitted = subset.empty() ? obs : subset;

@@ -80,7 +80,7 @@ FitOptions whiteningFitOptions(const sim::MeasuredData& data, const std::vector<
 
 /// NoiseFloors::with_selected: the tracker noise of a calibration of `selected` on all of `obs`, as
 /// `orbcal calibrate` estimates it (the same fit: position and rotation variance components where the
-/// noise is not given; joint readings as stated, else not modelled), its steps solved as diagnose's own
+/// noise is not given (`stated`: statedFitOptions'); joint readings as stated, else not modelled), its steps solved as diagnose's own
 /// fits solve them (DiagnoseOptions::lean_fits: the normal equations summed per block of samples, where
 /// calibrate takes a QR of the stacked Jacobian): the same minimum; on a seeded random subset of `obs`
 /// where there are more than DiagnoseOptions::noise_observations (its size second, else 0). Empty where
@@ -88,7 +88,7 @@ FitOptions whiteningFitOptions(const sim::MeasuredData& data, const std::vector<
 /// own covariance.
 std::pair<std::optional<MarkerNoise>, int> noiseWithSelected(const sim::MeasuredData& data, const std::vector<MarkerObservation>& obs,
                                                              const std::vector<sim::Effect>& selected, const DiagnoseOptions& o,
-                                                             const NoiseFloors& n);
+                                                             const FitOptions& stated, const NoiseFloors& n);
 
 /// The noise paragraph of the verdict where it depends on the noise: both floors, the joint noise the
 /// residuals would need, and the plan that decides it. Empty where the verdict does not depend on it.
