@@ -58,11 +58,15 @@ std::string floorSentence(const calib::Diagnosis& dg) {
   return floor + ": the stated noise.";
 }
 
-/// Where the noise was estimated on a subset: which one, of how many.
+/// A fit on a seeded random subset: "on a seeded random K of the N observations".
+std::string subsetWords(int subset, std::size_t of) {
+  return "on a seeded random " + std::to_string(subset) + " of the " + std::to_string(of) + " observations";
+}
+
+/// Where the noise was estimated on a subset: which one, of how many (the rows without exact repeats).
 std::string sampleWords(const calib::NoiseFloors& nf, const std::vector<calib::MarkerObservation>& obs) {
   if (nf.noise_observations == 0) return "";
-  return "; on a seeded random " + std::to_string(nf.noise_observations) + " of the " +
-         std::to_string(obs.size() - static_cast<std::size_t>(nf.duplicates_dropped)) + " observations";
+  return "; " + subsetWords(nf.noise_observations, obs.size() - static_cast<std::size_t>(nf.duplicates_dropped));
 }
 
 }  // namespace
@@ -96,9 +100,7 @@ std::string noiseSentence(const calib::Diagnosis& dg, const calib::DiagnoseOptio
   for (const sim::Effect& e : dg.selected) effects += (effects.empty() ? "" : " ") + sim::formatEffect(e);
   return text + " With the selected effects fitted, as `orbcal calibrate --effects " + effects + "` fits them (joint readings as the "
                 "description states), the noise is " + noiseText(*nf.with_selected, measuresRotation(data)) +
-                (nf.with_selected_observations > 0 ? " (on a seeded random " + std::to_string(nf.with_selected_observations) + " of the " +
-                                                         std::to_string(obs.size()) + " observations)"
-                                                   : "") +
+                (nf.with_selected_observations > 0 ? " (" + subsetWords(nf.with_selected_observations, obs.size()) + ")" : "") +
                 ".";
 }
 

@@ -25,8 +25,6 @@ class SharedLibrary {
     return reinterpret_cast<F>(symbol(name, hint));
   }
 
-  const std::string& path() const { return path_; }
-
  private:
   std::string path_;
   void* handle_ = nullptr;
